@@ -1,0 +1,71 @@
+#pragma once
+/// @file image.h
+/// Rendered frames: float RGBA plus named RGB layers, written as EXR (linear radiance,
+/// DESIGN §8) and PNG (8-bit sRGB after the automatic tone curve).
+
+#include <map>
+#include <string>
+#include <vector>
+
+namespace nebula {
+
+/// An RGB layer written as EXR channels <name>.R, <name>.G, <name>.B.
+struct ImageLayer
+{
+    std::string name;
+    std::vector<float> rgb;  ///< width * height * 3, row-major, top row first
+};
+
+/// A frame: premultiplied linear RGBA (A = 1 - transmittance) plus extra layers.
+struct Image
+{
+    int width = 0;
+    int height = 0;
+    std::vector<float> rgba;          ///< width * height * 4, row-major, top row first
+    std::vector<ImageLayer> layers;   ///< e.g. "star.<name>"
+
+    Image() = default;
+    Image(int w, int h) : width(w), height(h), rgba(std::size_t(w) * h * 4, 0.0f) {}
+};
+
+/// Writes @p image as a float (32-bit) ZIP-compressed EXR: channels R,G,B,A and each layer's
+/// <name>.R/G/B. @p attributes become string header attributes (e.g. "nebula:command"),
+/// "comments" is set if present. Atomic (AtomicFile). Throws Error on failure.
+void writeExr(const std::string& path, const Image& image,
+              const std::map<std::string, std::string>& attributes);
+
+/// Reads an EXR written by writeExr (R,G,B,A and layers) and its string attributes; for
+/// tests and tools that post-process frames. Throws Error on failure.
+Image readExr(const std::string& path, std::map<std::string, std::string>* attributes);
+
+/// Tone curve from linear radiance to display values (DESIGN §8).
+struct ToneParams
+{
+    bool automatic = true;   ///< automatic per-frame exposure and gamma
+    double exposure = 0.0;   ///< manual: white point = 2^-exposure (used when !automatic)
+    double gamma = 1.0;      ///< manual: display = (L / white)^gamma before sRGB encoding
+    double percentile = 99.5;///< automatic: white point = this percentile of luminance
+};
+
+/// The tone curve actually applied to a frame.
+struct ToneCurve
+{
+    double white = 1.0;  ///< linear radiance mapped to display 1
+    double gamma = 1.0;  ///< display = (L / white)^gamma, per channel, then sRGB encode
+};
+
+/// Automatic curve: white = the @p params.percentile luminance of the pixels; gamma chosen
+/// so that the log-mean luminance of the lit pixels maps to display 0.5, clamped to [0.2, 1]
+/// (notes/physics-sources.md 4.3). Manual: white = 2^-exposure, gamma as given.
+ToneCurve computeToneCurve(const Image& image, const ToneParams& params);
+
+/// IEC 61966-2-1 sRGB encoding of a linear value in [0, 1].
+double srgbEncode(double linear);
+
+/// Writes an 8-bit RGBA sRGB PNG after applying @p curve to the premultiplied RGB (alpha
+/// written as 255: the background is black space). Text chunks from @p text ("Software",
+/// "Comment", ...). Atomic. Throws Error on failure.
+void writePng(const std::string& path, const Image& image, const ToneCurve& curve,
+              const std::map<std::string, std::string>& text);
+
+} // namespace nebula

@@ -1,0 +1,42 @@
+#pragma once
+/// @file stars.h
+/// Stars: the `nebula:stars` JSON (DESIGN §2), spectral classes, black-body colours.
+
+#include <array>
+#include <string>
+#include <vector>
+
+namespace nebula {
+
+/// A point source. Travels as the file metadata `nebula:stars`.
+struct Star
+{
+    std::string name;                       ///< [A-Za-z0-9_-]+, used in grid names tau.<name>
+    std::array<double, 3> position{0, 0, 0};///< world position [pc]
+    double luminosity = 1.0;                ///< bolometric-free scale [L_sun], > 0
+    double temperature = 5772.0;            ///< effective temperature [K], > 0
+};
+
+/// Parses a JSON array of {"name", "position":[x,y,z], "luminosity", "temperature"} where a
+/// "class" (e.g. "B3V") may stand in for "temperature". @p source names the file (or
+/// "nebula:stars metadata") in error messages. Throws Error on a parse error, a missing or
+/// mistyped field, a non-positive luminosity or temperature, a bad or duplicate name.
+std::vector<Star> parseStars(const std::string& json, const std::string& source);
+
+/// The JSON array parseStars() reads (always with "temperature").
+std::string starsToJson(const std::vector<Star>& stars);
+
+/// Effective temperature [K] of a main-sequence spectral class "O5" ... "M5", with an
+/// optional subclass digit and luminosity class ("B3V", "G2V", "A0", "K5III": the
+/// luminosity class is accepted and ignored). Interpolates a standard table (documented in
+/// the implementation). Throws Error on anything else.
+double spectralClassTemperature(const std::string& spectralClass);
+
+/// Planck's law B_lambda(T) [W m^-2 sr^-1 m^-1] at wavelength @p lambda_m [m].
+double planck(double lambda_m, double T);
+
+/// Linear sRGB (IEC 61966-2-1, D65) colour of a black body at @p T [K], normalised to
+/// luminance Y = 1 (DESIGN §3).
+std::array<double, 3> blackbodyLinearSRGB(double T);
+
+} // namespace nebula
