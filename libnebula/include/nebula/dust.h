@@ -32,8 +32,9 @@ inline double henyeyGreenstein(double mu, double g)
 double phaseFunction(PhaseModel model, double mu, double g);
 
 /// Cardelli, Clayton & Mathis (1989) extinction curve A(lambda)/A_V for wavelength
-/// @p lambda_nm [nm] and total-to-selective extinction @p R_V. Valid 0.3-10 um^-1
-/// (infrared, optical/NIR and the ultraviolet up to 8 um^-1); throws Error outside.
+/// @p lambda_nm [nm] and total-to-selective extinction @p R_V. Valid 0.3-8 um^-1, i.e.
+/// 125-3333 nm (infrared, optical/NIR and the ultraviolet; the far-UV piece 8-10 um^-1 is
+/// not implemented); throws Error outside, or if R_V is not a finite number > 0.
 double ccmExtinction(double lambda_nm, double R_V);
 
 /// Dust parameters shared by every stage (DESIGN §2-3).
@@ -50,7 +51,10 @@ struct DustParams
     void validate() const;
     /// JSON object {"kappa_V", "albedo", "g", "phase", "curve", "R_V"}.
     std::string toJson() const;
-    /// Parses toJson()'s format; @p source names the file for error messages.
+    /// Parses toJson()'s format; @p source names the file for error messages. Every field is
+    /// required; unknown fields are ignored. Throws Error (not UsageError: the values come
+    /// from a file) on invalid JSON, a missing or mistyped field, an unknown phase name, or a
+    /// value validate() rejects.
     static DustParams fromJson(const std::string& text, const std::string& source);
 };
 

@@ -35,7 +35,9 @@ void writeExr(const std::string& path, const Image& image,
               const std::map<std::string, std::string>& attributes);
 
 /// Reads an EXR written by writeExr (R,G,B,A and layers) and its string attributes; for
-/// tests and tools that post-process frames. Throws Error on failure.
+/// tests and tools that post-process frames. Layers are every "<name>.R/G/B" triple, in
+/// channel-name (alphabetical) order; a missing A reads as 1. @p attributes (may be null) is
+/// replaced by the file's string attributes. Throws Error on failure.
 Image readExr(const std::string& path, std::map<std::string, std::string>* attributes);
 
 /// Tone curve from linear radiance to display values (DESIGN §8).
@@ -54,17 +56,30 @@ struct ToneCurve
     double gamma = 1.0;  ///< display = (L / white)^gamma, per channel, then sRGB encode
 };
 
-/// Automatic curve: white = the @p params.percentile luminance of the pixels; gamma chosen
-/// so that the log-mean luminance of the lit pixels maps to display 0.5, clamped to [0.2, 1]
-/// (notes/physics-sources.md 4.3). Manual: white = 2^-exposure, gamma as given.
+/// Display value (linear, before sRGB encoding) that the automatic curve gives the log-mean
+/// luminance: the photographic "key" (18 % grey).
+constexpr double TONE_KEY = 0.18;
+/// Smallest automatic gamma: frames with a huge dynamic range are compressed no further.
+constexpr double TONE_MIN_GAMMA = 0.3;
+
+/// Automatic curve: white = the @p params.percentile luminance (nearest rank) of the pixels
+/// with finite luminance > 0; gamma chosen so that the log-mean luminance of the pixels above
+/// 1e-6 white maps to display TONE_KEY, clamped to [TONE_MIN_GAMMA, 1] (after
+/// notes/physics-sources.md 4.3, which maps it to 0.5: that flattens nebulae whose 1/r^2
+/// halo spans decades); a black
+/// frame gives white 1, gamma 1. Manual: white = 2^-exposure, gamma as given. Throws Error on
+/// an invalid parameter.
 ToneCurve computeToneCurve(const Image& image, const ToneParams& params);
 
 /// IEC 61966-2-1 sRGB encoding of a linear value in [0, 1].
 double srgbEncode(double linear);
 
 /// Writes an 8-bit RGBA sRGB PNG after applying @p curve to the premultiplied RGB (alpha
-/// written as 255: the background is black space). Text chunks from @p text ("Software",
-/// "Comment", ...). Atomic. Throws Error on failure.
+/// written as 255: the background is black space). The curve maps the pixel's luminance
+/// Y/white to (Y/white)^gamma and scales R,G,B by the same factor, so hues are kept; a
+/// colour whose largest channel would exceed display white is scaled down as a whole. Text chunks from @p text ("Software",
+/// "Comment", ...): keys are PNG keywords (1-79 printable ASCII), non-ASCII values are written
+/// as UTF-8 iTXt. Carries an sRGB chunk. Atomic. Throws Error on failure.
 void writePng(const std::string& path, const Image& image, const ToneCurve& curve,
               const std::map<std::string, std::string>& text);
 

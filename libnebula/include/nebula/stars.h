@@ -20,7 +20,10 @@ struct Star
 /// Parses a JSON array of {"name", "position":[x,y,z], "luminosity", "temperature"} where a
 /// "class" (e.g. "B3V") may stand in for "temperature". @p source names the file (or
 /// "nebula:stars metadata") in error messages. Throws Error on a parse error, a missing or
-/// mistyped field, a non-positive luminosity or temperature, a bad or duplicate name.
+/// mistyped field, a non-positive luminosity or temperature, a bad or duplicate name, or a
+/// star with both "temperature" and "class". Messages start with the source and name the
+/// star (counted from 1) and the field: `stars.json: star 2 ("beta"): "luminosity" must be
+/// > 0 [L_sun], got -1`. Unknown fields are ignored.
 std::vector<Star> parseStars(const std::string& json, const std::string& source);
 
 /// The JSON array parseStars() reads (always with "temperature").
@@ -28,15 +31,21 @@ std::string starsToJson(const std::vector<Star>& stars);
 
 /// Effective temperature [K] of a main-sequence spectral class "O5" ... "M5", with an
 /// optional subclass digit and luminosity class ("B3V", "G2V", "A0", "K5III": the
-/// luminosity class is accepted and ignored). Interpolates a standard table (documented in
-/// the implementation). Throws Error on anything else.
+/// luminosity class V, IV, III, II, I, Iab, Ia or Ib is accepted and ignored, as is one
+/// space before it). The subclass may have decimals ("B0.5"); a bare letter ("G") means
+/// the middle of its class (G5). Interpolates a standard table (documented in the
+/// implementation) linearly between tabulated subtypes. Throws Error on anything else.
 double spectralClassTemperature(const std::string& spectralClass);
 
-/// Planck's law B_lambda(T) [W m^-2 sr^-1 m^-1] at wavelength @p lambda_m [m].
+/// Planck's law B_lambda(T) [W m^-2 sr^-1 m^-1] at wavelength @p lambda_m [m] and
+/// temperature @p T [K] (CODATA 2018 h, c, k). Throws Error unless both are finite and > 0.
 double planck(double lambda_m, double T);
 
 /// Linear sRGB (IEC 61966-2-1, D65) colour of a black body at @p T [K], normalised to
-/// luminance Y = 1 (DESIGN §3).
+/// luminance Y = 1 (DESIGN §3): Planck's law integrated against the CIE 1931 2-degree
+/// colour-matching functions over 360-830 nm. Below about 1900 K, where the black body is
+/// outside the sRGB gamut, the negative channel is clipped to 0 and Y restored to 1.
+/// Throws Error unless T is a finite number > 0.
 std::array<double, 3> blackbodyLinearSRGB(double T);
 
 } // namespace nebula

@@ -1,0 +1,111 @@
+#pragma once
+/// @file cli.h
+/// The command-line vocabulary every tool shares (STYLE.md): -i/-o with "-" for
+/// stdin/stdout, --only-new, --density-grid, --threads, -q, -v, --version, --config, and
+/// the run() wrapper that turns exceptions into exit codes (0 ok, 1 error, 2 usage).
+
+#include <CLI/CLI.hpp>
+
+#include <atomic>
+#include <chrono>
+#include <functional>
+#include <memory>
+#include <mutex>
+#include <string>
+
+namespace nebula {
+
+/// Options every tool understands; each tool picks the ones it needs via CommonFlags.
+struct CommonOptions
+{
+    std::string input;                 ///< input VDB, "-" = stdin
+    std::string output;                ///< output file, "-" = stdout
+    bool onlyNew = false;              ///< write only this tool's own grids
+    std::string densityGrid = "density";
+    int threads = 0;                   ///< 0 = all cores
+    bool quiet = false;
+    int verbose = 0;
+};
+
+namespace cli {
+
+enum CommonFlags : unsigned {
+    INPUT = 1u << 0,         ///< -i/--input (required)
+    OUTPUT = 1u << 1,        ///< -o/--output (required)
+    PASS_THROUGH = 1u << 2,  ///< --only-new
+    DENSITY_GRID = 1u << 3,  ///< --density-grid
+};
+
+/// Adds the common options selected by @p flags, plus --threads, -q, -v, --version and
+/// --config, to @p app.
+void addCommon(CLI::App& app, CommonOptions& opts, unsigned flags);
+
+} // namespace cli
+
+/// What a running tool knows about itself: its name, the command line (for provenance),
+/// verbosity, and the TTY-only progress bar.
+class Run
+{
+public:
+    Run(std::string tool, std::string command, const CommonOptions& opts);
+
+    const std::string& tool() const { return mTool; }
+    const std::string& command() const { return mCommand; }
+    const CommonOptions& options() const { return mOpts; }
+
+    /// A line on stderr under -v ("tool: message"); silent otherwise.
+    void info(const std::string& message) const;
+    /// A warning on stderr unless -q.
+    void warn(const std::string& message) const;
+
+    /// Whether progress bars are drawn (stderr is a TTY and not -q).
+    bool showProgress() const { return mProgress; }
+
+private:
+    std::string mTool;
+    std::string mCommand;
+    CommonOptions mOpts;
+    bool mProgress = false;
+};
+
+/// A thread-safe progress bar on stderr, drawn only when Run::showProgress(); redrawn at
+/// most 10 times a second with '\r', finished with a newline.
+class Progress
+{
+public:
+    Progress(const Run& run, std::string label, std::uint64_t total);
+    ~Progress();
+    void add(std::uint64_t n);
+
+private:
+    void draw(bool final);
+    bool mEnabled;
+    std::string mLabel;
+    std::uint64_t mTotal;
+    std::atomic<std::uint64_t> mDone{0};
+    std::mutex mMutex;
+    std::chrono::steady_clock::time_point mLast;
+};
+
+namespace cli {
+
+/// Parses @p argv into @p app, sets up threads and the Run, calls @p body, and maps the
+/// outcome to an exit code: 0 ok (also --help, --version), 2 usage error (CLI11 errors,
+/// UsageError), 1 any other error, printed as "tool: error: message" on stderr.
+int run(CLI::App& app, const std::string& tool, CommonOptions& opts, int argc, char** argv,
+        const std::function<void(Run&)>& body);
+
+/// The version line: "tool 0.1.0 (OpenVDB x.y.z)".
+std::string versionString(const std::string& tool);
+
+/// Throws UsageError if @p path is "-" and stdout is a terminal (binary output).
+void refuseBinaryToTerminal(const std::string& path, const std::string& option);
+
+/// Parses "X,Y,Z" into three doubles; throws UsageError naming @p option otherwise.
+std::array<double, 3> parseVec3(const std::string& text, const std::string& option);
+
+/// Parses "WxH" (positive integers) for @p option "--res"; throws UsageError otherwise.
+void parseResolution(const std::string& text, int& width, int& height);
+
+} // namespace cli
+} // namespace nebula

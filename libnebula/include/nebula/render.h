@@ -1,0 +1,112 @@
+#pragma once
+/// @file render.h
+/// nebrender's single-scattering ray caster (DESIGN §3, §8).
+
+#include "nebula/cli.h"
+#include "nebula/dust.h"
+#include "nebula/grid_io.h"
+#include "nebula/image.h"
+#include "nebula/stars.h"
+#include "nebula/volume.h"
+
+#include <array>
+#include <string>
+#include <vector>
+
+namespace nebula {
+
+/// Perspective pinhole camera (world space, pc).
+struct Camera
+{
+    Vec3 eye{0, 0, -25};
+    Vec3 lookAt{0, 0, 0};
+    Vec3 up{0, 1, 0};
+    double fovDeg = 40.0;   ///< horizontal field of view [degrees]
+    int width = 512;
+    int height = 512;
+
+    /// Unit direction through the centre of pixel (px, py) (py = 0 is the top row), and its
+    /// solid angle [sr].
+    Vec3 direction(double px, double py) const;
+    double pixelSolidAngle(double px, double py) const;
+    /// Projects world point @p p to pixel coordinates; false if behind the eye.
+    bool project(const Vec3& p, double& px, double& py) const;
+};
+
+inline Vec3 toVec3(const std::array<double, 3>& a) { return Vec3(a[0], a[1], a[2]); }
+
+/// Throws UsageError unless the eye differs from the look-at point and up is not parallel
+/// to the view direction.
+void validateCamera(const Camera& camera);
+
+/// Every render parameter; defaults give the README's example picture.
+struct RenderOptions
+{
+    Camera camera;
+    double step = 0.5;                              ///< ray step [voxels]
+    std::array<double, 3> wavelengths{700.0, 546.1, 435.8};  ///< R, G, B channels [nm]
+    double emissionScale = 1.0;                     ///< multiplies the emission grid
+    std::array<double, 3> emissionColor{1.0, 0.03, 0.05};  ///< linear sRGB (H-alpha red)
+    std::string emissionGrid = "emission";
+    bool drawStars = true;                          ///< star sprites
+    double spriteRadius = 1.5;                      ///< sprite radius [pixels]
+    double minStarDistance = 0.5;                   ///< 1/r^2 clamp radius [voxels]
+    double minTransmittance = 1e-5;                 ///< rays stop below this in all channels
+};
+
+/// The per-channel dust numbers the kernel uses.
+struct ChannelDust
+{
+    std::array<double, 3> r{1, 1, 1};  ///< A(lambda_c)/A_V (CCM)
+    double kappa_V = 1.5e-3;
+    double albedo = 0.6;
+    double g = 0.6;
+    PhaseModel phase = PhaseModel::HenyeyGreenstein;
+};
+
+/// What the kernel renders: compact fields plus the stars and dust.
+struct RenderScene
+{
+    /// Channels: 0 density n_H, 1 emission, 2 + s: tau_V of star s.
+    DenseVolume fields;
+    std::vector<Star> stars;
+    std::vector<std::array<double, 3>> starColor;  ///< L_s * linear sRGB (Y = 1) [L_sun]
+    ChannelDust dust;
+    /// Coarse occupancy: block (bi,bj,bk) of BLOCK^3 lattice cells holds dust or emission.
+    static constexpr int BLOCK = 8;
+    std::array<int, 3> blocks{0, 0, 0};
+    std::vector<std::uint8_t> occupied;
+};
+
+/// Builds the scene from nebillum's output: density, emission (optional) and tau.<star> for
+/// every star in nebula:stars. Throws Error naming the file and grid on anything missing or
+/// inconsistent (no stars, a tau grid missing, kappa_V of a tau grid != the dust's).
+RenderScene buildScene(const GridSet& grids, const CommonOptions& common,
+                       const RenderOptions& opts, const DustParams& dust);
+
+/// Renders the single-scattering image: beauty R,G,B,A (A = 1 - T at the green channel),
+/// layer "star.<name>" per star (its scattered light and sprite), layer "transmittance".
+Image renderFrame(const RenderScene& scene, const RenderOptions& opts, const Run* run = nullptr);
+
+/// The transmittance-weighted column density between two world points [cm^-3 pc], through
+/// the scene's density (exact trilinear integral). Used for star sprites.
+double sceneColumn(const RenderScene& scene, const Vec3& a, const Vec3& b);
+
+} // namespace nebula
+
+namespace nebula {
+
+/// Output settings of nebrender.
+struct RenderOutput
+{
+    std::string exr;          ///< EXR path (required)
+    std::string png;          ///< PNG path ("" = the EXR's name with .png; "none" = no PNG)
+    ToneParams tone;
+};
+
+/// nebrender's entry point: builds the scene from @p grids (dust from nebula:dust with
+/// @p dustOverride applied), renders, and writes the EXR and PNG atomically.
+void renderToFiles(const GridSet& grids, const CommonOptions& common, const RenderOptions& opts,
+                   const DustParams& dust, const RenderOutput& out, const Run& run);
+
+} // namespace nebula

@@ -1,0 +1,202 @@
+#include "nebula/cli.h"
+
+#include "nebula/error.h"
+
+#include <openvdb/openvdb.h>
+#include <tbb/global_control.h>
+
+#include <cmath>
+#include <iostream>
+#include <sstream>
+#include <unistd.h>
+
+namespace nebula {
+
+namespace cli {
+
+std::string versionString(const std::string& tool)
+{
+    return tool + " " NEBULA_VERSION_STRING " (OpenVDB " +
+           std::string(openvdb::getLibraryVersionString()) + ")";
+}
+
+void addCommon(CLI::App& app, CommonOptions& opts, unsigned flags)
+{
+    if (flags & INPUT) {
+        app.add_option("-i,--input", opts.input, "Input VDB file, or - for stdin")
+            ->required()
+            ->check(CLI::ExistingFile | CLI::IsMember({"-"}));
+    }
+    if (flags & OUTPUT) {
+        app.add_option("-o,--output", opts.output, "Output file, or - for stdout")->required();
+    }
+    if (flags & PASS_THROUGH) {
+        app.add_flag("--only-new", opts.onlyNew,
+                     "Write only this tool's own grids, not the input grids passed through");
+    }
+    if (flags & DENSITY_GRID) {
+        app.add_option("--density-grid", opts.densityGrid,
+                       "Name of the dust density grid (n_H [cm^-3])")
+            ->capture_default_str();
+    }
+    app.add_option("--threads", opts.threads, "Worker threads (0 = all cores)")
+        ->capture_default_str()
+        ->check(CLI::NonNegativeNumber);
+    app.add_flag("-q,--quiet", opts.quiet, "No progress bar or warnings");
+    app.add_flag("-v,--verbose", opts.verbose, "Report each stage on stderr");
+    app.set_version_flag("--version", versionString(app.get_name()));
+    app.set_config("--config", "", "Read options from a TOML file (CLI11 format)");
+}
+
+void refuseBinaryToTerminal(const std::string& path, const std::string& option)
+{
+    if (path == "-" && ::isatty(STDOUT_FILENO)) {
+        throw UsageError(option + " -: refusing to write binary data to a terminal; "
+                                  "redirect stdout or give a file name");
+    }
+}
+
+std::array<double, 3> parseVec3(const std::string& text, const std::string& option)
+{
+    const std::string expected = option + " \"" + text + "\": expected X,Y,Z (three numbers)";
+    std::vector<std::string> parts;
+    std::istringstream in(text);
+    for (std::string item; std::getline(in, item, ',');) parts.push_back(item);
+    if (parts.size() != 3 || text.back() == ',') throw UsageError(expected);
+    std::array<double, 3> v{};
+    for (int i = 0; i < 3; ++i) {
+        try {
+            std::size_t used = 0;
+            v[i] = std::stod(parts[i], &used);
+            if (used != parts[i].size() || !std::isfinite(v[i])) throw UsageError(expected);
+        } catch (const std::exception&) {
+            throw UsageError(expected);
+        }
+    }
+    return v;
+}
+
+void parseResolution(const std::string& text, int& width, int& height)
+{
+    const auto x = text.find('x');
+    try {
+        if (x == std::string::npos) throw std::invalid_argument(text);
+        std::size_t u1 = 0, u2 = 0;
+        const std::string a = text.substr(0, x), b = text.substr(x + 1);
+        const int w = std::stoi(a, &u1), h = std::stoi(b, &u2);
+        if (u1 != a.size() || u2 != b.size() || w <= 0 || h <= 0 || w > 65536 || h > 65536) {
+            throw std::invalid_argument(text);
+        }
+        width = w;
+        height = h;
+    } catch (const std::exception&) {
+        throw UsageError("--res \"" + text + "\": expected WxH with positive integers, e.g. 512x512");
+    }
+}
+
+namespace {
+
+std::string joinCommand(int argc, char** argv)
+{
+    std::string cmd;
+    for (int i = 0; i < argc; ++i) {
+        if (i) cmd += ' ';
+        const std::string arg = argv[i];
+        const bool plain = !arg.empty() &&
+                           arg.find_first_of(" \t\n'\"\\$`*?[]{}()<>|&;#~") == std::string::npos;
+        if (plain) {
+            cmd += arg;
+        } else {
+            cmd += '\'';
+            for (char c : arg) cmd += (c == '\'') ? std::string("'\\''") : std::string(1, c);
+            cmd += '\'';
+        }
+    }
+    return cmd;
+}
+
+} // namespace
+
+int run(CLI::App& app, const std::string& tool, CommonOptions& opts, int argc, char** argv,
+        const std::function<void(Run&)>& body)
+{
+    try {
+        app.parse(argc, argv);
+    } catch (const CLI::ParseError& e) {
+        const int code = app.exit(e);
+        return code == 0 ? 0 : 2;
+    }
+    try {
+        openvdb::initialize();
+        std::unique_ptr<tbb::global_control> threads;
+        if (opts.threads > 0) {
+            threads = std::make_unique<tbb::global_control>(
+                tbb::global_control::max_allowed_parallelism, std::size_t(opts.threads));
+        }
+        Run run(tool, joinCommand(argc, argv), opts);
+        body(run);
+        return 0;
+    } catch (const UsageError& e) {
+        std::cerr << tool << ": error: " << e.what() << "\n";
+        return 2;
+    } catch (const std::exception& e) {
+        std::cerr << tool << ": error: " << e.what() << "\n";
+        return 1;
+    }
+}
+
+} // namespace cli
+
+Run::Run(std::string tool, std::string command, const CommonOptions& opts)
+    : mTool(std::move(tool)), mCommand(std::move(command)), mOpts(opts)
+{
+    mProgress = !opts.quiet && ::isatty(STDERR_FILENO);
+}
+
+void Run::info(const std::string& message) const
+{
+    if (mOpts.verbose > 0 && !mOpts.quiet) std::cerr << mTool << ": " << message << "\n";
+}
+
+void Run::warn(const std::string& message) const
+{
+    if (!mOpts.quiet) std::cerr << mTool << ": warning: " << message << "\n";
+}
+
+Progress::Progress(const Run& run, std::string label, std::uint64_t total)
+    : mEnabled(run.showProgress() && total > 0), mLabel(std::move(label)), mTotal(total),
+      mLast(std::chrono::steady_clock::now())
+{
+}
+
+Progress::~Progress()
+{
+    if (mEnabled) draw(true);
+}
+
+void Progress::add(std::uint64_t n)
+{
+    mDone += n;
+    if (!mEnabled) return;
+    // Only one thread draws, and at most every 100 ms; the others just count.
+    std::unique_lock<std::mutex> lock(mMutex, std::try_to_lock);
+    if (!lock.owns_lock()) return;
+    const auto now = std::chrono::steady_clock::now();
+    if (now - mLast < std::chrono::milliseconds(100)) return;
+    mLast = now;
+    draw(false);
+}
+
+void Progress::draw(bool final)
+{
+    const double f = std::min(1.0, double(mDone.load()) / double(mTotal));
+    const int width = 30;
+    const int filled = int(f * width + 0.5);
+    std::string bar(std::size_t(filled), '#');
+    bar.resize(std::size_t(width), '.');
+    std::fprintf(stderr, "\r%s [%s] %3d%%%s", mLabel.c_str(), bar.c_str(), int(f * 100 + 0.5),
+                 final ? "\n" : "");
+    std::fflush(stderr);
+}
+
+} // namespace nebula

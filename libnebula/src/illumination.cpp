@@ -1,0 +1,63 @@
+#include "nebula/illumination.h"
+
+#include "nebula/error.h"
+#include "nebula/volume_vdb.h"
+
+#include <openvdb/tools/Morphology.h>
+
+#include <sstream>
+
+namespace nebula {
+
+void illuminate(GridSet& grids, const CommonOptions& common, const IllumOptions& opts,
+                const Run& run)
+{
+    const auto density = grids.floatGrid(common.densityGrid, "--density-grid");
+    requireFiniteNonNegative(*density, grids.source);
+    const auto stars = opts.stars.empty() ? grids.stars() : opts.stars;
+    if (stars.empty()) {
+        throw Error(grids.source + ": no stars: the file has no " + std::string(META_STARS) +
+                    " metadata; give --star or --stars");
+    }
+    opts.dust.validate();
+
+    // Dense density with a zero border, so the trilinear field falls to zero at the edge.
+    const DenseVolume n = denseFromGrids({density}, activeBounds({density}, 1), grids.source);
+    const Affine worldToIndex = n.indexToWorld.inverse();
+    run.info("density " + std::to_string(n.dims()[0]) + "x" + std::to_string(n.dims()[1]) + "x" +
+             std::to_string(n.dims()[2]) + " voxels, " + std::to_string(stars.size()) + " stars");
+
+    auto support = density->deepCopy();
+    openvdb::tools::dilateActiveValues(support->tree(), 1, openvdb::tools::NN_FACE_EDGE_VERTEX,
+                                       openvdb::tools::EXPAND_TILES);
+
+    std::vector<openvdb::GridBase::Ptr> products;
+    for (const auto& star : stars) {
+        const Vec3 s = worldToIndex.apply(Vec3(star.position[0], star.position[1],
+                                               star.position[2]));
+        std::vector<float> tau;
+        {
+            Progress bar(run, "nebillum " + star.name, n.voxelCount());
+            tau = opts.exact ? opticalDepthReference(n, s, opts.dust.kappa_V)
+                             : opticalDepthField(n, s, opts.dust.kappa_V, opts.field,
+                                                 [&](std::size_t k) { bar.add(k); });
+        }
+        // Active on the density's voxels and their 26 neighbours: every lattice cell that
+        // touches dust then has tau at all 8 corners, so nebrender's trilinear tau is exact.
+        auto grid = gridFromField(n, tau, *support);
+        grid->setName(tauGridName(star.name));
+        grid->setGridClass(openvdb::GRID_UNKNOWN);
+        grid->insertMeta("star", openvdb::StringMetadata(star.name));
+        grid->insertMeta("kappa_V", openvdb::DoubleMetadata(opts.dust.kappa_V));
+        grid->insertMeta("density_grid", openvdb::StringMetadata(common.densityGrid));
+        grid->insertMeta("units", openvdb::StringMetadata("optical depth at V (550 nm)"));
+        products.push_back(grid);
+    }
+
+    if (common.onlyNew) grids.grids.clear();
+    for (auto& g : products) grids.replace(g);
+    grids.setStars(stars);
+    grids.setDust(opts.dust);
+}
+
+} // namespace nebula

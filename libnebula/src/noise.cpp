@@ -1,0 +1,167 @@
+/// @file noise.cpp
+/// Perlin's improved noise (K. Perlin, "Improving Noise", SIGGRAPH 2002) and fBm on top of it.
+
+#include "nebula/noise.h"
+
+#include "nebula/error.h"
+
+#include <array>
+#include <cmath>
+#include <limits>
+#include <string>
+
+namespace nebula {
+
+namespace {
+
+/// Perlin's permutation of 0..255 from his reference implementation, stored twice so that
+/// p[i + 1] and p[p[i] + j] never need wrapping.
+constexpr std::array<int, 256> PERMUTATION = {
+    151, 160, 137, 91,  90,  15,  131, 13,  201, 95,  96,  53,  194, 233, 7,   225, 140, 36,
+    103, 30,  69,  142, 8,   99,  37,  240, 21,  10,  23,  190, 6,   148, 247, 120, 234, 75,
+    0,   26,  197, 62,  94,  252, 219, 203, 117, 35,  11,  32,  57,  177, 33,  88,  237, 149,
+    56,  87,  174, 20,  125, 136, 171, 168, 68,  175, 74,  165, 71,  134, 139, 48,  27,  166,
+    77,  146, 158, 231, 83,  111, 229, 122, 60,  211, 133, 230, 220, 105, 92,  41,  55,  46,
+    245, 40,  244, 102, 143, 54,  65,  25,  63,  161, 1,   216, 80,  73,  209, 76,  132, 187,
+    208, 89,  18,  169, 200, 196, 135, 130, 116, 188, 159, 86,  164, 100, 109, 198, 173, 186,
+    3,   64,  52,  217, 226, 250, 124, 123, 5,   202, 38,  147, 118, 126, 255, 82,  85,  212,
+    207, 206, 59,  227, 47,  16,  58,  17,  182, 189, 28,  42,  223, 183, 170, 213, 119, 248,
+    152, 2,   44,  154, 163, 70,  221, 153, 101, 155, 167, 43,  172, 9,   129, 22,  39,  253,
+    19,  98,  108, 110, 79,  113, 224, 232, 178, 185, 112, 104, 218, 246, 97,  228, 251, 34,
+    242, 193, 238, 210, 144, 12,  191, 179, 162, 241, 81,  51,  145, 235, 249, 14,  239, 107,
+    49,  192, 214, 31,  181, 199, 106, 157, 184, 84,  204, 176, 115, 121, 50,  45,  127, 4,
+    150, 254, 138, 236, 205, 93,  222, 114, 67,  29,  24,  72,  243, 141, 128, 195, 78,  66,
+    215, 61,  156, 180};
+
+struct PermutationTable
+{
+    std::array<int, 512> p{};
+    constexpr PermutationTable()
+    {
+        for (int i = 0; i < 256; ++i) {
+            p[i] = PERMUTATION[i];
+            p[i + 256] = PERMUTATION[i];
+        }
+    }
+};
+
+constexpr PermutationTable TABLE{};
+
+/// Quintic fade 6t^5 - 15t^4 + 10t^3: zero first and second derivatives at t = 0 and 1.
+inline double fade(double t)
+{
+    return t * t * t * (t * (t * 6.0 - 15.0) + 10.0);
+}
+
+inline double lerp(double t, double a, double b)
+{
+    return a + t * (b - a);
+}
+
+/// Dot product of (x, y, z) with one of 12 edge directions of a cube (16 hash values, four
+/// of them repeated), exactly as in the reference code.
+inline double grad(int hash, double x, double y, double z)
+{
+    const int h = hash & 15;
+    const double u = h < 8 ? x : y;
+    const double v = h < 4 ? y : (h == 12 || h == 14 ? x : z);
+    return ((h & 1) == 0 ? u : -u) + ((h & 2) == 0 ? v : -v);
+}
+
+/// splitmix64 (Steele, Lea & Flood 2014): a small integer hash that turns a seed into a
+/// stream of well-mixed 64-bit values; advances @p state.
+inline std::uint64_t splitmix64(std::uint64_t& state)
+{
+    std::uint64_t z = (state += 0x9E3779B97F4A7C15ull);
+    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+    return z ^ (z >> 31);
+}
+
+/// Uniform double in [0, 1) from the top 53 bits.
+inline double unitDouble(std::uint64_t bits)
+{
+    return static_cast<double>(bits >> 11) * 0x1.0p-53;
+}
+
+/// Range of the per-octave offsets [noise lattice units]: large enough to decorrelate
+/// seeds (the noise repeats every 256 units), small enough to keep double precision.
+constexpr double OFFSET_RANGE = 4096.0;
+
+} // namespace
+
+double perlinNoise(double x, double y, double z)
+{
+    const auto& p = TABLE.p;
+
+    // NaN or infinite input: no cube contains it (and converting it to int is undefined).
+    if (!(std::isfinite(x) && std::isfinite(y) && std::isfinite(z))) {
+        return std::numeric_limits<double>::quiet_NaN();
+    }
+
+    // Unit cube that contains the point (wrapped to the table's period of 256, as Java's
+    // `(int)Math.floor(x) & 255` does), and the point's position inside it.
+    const double fx = std::floor(x);
+    const double fy = std::floor(y);
+    const double fz = std::floor(z);
+    const int X = static_cast<int>(std::fmod(fx, 256.0)) & 255;
+    const int Y = static_cast<int>(std::fmod(fy, 256.0)) & 255;
+    const int Z = static_cast<int>(std::fmod(fz, 256.0)) & 255;
+    x -= fx;
+    y -= fy;
+    z -= fz;
+
+    // Fade curves and hashes of the eight cube corners.
+    const double u = fade(x);
+    const double v = fade(y);
+    const double w = fade(z);
+    const int A = p[X] + Y;
+    const int AA = p[A] + Z;
+    const int AB = p[A + 1] + Z;
+    const int B = p[X + 1] + Y;
+    const int BA = p[B] + Z;
+    const int BB = p[B + 1] + Z;
+
+    // Trilinear blend of the corner gradients.
+    return lerp(w,
+                lerp(v, lerp(u, grad(p[AA], x, y, z), grad(p[BA], x - 1, y, z)),
+                     lerp(u, grad(p[AB], x, y - 1, z), grad(p[BB], x - 1, y - 1, z))),
+                lerp(v, lerp(u, grad(p[AA + 1], x, y, z - 1), grad(p[BA + 1], x - 1, y, z - 1)),
+                     lerp(u, grad(p[AB + 1], x, y - 1, z - 1),
+                          grad(p[BB + 1], x - 1, y - 1, z - 1))));
+}
+
+double fbm(double x, double y, double z, const FbmParams& params, std::uint64_t seed)
+{
+    if (params.octaves < 1 || params.octaves > 16) {
+        throw UsageError("fbm: octaves must be in [1, 16], got " +
+                         std::to_string(params.octaves));
+    }
+    if (!(params.lacunarity > 0.0) || !std::isfinite(params.lacunarity)) {
+        throw UsageError("fbm: lacunarity must be a finite number > 0, got " +
+                         std::to_string(params.lacunarity));
+    }
+    if (!(params.gain > 0.0) || !std::isfinite(params.gain)) {
+        throw UsageError("fbm: gain must be a finite number > 0, got " +
+                         std::to_string(params.gain));
+    }
+
+    // Sum of octaves, each shifted by its own offset drawn from the seed's splitmix64 stream.
+    std::uint64_t state = seed;
+    double sum = 0.0;
+    double amplitudeSum = 0.0;
+    double amplitude = 1.0;
+    double frequency = 1.0;
+    for (int i = 0; i < params.octaves; ++i) {
+        const double ox = OFFSET_RANGE * unitDouble(splitmix64(state));
+        const double oy = OFFSET_RANGE * unitDouble(splitmix64(state));
+        const double oz = OFFSET_RANGE * unitDouble(splitmix64(state));
+        sum += amplitude * perlinNoise(frequency * x + ox, frequency * y + oy, frequency * z + oz);
+        amplitudeSum += amplitude;
+        amplitude *= params.gain;
+        frequency *= params.lacunarity;
+    }
+    return sum / amplitudeSum;
+}
+
+} // namespace nebula

@@ -1,0 +1,77 @@
+#include "nebula/atomic_file.h"
+#include "nebula/error.h"
+#include "nebula/render.h"
+
+#include <chrono>
+#include <sstream>
+
+namespace nebula {
+
+namespace {
+
+bool endsWith(const std::string& s, const std::string& suffix)
+{
+    return s.size() >= suffix.size() && s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
+}
+
+std::string vecString(const Vec3& v)
+{
+    std::ostringstream o;
+    o.precision(9);
+    o << v.x << "," << v.y << "," << v.z;
+    return o.str();
+}
+
+} // namespace
+
+void renderToFiles(const GridSet& grids, const CommonOptions& common, const RenderOptions& opts,
+                   const DustParams& dust, const RenderOutput& out, const Run& run)
+{
+    if (!endsWith(out.exr, ".exr")) {
+        throw UsageError("-o " + out.exr + ": expected an .exr file name");
+    }
+    std::string png = out.png;
+    if (png.empty()) png = out.exr.substr(0, out.exr.size() - 4) + ".png";
+    if (png == "none") png.clear();
+    // Fail before the slow part if an output folder is not writable.
+    checkOutputWritable(out.exr, "EXR");
+    if (!png.empty()) checkOutputWritable(png, "PNG");
+
+    const auto start = std::chrono::steady_clock::now();
+    const RenderScene scene = buildScene(grids, common, opts, dust);
+    const auto built = std::chrono::steady_clock::now();
+    const Image img = renderFrame(scene, opts, &run);
+    const auto done = std::chrono::steady_clock::now();
+    const double tBuild = std::chrono::duration<double>(built - start).count();
+    const double tRender = std::chrono::duration<double>(done - built).count();
+    run.info("scene " + std::to_string(tBuild) + " s, render " + std::to_string(tRender) + " s");
+
+    const ToneCurve curve = computeToneCurve(img, out.tone);
+    std::ostringstream tone;
+    tone << "{\"white\": " << curve.white << ", \"gamma\": " << curve.gamma << ", \"automatic\": "
+         << (out.tone.automatic ? "true" : "false") << "}";
+    std::ostringstream cam;
+    cam << "{\"eye\": [" << vecString(opts.camera.eye) << "], \"look_at\": ["
+        << vecString(opts.camera.lookAt) << "], \"up\": [" << vecString(opts.camera.up)
+        << "], \"fov_deg\": " << opts.camera.fovDeg << ", \"projection\": \"perspective\"}";
+    std::map<std::string, std::string> attrs{
+        {"comments", "nebula single-scattering render (DESIGN section 3); linear radiance"},
+        {"nebula:tool", run.tool()},
+        {"nebula:version", NEBULA_VERSION_STRING},
+        {"nebula:command", run.command()},
+        {"nebula:integrator", "single-scattering"},
+        {"nebula:units", "L_sun pc^-2 sr^-1"},
+        {"nebula:dust", dust.toJson()},
+        {"nebula:stars", starsToJson(scene.stars)},
+        {"nebula:camera", cam.str()},
+        {"nebula:exposure", tone.str()},
+    };
+    writeExr(out.exr, img, attrs);
+    if (!png.empty()) {
+        writePng(png, img, curve,
+                 {{"Software", std::string("nebrender ") + NEBULA_VERSION_STRING},
+                  {"Comment", run.command()}});
+    }
+}
+
+} // namespace nebula

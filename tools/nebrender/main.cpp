@@ -1,0 +1,101 @@
+// nebrender - single-scattering ray caster: scattered starlight + gas emission to EXR/PNG.
+#include "nebula/cli.h"
+#include "nebula/options.h"
+#include "nebula/render.h"
+
+#include <cstdio>
+
+int main(int argc, char** argv)
+{
+    nebula::CommonOptions common;
+    nebula::RenderOptions opts;       // every default lives here
+    nebula::RenderOutput out;
+    nebula::DustOptions dustOpts;
+    std::string eye, lookAt, up, res, wavelengths, emissionColor;
+    bool noStars = false, noPng = false;
+    double exposure = 0.0;
+
+    CLI::App app{
+        "nebrender - render a nebula: starlight scattered by dust, plus gas emission\n\n"
+        "Examples:\n"
+        "  nebrender -i lit.vdb -o frame.exr                 # also writes frame.png\n"
+        "  nebrender -i lit.vdb --eye 0,0,-25 --look-at 0,0,0 --fov 40 --res 1024x768 -o f.exr\n"
+        "  nebrender -i lit.vdb --rv 5 --albedo 0.6 --g 0.6 -o rv5.exr\n"
+        "  nebgen -o - | nebillum -i - -o - | nebrender -i - -o frame.exr\n\n"
+        "Needs the density grid, the tau.<star> grids from nebillum and nebula:stars;\n"
+        "uses the emission grid if present. EXR: linear radiance [L_sun pc^-2 sr^-1], R,G,B,A\n"
+        "(A = 1 - transmittance), layers star.<name>.R/G/B and transmittance.R/G/B.\n"
+        "PNG: sRGB after the automatic exposure and tone curve (or --exposure).",
+        "nebrender"};
+    nebula::cli::addCommon(app, common, nebula::cli::INPUT | nebula::cli::DENSITY_GRID);
+    app.add_option("-o,--output", out.exr, "Output EXR file")->required();
+    app.add_option("--png", out.png, "Output PNG (default: the EXR name with .png)");
+    app.add_flag("--no-png", noPng, "Write no PNG");
+    auto fmt = [](const nebula::Vec3& v) {
+        char b[96];
+        std::snprintf(b, sizeof b, "%g,%g,%g", v.x, v.y, v.z);
+        return std::string(b);
+    };
+    app.add_option("--eye", eye, "Camera position X,Y,Z [pc] (default " + fmt(opts.camera.eye) + ")");
+    app.add_option("--look-at", lookAt,
+                   "Point the camera looks at X,Y,Z [pc] (default " + fmt(opts.camera.lookAt) + ")");
+    app.add_option("--up", up, "Up direction X,Y,Z (default " + fmt(opts.camera.up) + ")");
+    app.add_option("--fov", opts.camera.fovDeg, "Horizontal field of view [degrees]")
+        ->capture_default_str()
+        ->check(CLI::Range(0.01, 179.0));
+    app.add_option("--res", res, "Image size WxH (default 512x512)");
+    app.add_option("--step", opts.step, "Ray step [voxels]")->capture_default_str()
+        ->check(CLI::PositiveNumber);
+    app.add_option("--wavelengths", wavelengths,
+                   "R,G,B channel wavelengths [nm] for the extinction curve (default 700,546.1,435.8)");
+    app.add_option("--emission-grid", opts.emissionGrid, "Gas emission grid")->capture_default_str();
+    app.add_option("--emission-scale", opts.emissionScale,
+                   "Emission multiplier [L_sun pc^-3 sr^-1 per grid unit]")
+        ->capture_default_str()
+        ->check(CLI::NonNegativeNumber);
+    app.add_option("--emission-color", emissionColor,
+                   "Emission colour, linear sRGB R,G,B (default 1,0.03,0.05: H-alpha red)");
+    app.add_flag("--no-stars", noStars, "Do not draw the stars themselves");
+    app.add_option("--sprite-radius", opts.spriteRadius, "Star sprite radius [pixels]")
+        ->capture_default_str()
+        ->check(CLI::PositiveNumber);
+    app.add_option("--min-star-distance", opts.minStarDistance,
+                   "Distance below which 1/r^2 is clamped [voxels]")
+        ->capture_default_str()
+        ->check(CLI::PositiveNumber);
+    nebula::cli::addDust(app, dustOpts, /*withKappa=*/false);
+    auto* exp = app.add_option("--exposure", exposure,
+                               "PNG: fixed exposure in stops (white = 2^-E); turns off the "
+                               "automatic tone curve");
+    app.add_option("--gamma", out.tone.gamma, "PNG: gamma with --exposure")->capture_default_str();
+    app.add_option("--percentile", out.tone.percentile,
+                   "PNG: automatic white point = this luminance percentile")
+        ->capture_default_str()
+        ->check(CLI::Range(1.0, 100.0));
+
+    return nebula::cli::run(app, "nebrender", common, argc, argv, [&](nebula::Run& run) {
+        if (!eye.empty()) opts.camera.eye = nebula::toVec3(nebula::cli::parseVec3(eye, "--eye"));
+        if (!lookAt.empty())
+            opts.camera.lookAt = nebula::toVec3(nebula::cli::parseVec3(lookAt, "--look-at"));
+        if (!up.empty()) opts.camera.up = nebula::toVec3(nebula::cli::parseVec3(up, "--up"));
+        nebula::validateCamera(opts.camera);
+        if (!res.empty()) nebula::cli::parseResolution(res, opts.camera.width, opts.camera.height);
+        if (!wavelengths.empty()) {
+            const auto w = nebula::cli::parseVec3(wavelengths, "--wavelengths");
+            opts.wavelengths = {w[0], w[1], w[2]};
+        }
+        if (!emissionColor.empty()) {
+            const auto c = nebula::cli::parseVec3(emissionColor, "--emission-color");
+            opts.emissionColor = {c[0], c[1], c[2]};
+        }
+        opts.drawStars = !noStars;
+        if (noPng) out.png = "none";
+        if (exp->count() > 0) {
+            out.tone.automatic = false;
+            out.tone.exposure = exposure;
+        }
+        const auto grids = nebula::readGrids(common.input);
+        const auto dust = dustOpts.apply(grids.dust());
+        nebula::renderToFiles(grids, common, opts, dust, out, run);
+    });
+}
