@@ -83,7 +83,8 @@ GridSet generateNebula(const NebulaParams& p, const std::function<void(std::size
                 const double wz = fbm(x * f, y * f + 47.2, z * f, p.fbm, seedWarp);
                 const double qx = x + p.warp * wx, qy = y + p.warp * wy, qz = z + p.warp * wz;
                 // Soft spherical envelope, perturbed so the edge is not a sphere.
-                const double edge = p.envelope * (1.0 + 0.35 * wx);
+                // (capped at the cube's inscribed sphere so no face cuts the cloud).
+                const double edge = std::min(0.5, p.envelope * (1.0 + 0.35 * wx));
                 const double env = 1.0 - smoothstep(0.25 * edge, edge, r);
                 double dens = 0.0;
                 if (env > 0.0) {

@@ -27,9 +27,17 @@ void illuminate(GridSet& grids, const CommonOptions& common, const IllumOptions&
     run.info("density " + std::to_string(n.dims()[0]) + "x" + std::to_string(n.dims()[1]) + "x" +
              std::to_string(n.dims()[2]) + " voxels, " + std::to_string(stars.size()) + " stars");
 
+    // Output voxels: the density's active voxels and their 26 neighbours, so every lattice
+    // cell that touches dust has tau at all 8 corners and nebrender's trilinear tau is exact.
     auto support = density->deepCopy();
     openvdb::tools::dilateActiveValues(support->tree(), 1, openvdb::tools::NN_FACE_EDGE_VERTEX,
                                        openvdb::tools::EXPAND_TILES);
+    std::vector<std::uint32_t> points;
+    points.reserve(support->activeVoxelCount());
+    for (auto it = support->cbeginValueOn(); it; ++it) {
+        const auto& c = it.getCoord();
+        if (n.contains(c.x(), c.y(), c.z())) points.push_back(std::uint32_t(n.index(c.x(), c.y(), c.z())));
+    }
 
     std::vector<openvdb::GridBase::Ptr> products;
     for (const auto& star : stars) {
@@ -37,13 +45,10 @@ void illuminate(GridSet& grids, const CommonOptions& common, const IllumOptions&
                                                star.position[2]));
         std::vector<float> tau;
         {
-            Progress bar(run, "nebillum " + star.name, n.voxelCount());
-            tau = opts.exact ? opticalDepthReference(n, s, opts.dust.kappa_V)
-                             : opticalDepthField(n, s, opts.dust.kappa_V, opts.field,
-                                                 [&](std::size_t k) { bar.add(k); });
+            Progress bar(run, "nebillum " + star.name, points.size());
+            tau = opticalDepthAt(n, s, opts.dust.kappa_V, points,
+                                 [&](std::size_t k) { bar.add(k); });
         }
-        // Active on the density's voxels and their 26 neighbours: every lattice cell that
-        // touches dust then has tau at all 8 corners, so nebrender's trilinear tau is exact.
         auto grid = gridFromField(n, tau, *support);
         grid->setName(tauGridName(star.name));
         grid->setGridClass(openvdb::GRID_UNKNOWN);

@@ -149,8 +149,12 @@ RenderScene buildScene(const GridSet& grids, const CommonOptions& common,
 
 double sceneColumn(const RenderScene& scene, const Vec3& a, const Vec3& b)
 {
-    const Affine w2i = scene.fields.indexToWorld.inverse();
-    return columnDensity(scene.fields, w2i.apply(a), w2i.apply(b));
+    const DenseVolume& f = scene.fields;
+    DenseVolume density(f.lo(), f.dims(), 1);
+    density.indexToWorld = f.indexToWorld;
+    for (std::size_t i = 0; i < f.voxelCount(); ++i) density.voxel(i)[0] = f.voxel(i)[0];
+    const Affine w2i = f.indexToWorld.inverse();
+    return columnDensity(density, w2i.apply(a), w2i.apply(b));
 }
 
 Image renderFrame(const RenderScene& scene, const RenderOptions& opts, const Run* run)

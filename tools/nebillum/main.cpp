@@ -23,12 +23,6 @@ int main(int argc, char** argv)
     nebula::cli::addCommon(app, common,
                            nebula::cli::INPUT | nebula::cli::OUTPUT | nebula::cli::PASS_THROUGH |
                                nebula::cli::DENSITY_GRID);
-    app.add_option("--segment", opts.field.segment,
-                   "Exact segment integrated back from each voxel [voxels] (>= 4; larger is "
-                   "more accurate and slower)")
-        ->capture_default_str();
-    app.add_flag("--exact", opts.exact,
-                 "Use the exact reference (one full ray per voxel; slow, for checks)");
     nebula::cli::addStars(app, starOpts);
     auto* grp = app.add_option_group("Dust");
     grp->add_option("--kappa-v", dustOpts.kappa_V,

@@ -10,8 +10,6 @@ namespace nebula {
 
 struct IllumOptions
 {
-    OpticalDepthParams field;   ///< fast-path parameters
-    bool exact = false;         ///< use the O(N^4) reference instead
     std::vector<Star> stars;    ///< replaces the input's nebula:stars when not empty
     DustParams dust;            ///< kappa_V converts column density to tau_V
 };
@@ -19,8 +17,9 @@ struct IllumOptions
 /// Name of the optical-depth grid of star @p star.
 inline std::string tauGridName(const std::string& star) { return "tau." + star; }
 
-/// Adds (or replaces) tau.<star> for every star to @p grids, with the density grid's active
-/// topology and transform; records stars and dust in the metadata. With --only-new, the
+/// Adds (or replaces) tau.<star> for every star to @p grids, active on the density's active
+/// voxels and their 26 neighbours (so every dusty lattice cell has tau at all 8 corners),
+/// with the density's transform; exact (optical_depth.h); records stars and dust in the metadata. With --only-new, the
 /// input grids are dropped. Throws Error on a missing or bad density grid or no stars.
 void illuminate(GridSet& grids, const CommonOptions& common, const IllumOptions& opts,
                 const Run& run);
