@@ -23,9 +23,7 @@ std::string versionString(const std::string& tool)
 void addCommon(CLI::App& app, CommonOptions& opts, unsigned flags)
 {
     if (flags & INPUT) {
-        app.add_option("-i,--input", opts.input, "Input VDB file, or - for stdin")
-            ->required()
-            ->check(CLI::ExistingFile | CLI::IsMember({"-"}));
+        app.add_option("-i,--input", opts.input, "Input VDB file, or - for stdin")->required();
     }
     if (flags & OUTPUT) {
         app.add_option("-o,--output", opts.output, "Output file, or - for stdout")->required();
@@ -123,8 +121,10 @@ int run(CLI::App& app, const std::string& tool, CommonOptions& opts, int argc, c
     try {
         app.parse(argc, argv);
     } catch (const CLI::ParseError& e) {
-        const int code = app.exit(e);
-        return code == 0 ? 0 : 2;
+        if (e.get_exit_code() == 0) return app.exit(e);  // --help, --version: stdout, 0
+        std::cerr << tool << ": error: " << e.what() << "\n"
+                  << "Run " << tool << " --help for the options and examples.\n";
+        return 2;
     }
     try {
         openvdb::initialize();

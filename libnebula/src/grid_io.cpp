@@ -140,10 +140,10 @@ GridSet readGrids(const std::string& path)
     } catch (const Error&) {
         throw;
     } catch (const std::exception& e) {
-        throw Error(set.source + ": not a readable VDB file (" + e.what() + ")");
+        throw Error(set.source + ": not a valid, complete VDB file (" + e.what() + ")");
     }
     for (const auto& g : set.grids) {
-        if (!g) throw Error(set.source + ": not a readable VDB file (empty grid entry)");
+        if (!g) throw Error(set.source + ": not a valid, complete VDB file (empty grid entry)");
     }
     return set;
 }

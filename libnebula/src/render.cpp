@@ -9,6 +9,7 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 
 namespace nebula {
@@ -157,8 +158,10 @@ double sceneColumn(const RenderScene& scene, const Vec3& a, const Vec3& b)
     return columnDensity(density, w2i.apply(a), w2i.apply(b));
 }
 
-Image renderFrame(const RenderScene& scene, const RenderOptions& opts, const Run* run)
+Image renderFrame(const RenderScene& scene, const RenderOptions& opts, const Run* run,
+                  RenderStats* stats)
 {
+    std::atomic<std::uint64_t> rayCount{0}, sampleCount{0};
     const Camera& cam = opts.camera;
     if (cam.width <= 0 || cam.height <= 0) throw UsageError("--res must be WxH with W, H > 0");
     if (!(opts.step > 0.0)) throw UsageError("--step must be > 0 voxels");
@@ -194,6 +197,7 @@ Image renderFrame(const RenderScene& scene, const RenderOptions& opts, const Run
     tbb::parallel_for(tbb::blocked_range<int>(0, H, 4), [&](const tbb::blocked_range<int>& rows) {
         std::vector<float> f(static_cast<std::size_t>(C));
         std::vector<double> starL(S * 3);
+        std::uint64_t rays = 0, samples = 0;
         for (int py = rows.begin(); py != rows.end(); ++py) {
             for (int px = 0; px < W; ++px) {
                 const Vec3 dW = cam.direction(px + 0.5, py + 0.5);
@@ -213,6 +217,7 @@ Image renderFrame(const RenderScene& scene, const RenderOptions& opts, const Run
                 double T[3] = {1, 1, 1}, L[3] = {0, 0, 0};
                 std::fill(starL.begin(), starL.end(), 0.0);
                 const double dt = opts.step / dI.length();
+                rays += t0 < t1;
                 for (double t = t0; t < t1;) {
                     const double seg = std::min(dt, t1 - t);
                     const double tm = t + 0.5 * seg;
@@ -236,6 +241,7 @@ Image renderFrame(const RenderScene& scene, const RenderOptions& opts, const Run
                         continue;
                     }
                     vol.sample(pI, f.data());
+                    ++samples;
                     const double n = f[0], em = f[1];
                     if (n <= 0.0 && em <= 0.0) {
                         t += seg;
@@ -289,7 +295,13 @@ Image renderFrame(const RenderScene& scene, const RenderOptions& opts, const Run
             }
         }
         bar.add(std::uint64_t(rows.size()));
+        rayCount += rays;
+        sampleCount += samples;
     });
+    if (stats) {
+        stats->rays = rayCount;
+        stats->samples = sampleCount;
+    }
 
     // Star sprites: the attenuated flux F_c = L_c / (4 pi d^2) e^(-r_c tau) spread over a
     // small Gaussian footprint whose radiance times pixel solid angle sums to F_c.

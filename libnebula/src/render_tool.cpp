@@ -40,11 +40,15 @@ void renderToFiles(const GridSet& grids, const CommonOptions& common, const Rend
     const auto start = std::chrono::steady_clock::now();
     const RenderScene scene = buildScene(grids, common, opts, dust);
     const auto built = std::chrono::steady_clock::now();
-    const Image img = renderFrame(scene, opts, &run);
+    RenderStats stats;
+    const Image img = renderFrame(scene, opts, &run, &stats);
     const auto done = std::chrono::steady_clock::now();
     const double tBuild = std::chrono::duration<double>(built - start).count();
     const double tRender = std::chrono::duration<double>(done - built).count();
-    run.info("scene " + std::to_string(tBuild) + " s, render " + std::to_string(tRender) + " s");
+    run.info("scene " + std::to_string(tBuild) + " s, render " + std::to_string(tRender) +
+             " s, " + std::to_string(stats.rays) + " rays, " + std::to_string(stats.samples) +
+             " samples (" + std::to_string(1e9 * tRender / double(std::max<std::uint64_t>(stats.samples, 1))) +
+             " ns wall per sample)");
 
     const ToneCurve curve = computeToneCurve(img, out.tone);
     std::ostringstream tone;

@@ -84,9 +84,17 @@ struct RenderScene
 RenderScene buildScene(const GridSet& grids, const CommonOptions& common,
                        const RenderOptions& opts, const DustParams& dust);
 
+/// What a render did, for benchmarks and -v.
+struct RenderStats
+{
+    std::uint64_t rays = 0;     ///< rays that met the volume's box
+    std::uint64_t samples = 0;  ///< field lookups (ray steps in occupied space)
+};
+
 /// Renders the single-scattering image: beauty R,G,B,A (A = 1 - T at the green channel),
 /// layer "star.<name>" per star (its scattered light and sprite), layer "transmittance".
-Image renderFrame(const RenderScene& scene, const RenderOptions& opts, const Run* run = nullptr);
+Image renderFrame(const RenderScene& scene, const RenderOptions& opts, const Run* run = nullptr,
+                  RenderStats* stats = nullptr);
 
 /// The transmittance-weighted column density between two world points [cm^-3 pc], through
 /// the scene's density (exact trilinear integral). Used for star sprites.
