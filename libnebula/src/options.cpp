@@ -105,7 +105,8 @@ std::vector<Star> loadStars(const StarOptions& opts)
 void addDust(CLI::App& app, DustOptions& opts, bool withKappa)
 {
     const DustParams d;
-    auto* grp = app.add_option_group("Dust", "Dust model (default: the input's nebula:dust)");
+    auto* grp = app.add_option_group(
+        "Dust", "Dust model, carried as nebula:dust (nebillum, nebrender: default the input's)");
     if (withKappa) {
         grp->add_option("--kappa-v", opts.kappa_V,
                         "V-band extinction per n_H per pc [pc^-1 cm^3] (default " +

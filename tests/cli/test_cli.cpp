@@ -257,7 +257,9 @@ TEST_F(Cli, HelpStartsWithExamplesAndVersion)
         EXPECT_EQ(help.rfind(tool + " - ", 0), 0u) << help.substr(0, 80);
         const auto ex = help.find("Examples:");
         EXPECT_NE(ex, std::string::npos);
-        EXPECT_LT(ex, help.find("OPTIONS")) << tool;
+        const auto opts = help.find("Options:");
+        ASSERT_NE(opts, std::string::npos);
+        EXPECT_LT(ex, opts) << tool;
         const Result v = run(tool + " --version > version.txt");
         EXPECT_EQ(v.code, 0);
         std::ifstream vin(path("version.txt"));

@@ -24,7 +24,7 @@ int main(int argc, char** argv)
     app.add_option("--res", params.res, "Voxels along each axis")->capture_default_str();
     app.add_option("--size", params.size, "Edge length of the cube [pc]")->capture_default_str();
     app.add_option("--seed", params.seed, "Noise seed")->capture_default_str();
-    app.add_option("--density", params.densityPeak, "Peak dust density n_H [cm^-3]")
+    app.add_option("--density", params.densityPeak, "Density scale: n_H [cm^-3] where the shaped noise is 1")
         ->capture_default_str();
     app.add_option("--frequency", params.frequency, "Noise features across the cube")
         ->capture_default_str();

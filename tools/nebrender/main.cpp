@@ -54,7 +54,7 @@ int main(int argc, char** argv)
         ->capture_default_str()
         ->check(CLI::NonNegativeNumber);
     app.add_option("--emission-color", emissionColor,
-                   "Emission colour, linear sRGB R,G,B (default 1,0.03,0.05: H-alpha red)");
+                   "Emission colour, linear sRGB R,G,B (default 1,0.15,0.2: H-alpha with some H-beta)");
     app.add_flag("--no-stars", noStars, "Do not draw the stars themselves");
     app.add_option("--sprite-radius", opts.spriteRadius, "Star sprite radius [pixels]")
         ->capture_default_str()

@@ -19,15 +19,15 @@ struct NebulaParams
     int res = 128;                 ///< voxels along each axis
     double size = 10.0;            ///< edge length of the cube [pc]
     std::uint64_t seed = 1;        ///< noise seed
-    double densityPeak = 1500.0;   ///< n_H where the shaped noise is 1 [cm^-3]
+    double densityPeak = 4000.0;   ///< n_H where the shaped noise is 1 [cm^-3]
     double frequency = 1.8;        ///< noise features across the cube (base octave)
-    FbmParams fbm;                 ///< octaves, lacunarity, gain
+    FbmParams fbm{6, 2.0, 0.55};   ///< octaves, lacunarity, gain
     double threshold = 0.05;       ///< fBm level below which there is no dust (voids)
     double contrast = 3.0;         ///< gain applied to fBm above the threshold
     double exponent = 2.0;         ///< shaped density = (contrast (fbm - threshold))^exponent
     double warp = 0.35;            ///< domain-warp strength (fraction of the cube) for wisps
     double envelope = 0.5;         ///< radius where the soft envelope reaches 0 [cube edges]
-    double emissionPeak = 1.0;     ///< emission where its shaped noise is 1 [linear units]
+    double emissionPeak = 0.4;     ///< emission where its shaped noise is 1 [linear units]
     double emissionRadius = 0.3;   ///< radius of the emitting region [cube edges]
     double cavity = 0.6;           ///< radius of the dust-free cavity around each star [pc]
     std::vector<Star> stars;       ///< point sources (travel as nebula:stars)

@@ -18,10 +18,10 @@ namespace nebula {
 /// Perspective pinhole camera (world space, pc).
 struct Camera
 {
-    Vec3 eye{0, 0, -25};
+    Vec3 eye{4, 3, -19};
     Vec3 lookAt{0, 0, 0};
     Vec3 up{0, 1, 0};
-    double fovDeg = 40.0;   ///< horizontal field of view [degrees]
+    double fovDeg = 36.0;   ///< horizontal field of view [degrees]
     int width = 512;
     int height = 512;
 
@@ -46,10 +46,10 @@ struct RenderOptions
     double step = 0.5;                              ///< ray step [voxels]
     std::array<double, 3> wavelengths{700.0, 546.1, 435.8};  ///< R, G, B channels [nm]
     double emissionScale = 1.0;                     ///< multiplies the emission grid
-    std::array<double, 3> emissionColor{1.0, 0.03, 0.05};  ///< linear sRGB (H-alpha red)
+    std::array<double, 3> emissionColor{1.0, 0.15, 0.2};  ///< linear sRGB (H-alpha + H-beta pink)
     std::string emissionGrid = "emission";
     bool drawStars = true;                          ///< star sprites
-    double spriteRadius = 1.5;                      ///< sprite radius [pixels]
+    double spriteRadius = 2.5;                      ///< sprite radius [pixels]
     double minStarDistance = 0.5;                   ///< 1/r^2 clamp radius [voxels]
     double minTransmittance = 1e-5;                 ///< rays stop below this in all channels
 };
