@@ -123,11 +123,17 @@ RenderScene buildScene(const GridSet& grids, const CommonOptions& common,
     scene.dust.g = dust.g;
     scene.dust.phase = dust.phase;
 
+    scene.buildOccupancy();
+    return scene;
+}
+
+void RenderScene::buildOccupancy()
+{
     // Occupancy: a lattice cell is occupied if any of its 8 corners has dust or emission.
-    const auto& v = scene.fields;
-    const int B = RenderScene::BLOCK;
-    for (int a = 0; a < 3; ++a) scene.blocks[a] = (v.dims()[a] + B - 1) / B;
-    scene.occupied.assign(std::size_t(scene.blocks[0]) * scene.blocks[1] * scene.blocks[2], 0);
+    const auto& v = fields;
+    const int B = BLOCK;
+    for (int a = 0; a < 3; ++a) blocks[a] = (v.dims()[a] + B - 1) / B;
+    occupied.assign(std::size_t(blocks[0]) * blocks[1] * blocks[2], 0);
     const auto& lo = v.lo();
     for (int k = 0; k < v.dims()[2]; ++k) {
         for (int j = 0; j < v.dims()[1]; ++j) {
@@ -139,13 +145,12 @@ RenderScene buildScene(const GridSet& grids, const CommonOptions& common,
                         for (int di = -1; di <= 0; ++di) {
                             const int ci = i + di, cj = j + dj, ck = k + dk;
                             if (ci < 0 || cj < 0 || ck < 0) continue;
-                            scene.occupied[(std::size_t(ck / B) * scene.blocks[1] + cj / B) *
-                                               scene.blocks[0] + ci / B] = 1;
+                            occupied[(std::size_t(ck / B) * blocks[1] + cj / B) *
+                                               blocks[0] + ci / B] = 1;
                         }
             }
         }
     }
-    return scene;
 }
 
 double sceneColumn(const RenderScene& scene, const Vec3& a, const Vec3& b)

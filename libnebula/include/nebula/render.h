@@ -76,6 +76,9 @@ struct RenderScene
     static constexpr int BLOCK = 8;
     std::array<int, 3> blocks{0, 0, 0};
     std::vector<std::uint8_t> occupied;
+
+    /// (Re)computes `blocks` and `occupied` from channels 0 (density) and 1 (emission).
+    void buildOccupancy();
 };
 
 /// Builds the scene from nebillum's output: density, emission (optional) and tau.<star> for
