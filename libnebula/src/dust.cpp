@@ -4,6 +4,8 @@
 
 #include "nebula/dust.h"
 
+#include "json_parse.h"
+
 #include "nebula/error.h"
 
 #include <nlohmann/json.hpp>
@@ -214,19 +216,7 @@ std::string DustParams::toJson() const
 
 DustParams DustParams::fromJson(const std::string& text, const std::string& source)
 {
-    nlohmann::json j;
-    try {
-        j = nlohmann::json::parse(text);
-    } catch (const nlohmann::json::exception& e) {
-        // parse_error, or out_of_range for a number too large for a double; without
-        // nlohmann's "[json.exception.parse_error.101] " prefix.
-        std::string detail = e.what();
-        const auto bracket = detail.find("] ");
-        if (detail.rfind("[json.exception", 0) == 0 && bracket != std::string::npos) {
-            detail.erase(0, bracket + 2);
-        }
-        throw Error(source + ": dust parameters: not valid JSON: " + detail);
-    }
+    const nlohmann::json j = detail::parseJson(text, source, "dust parameters: ");
     if (!j.is_object()) {
         throw Error(source + ": dust parameters: expected a JSON object, got " + typeName(j));
     }

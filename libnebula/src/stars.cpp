@@ -4,6 +4,8 @@
 
 #include "nebula/stars.h"
 
+#include "json_parse.h"
+
 #include "nebula/error.h"
 
 #include <nlohmann/json.hpp>
@@ -292,19 +294,7 @@ std::array<double, 3> blackbodyLinearSRGB(double T)
 
 std::vector<Star> parseStars(const std::string& json, const std::string& source)
 {
-    nlohmann::json root;
-    try {
-        root = nlohmann::json::parse(json);
-    } catch (const nlohmann::json::exception& e) {
-        // parse_error, or out_of_range for a number too large for a double; without
-        // nlohmann's "[json.exception.parse_error.101] " prefix.
-        std::string detail = e.what();
-        const auto bracket = detail.find("] ");
-        if (detail.rfind("[json.exception", 0) == 0 && bracket != std::string::npos) {
-            detail.erase(0, bracket + 2);
-        }
-        throw Error(source + ": not valid JSON: " + detail);
-    }
+    const nlohmann::json root = detail::parseJson(json, source);
     if (!root.is_array()) {
         throw Error(source + ": expected a JSON array of stars, got " + shown(root));
     }

@@ -6,6 +6,8 @@
 
 #include "nebula/error.h"
 
+#include "test_util.h"
+
 #include <gtest/gtest.h>
 
 #include <functional>
@@ -26,22 +28,8 @@ double simpson(const std::function<double(double)>& f, double a, double b, int n
     return sum * h / 3.0;
 }
 
-/// Message of the Error that @p f throws; fails the test if it throws none.
-std::string errorMessage(const std::function<void()>& f)
-{
-    try {
-        f();
-    } catch (const nebula::Error& e) {
-        return e.what();
-    }
-    ADD_FAILURE() << "no nebula::Error thrown";
-    return {};
-}
-
-bool contains(const std::string& text, const std::string& part)
-{
-    return text.find(part) != std::string::npos;
-}
+using nebula::test::contains;
+using nebula::test::errorMessage;
 
 constexpr PhaseModel ALL_MODELS[] = {PhaseModel::HenyeyGreenstein, PhaseModel::Rayleigh,
                                      PhaseModel::MieHazy, PhaseModel::MieMurky};

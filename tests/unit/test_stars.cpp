@@ -6,6 +6,8 @@
 
 #include "nebula/error.h"
 
+#include "test_util.h"
+
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -15,22 +17,8 @@
 
 namespace {
 
-/// Message of the Error that @p f throws; fails the test if it throws none.
-std::string errorMessage(const std::function<void()>& f)
-{
-    try {
-        f();
-    } catch (const nebula::Error& e) {
-        return e.what();
-    }
-    ADD_FAILURE() << "no nebula::Error thrown";
-    return {};
-}
-
-bool contains(const std::string& text, const std::string& part)
-{
-    return text.find(part) != std::string::npos;
-}
+using nebula::test::contains;
+using nebula::test::errorMessage;
 
 // ---------------------------------------------------------------------------------------------
 // parseStars / starsToJson
