@@ -1,0 +1,208 @@
+/// @file bench_kernels.cpp
+/// Google Benchmark of the hot paths (STYLE "Determinism and speed"): noise and fBm
+/// (nebgen), the exact column integrator (nebillum), the 4-channel trilinear lookup and the
+/// phase functions (nebrender's inner loop), and a whole single-scattering frame.
+/// Every benchmark reports items per second; quote its figures as ratios.
+///
+///     build-bench/bench/nebula_bench --benchmark_min_time=0.2
+///
+/// Inputs are fixed-seed random, so runs are comparable. Each benchmark is short: the
+/// machine is shared.
+
+#include "nebula/cli.h"
+#include "nebula/dust.h"
+#include "nebula/generate.h"
+#include "nebula/illumination.h"
+#include "nebula/noise.h"
+#include "nebula/optical_depth.h"
+#include "nebula/render.h"
+#include "nebula/volume.h"
+
+#include <benchmark/benchmark.h>
+#include <openvdb/openvdb.h>
+#include <tbb/global_control.h>
+
+#include <cmath>
+#include <cstdint>
+#include <memory>
+#include <random>
+#include <vector>
+
+namespace {
+
+constexpr std::uint64_t SEED = 20240601;
+constexpr std::size_t POINTS = 4096;  // inputs cycled through (fit in L1/L2 with the volume)
+
+/// @p count fixed-seed random points, each coordinate uniform in [lo, hi).
+std::vector<nebula::Vec3> randomPoints(std::size_t count, double lo, double hi,
+                                       std::uint64_t seed = SEED)
+{
+    std::mt19937_64 rng(seed);
+    std::uniform_real_distribution<double> u(lo, hi);
+    std::vector<nebula::Vec3> p(count);
+    for (auto& q : p) q = nebula::Vec3(u(rng), u(rng), u(rng));
+    return p;
+}
+
+/// An N^3 volume, lattice [0, N-1]^3, voxel 1, every channel uniform random in [0, 1).
+nebula::DenseVolume randomVolume(int N, int channels)
+{
+    nebula::DenseVolume v({0, 0, 0}, {N, N, N}, channels);
+    std::mt19937_64 rng(SEED);
+    std::uniform_real_distribution<float> u(0.0f, 1.0f);
+    for (float& x : v.data()) x = u(rng);
+    return v;
+}
+
+// ---- noise.h: one call of perlinNoise / fbm per item (fbm: default 6 octaves) ----------
+
+void BM_PerlinNoise(benchmark::State& state)
+{
+    const auto p = randomPoints(POINTS, -50.0, 50.0);
+    std::size_t i = 0;
+    for (auto _ : state) {
+        const auto& q = p[i++ & (POINTS - 1)];
+        benchmark::DoNotOptimize(nebula::perlinNoise(q.x, q.y, q.z));
+    }
+    state.SetItemsProcessed(state.iterations());
+}
+BENCHMARK(BM_PerlinNoise);
+
+void BM_Fbm(benchmark::State& state)
+{
+    const auto p = randomPoints(POINTS, -5.0, 5.0);
+    nebula::FbmParams params;
+    params.octaves = int(state.range(0));
+    std::size_t i = 0;
+    for (auto _ : state) {
+        const auto& q = p[i++ & (POINTS - 1)];
+        benchmark::DoNotOptimize(nebula::fbm(q.x, q.y, q.z, params, 1));
+    }
+    state.SetItemsProcessed(state.iterations());
+    state.counters["octaves"] = benchmark::Counter(double(state.iterations()) * params.octaves,
+                                                   benchmark::Counter::kIsRate);
+}
+BENCHMARK(BM_Fbm)->Arg(6)->ArgName("octaves");
+
+// ---- optical_depth.h: ColumnIntegrator on random segments through a random 64^3 volume -
+// items = segments; "cells" = lattice cells the segments cross (sum over axes of the
+// number of plane crossings, + 1), the integrator's unit of work. Every cell is dusty
+// (no empty-space skipping): the worst case.
+
+void BM_ColumnIntegrator(benchmark::State& state)
+{
+    constexpr int N = 64;
+    const nebula::DenseVolume vol = randomVolume(N, 1);
+    const nebula::ColumnIntegrator integrate(vol);
+    const auto a = randomPoints(POINTS, 0.0, N - 1.0, SEED);
+    const auto b = randomPoints(POINTS, 0.0, N - 1.0, SEED + 1);
+    std::vector<double> cells(POINTS);
+    for (std::size_t k = 0; k < POINTS; ++k) {
+        double c = 1.0;
+        for (int ax = 0; ax < 3; ++ax) c += std::abs(std::floor(b[k][ax]) - std::floor(a[k][ax]));
+        cells[k] = c;
+    }
+    double crossed = 0.0;
+    std::size_t i = 0;
+    for (auto _ : state) {
+        const std::size_t k = i++ & (POINTS - 1);
+        benchmark::DoNotOptimize(integrate(a[k], b[k]));
+        crossed += cells[k];
+    }
+    state.SetItemsProcessed(state.iterations());
+    state.counters["cells"] = benchmark::Counter(crossed, benchmark::Counter::kIsRate);
+    state.counters["cells/seg"] = crossed / double(state.iterations());
+}
+BENCHMARK(BM_ColumnIntegrator);
+
+// ---- volume.h: DenseVolume::sample, 4 channels (nebrender: density, emission, 2 tau) ---
+
+void BM_DenseSample4(benchmark::State& state)
+{
+    constexpr int N = 64;
+    const nebula::DenseVolume vol = randomVolume(N, 4);
+    const auto p = randomPoints(POINTS, 0.0, N - 1.0);
+    float out[4];
+    std::size_t i = 0;
+    for (auto _ : state) {
+        vol.sample(p[i++ & (POINTS - 1)], out);
+        benchmark::DoNotOptimize(out);
+        benchmark::ClobberMemory();
+    }
+    state.SetItemsProcessed(state.iterations());
+}
+BENCHMARK(BM_DenseSample4);
+
+// ---- dust.h: phaseFunction, per model (0 hg, 1 rayleigh, 2 hazy, 3 murky) --------------
+
+void BM_PhaseFunction(benchmark::State& state)
+{
+    const auto model = static_cast<nebula::PhaseModel>(state.range(0));
+    state.SetLabel(nebula::toString(model));
+    std::mt19937_64 rng(SEED);
+    std::uniform_real_distribution<double> u(-1.0, 1.0);
+    std::vector<double> mu(POINTS);
+    for (double& m : mu) m = u(rng);
+    std::size_t i = 0;
+    for (auto _ : state) {
+        benchmark::DoNotOptimize(nebula::phaseFunction(model, mu[i++ & (POINTS - 1)], 0.6));
+    }
+    state.SetItemsProcessed(state.iterations());
+}
+BENCHMARK(BM_PhaseFunction)->DenseRange(0, 3)->ArgName("model");
+
+// ---- render.h: a whole renderFrame ------------------------------------------------------
+// The example nebula at 64^3 with one star (nebgen --res 64 --star alpha:0.4,0.3,-0.2:8000:
+// B1V, nebillum), default camera at 128x128. items = samples (RenderStats: field lookups
+// in occupied space); "rays" = rays that met the box. Arg: worker threads.
+
+const nebula::RenderScene& smallScene()
+{
+    static const std::unique_ptr<nebula::RenderScene> scene = [] {
+        openvdb::initialize();
+        nebula::CommonOptions common;
+        common.quiet = true;  // no progress bars
+        const nebula::Run run("nebula_bench", "", common);
+        nebula::NebulaParams params;
+        params.res = 64;
+        nebula::Star alpha;
+        alpha.name = "alpha";
+        alpha.position = {0.4, 0.3, -0.2};
+        alpha.luminosity = 8000.0;
+        alpha.temperature = nebula::spectralClassTemperature("B1V");
+        params.stars = {alpha};
+        nebula::GridSet grids = nebula::generateNebula(params);
+        nebula::IllumOptions illum;
+        illum.dust = params.dust;
+        nebula::illuminate(grids, common, illum, run);
+        return std::make_unique<nebula::RenderScene>(
+            nebula::buildScene(grids, common, nebula::RenderOptions{}, grids.dust()));
+    }();
+    return *scene;
+}
+
+void BM_RenderFrame(benchmark::State& state)
+{
+    const nebula::RenderScene& scene = smallScene();
+    tbb::global_control threads(tbb::global_control::max_allowed_parallelism,
+                                std::size_t(state.range(0)));
+    nebula::CommonOptions common;
+    common.quiet = true;
+    const nebula::Run run("nebula_bench", "", common);
+    nebula::RenderOptions opts;
+    opts.camera.width = opts.camera.height = 128;
+    nebula::RenderStats stats;
+    double samples = 0.0, rays = 0.0;
+    for (auto _ : state) {
+        benchmark::DoNotOptimize(nebula::renderFrame(scene, opts, &run, &stats));
+        samples += double(stats.samples);
+        rays += double(stats.rays);
+    }
+    state.SetItemsProcessed(std::int64_t(samples));
+    state.counters["rays"] = benchmark::Counter(rays, benchmark::Counter::kIsRate);
+    state.counters["samples/frame"] = samples / double(state.iterations());
+}
+BENCHMARK(BM_RenderFrame)->Arg(1)->Arg(2)->ArgName("threads")->UseRealTime()->Unit(
+    benchmark::kMillisecond);
+
+} // namespace
