@@ -18,22 +18,7 @@ namespace nebula {
 
 namespace {
 
-/// A double for an error message: %g style with at least 6 and otherwise the fewest
-/// significant digits that read back as the same value ("-1", "0.3", "1e+300").
-std::string numberText(double value)
-{
-    std::string text;
-    for (int digits = 6; digits <= 17; ++digits) {
-        std::ostringstream out;
-        out.precision(digits);
-        out << value;
-        text = out.str();
-        if (!std::isfinite(value) || std::strtod(text.c_str(), nullptr) == value) {
-            break;
-        }
-    }
-    return text;
-}
+using detail::numberText;
 
 /// Hazy Mie approximation (Nishita et al.; DESIGN §3) [1/sr]:
 /// p = 1/(4 pi) * (1/2 + 9/2 ((1 + mu)/2)^8). Unit integral over the sphere as written,

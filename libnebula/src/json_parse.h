@@ -1,10 +1,13 @@
 #pragma once
-// Internal: parsing JSON with error messages that name the source.
+// Internal: parsing JSON, and numbers in error messages, for the dust and star metadata.
 
 #include "nebula/error.h"
 
 #include <nlohmann/json.hpp>
 
+#include <cmath>
+#include <cstdlib>
+#include <sstream>
 #include <string>
 
 namespace nebula::detail {
@@ -25,6 +28,21 @@ inline nlohmann::json parseJson(const std::string& text, const std::string& sour
         }
         throw Error(source + ": " + what + "not valid JSON: " + detail);
     }
+}
+
+/// A double for an error message: %g style with at least 6 and otherwise the fewest
+/// significant digits that read back as the same value ("-1", "0.3", "1e+300").
+inline std::string numberText(double value)
+{
+    std::string text;
+    for (int digits = 6; digits <= 17; ++digits) {
+        std::ostringstream out;
+        out.precision(digits);
+        out << value;
+        text = out.str();
+        if (!std::isfinite(value) || std::strtod(text.c_str(), nullptr) == value) break;
+    }
+    return text;
 }
 
 } // namespace nebula::detail

@@ -107,22 +107,7 @@ std::array<double, 3> cie1931(double lambda_nm)
 // ---------------------------------------------------------------------------------------------
 // JSON helpers.
 
-/// A double for an error message: %g style with at least 6 and otherwise the fewest
-/// significant digits that read back as the same value ("-1", "0.3", "1e+300").
-std::string numberText(double value)
-{
-    std::string text;
-    for (int digits = 6; digits <= 17; ++digits) {
-        std::ostringstream out;
-        out.precision(digits);
-        out << value;
-        text = out.str();
-        if (!std::isfinite(value) || std::strtod(text.c_str(), nullptr) == value) {
-            break;
-        }
-    }
-    return text;
-}
+using detail::numberText;
 
 /// A JSON value as it appears in the file, shortened for an error message.
 std::string shown(const nlohmann::json& value)
