@@ -10,6 +10,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include <cmath>
 #include <cstdlib>
 #include <sstream>
 #include <string>
@@ -46,6 +47,46 @@ double mieMurky(double mu)
 double rayleigh(double mu)
 {
     return 3.0 / (16.0 * PI) * (1.0 + mu * mu);
+}
+
+/// Henyey-Greenstein scattering cosine from u in [0, 1) (textbook sign: g > 0 forward).
+/// The inverse CDF mu = (1 + g^2 - ((1 - g^2)/(1 - g + 2 g u))^2) / (2 g), multiplied out in
+/// v = 2u - 1 so that the 1/g cancels: exact for every g in (-1, 1) with no isotropic special
+/// case near g = 0 (where the textbook form loses digits), and mu = v at g = 0.
+double sampleHenyeyGreensteinCosine(double g, double u)
+{
+    const double v = 2.0 * u - 1.0;
+    const double d = 1.0 + g * v;
+    return (v + g * (0.5 * (3.0 + v * v) + g * (v + 0.5 * g * (v * v - 1.0)))) / (d * d);
+}
+
+/// Rayleigh scattering cosine from u in [0, 1). The CDF (mu^3 + 3 mu + 4)/8 = u is the
+/// depressed cubic mu^3 + 3 mu - 2z = 0 with z = 4u - 2, whose single real root (Cardano)
+/// cbrt(z + sqrt(z^2 + 1)) - cbrt(sqrt(z^2 + 1) - z) equals 2 sinh(asinh(z)/3) by the
+/// triple-angle formula sinh 3x = 3 sinh x + 4 sinh^3 x; that form has no cancellation at z = 0.
+double sampleRayleighCosine(double u)
+{
+    return 2.0 * std::sinh(std::asinh(4.0 * u - 2.0) / 3.0);
+}
+
+/// Hazy (n = 8) or murky (n = 32) Mie scattering cosine from u in [0, 1). With
+/// h = (1 + mu)/2 the density 2 pi p(mu) = 1/4 + (n+1)/4 h^n is the exact mixture
+/// 1/2 * isotropic (1/2) + 1/2 * power term ((n+1)/2 h^n), whose CDF in h is h^(n+1).
+/// u < 1/2 picks the isotropic half and is rescaled to 2u, otherwise 2u - 1 (both exact in
+/// double): exact in distribution, though not monotonic in u.
+double sampleMieCosine(double n, double u)
+{
+    if (u < 0.5) {
+        return 4.0 * u - 1.0;
+    }
+    const double h = std::pow(2.0 * u - 1.0, 1.0 / (n + 1.0));
+    return 2.0 * h - 1.0;
+}
+
+/// @p mu clamped to [-1, 1] (rounding in the samplers may step outside by an ulp or so).
+double clampCosine(double mu)
+{
+    return std::fmin(1.0, std::fmax(-1.0, mu));
 }
 
 /// The JSON type of @p value in words, for error messages.
@@ -112,6 +153,17 @@ double phaseFunction(PhaseModel model, double mu, double g)
     case PhaseModel::Rayleigh: return rayleigh(mu);
     case PhaseModel::MieHazy: return mieHazy(mu);
     case PhaseModel::MieMurky: return mieMurky(mu);
+    }
+    throw Error("unknown PhaseModel value " + std::to_string(static_cast<int>(model)));
+}
+
+double samplePhaseCosine(PhaseModel model, double g, double u)
+{
+    switch (model) {
+    case PhaseModel::HenyeyGreenstein: return clampCosine(sampleHenyeyGreensteinCosine(g, u));
+    case PhaseModel::Rayleigh: return clampCosine(sampleRayleighCosine(u));
+    case PhaseModel::MieHazy: return clampCosine(sampleMieCosine(8.0, u));
+    case PhaseModel::MieMurky: return clampCosine(sampleMieCosine(32.0, u));
     }
     throw Error("unknown PhaseModel value " + std::to_string(static_cast<int>(model)));
 }

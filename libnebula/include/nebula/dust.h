@@ -31,6 +31,44 @@ inline double henyeyGreenstein(double mu, double g)
 /// @p g is used by Henyey-Greenstein only.
 double phaseFunction(PhaseModel model, double mu, double g);
 
+/// Samples the scattering cosine mu of @p model (DESIGN §3-4) from @p u uniform in [0, 1):
+/// the result is distributed on [-1, 1] with density 2 pi p(mu), p = phaseFunction(model, mu,
+/// g). mu is the cosine between the incoming travel direction and the outgoing travel
+/// direction (forward = +1), which is the same mu as in phaseFunction(): there the outgoing
+/// direction is the direction to the eye. So g > 0 gives a mean mu of g > 0 (forward).
+///  - Henyey-Greenstein: inverse CDF, textbook sign, rearranged so that it has no 1/g (exact
+///    and stable as g -> 0; g = 0 gives the isotropic 2u - 1). @p g in (-1, 1).
+///  - Rayleigh: exact inverse of the cubic CDF (mu^3 + 3 mu + 4)/8 (Cardano, in sinh form).
+///  - hazy / murky Mie: exact mixture, 1/2 isotropic + 1/2 density (n+1)/2 ((1+mu)/2)^n with
+///    n = 8 / 32, each by its closed-form inverse CDF; u picks the component and is then
+///    rescaled to [0, 1). The result is exact in distribution but not monotonic in u.
+/// @p g is used by Henyey-Greenstein only. The result is clamped to [-1, 1]. Throws Error on
+/// an unknown @p model value.
+double samplePhaseCosine(PhaseModel model, double g, double u);
+
+/// Unit direction @p out at polar cosine @p mu and azimuth @p phi [rad] about the unit
+/// direction @p in: out = sqrt(1 - mu^2) (cos phi b1 + sin phi b2) + mu in, with (b1, b2, in)
+/// the orthonormal frame of Duff et al. 2017, "Building an Orthonormal Basis, Revisited"
+/// (branchless, no singularity at in = -z). With in the incoming travel direction and mu from
+/// samplePhaseCosine(), out is the outgoing travel direction. @p in must be unit length;
+/// @p out may not alias @p in.
+inline void sampleDirection(double mu, double phi, const double in[3], double out[3])
+{
+    // Frame (b1, b2) perpendicular to in (Duff et al. 2017, listing 3).
+    const double sign = std::copysign(1.0, in[2]);
+    const double a = -1.0 / (sign + in[2]);
+    const double b = in[0] * in[1] * a;
+    const double b1[3] = {1.0 + sign * in[0] * in[0] * a, sign * b, -sign * in[0]};
+    const double b2[3] = {b, sign + in[1] * in[1] * a, -in[1]};
+
+    const double sinTheta = std::sqrt(std::fmax(0.0, 1.0 - mu * mu));
+    const double c = sinTheta * std::cos(phi);
+    const double s = sinTheta * std::sin(phi);
+    for (int i = 0; i < 3; ++i) {
+        out[i] = c * b1[i] + s * b2[i] + mu * in[i];
+    }
+}
+
 /// Cardelli, Clayton & Mathis (1989) extinction curve A(lambda)/A_V for wavelength
 /// @p lambda_nm [nm] and total-to-selective extinction @p R_V. Valid 0.3-8 um^-1, i.e.
 /// 125-3333 nm (infrared, optical/NIR and the ultraviolet; the far-UV piece 8-10 um^-1 is

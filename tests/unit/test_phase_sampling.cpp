@@ -1,0 +1,435 @@
+/// @file test_phase_sampling.cpp
+/// PCG32 against the reference implementation's published output, and the phase-function
+/// samplers (DESIGN §3-4) against their densities: chi-squared goodness of fit in the style of
+/// Mitsuba's chi2 tests, mean cosines, exact inverse CDFs, and the scattering frame.
+
+#include "nebula/dust.h"
+#include "nebula/rng.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <functional>
+#include <string>
+#include <vector>
+
+namespace {
+
+using nebula::PhaseModel;
+using nebula::Pcg32;
+
+// ---------------------------------------------------------------------------------------------
+// Chi-squared machinery
+
+/// Composite Simpson's rule over [a, b] with n (even) intervals.
+double simpson(const std::function<double(double)>& f, double a, double b, int n)
+{
+    const double h = (b - a) / n;
+    double sum = f(a) + f(b);
+    for (int i = 1; i < n; ++i) {
+        sum += (i % 2 == 1 ? 4.0 : 2.0) * f(a + i * h);
+    }
+    return sum * h / 3.0;
+}
+
+/// Regularized upper incomplete gamma function Q(a, x) = Gamma(a, x) / Gamma(a): the series
+/// for P = 1 - Q when x < a + 1, else the continued fraction for Q by the modified Lentz
+/// method (Numerical Recipes, 3rd ed., section 6.2). Relative accuracy ~1e-14.
+double gammaQ(double a, double x)
+{
+    if (x <= 0.0) {
+        return 1.0;
+    }
+    const double logPrefactor = -x + a * std::log(x) - std::lgamma(a);
+    if (x < a + 1.0) {
+        double term = 1.0 / a;
+        double sum = term;
+        for (int n = 1; n < 10000 && std::fabs(term) > 1e-16 * std::fabs(sum); ++n) {
+            term *= x / (a + n);
+            sum += term;
+        }
+        return 1.0 - sum * std::exp(logPrefactor);
+    }
+    constexpr double TINY = 1e-300;
+    double b = x + 1.0 - a;
+    double c = 1.0 / TINY;
+    double d = 1.0 / b;
+    double h = d;
+    for (int i = 1; i < 10000; ++i) {
+        const double an = -i * (i - a);
+        b += 2.0;
+        d = an * d + b;
+        d = std::fabs(d) < TINY ? TINY : d;
+        c = b + an / c;
+        c = std::fabs(c) < TINY ? TINY : c;
+        d = 1.0 / d;
+        const double delta = d * c;
+        h *= delta;
+        if (std::fabs(delta - 1.0) < 1e-16) {
+            break;
+        }
+    }
+    return std::exp(logPrefactor) * h;
+}
+
+/// P(X >= chi2) for X chi-squared distributed with @p dof degrees of freedom.
+double chiSquaredPValue(double chi2, int dof)
+{
+    return gammaQ(0.5 * dof, 0.5 * chi2);
+}
+
+struct ChiSquaredResult
+{
+    double statistic = 0.0;  ///< sum (O - E)^2 / E over the merged cells
+    int dof = 0;             ///< merged cells - 1
+    double pValue = 0.0;
+};
+
+/// Pearson's chi-squared test of @p observed counts against @p expected counts. Adjacent
+/// cells are pooled until each pooled cell expects at least @p minExpected; a remainder at the
+/// end joins the last pooled cell.
+ChiSquaredResult chiSquaredTest(const std::vector<double>& observed,
+                                const std::vector<double>& expected, double minExpected = 5.0)
+{
+    std::vector<double> obs;
+    std::vector<double> exp;
+    double poolObs = 0.0;
+    double poolExp = 0.0;
+    for (size_t i = 0; i < observed.size(); ++i) {
+        poolObs += observed[i];
+        poolExp += expected[i];
+        if (poolExp >= minExpected) {
+            obs.push_back(poolObs);
+            exp.push_back(poolExp);
+            poolObs = poolExp = 0.0;
+        }
+    }
+    if (poolExp > 0.0 || poolObs > 0.0) {
+        if (exp.empty()) {
+            obs.push_back(poolObs);
+            exp.push_back(poolExp);
+        } else {
+            obs.back() += poolObs;
+            exp.back() += poolExp;
+        }
+    }
+
+    ChiSquaredResult result;
+    for (size_t i = 0; i < obs.size(); ++i) {
+        const double diff = obs[i] - exp[i];
+        result.statistic += diff * diff / exp[i];
+    }
+    result.dof = static_cast<int>(obs.size()) - 1;
+    result.pValue = chiSquaredPValue(result.statistic, result.dof);
+    return result;
+}
+
+constexpr int CHI2_SAMPLES = 1000000;
+constexpr int CHI2_BINS = 100;          // equal width in mu over [-1, 1]
+constexpr int SIMPSON_STEPS = 200;      // per bin
+constexpr double CHI2_MIN_P = 0.01;
+constexpr uint64_t SEED = 20240611;
+
+/// Draws CHI2_SAMPLES cosines from (@p sampleModel, @p sampleG) on stream @p stream and tests
+/// them against the density 2 pi p(mu) of (@p densityModel, @p densityG).
+ChiSquaredResult chiSquaredOfSampler(PhaseModel sampleModel, double sampleG,
+                                     PhaseModel densityModel, double densityG, uint64_t stream)
+{
+    std::vector<double> observed(CHI2_BINS, 0.0);
+    Pcg32 rng(stream, SEED);
+    for (int i = 0; i < CHI2_SAMPLES; ++i) {
+        const double mu = nebula::samplePhaseCosine(sampleModel, sampleG, rng.uniformDouble());
+        const int bin = std::min(CHI2_BINS - 1, static_cast<int>(0.5 * (mu + 1.0) * CHI2_BINS));
+        observed[bin] += 1.0;
+    }
+
+    // Expected counts: N * integral of 2 pi p(mu) over each bin.
+    std::vector<double> expected(CHI2_BINS);
+    double total = 0.0;
+    for (int k = 0; k < CHI2_BINS; ++k) {
+        const double lo = -1.0 + 2.0 * k / CHI2_BINS;
+        const double hi = -1.0 + 2.0 * (k + 1) / CHI2_BINS;
+        const double probability = simpson(
+            [&](double mu) {
+                return 2.0 * nebula::PI * nebula::phaseFunction(densityModel, mu, densityG);
+            },
+            lo, hi, SIMPSON_STEPS);
+        expected[k] = CHI2_SAMPLES * probability;
+        total += probability;
+    }
+    // Simpson leaves ~4e-9 of the total at g = 0.9 (its peak at mu = 1): 0.004 counts.
+    EXPECT_NEAR(total, 1.0, 1e-6) << "density not normalised: " << nebula::toString(densityModel);
+    return chiSquaredTest(observed, expected);
+}
+
+struct SamplerCase
+{
+    PhaseModel model;
+    double g;
+};
+
+constexpr SamplerCase SAMPLER_CASES[] = {
+    {PhaseModel::HenyeyGreenstein, -0.3}, {PhaseModel::HenyeyGreenstein, 0.0},
+    {PhaseModel::HenyeyGreenstein, 0.6},  {PhaseModel::HenyeyGreenstein, 0.9},
+    {PhaseModel::Rayleigh, 0.0},          {PhaseModel::MieHazy, 0.0},
+    {PhaseModel::MieMurky, 0.0},
+};
+
+double dot(const double a[3], const double b[3])
+{
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+}
+
+/// Uniformly distributed unit vector (Archimedes: z uniform in [-1, 1], azimuth uniform).
+void uniformSphere(Pcg32& rng, double out[3])
+{
+    const double z = 2.0 * rng.uniformDouble() - 1.0;
+    const double r = std::sqrt(std::fmax(0.0, 1.0 - z * z));
+    const double phi = 2.0 * nebula::PI * rng.uniformDouble();
+    out[0] = r * std::cos(phi);
+    out[1] = r * std::sin(phi);
+    out[2] = z;
+}
+
+// ---------------------------------------------------------------------------------------------
+// PCG32
+
+TEST(Pcg32, ReproducesTheReferenceDemoOutput)
+{
+    // pcg32-demo (pcg-c / pcg-c-basic): pcg32_srandom_r(&rng, 42u, 54u), i.e. initstate 42 on
+    // stream (initseq) 54; published first six outputs.
+    Pcg32 rng(54, 42);
+    const uint32_t reference[] = {0xa15c02b7u, 0x7b47f409u, 0xba1d3330u,
+                                  0x83d2f293u, 0xbfa4784bu, 0xcbed606eu};
+    for (uint32_t value : reference) {
+        EXPECT_EQ(rng.uniformUInt32(), value);
+    }
+    // setSequence() restarts the same stream.
+    rng.setSequence(54, 42);
+    EXPECT_EQ(rng.uniformUInt32(), reference[0]);
+}
+
+TEST(Pcg32, FloatsComeFromRawBitsAndStayBelowOne)
+{
+    EXPECT_EQ(nebula::unitFloatFromBits(0u), 0.0f);
+    EXPECT_EQ(nebula::unitFloatFromBits(0xffffffffu), 1.0f - 0x1p-24f);
+    EXPECT_EQ(nebula::unitDoubleFromBits(0u), 0.0);
+    EXPECT_EQ(nebula::unitDoubleFromBits(~uint64_t(0)), 1.0 - 0x1p-53);
+
+    // uniformFloat / uniformDouble are those conversions of the raw stream.
+    Pcg32 a(7, 3);
+    Pcg32 b(7, 3);
+    for (int i = 0; i < 100; ++i) {
+        ASSERT_EQ(a.uniformFloat(), nebula::unitFloatFromBits(b.uniformUInt32()));
+        const uint64_t hi = b.uniformUInt32();
+        const uint64_t lo = b.uniformUInt32();
+        ASSERT_EQ(a.uniformDouble(), nebula::unitDoubleFromBits((hi << 32) | lo));
+    }
+
+    // In [0, 1), with mean 1/2 within 4 standard errors (variance 1/12).
+    constexpr int N = 200000;
+    Pcg32 rng(1, SEED);
+    double sumF = 0.0;
+    double sumD = 0.0;
+    for (int i = 0; i < N; ++i) {
+        const float f = rng.uniformFloat();
+        const double d = rng.uniformDouble();
+        ASSERT_TRUE(f >= 0.0f && f < 1.0f) << f;
+        ASSERT_TRUE(d >= 0.0 && d < 1.0) << d;
+        sumF += f;
+        sumD += d;
+    }
+    const double standardError = std::sqrt(1.0 / 12.0 / N);
+    EXPECT_NEAR(sumF / N, 0.5, 4.0 * standardError);
+    EXPECT_NEAR(sumD / N, 0.5, 4.0 * standardError);
+}
+
+TEST(Pcg32, StreamsWithDifferentSequenceIndicesDiffer)
+{
+    // Same seed, sequence indices 0..15: the first 8 outputs of every pair of streams differ,
+    // and re-seeding a stream reproduces it.
+    constexpr int STREAMS = 16;
+    constexpr int DRAWS = 8;
+    std::vector<std::vector<uint32_t>> outputs(STREAMS);
+    for (int s = 0; s < STREAMS; ++s) {
+        Pcg32 rng(s, SEED);
+        for (int i = 0; i < DRAWS; ++i) {
+            outputs[s].push_back(rng.uniformUInt32());
+        }
+    }
+    for (int s = 0; s < STREAMS; ++s) {
+        for (int t = s + 1; t < STREAMS; ++t) {
+            EXPECT_NE(outputs[s], outputs[t]) << "streams " << s << " and " << t;
+        }
+        Pcg32 again(s, SEED);
+        for (int i = 0; i < DRAWS; ++i) {
+            EXPECT_EQ(again.uniformUInt32(), outputs[s][i]) << "stream " << s << ", draw " << i;
+        }
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Phase-function sampling
+
+TEST(PhaseSampling, ChiSquaredPValueMatchesClosedFormsAndTables)
+{
+    // dof 1: Q(1/2, x/2) = erfc(sqrt(x/2)); dof 2: Q(1, x/2) = exp(-x/2). Both branches
+    // (series below a + 1, continued fraction above) are exercised.
+    for (double chi2 : {0.1, 0.5, 1.0, 3.841, 10.0, 30.0}) {
+        EXPECT_NEAR(chiSquaredPValue(chi2, 1), std::erfc(std::sqrt(0.5 * chi2)),
+                    1e-12 * std::erfc(std::sqrt(0.5 * chi2)) + 1e-15)
+            << chi2;
+        EXPECT_NEAR(chiSquaredPValue(chi2, 2), std::exp(-0.5 * chi2),
+                    1e-12 * std::exp(-0.5 * chi2) + 1e-15)
+            << chi2;
+    }
+    // Tabulated critical values (NIST/SEMATECH e-Handbook, table 1.3.6.7.4), 3-4 digits.
+    EXPECT_NEAR(chiSquaredPValue(134.642, 99), 0.01, 2e-5);
+    EXPECT_NEAR(chiSquaredPValue(123.225, 99), 0.05, 2e-5);
+    EXPECT_NEAR(chiSquaredPValue(18.307, 10), 0.05, 2e-5);
+}
+
+TEST(PhaseSampling, EverySamplerPassesChiSquaredAgainstItsDensity)
+{
+    // 1e6 samples in 100 equal-width mu bins, expected counts by Simpson (200 steps per bin),
+    // cells pooled to >= 5 expected, p > 0.01. Fixed seed and one stream per case, so the
+    // test is deterministic.
+    uint64_t stream = 100;
+    for (const SamplerCase& c : SAMPLER_CASES) {
+        const ChiSquaredResult r = chiSquaredOfSampler(c.model, c.g, c.model, c.g, stream++);
+        EXPECT_GT(r.pValue, CHI2_MIN_P)
+            << nebula::toString(c.model) << ", g = " << c.g << ": chi2 = " << r.statistic
+            << " with " << r.dof << " dof";
+    }
+}
+
+TEST(PhaseSampling, ChiSquaredDetectsAWrongAsymmetry)
+{
+    // The test's power: HG samples for g = 0.6 against the density for g = 0.55 must fail.
+    const ChiSquaredResult r = chiSquaredOfSampler(PhaseModel::HenyeyGreenstein, 0.6,
+                                                   PhaseModel::HenyeyGreenstein, 0.55, 200);
+    EXPECT_LT(r.pValue, 1e-6) << "chi2 = " << r.statistic << " with " << r.dof << " dof";
+}
+
+TEST(PhaseSampling, HenyeyGreensteinMeanCosineIsG)
+{
+    // Mean of the sampled mu equals g (forward for g > 0) within 4 standard errors.
+    constexpr int N = 400000;
+    uint64_t stream = 300;
+    for (double g : {-0.3, 0.0, 0.3, 0.6, 0.9}) {
+        Pcg32 rng(stream++, SEED);
+        double sum = 0.0;
+        double sumSq = 0.0;
+        for (int i = 0; i < N; ++i) {
+            const double mu =
+                nebula::samplePhaseCosine(PhaseModel::HenyeyGreenstein, g, rng.uniformDouble());
+            sum += mu;
+            sumSq += mu * mu;
+        }
+        const double mean = sum / N;
+        const double variance = (sumSq - N * mean * mean) / (N - 1);
+        EXPECT_NEAR(mean, g, 4.0 * std::sqrt(variance / N)) << g;
+    }
+}
+
+TEST(PhaseSampling, HenyeyGreensteinMatchesTextbookInverseCdf)
+{
+    // The rearranged sampler against the textbook inverse CDF evaluated in long double (which
+    // keeps ~15 digits even at g = 1e-4, where the 1/(2g) costs 4 of its 19). Exact at g = 0.
+    for (double g : {-0.9, -0.3, -1e-4, 1e-4, 0.3, 0.6, 0.9}) {
+        for (int i = 0; i <= 64; ++i) {
+            const double u = std::min(i / 64.0, 1.0 - 0x1p-53);
+            const long double gl = g;
+            const long double s = (1.0L - gl * gl) / (1.0L - gl + 2.0L * gl * u);
+            const long double textbook = (1.0L + gl * gl - s * s) / (2.0L * gl);
+            EXPECT_NEAR(nebula::samplePhaseCosine(PhaseModel::HenyeyGreenstein, g, u),
+                        static_cast<double>(textbook), 1e-12)
+                << "g = " << g << ", u = " << u;
+        }
+    }
+    for (double u : {0.0, 0.25, 0.5, 0.7, 0.999}) {
+        EXPECT_EQ(nebula::samplePhaseCosine(PhaseModel::HenyeyGreenstein, 0.0, u), 2.0 * u - 1.0);
+    }
+}
+
+TEST(PhaseSampling, RayleighInvertsItsCdfAndEndsAreExact)
+{
+    // CDF (mu^3 + 3 mu + 4)/8 of the sampled mu returns u.
+    for (int i = 0; i <= 64; ++i) {
+        const double u = std::min(i / 64.0, 1.0 - 0x1p-53);
+        const double mu = nebula::samplePhaseCosine(PhaseModel::Rayleigh, 0.0, u);
+        EXPECT_NEAR((mu * mu * mu + 3.0 * mu + 4.0) / 8.0, u, 1e-15) << u;
+    }
+    // Every sampler maps [0, 1) into [-1, 1], starting at -1.
+    for (const SamplerCase& c : SAMPLER_CASES) {
+        EXPECT_NEAR(nebula::samplePhaseCosine(c.model, c.g, 0.0), -1.0, 1e-14)
+            << nebula::toString(c.model);
+        const double top = nebula::samplePhaseCosine(c.model, c.g, 1.0 - 0x1p-53);
+        EXPECT_TRUE(top <= 1.0 && top > 0.999) << nebula::toString(c.model) << ": " << top;
+    }
+}
+
+TEST(PhaseSampling, SampleDirectionIsUnitAtCosineMu)
+{
+    // Unit length and dot(in, out) = mu to 1e-12, for random directions and the frame's
+    // awkward cases (poles, -z where Duff et al.'s sign flips, just off -z, the equator).
+    std::vector<std::array<double, 3>> ins = {{0.0, 0.0, 1.0}, {0.0, 0.0, -1.0},
+                                              {1.0, 0.0, 0.0}, {0.0, -1.0, 0.0}};
+    const double eps = 1e-9;
+    ins.push_back({eps, 0.0, -std::sqrt(1.0 - eps * eps)});
+    ins.push_back({0.0, eps, std::sqrt(1.0 - eps * eps)});
+    Pcg32 rng(400, SEED);
+    for (int i = 0; i < 200; ++i) {
+        std::array<double, 3> v;
+        uniformSphere(rng, v.data());
+        ins.push_back(v);
+    }
+    for (const auto& in : ins) {
+        for (int j = 0; j < 20; ++j) {
+            const double mu = j < 5 ? -1.0 + 0.5 * j : 2.0 * rng.uniformDouble() - 1.0;
+            const double phi = 2.0 * nebula::PI * rng.uniformDouble();
+            double out[3];
+            nebula::sampleDirection(mu, phi, in.data(), out);
+            EXPECT_NEAR(std::sqrt(dot(out, out)), 1.0, 1e-12);
+            EXPECT_NEAR(dot(out, in.data()), mu, 1e-12)
+                << "in = (" << in[0] << ", " << in[1] << ", " << in[2] << ")";
+        }
+    }
+}
+
+TEST(PhaseSampling, UniformAzimuthGivesZeroMeanTransverseComponent)
+{
+    // out - mu in averages to zero over phi uniform in [0, 2 pi): each component within 4
+    // standard errors, for HG-distributed mu about a few incoming directions.
+    constexpr int N = 100000;
+    const double ins[][3] = {{0.0, 0.0, 1.0}, {0.0, 0.0, -1.0}, {0.48, -0.6, 0.64}};
+    Pcg32 rng(500, SEED);
+    for (const auto& in : ins) {
+        double sum[3] = {0.0, 0.0, 0.0};
+        double sumSq[3] = {0.0, 0.0, 0.0};
+        for (int i = 0; i < N; ++i) {
+            const double mu =
+                nebula::samplePhaseCosine(PhaseModel::HenyeyGreenstein, 0.6, rng.uniformDouble());
+            const double phi = 2.0 * nebula::PI * rng.uniformDouble();
+            double out[3];
+            nebula::sampleDirection(mu, phi, in, out);
+            for (int k = 0; k < 3; ++k) {
+                const double t = out[k] - mu * in[k];
+                sum[k] += t;
+                sumSq[k] += t * t;
+            }
+        }
+        for (int k = 0; k < 3; ++k) {
+            const double mean = sum[k] / N;
+            const double variance = (sumSq[k] - N * mean * mean) / (N - 1);
+            EXPECT_NEAR(mean, 0.0, 4.0 * std::sqrt(variance / N) + 1e-15)
+                << "component " << k << ", in = (" << in[0] << ", " << in[1] << ", " << in[2]
+                << ")";
+        }
+    }
+}
+
+} // namespace
