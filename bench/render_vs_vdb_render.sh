@@ -35,39 +35,20 @@ REPEAT=${REPEAT:-3}
 VDB_STEP=${VDB_STEP:-0.5}
 VDB_SHADOWSTEP=${VDB_SHADOWSTEP:-0.5}
 VDB_RENDER=${VDB_RENDER:-/usr/bin/vdb_render}
-TIME=/usr/bin/time
 
 RES=128          # voxels per axis
 SIZE=10          # cube edge [pc] (nebgen's default)
 STAR_POS=0.4,0.3,-0.2   # nebgen's example star alpha [pc]
 EYE=${EYE:-4,3,-19}; LOOK_AT=${LOOK_AT:-0,0,0}; UP=${UP:-0,1,0}; FOV=${FOV:-36}
 
-for exe in "$TOOLS/nebgen" "$TOOLS/nebillum" "$TOOLS/nebrender" "$VDB_RENDER" "$TIME" \
-           /usr/bin/vdb_print; do
-    [[ -x $exe ]] || { echo "render_vs_vdb_render: error: $exe not found or not executable" >&2; exit 1; }
-done
+SCRIPT=render_vs_vdb_render
+# shellcheck source=bench/common.sh
+source "$(dirname "$0")/common.sh"
+bench_require "$TOOLS/nebgen" "$TOOLS/nebillum" "$TOOLS/nebrender" "$VDB_RENDER" "$TIME" \
+    /usr/bin/vdb_print
 TOOLS=$(cd "$TOOLS" && pwd)
+bench_tmpdir
 
-TMP=$(mktemp -d "${TMPDIR:-/tmp}/nebula-vs-vdb.XXXXXX")
-cleanup() { if [[ ${KEEP:-0} == 1 ]]; then echo "kept $TMP" >&2; else rm -rf "$TMP"; fi; }
-trap cleanup EXIT
-cd "$TMP"
-
-# timed LOG CMD...: runs CMD under /usr/bin/time -v, its stdout and stderr into LOG.err
-# (vdb_render -v reports on stdout), the resource report into LOG.time; fails the script if
-# CMD fails.
-timed() {
-    local log=$1; shift
-    if ! "$TIME" -v -o "$log.time" "$@" >"$log.err" 2>&1; then
-        echo "render_vs_vdb_render: error: '$*' failed:" >&2
-        cat "$log.err" >&2
-        exit 1
-    fi
-}
-wall()   { awk -F': ' '/Elapsed \(wall clock\)/ { n = split($2, p, ":"); s = 0;
-                          for (i = 1; i <= n; ++i) s = s * 60 + p[i]; print s }' "$1.time"; }
-cpu()    { awk -F': ' '/User time/ { u = $2 } /System time/ { s = $2 } END { print u + s }' "$1.time"; }
-maxrss() { awk -F': ' '/Maximum resident set size/ { print $2 }' "$1.time"; }
 median() { sort -g | awk '{ v[NR] = $1 } END { print v[int((NR + 1) / 2)] }'; }
 
 NPROC=$(nproc); export NPROC
@@ -84,12 +65,12 @@ for r in $(seq "$REPEAT"); do
     timed "neb1t$r" "$TOOLS/nebrender" -i lit.vdb "${VIEW[@]}" --no-png -o f1.exr -v --threads 1
 done
 # -v line: "nebrender: scene S s, render R s, N rays, M samples (...)"
-renderSec() { sed -n 's/.*render \([0-9.eE+-]*\) s.*/\1/p' "$1.err" | head -n1; }
-samples()   { sed -n 's/.* \([0-9][0-9]*\) samples.*/\1/p' "$1.err" | head -n1; }
+renderSec() { sed -n 's/.*render \([0-9.eE+-]*\) s.*/\1/p' "$1.log" | head -n1; }
+samples()   { sed -n 's/.* \([0-9][0-9]*\) samples.*/\1/p' "$1.log" | head -n1; }
 SAMPLES=$(samples neb1)
 [[ -n $SAMPLES && -n $(renderSec neb1) ]] ||
     { echo "render_vs_vdb_render: error: no 'render ... s' / '... samples' in nebrender -v:" >&2;
-      cat neb1.err >&2; exit 1; }
+      cat neb1.log >&2; exit 1; }
 for r in $(seq "$REPEAT"); do
     [[ $(samples "neb$r") == "$SAMPLES" && $(samples "neb1t$r") == "$SAMPLES" ]] ||
         { echo "render_vs_vdb_render: error: sample counts differ between runs" >&2; exit 1; }
@@ -119,10 +100,10 @@ for r in $(seq "$REPEAT"); do
 done
 # -v line after "ray-tracing density...": "vdb_render: ...completed in S sec"
 vdbTrace() { awk '/ray-tracing/ { f = 1; next } f && /completed in/ {
-                   for (i = 1; i <= NF; ++i) if ($i == "in") { print $(i + 1); exit } }' "$1.err"; }
+                   for (i = 1; i <= NF; ++i) if ($i == "in") { print $(i + 1); exit } }' "$1.log"; }
 [[ -n $(vdbTrace vdb1) ]] ||
     { echo "render_vs_vdb_render: error: no ray-tracing time in vdb_render -v:" >&2;
-      cat vdb1.err >&2; exit 1; }
+      cat vdb1.log >&2; exit 1; }
 
 col() { local f=$1; shift; for r in $(seq "$REPEAT"); do "$f" "$@" "$r"; done | median; }
 nebRender() { renderSec "neb$1"; }

@@ -17,16 +17,7 @@ namespace {
 
 using nebula::PhaseModel;
 
-/// Composite Simpson's rule over [a, b] with n (even) intervals.
-double simpson(const std::function<double(double)>& f, double a, double b, int n)
-{
-    const double h = (b - a) / n;
-    double sum = f(a) + f(b);
-    for (int i = 1; i < n; ++i) {
-        sum += (i % 2 == 1 ? 4.0 : 2.0) * f(a + i * h);
-    }
-    return sum * h / 3.0;
-}
+using nebula::test::simpson;
 
 using nebula::test::contains;
 using nebula::test::errorMessage;

@@ -6,6 +6,8 @@
 #include "nebula/dust.h"
 #include "nebula/rng.h"
 
+#include "test_util.h"
+
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -24,16 +26,7 @@ using nebula::Pcg32;
 // ---------------------------------------------------------------------------------------------
 // Chi-squared machinery
 
-/// Composite Simpson's rule over [a, b] with n (even) intervals.
-double simpson(const std::function<double(double)>& f, double a, double b, int n)
-{
-    const double h = (b - a) / n;
-    double sum = f(a) + f(b);
-    for (int i = 1; i < n; ++i) {
-        sum += (i % 2 == 1 ? 4.0 : 2.0) * f(a + i * h);
-    }
-    return sum * h / 3.0;
-}
+using nebula::test::simpson;
 
 /// Regularized upper incomplete gamma function Q(a, x) = Gamma(a, x) / Gamma(a): the series
 /// for P = 1 - Q when x < a + 1, else the continued fraction for Q by the modified Lentz

@@ -27,4 +27,15 @@ inline bool contains(const std::string& text, const std::string& part)
     return text.find(part) != std::string::npos;
 }
 
+/// Composite Simpson's rule over [a, b] with n (even) intervals.
+inline double simpson(const std::function<double(double)>& f, double a, double b, int n)
+{
+    const double h = (b - a) / n;
+    double sum = f(a) + f(b);
+    for (int i = 1; i < n; ++i) {
+        sum += (i % 2 == 1 ? 4.0 : 2.0) * f(a + i * h);
+    }
+    return sum * h / 3.0;
+}
+
 } // namespace nebula::test
