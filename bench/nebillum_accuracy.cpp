@@ -5,10 +5,9 @@
 // star, then integrates the reference for SAMPLES random output voxels (default 20000) and
 // prints the worst transmittance error where tau < 5 (the target: 0.5 %).
 #include "nebula/generate.h"
+#include "nebula/illumination.h"
 #include "nebula/optical_depth.h"
 #include "nebula/volume_vdb.h"
-
-#include <openvdb/tools/Morphology.h>
 
 #include <chrono>
 #include <cmath>
@@ -27,14 +26,7 @@ int main(int argc, char** argv)
     const auto grids = nebula::generateNebula(params);
     const auto density = grids.floatGrid("density", "");
     const auto n = nebula::denseFromGrids({density}, nebula::activeBounds({density}, 1), "bench");
-    auto support = density->deepCopy();
-    openvdb::tools::dilateActiveValues(support->tree(), 1, openvdb::tools::NN_FACE_EDGE_VERTEX,
-                                       openvdb::tools::EXPAND_TILES);
-    std::vector<std::uint32_t> points;
-    for (auto it = support->cbeginValueOn(); it; ++it) {
-        const auto& c = it.getCoord();
-        if (n.contains(c.x(), c.y(), c.z())) points.push_back(std::uint32_t(n.index(c.x(), c.y(), c.z())));
-    }
+    const std::vector<std::uint32_t> points = nebula::tauSupport(*density, n).points;
     std::printf("res %d^3: %zu output voxels (active + neighbours) of %zu lattice points\n",
                 params.res, points.size(), n.voxelCount());
 

@@ -9,6 +9,23 @@
 
 namespace nebula {
 
+TauSupport tauSupport(const openvdb::FloatGrid& density, const DenseVolume& n)
+{
+    TauSupport support;
+    support.grid = density.deepCopy();
+    openvdb::tools::dilateActiveValues(support.grid->tree(), 1,
+                                       openvdb::tools::NN_FACE_EDGE_VERTEX,
+                                       openvdb::tools::EXPAND_TILES);
+    support.points.reserve(support.grid->activeVoxelCount());
+    for (auto it = support.grid->cbeginValueOn(); it; ++it) {
+        const auto& c = it.getCoord();
+        if (n.contains(c.x(), c.y(), c.z())) {
+            support.points.push_back(std::uint32_t(n.index(c.x(), c.y(), c.z())));
+        }
+    }
+    return support;
+}
+
 void illuminate(GridSet& grids, const CommonOptions& common, const IllumOptions& opts,
                 const Run& run)
 {
@@ -27,17 +44,7 @@ void illuminate(GridSet& grids, const CommonOptions& common, const IllumOptions&
     run.info("density " + std::to_string(n.dims()[0]) + "x" + std::to_string(n.dims()[1]) + "x" +
              std::to_string(n.dims()[2]) + " voxels, " + std::to_string(stars.size()) + " stars");
 
-    // Output voxels: the density's active voxels and their 26 neighbours, so every lattice
-    // cell that touches dust has tau at all 8 corners and nebrender's trilinear tau is exact.
-    auto support = density->deepCopy();
-    openvdb::tools::dilateActiveValues(support->tree(), 1, openvdb::tools::NN_FACE_EDGE_VERTEX,
-                                       openvdb::tools::EXPAND_TILES);
-    std::vector<std::uint32_t> points;
-    points.reserve(support->activeVoxelCount());
-    for (auto it = support->cbeginValueOn(); it; ++it) {
-        const auto& c = it.getCoord();
-        if (n.contains(c.x(), c.y(), c.z())) points.push_back(std::uint32_t(n.index(c.x(), c.y(), c.z())));
-    }
+    const TauSupport support = tauSupport(*density, n);
 
     std::vector<openvdb::GridBase::Ptr> products;
     for (const auto& star : stars) {
@@ -45,11 +52,11 @@ void illuminate(GridSet& grids, const CommonOptions& common, const IllumOptions&
                                                star.position[2]));
         std::vector<float> tau;
         {
-            Progress bar(run, "nebillum " + star.name, points.size());
-            tau = opticalDepthAt(n, s, opts.dust.kappa_V, points,
+            Progress bar(run, "nebillum " + star.name, support.points.size());
+            tau = opticalDepthAt(n, s, opts.dust.kappa_V, support.points,
                                  [&](std::size_t k) { bar.add(k); });
         }
-        auto grid = gridFromField(n, tau, *support);
+        auto grid = gridFromField(n, tau, *support.grid);
         grid->setName(tauGridName(star.name));
         grid->setGridClass(openvdb::GRID_UNKNOWN);
         grid->insertMeta("star", openvdb::StringMetadata(star.name));

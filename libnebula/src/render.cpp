@@ -153,16 +153,6 @@ void RenderScene::buildOccupancy()
     }
 }
 
-double sceneColumn(const RenderScene& scene, const Vec3& a, const Vec3& b)
-{
-    const DenseVolume& f = scene.fields;
-    DenseVolume density(f.lo(), f.dims(), 1);
-    density.indexToWorld = f.indexToWorld;
-    for (std::size_t i = 0; i < f.voxelCount(); ++i) density.voxel(i)[0] = f.voxel(i)[0];
-    const Affine w2i = f.indexToWorld.inverse();
-    return columnDensity(density, w2i.apply(a), w2i.apply(b));
-}
-
 Image renderFrame(const RenderScene& scene, const RenderOptions& opts, const Run* run,
                   RenderStats* stats)
 {
@@ -310,13 +300,19 @@ Image renderFrame(const RenderScene& scene, const RenderOptions& opts, const Run
 
     // Star sprites: the attenuated flux F_c = L_c / (4 pi d^2) e^(-r_c tau) spread over a
     // small Gaussian footprint whose radiance times pixel solid angle sums to F_c.
-    if (opts.drawStars) {
+    if (opts.drawStars && S > 0) {
+        // Column density eye -> star through the dust, exact; the density channel and the
+        // integrator's cell occupancy are built once for all stars.
+        DenseVolume density(vol.lo(), vol.dims(), 1);
+        density.indexToWorld = i2w;
+        for (std::size_t i = 0; i < vol.voxelCount(); ++i) density.voxel(i)[0] = vol.voxel(i)[0];
+        const ColumnIntegrator column(density);
         for (std::size_t s = 0; s < S; ++s) {
             double sx, sy;
             if (!cam.project(starPos[s], sx, sy)) continue;
             const Vec3 toStar = starPos[s] - cam.eye;
             const double d2 = toStar.dot(toStar);
-            const double tauV = dust.kappa_V * sceneColumn(scene, cam.eye, starPos[s]);
+            const double tauV = dust.kappa_V * column(eyeI, w2i.apply(starPos[s]));
             const double sigma = std::max(0.3, 0.5 * opts.spriteRadius);
             const int R = int(std::ceil(2.0 * opts.spriteRadius)) + 1;
             const int cx = int(std::floor(sx)), cy = int(std::floor(sy));

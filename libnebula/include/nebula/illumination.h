@@ -14,6 +14,17 @@ struct IllumOptions
     DustParams dust;            ///< kappa_V converts column density to tau_V
 };
 
+/// Where tau.<star> is written: the density's active voxels and their 26 neighbours, so every
+/// lattice cell that touches dust has tau at all 8 corners and nebrender's trilinear tau is
+/// exact there. @p grid holds that topology (values meaningless); @p points are the same
+/// voxels as linear indices into the dense lattice @p n they were taken from.
+struct TauSupport
+{
+    openvdb::FloatGrid::Ptr grid;
+    std::vector<std::uint32_t> points;
+};
+TauSupport tauSupport(const openvdb::FloatGrid& density, const DenseVolume& n);
+
 /// Name of the optical-depth grid of star @p star.
 inline std::string tauGridName(const std::string& star) { return "tau." + star; }
 

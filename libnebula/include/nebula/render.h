@@ -99,9 +99,6 @@ struct RenderStats
 Image renderFrame(const RenderScene& scene, const RenderOptions& opts, const Run* run = nullptr,
                   RenderStats* stats = nullptr);
 
-/// The transmittance-weighted column density between two world points [cm^-3 pc], through
-/// the scene's density (exact trilinear integral). Used for star sprites.
-double sceneColumn(const RenderScene& scene, const Vec3& a, const Vec3& b);
 
 } // namespace nebula
 
