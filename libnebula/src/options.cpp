@@ -114,7 +114,7 @@ void addDust(CLI::App& app, DustOptions& opts, bool withKappa)
     }
     grp->add_option("--albedo", opts.albedo, "Single-scattering albedo in [0,1] (default 0.6)");
     grp->add_option("--g", opts.g, "Henyey-Greenstein asymmetry in (-1,1) (default 0.6)");
-    grp->add_option("--phase", opts.phase, "Phase function: hg, rayleigh, hazy, murky (default hg)");
+    grp->add_option("--phase-function", opts.phase, "Phase function: hg, rayleigh, hazy, murky (default hg)");
     grp->add_option("--rv", opts.R_V, "Extinction curve R_V = A_V/E(B-V) (default 3.1)");
 }
 

@@ -1,5 +1,7 @@
 #include "nebula/render.h"
 
+#include "json_parse.h"
+
 #include "nebula/error.h"
 #include "nebula/illumination.h"
 #include "nebula/optical_depth.h"
@@ -11,8 +13,11 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <optional>
 
 namespace nebula {
+
+using detail::numberText;
 
 namespace {
 
@@ -123,6 +128,21 @@ RenderScene buildScene(const GridSet& grids, const CommonOptions& common,
     scene.dust.g = dust.g;
     scene.dust.phase = dust.phase;
 
+    if (const auto& table = opts.phaseTable) {
+        const auto& m = table->medium;
+        const bool same = std::abs(m.albedo - dust.albedo) <= 1e-9 &&
+                          std::abs(m.g - dust.g) <= 1e-9 && m.phase == dust.phase;
+        if (!same && !opts.phaseIgnoreDust) {
+            throw Error(opts.phaseSource + ": the phase table was made for albedo " +
+                        numberText(m.albedo) + ", g " + numberText(m.g) + ", phase " +
+                        toString(m.phase) + " but " + grids.source + "'s dust has albedo " +
+                        numberText(dust.albedo) + ", g " + numberText(dust.g) + ", phase " +
+                        toString(dust.phase) +
+                        "; rebuild it (nebphase -i " + grids.source +
+                        " -o phase.vdb) or pass --phase-ignore-dust");
+        }
+    }
+
     scene.buildOccupancy();
     return scene;
 }
@@ -186,13 +206,25 @@ Image renderFrame(const RenderScene& scene, const RenderOptions& opts, const Run
     const Vec3 boxHi(vol.lo()[0] + vol.dims()[0] - 1, vol.lo()[1] + vol.dims()[1] - 1,
                      vol.lo()[2] + vol.dims()[2] - 1);
     const Vec3 eyeI = w2i.apply(cam.eye);
+    // Effective phase function: log t_c = log n + log(kappa_V r_c * voxel size).
+    const PhaseTable* table = opts.phaseTable.get();
+    std::optional<PhaseLookup> lookup;
+    double logTOffset[3] = {0, 0, 0};
+    double tMaxDensity = std::numeric_limits<double>::infinity();  // n above it: t > t_max
+    if (table) {
+        lookup.emplace(*table);
+        for (int c = 0; c < 3; ++c) logTOffset[c] = std::log(dust.kappa_V * dust.r[c] * voxelWorld);
+        const double rMax = std::max({dust.r[0], dust.r[1], dust.r[2]});
+        tMaxDensity = table->tMax / (dust.kappa_V * rMax * voxelWorld);
+    }
+    std::atomic<std::uint64_t> clampedCount{0};
 
     Progress bar(run ? *run : Run("nebrender", "", CommonOptions{}), "nebrender",
                  std::uint64_t(H));
     tbb::parallel_for(tbb::blocked_range<int>(0, H, 4), [&](const tbb::blocked_range<int>& rows) {
         std::vector<float> f(static_cast<std::size_t>(C));
         std::vector<double> starL(S * 3);
-        std::uint64_t rays = 0, samples = 0;
+        std::uint64_t rays = 0, samples = 0, clamped = 0;
         for (int py = rows.begin(); py != rows.end(); ++py) {
             for (int px = 0; px < W; ++px) {
                 const Vec3 dW = cam.direction(px + 0.5, py + 0.5);
@@ -254,16 +286,34 @@ Image renderFrame(const RenderScene& scene, const RenderOptions& opts, const Run
                                 emitLen[c];
                     }
                     if (n > 0.0) {
+                        PhaseLookup::Pos tPos[3];
+                        if (table) {
+                            const double logN = std::log(n);
+                            for (int c = 0; c < 3; ++c) tPos[c] = lookup->locateLogT(logN + logTOffset[c]);
+                            if (n > tMaxDensity) {
+                                for (int c = 0; c < 3; ++c) {
+                                    clamped += logN + logTOffset[c] > std::log(table->tMax);
+                                }
+                            }
+                        }
                         for (std::size_t s = 0; s < S; ++s) {
-                            // Single scattering of star s: source = a p(mu) E_s,c (DESIGN §3).
+                            // Scattering of star s: source = Phi_c(t_c, mu) E_s,c, Phi -> a p(mu)
+                            // without a table (single scattering, DESIGN §3-4).
                             const Vec3 v = xW - starPos[s];
                             const double r2 = v.dot(v);
                             const double mu = r2 > 0.0 ? -v.dot(dW) / std::sqrt(r2) : 1.0;
-                            const double ap = dust.albedo * phaseFunction(dust.phase, mu, dust.g);
-                            const double geom = ap / (4.0 * PI * std::max(r2, rmin2));
+                            double phi[3];
+                            if (table) {
+                                const auto muPos = lookup->locateMu(mu);
+                                for (int c = 0; c < 3; ++c) phi[c] = lookup->lookup(tPos[c], muPos);
+                            } else {
+                                phi[0] = phi[1] = phi[2] =
+                                    dust.albedo * phaseFunction(dust.phase, mu, dust.g);
+                            }
+                            const double geom = 1.0 / (4.0 * PI * std::max(r2, rmin2));
                             const double tauV = f[2 + s];
                             for (int c = 0; c < 3; ++c) {
-                                const double E = scene.starColor[s][c] * geom *
+                                const double E = scene.starColor[s][c] * geom * phi[c] *
                                                  std::exp(-dust.r[c] * tauV);
                                 const double add = T[c] * E * oneMinus[c];
                                 L[c] += add;
@@ -292,10 +342,12 @@ Image renderFrame(const RenderScene& scene, const RenderOptions& opts, const Run
         bar.add(std::uint64_t(rows.size()));
         rayCount += rays;
         sampleCount += samples;
+        clampedCount += clamped;
     });
     if (stats) {
         stats->rays = rayCount;
         stats->samples = sampleCount;
+        stats->phaseClamped = clampedCount;
     }
 
     // Star sprites: the attenuated flux F_c = L_c / (4 pi d^2) e^(-r_c tau) spread over a

@@ -50,6 +50,12 @@ void renderToFiles(const GridSet& grids, const CommonOptions& common, const Rend
              " samples (" + std::to_string(1e9 * tRender / double(std::max<std::uint64_t>(stats.samples, 1))) +
              " ns wall per sample)");
 
+    if (stats.phaseClamped > 0) {
+        run.warn("in " + std::to_string(stats.phaseClamped) + " of " +
+                 std::to_string(3 * stats.samples) + " channel samples the voxel optical "
+                 "thickness exceeded the phase table's t_max = " +
+                 std::to_string(opts.phaseTable->tMax) + "; its last row was used");
+    }
     const ToneCurve curve = computeToneCurve(img, out.tone);
     std::ostringstream tone;
     tone << "{\"white\": " << curve.white << ", \"gamma\": " << curve.gamma << ", \"automatic\": "
@@ -63,13 +69,22 @@ void renderToFiles(const GridSet& grids, const CommonOptions& common, const Rend
         {"nebula:tool", run.tool()},
         {"nebula:version", NEBULA_VERSION_STRING},
         {"nebula:command", run.command()},
-        {"nebula:integrator", "single-scattering"},
+        {"nebula:integrator", opts.phaseTable ? "single-scattering with effective phase function"
+                                              : "single-scattering"},
         {"nebula:units", "L_sun pc^-2 sr^-1"},
         {"nebula:dust", dust.toJson()},
         {"nebula:stars", starsToJson(scene.stars)},
         {"nebula:camera", cam.str()},
         {"nebula:exposure", tone.str()},
     };
+    if (opts.phaseTable) {
+        const auto& t = *opts.phaseTable;
+        std::ostringstream p;
+        p << "{\"file\": \"" << opts.phaseSource << "\", \"albedo\": " << t.medium.albedo
+          << ", \"g\": " << t.medium.g << ", \"phase\": \"" << toString(t.medium.phase)
+          << "\", \"t_min\": " << t.tMin << ", \"t_max\": " << t.tMax << "}";
+        attrs["nebula:phase_table"] = p.str();
+    }
     writeExr(out.exr, img, attrs);
     if (!png.empty()) {
         writePng(png, img, curve,

@@ -88,6 +88,50 @@ TEST(Render, SingleScatteringMatchesClosedForm)
     }
 }
 
+// With a phase table the scattered source is Phi_c(t_c, mu) E_c, t_c = kappa_V r_c n * voxel
+// size (DESIGN §4). A two-row table, Phi = A at t = t_R and 3A at t = t_B (the red and blue
+// channels' voxel thickness), linear in log t between, scales the isotropic thin-limit image
+// by 1, 1 + 2 ln(1/0.75)/ln(1.33/0.75) and 3 in R, G, B. The cube's half-voxel density ramps
+// at entry and exit (2.6 % of the column, at smaller t) allow 3 % in G and B; R is exact.
+TEST(Render, PhaseTableReplacesTheThinLimit)
+{
+    const double n0 = 150.0;
+    auto scene = cube(n0, 0.0, {farStar(Vec3(-1, 0, 0))});
+    scene.dust.g = 0.0;  // isotropic: a p(mu) = a / (4 pi) for every mu
+    const Vec3 eye(2, 2, -20);
+    const Image thin = renderFrame(scene, axisCamera(eye, 0.5));
+
+    auto table = std::make_shared<PhaseTable>();
+    table->medium.albedo = 0.6;
+    table->medium.g = 0.0;
+    table->tMin = KAPPA * 0.75 * n0 * H;
+    table->tMax = KAPPA * 1.33 * n0 * H;
+    table->tCount = 2;
+    table->muBins = 4;
+    table->photons = {1, 1};
+    const float a = float(0.6 * INV_FOUR_PI);
+    table->phi = {a, a, a, a, 3 * a, 3 * a, 3 * a, 3 * a};
+    table->error.assign(8, 0.0f);
+    auto opts = axisCamera(eye, 0.5);
+    opts.phaseTable = table;
+    RenderStats stats;
+    const Image img = renderFrame(scene, opts, nullptr, &stats);
+    const double ratio[3] = {1.0, 1.0 + 2.0 * std::log(1 / 0.75) / std::log(1.33 / 0.75), 3.0};
+    EXPECT_NEAR(img.rgba[0] / thin.rgba[0], ratio[0], 1e-6);
+    EXPECT_NEAR(img.rgba[1] / thin.rgba[1], ratio[1], 0.03 * ratio[1]);
+    EXPECT_NEAR(img.rgba[2] / thin.rgba[2], ratio[2], 0.03 * ratio[2]);
+    EXPECT_LT(img.rgba[2] / thin.rgba[2], ratio[2]);  // the ramps only lower it
+    EXPECT_EQ(stats.phaseClamped, 0u);
+    // Transmittance does not depend on the phase function.
+    EXPECT_EQ(img.rgba[3], thin.rgba[3]);
+
+    // Denser dust: blue's t exceeds t_max and is counted as clamped.
+    auto dense = cube(2 * n0, 0.0, {farStar(Vec3(-1, 0, 0))});
+    dense.dust.g = 0.0;
+    renderFrame(dense, opts, nullptr, &stats);
+    EXPECT_GT(stats.phaseClamped, 0u);
+}
+
 TEST(Render, ForwardScatteringIsBrighter)
 {
     const auto scene = cube(20.0, 0.0, {farStar(Vec3(-1, 0, 0))});

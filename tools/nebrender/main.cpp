@@ -1,6 +1,7 @@
 // nebrender - single-scattering ray caster: scattered starlight + gas emission to EXR/PNG.
 #include "nebula/cli.h"
 #include "nebula/options.h"
+#include "nebula/phase_table_vdb.h"
 #include "nebula/render.h"
 
 #include <cstdio>
@@ -11,7 +12,7 @@ int main(int argc, char** argv)
     nebula::RenderOptions opts;       // every default lives here
     nebula::RenderOutput out;
     nebula::DustOptions dustOpts;
-    std::string eye, lookAt, up, res, wavelengths, emissionColor;
+    std::string eye, lookAt, up, res, wavelengths, emissionColor, phaseFile;
     bool noStars = false, noPng = false;
     double exposure = 0.0;
 
@@ -21,6 +22,7 @@ int main(int argc, char** argv)
         "  nebrender -i lit.vdb -o frame.exr                 # also writes frame.png\n"
         "  nebrender -i lit.vdb --eye 0,0,-25 --look-at 0,0,0 --fov 40 --res 1024x768 -o f.exr\n"
         "  nebrender -i lit.vdb --rv 5 --albedo 0.6 --g 0.6 -o rv5.exr\n"
+        "  nebphase -i lit.vdb -o phase.vdb && nebrender -i lit.vdb --phase phase.vdb -o f.exr\n"
         "  nebgen -o - | nebillum -i - -o - | nebrender -i - -o frame.exr\n\n"
         "Needs the density grid, the tau.<star> grids from nebillum and nebula:stars;\n"
         "uses the emission grid if present. EXR: linear radiance [L_sun pc^-2 sr^-1], R,G,B,A\n"
@@ -64,6 +66,12 @@ int main(int argc, char** argv)
         ->capture_default_str()
         ->check(CLI::PositiveNumber);
     nebula::cli::addDust(app, dustOpts, /*withKappa=*/false);
+    app.add_option("--phase", phaseFile,
+                   "Effective phase-function table from nebphase: scattering uses Phi(t, mu) of\n"
+                   "each voxel's optical thickness t (multiple scattering inside voxels) instead\n"
+                   "of the single-scattering a*p(mu)");
+    app.add_flag("--phase-ignore-dust", opts.phaseIgnoreDust,
+                 "Use the --phase table even if its albedo, g or phase model differ from the dust's");
     auto* exp = app.add_option("--exposure", exposure,
                                "PNG: fixed exposure in stops (white = 2^-E); turns off the "
                                "automatic tone curve");
@@ -93,6 +101,11 @@ int main(int argc, char** argv)
         if (exp->count() > 0) {
             out.tone.automatic = false;
             out.tone.exposure = exposure;
+        }
+        if (!phaseFile.empty()) {
+            opts.phaseTable = std::make_shared<const nebula::PhaseTable>(
+                nebula::readPhaseTable(nebula::readGrids(phaseFile)));
+            opts.phaseSource = phaseFile;
         }
         const auto grids = nebula::readGrids(common.input);
         const auto dust = dustOpts.apply(grids.dust());

@@ -6,10 +6,12 @@
 #include "nebula/dust.h"
 #include "nebula/grid_io.h"
 #include "nebula/image.h"
+#include "nebula/phase_table.h"
 #include "nebula/stars.h"
 #include "nebula/volume.h"
 
 #include <array>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -52,6 +54,12 @@ struct RenderOptions
     double spriteRadius = 2.5;                      ///< sprite radius [pixels]
     double minStarDistance = 0.5;                   ///< 1/r^2 clamp radius [voxels]
     double minTransmittance = 1e-5;                 ///< rays stop below this in all channels
+    /// Effective phase function (DESIGN §4): with a table, the scattered radiance uses
+    /// Phi(t_c, mu) at the voxel's optical thickness t_c = k_c * voxel size instead of the
+    /// thin limit a p(mu). Null: single scattering, a p(mu).
+    std::shared_ptr<const PhaseTable> phaseTable;
+    std::string phaseSource;       ///< the table's file, for messages and the EXR
+    bool phaseIgnoreDust = false;  ///< accept a table whose albedo/g/phase differ from the dust
 };
 
 /// The per-channel dust numbers the kernel uses.
@@ -83,7 +91,9 @@ struct RenderScene
 
 /// Builds the scene from nebillum's output: density, emission (optional) and tau.<star> for
 /// every star in nebula:stars. Throws Error naming the file and grid on anything missing or
-/// inconsistent (no stars, a tau grid missing, kappa_V of a tau grid != the dust's).
+/// inconsistent (no stars, a tau grid missing, kappa_V of a tau grid != the dust's), or if
+/// opts.phaseTable was made for another albedo, g or phase model than @p dust (unless
+/// opts.phaseIgnoreDust).
 RenderScene buildScene(const GridSet& grids, const CommonOptions& common,
                        const RenderOptions& opts, const DustParams& dust);
 
@@ -92,6 +102,9 @@ struct RenderStats
 {
     std::uint64_t rays = 0;     ///< rays that met the volume's box
     std::uint64_t samples = 0;  ///< field lookups (ray steps in occupied space)
+    /// Channel samples whose voxel optical thickness exceeded the phase table's t_max (the
+    /// table's last row was used).
+    std::uint64_t phaseClamped = 0;
 };
 
 /// Renders the single-scattering image: beauty R,G,B,A (A = 1 - T at the green channel),
