@@ -99,7 +99,8 @@ struct Phase
     {
         return hg ? henyeyGreenstein(mu, medium.g) : phaseFunction(medium.phase, mu, medium.g);
     }
-    void scatter(Pcg32& rng, double d[3]) const
+    /// Scatters @p d in place; returns the scattering cosine.
+    double scatter(Pcg32& rng, double d[3]) const
     {
         const double mu = samplePhaseCosine(medium.phase, medium.g, rng.uniformDouble());
         const double phi = 2.0 * PI * rng.uniformDouble();
@@ -108,6 +109,7 @@ struct Phase
         // Keep the direction unit length over many scatterings.
         const double n = 1.0 / std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
         for (int a = 0; a < 3; ++a) d[a] *= n;
+        return mu;
     }
 };
 
@@ -173,9 +175,10 @@ std::uint64_t photonAnalog(const Geometry& geo, const Phase& phase, const McSett
 struct BinDirections
 {
     std::vector<double> lo, cosOff, sinOff;
-    double width, solidAngle;
+    double width, invSolidAngle;
     explicit BinDirections(int bins)
-        : lo(bins), cosOff(bins), sinOff(bins), width(2.0 / bins), solidAngle(2.0 * PI * width)
+        : lo(bins), cosOff(bins), sinOff(bins), width(2.0 / bins),
+          invSolidAngle(1.0 / (2.0 * PI * width))
     {
         const double golden = PI * (3.0 - std::sqrt(5.0));
         for (int k = 0; k < bins; ++k) {
@@ -186,10 +189,13 @@ struct BinDirections
     }
 };
 
-/// Adds to the photon's tallies the expected power that an interaction at @p p (packet
-/// travelling along @p d, weight @p ws after the albedo) sends directly out of the medium:
-/// per bin, solid angle x p(mu) x e^-tau_exit at one random direction in the bin; per mu
-/// point, p(mu) e^-tau_exit at a random azimuth.
+/// Adds to the photon's tallies the power that an interaction at @p p (packet travelling
+/// along @p d, weight @p ws after the albedo) sends directly out of the medium. Two
+/// strategies share each bin's integral ws int_bin p e^-tau_exit dOmega by the balance
+/// heuristic (Veach 1997): one direction uniform over the bin (pdf 1/dOmega, here) and the
+/// direction the packet then scatters into (pdf p, escapeAlong()); so flat parts of p come
+/// from every bin and a sharp forward peak from phase sampling. Per mu point: p e^-tau_exit
+/// at a random azimuth.
 template <class Geometry>
 void nextEvent(const Geometry& geo, const Phase& phase, const McSettings& set,
                const BinDirections& dirs, double ws, const double p[3], const double d[3],
@@ -206,7 +212,8 @@ void nextEvent(const Geometry& geo, const Phase& phase, const McSettings& set,
         const double sy = s0 * dirs.cosOff[k] + c0 * dirs.sinOff[k];
         const double e[3] = {st * cx, st * sy, mu};
         const double cosScatter = d[0] * e[0] + d[1] * e[1] + d[2] * e[2];
-        const double c = ws * dirs.solidAngle * phase(cosScatter) * std::exp(-geo.exit(p, e));
+        const double pf = phase(cosScatter);
+        const double c = ws * pf * std::exp(-geo.exit(p, e)) / (dirs.invSolidAngle + pf);
         ph.bins[k] += c;
         (k < nb / 2 ? refl : trans) += c;
     }
@@ -232,6 +239,7 @@ std::uint64_t photonNextEvent(const Geometry& geo, const Phase& phase, const McS
     const double a = phase.medium.albedo;
     double w = 1.0;
     double wr = 0.0;
+    double pfScattered = 0.0;  // p(mu) of the last scattering
     std::uint64_t events = 0;
     for (;;) {
         // Force the next interaction inside: the packet keeps the fraction that interacts.
@@ -239,6 +247,11 @@ std::uint64_t photonNextEvent(const Geometry& geo, const Phase& phase, const McS
         const double pInteract = -std::expm1(-sExit);
         if (events == 0) {
             ph.totals[McTally::DIRECT] += w * (1.0 - pInteract);
+        } else {
+            // The phase-sampled strategy of nextEvent(): escape along the scattered direction.
+            const double c = w * (1.0 - pInteract) * pfScattered / (dirs.invSolidAngle + pfScattered);
+            ph.bins[binOf(d[2], set.muBins)] += c;
+            ph.totals[d[2] < 0.0 ? McTally::REFLECTED : McTally::TRANSMITTED] += c;
         }
         w *= pInteract;
         if (events == 0) {
@@ -252,7 +265,7 @@ std::uint64_t photonNextEvent(const Geometry& geo, const Phase& phase, const McS
         w *= a;
         if (!(w > 0.0)) break;
         nextEvent(geo, phase, set, dirs, w, p, d, rng, ph);
-        phase.scatter(rng, d);
+        pfScattered = phase(phase.scatter(rng, d));
     }
     return events;
 }

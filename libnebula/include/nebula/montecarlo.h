@@ -45,8 +45,10 @@ enum class McEstimator {
     /// Expected-value estimation: the first interaction is forced inside the medium (the
     /// unscattered fraction exp(-s) is then exact and noise-free); at every interaction the
     /// probability of leaving directly into each mu bin, a * int_bin p e^-tau_exit dOmega,
-    /// is added with one random direction per bin; the photon then continues with a forced
-    /// interaction. Far less noise in thin media and in sparse bins; unbiased, balanced in
+    /// is added, estimated by one random direction per bin and the direction the photon
+    /// scatters into, combined by multiple importance sampling (balance heuristic); the
+    /// photon then continues with a forced interaction. Far less noise in thin media and in
+    /// sparse bins, and robust to forward-peaked phase functions; unbiased, balanced in
     /// expectation (not photon by photon).
     NextEvent,
 };
