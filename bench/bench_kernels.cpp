@@ -1,7 +1,8 @@
 /// @file bench_kernels.cpp
 /// Google Benchmark of the hot paths (STYLE "Determinism and speed"): noise and fBm
 /// (nebgen), the exact column integrator (nebillum), the 4-channel trilinear lookup and the
-/// phase functions (nebrender's inner loop), and a whole single-scattering frame.
+/// phase functions (nebrender's inner loop), and a whole single-scattering frame, with and
+/// without the effective phase-function table.
 /// Every benchmark reports items per second; quote its figures as ratios.
 ///
 ///     build-bench/bench/nebula_bench --benchmark_min_time=0.2
@@ -203,6 +204,40 @@ void BM_RenderFrame(benchmark::State& state)
     state.counters["samples/frame"] = samples / double(state.iterations());
 }
 BENCHMARK(BM_RenderFrame)->Arg(1)->Arg(2)->ArgName("threads")->UseRealTime()->Unit(
+    benchmark::kMillisecond);
+
+// The same frame on one thread with the effective phase-function table (nebrender --phase),
+// Arg 1, against Arg 0 without it: the cost of the table lookups. The table has the default
+// shape (64 t x 128 mu); its values (a p(mu) in every row) do not change the lookup cost.
+void BM_RenderFramePhaseTable(benchmark::State& state)
+{
+    const nebula::RenderScene& scene = smallScene();
+    tbb::global_control threads(tbb::global_control::max_allowed_parallelism, 1);
+    nebula::RenderOptions opts;
+    opts.camera.width = opts.camera.height = 128;
+    if (state.range(0)) {
+        auto table = std::make_shared<nebula::PhaseTable>();
+        const nebula::PhaseTableSpec spec;
+        table->tMin = spec.tMin;
+        table->tMax = spec.tMax;
+        table->tCount = spec.tCount;
+        table->muBins = spec.muBins;
+        table->photons.assign(std::size_t(spec.tCount), 1);
+        for (int j = 0; j < spec.tCount; ++j)
+            for (int i = 0; i < spec.muBins; ++i)
+                table->phi.push_back(float(0.6 * nebula::henyeyGreenstein(table->muCentre(i), 0.6)));
+        table->error.assign(table->phi.size(), 0.0f);
+        opts.phaseTable = table;
+    }
+    nebula::RenderStats stats;
+    double samples = 0.0;
+    for (auto _ : state) {
+        benchmark::DoNotOptimize(nebula::renderFrame(scene, opts, nullptr, &stats));
+        samples += double(stats.samples);
+    }
+    state.SetItemsProcessed(std::int64_t(samples));
+}
+BENCHMARK(BM_RenderFramePhaseTable)->Arg(0)->Arg(1)->ArgName("table")->UseRealTime()->Unit(
     benchmark::kMillisecond);
 
 } // namespace
