@@ -113,10 +113,12 @@ struct Phase
     }
 };
 
+/// The mu bin of exit cosine @p muZ; the sign of muZ decides the hemisphere (so a rounding
+/// 1 + muZ = 1 cannot put a reflected packet into a transmitted bin).
 int binOf(double muZ, int bins)
 {
     const int k = static_cast<int>(std::floor(0.5 * (muZ + 1.0) * bins));
-    return std::clamp(k, 0, bins - 1);
+    return muZ < 0.0 ? std::clamp(k, 0, bins / 2 - 1) : std::clamp(k, bins / 2, bins - 1);
 }
 
 /// Russian roulette below @p wr (unbiased): returns false if the packet dies; adds the net

@@ -52,7 +52,8 @@ double PhaseTable::worstRelativeError(double tLimit) const
         if (t(j) > tLimit * (1.0 + 1e-12)) continue;
         for (int i = muBins / 2; i < muBins; ++i) {
             const std::size_t k = std::size_t(j) * muBins + i;
-            const double rel = phi[k] > 0.0 ? error[k] / phi[k] : INFINITY;
+            // A bin with Phi = 0 and no error (albedo 0) is exact.
+            const double rel = phi[k] > 0.0 ? error[k] / phi[k] : (error[k] > 0.0 ? INFINITY : 0.0);
             worst = std::max(worst, rel);
         }
     }
@@ -166,7 +167,9 @@ PhaseTable buildPhaseTable(const ScatteringMedium& medium, const PhaseTableSpec&
             if (t <= spec.errorTMax * (1.0 + 1e-12)) {
                 for (int i = spec.muBins / 2; i < spec.muBins; ++i) {
                     const auto& e = r.perSteradian[i];
-                    worst = std::max(worst, e.mean > 0.0 ? e.error / e.mean : INFINITY);
+                    worst = std::max(worst, e.mean > 0.0   ? e.error / e.mean
+                                            : e.error > 0.0 ? INFINITY
+                                                            : 0.0);
                 }
             }
             if (worst <= spec.targetError || n >= spec.maxPhotons) {
