@@ -1,5 +1,7 @@
 // End-to-end tests: run the built tools on tiny generated grids and check grid values,
 // metadata, images, exit codes, messages, and that failures leave no output (STYLE.md).
+#include "cli_fixture.h"
+
 #include "nebula/grid_io.h"
 #include "nebula/image.h"
 
@@ -12,112 +14,10 @@
 #include <filesystem>
 #include <fstream>
 #include <sstream>
-#include <sys/wait.h>
 
-namespace fs = std::filesystem;
+using namespace nebula::clitest;
 
 namespace {
-
-const std::string TOOLS = NEBULA_TOOLS_DIR;
-
-struct Result
-{
-    int code = -1;
-    std::string err;  ///< stderr
-};
-
-class Cli : public ::testing::Test
-{
-protected:
-    void SetUp() override
-    {
-        openvdb::initialize();
-        const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-        dir = fs::path(::testing::TempDir()) / (std::string("nebula_cli_") + info->name());
-        fs::remove_all(dir);
-        fs::create_directories(dir);
-    }
-    void TearDown() override
-    {
-        if (!HasFailure()) fs::remove_all(dir);
-    }
-
-    std::string path(const std::string& name) const { return (dir / name).string(); }
-
-    /// Runs a shell command line in the test folder; tool names are resolved to the build.
-    Result run(const std::string& cmd) const
-    {
-        const std::string errFile = path("stderr.txt");
-        const std::string full = "cd '" + dir.string() + "' && export PATH='" + TOOLS +
-                                 "':$PATH && { " + cmd + " ; } 2> '" + errFile + "' < /dev/null";
-        const int status = std::system(("bash -c \"" + escape(full) + "\"").c_str());
-        Result r;
-        r.code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
-        std::ifstream in(errFile);
-        std::stringstream s;
-        s << in.rdbuf();
-        r.err = s.str();
-        fs::remove(errFile);
-        return r;
-    }
-
-    /// The folder's entries other than @p keep (to find leftovers such as temporaries).
-    std::vector<std::string> entries() const
-    {
-        std::vector<std::string> names;
-        for (const auto& e : fs::directory_iterator(dir)) names.push_back(e.path().filename());
-        std::sort(names.begin(), names.end());
-        return names;
-    }
-
-    /// Small nebula + illumination used by many tests: small.vdb and lit.vdb.
-    void makeLit()
-    {
-        ASSERT_EQ(run("nebgen --res 24 --seed 3 -o small.vdb").code, 0);
-        ASSERT_EQ(run("nebillum -i small.vdb -o lit.vdb").code, 0);
-    }
-
-    /// Expects a failure with exit code @p code, a single "tool: error: " line mentioning
-    /// @p mention, and no new file in the folder.
-    void expectFailure(const std::string& cmd, int code, const std::string& mention)
-    {
-        const auto before = entries();
-        const Result r = run(cmd);
-        EXPECT_EQ(r.code, code) << cmd << "\n" << r.err;
-        EXPECT_NE(r.err.find("error: "), std::string::npos) << r.err;
-        EXPECT_NE(r.err.find(mention), std::string::npos) << "expected \"" << mention
-                                                            << "\" in: " << r.err;
-        EXPECT_EQ(entries(), before) << "output or temporary left behind by: " << cmd;
-    }
-
-    static std::string escape(const std::string& s)
-    {
-        std::string o;
-        for (char c : s) {
-            if (c == '"' || c == '\\' || c == '$' || c == '`') o += '\\';
-            o += c;
-        }
-        return o;
-    }
-
-    fs::path dir;
-};
-
-nebula::GridSet read(const std::string& p) { return nebula::readGrids(p); }
-
-double maxValue(const openvdb::FloatGrid& g)
-{
-    double m = -1e300;
-    for (auto it = g.cbeginValueOn(); it; ++it) m = std::max(m, double(*it));
-    return m;
-}
-
-void writeVdb(const std::string& p, openvdb::GridPtrVec grids, const openvdb::MetaMap& meta)
-{
-    openvdb::io::File f(p);
-    f.write(grids, meta);
-    f.close();
-}
 
 /// A small valid density grid (a cube of n_H 100) with a star next to it.
 openvdb::FloatGrid::Ptr cubeDensity(float value = 100.0f)
