@@ -1,0 +1,114 @@
+/// @file exr_compare.cpp
+/// Compares two nebrender EXRs of the same view: a reference and a test image.
+///
+///     build/bench/exr_compare REF.exr TEST.exr [--ratio-png FILE] [--threshold 0.01]
+///
+/// Prints, per channel R, G, B and for luminance Y (Rec. 709 weights of linear sRGB):
+///  - flux: the sum over pixels of TEST / the sum of REF, minus 1 (relative error of the
+///    total flux, the pixels having equal solid angle to first order);
+///  - rms: the relative RMS error sqrt(mean((TEST - REF)^2 / REF^2)) over the pixels where
+///    REF is above --threshold (default 1 %) of its maximum in that channel.
+/// --ratio-png writes a map of TEST_Y / REF_Y: white where equal, red where TEST is brighter,
+/// blue where it is darker, full colour at a factor of 2 (log scale); black where REF_Y is
+/// below the threshold. Exit 1 with a message on unreadable or mismatched images.
+
+#include "nebula/error.h"
+#include "nebula/image.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <string>
+
+namespace {
+
+double luminance(const float* p) { return 0.2126 * p[0] + 0.7152 * p[1] + 0.0722 * p[2]; }
+
+/// Channel value of pixel @p i: c = 0..2 for R, G, B, 3 for luminance.
+double channel(const nebula::Image& img, std::size_t i, int c)
+{
+    const float* p = &img.rgba[i * 4];
+    return c < 3 ? p[c] : luminance(p);
+}
+
+} // namespace
+
+int main(int argc, char** argv)
+{
+    std::string refPath, testPath, ratioPng;
+    double threshold = 0.01;
+    for (int i = 1; i < argc; ++i) {
+        const std::string a = argv[i];
+        if (a == "--ratio-png" && i + 1 < argc) {
+            ratioPng = argv[++i];
+        } else if (a == "--threshold" && i + 1 < argc) {
+            threshold = std::atof(argv[++i]);
+        } else if (refPath.empty()) {
+            refPath = a;
+        } else if (testPath.empty()) {
+            testPath = a;
+        } else {
+            std::fprintf(stderr, "usage: exr_compare REF.exr TEST.exr [--ratio-png FILE] [--threshold F]\n");
+            return 2;
+        }
+    }
+    if (testPath.empty() || !(threshold > 0.0 && threshold < 1.0)) {
+        std::fprintf(stderr, "usage: exr_compare REF.exr TEST.exr [--ratio-png FILE] [--threshold F in (0,1)]\n");
+        return 2;
+    }
+    try {
+        const nebula::Image ref = nebula::readExr(refPath, nullptr);
+        const nebula::Image test = nebula::readExr(testPath, nullptr);
+        if (ref.width != test.width || ref.height != test.height) {
+            throw nebula::Error(testPath + ": " + std::to_string(test.width) + "x" +
+                                std::to_string(test.height) + " pixels, but " + refPath + " has " +
+                                std::to_string(ref.width) + "x" + std::to_string(ref.height));
+        }
+        const std::size_t n = std::size_t(ref.width) * ref.height;
+        const char* names[4] = {"R", "G", "B", "Y"};
+        std::printf("channel  flux_ref      flux_test     flux_error  rms_error  pixels\n");
+        for (int c = 0; c < 4; ++c) {
+            double sumRef = 0.0, sumTest = 0.0, maxRef = 0.0;
+            for (std::size_t i = 0; i < n; ++i) {
+                sumRef += channel(ref, i, c);
+                sumTest += channel(test, i, c);
+                maxRef = std::max(maxRef, channel(ref, i, c));
+            }
+            double sq = 0.0;
+            std::size_t count = 0;
+            for (std::size_t i = 0; i < n; ++i) {
+                const double r = channel(ref, i, c);
+                if (r <= threshold * maxRef) continue;
+                const double d = (channel(test, i, c) - r) / r;
+                sq += d * d;
+                ++count;
+            }
+            std::printf("%-8s %-13.6g %-13.6g %+10.4f  %9.4f  %zu\n", names[c], sumRef, sumTest,
+                        sumTest / sumRef - 1.0, count ? std::sqrt(sq / double(count)) : 0.0, count);
+        }
+        if (!ratioPng.empty()) {
+            double maxY = 0.0;
+            for (std::size_t i = 0; i < n; ++i) maxY = std::max(maxY, channel(ref, i, 3));
+            nebula::Image map(ref.width, ref.height);
+            for (std::size_t i = 0; i < n; ++i) {
+                const double r = channel(ref, i, 3);
+                float* p = &map.rgba[i * 4];
+                p[3] = 1.0f;
+                if (r <= threshold * maxY) continue;  // black
+                const double x = std::clamp(std::log2(channel(test, i, 3) / r), -1.0, 1.0);
+                // Diverging map: white at 0, red (1, 0.1, 0.05) at +1, blue (0.05, 0.2, 1) at -1.
+                const double hi[3] = {1.0, 0.1, 0.05}, lo[3] = {0.05, 0.2, 1.0};
+                const double* end = x > 0 ? hi : lo;
+                const double t = std::abs(x);
+                for (int c = 0; c < 3; ++c) p[c] = float((1.0 - t) * 0.8 + t * end[c]);
+            }
+            nebula::writePng(ratioPng, map, nebula::ToneCurve{1.0, 1.0},
+                             {{"Comment", "TEST_Y / REF_Y: " + testPath + " / " + refPath}});
+        }
+    } catch (const std::exception& e) {
+        std::fprintf(stderr, "exr_compare: error: %s\n", e.what());
+        return 1;
+    }
+    return 0;
+}
