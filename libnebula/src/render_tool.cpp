@@ -41,10 +41,22 @@ void renderToFiles(const GridSet& grids, const CommonOptions& common, const Rend
     const RenderScene scene = buildScene(grids, common, opts, dust);
     const auto built = std::chrono::steady_clock::now();
     RenderStats stats;
-    const Image img = renderFrame(scene, opts, &run, &stats);
+    const bool path = opts.integrator == Integrator::Path;
+    if (path && opts.phaseTable) {
+        throw UsageError("--phase is for the fast integrator; --integrator path simulates "
+                         "multiple scattering itself");
+    }
+    const Image img = path ? renderPathTraced(scene, opts, &run, &stats)
+                           : renderFrame(scene, opts, &run, &stats);
     const auto done = std::chrono::steady_clock::now();
     const double tBuild = std::chrono::duration<double>(built - start).count();
     const double tRender = std::chrono::duration<double>(done - built).count();
+    if (path) {
+        run.info("path tracing: " + std::to_string(stats.paths) + " walks, " +
+                 std::to_string(stats.collisions) + " tentative collisions, " +
+                 std::to_string(1e9 * tRender / double(std::max<std::uint64_t>(stats.paths, 1))) +
+                 " ns wall per walk");
+    }
     run.info("scene " + std::to_string(tBuild) + " s, render " + std::to_string(tRender) +
              " s, " + std::to_string(stats.rays) + " rays, " + std::to_string(stats.samples) +
              " samples (" + std::to_string(1e9 * tRender / double(std::max<std::uint64_t>(stats.samples, 1))) +
@@ -65,12 +77,16 @@ void renderToFiles(const GridSet& grids, const CommonOptions& common, const Rend
         << vecString(opts.camera.lookAt) << "], \"up\": [" << vecString(opts.camera.up)
         << "], \"fov_deg\": " << opts.camera.fovDeg << ", \"projection\": \"perspective\"}";
     std::map<std::string, std::string> attrs{
-        {"comments", "nebula single-scattering render (DESIGN section 3); linear radiance"},
+        {"comments", path ? "nebula reference path-traced render (DESIGN section 6); linear radiance"
+                          : "nebula ray-cast render (DESIGN sections 3-4); linear radiance"},
         {"nebula:tool", run.tool()},
         {"nebula:version", NEBULA_VERSION_STRING},
         {"nebula:command", run.command()},
-        {"nebula:integrator", opts.phaseTable ? "single-scattering with effective phase function"
-                                              : "single-scattering"},
+        {"nebula:integrator",
+         path ? "path tracing (reference), spp " + std::to_string(opts.spp) + ", seed " +
+                    std::to_string(opts.seed)
+         : opts.phaseTable ? "single-scattering with effective phase function"
+                           : "single-scattering"},
         {"nebula:units", "L_sun pc^-2 sr^-1"},
         {"nebula:dust", dust.toJson()},
         {"nebula:stars", starsToJson(scene.stars)},

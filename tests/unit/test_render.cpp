@@ -4,67 +4,15 @@
 // the `1 - k dl` scheme would amplify light.
 #include "nebula/render.h"
 
+#include "render_scenes.h"
+
 #include <gtest/gtest.h>
 
 #include <cmath>
 
 using namespace nebula;
 
-namespace {
-
-constexpr double H = 0.1;    // voxel size [pc]
-constexpr int N = 41;        // lattice 0..40; dust on 1..39, zero border
-constexpr double KAPPA = 1.5e-3;
-
-/// A uniform cube: density n0 and emission e0 on lattice points 1..39, zero on the border, so
-/// along an axis through it the trilinear profile integrates to 39 voxels (38 + two half
-/// ramps). One star per entry of @p stars with tau channel 0 (its light arrives unattenuated).
-RenderScene cube(double n0, double e0, const std::vector<Star>& stars)
-{
-    RenderScene scene;
-    scene.fields = DenseVolume({0, 0, 0}, {N, N, N}, 2 + int(stars.size()));
-    scene.fields.indexToWorld.m = {H, 0, 0, 0, H, 0, 0, 0, H};
-    for (int k = 1; k < N - 1; ++k)
-        for (int j = 1; j < N - 1; ++j)
-            for (int i = 1; i < N - 1; ++i) {
-                float* v = scene.fields.voxel(scene.fields.index(i, j, k));
-                v[0] = float(n0);
-                v[1] = float(e0);
-            }
-    scene.stars = stars;
-    for (const auto& s : stars) scene.starColor.push_back({s.luminosity, s.luminosity, s.luminosity});
-    scene.dust.kappa_V = KAPPA;
-    scene.dust.r = {0.75, 1.0, 1.33};
-    scene.buildOccupancy();
-    return scene;
-}
-
-/// A 1x1 camera looking from @p eye at the cube's centre (2, 2, 2) pc.
-RenderOptions axisCamera(const Vec3& eye, double step)
-{
-    RenderOptions o;
-    o.camera.eye = eye;
-    o.camera.lookAt = Vec3(2, 2, 2);
-    o.camera.up = std::abs(eye.y - 2) > 1e-9 ? Vec3(1, 0, 0) : Vec3(0, 1, 0);
-    o.camera.width = o.camera.height = 1;
-    o.camera.fovDeg = 1.0;
-    o.step = step;
-    o.drawStars = false;
-    return o;
-}
-
-Star farStar(const Vec3& dir)
-{
-    // Far enough that 1/r^2 is constant across the cube to 4e-5.
-    Star s;
-    s.name = "far";
-    const Vec3 p = Vec3(2, 2, 2) + dir * 1e5;
-    s.position = {p.x, p.y, p.z};
-    s.luminosity = 4.0 * PI * 1e10;  // irradiance 1 L_sun pc^-2 at the cube
-    return s;
-}
-
-} // namespace
+using namespace nebula::test;
 
 // Scattered starlight seen across the light (mu = 0) and towards and away from the star:
 // L_c = a p(mu) E_c (1 - exp(-tau_c)), tau_c = kappa_V r_c n0 * 3.9 pc, E_c = 1.

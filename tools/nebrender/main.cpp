@@ -23,10 +23,12 @@ int main(int argc, char** argv)
         "  nebrender -i lit.vdb --eye 0,0,-25 --look-at 0,0,0 --fov 40 --res 1024x768 -o f.exr\n"
         "  nebrender -i lit.vdb --rv 5 --albedo 0.6 --g 0.6 -o rv5.exr\n"
         "  nebphase -i lit.vdb -o phase.vdb && nebrender -i lit.vdb --phase phase.vdb -o f.exr\n"
+        "  nebrender -i lit.vdb --integrator path --spp 256 -o reference.exr\n"
         "  nebgen -o - | nebillum -i - -o - | nebrender -i - -o frame.exr\n\n"
         "Needs the density grid, the tau.<star> grids from nebillum and nebula:stars;\n"
         "uses the emission grid if present. EXR: linear radiance [L_sun pc^-2 sr^-1], R,G,B,A\n"
-        "(A = 1 - transmittance), layers star.<name>.R/G/B and transmittance.R/G/B.\n"
+        "(A = 1 - transmittance), layers star.<name>.R/G/B and transmittance.R/G/B (and\n"
+        "variance.R/G/B, the squared standard error of each pixel, with --integrator path).\n"
         "PNG: sRGB after the automatic exposure and tone curve (or --exposure).",
         "nebrender"};
     nebula::cli::addCommon(app, common, nebula::cli::INPUT | nebula::cli::DENSITY_GRID);
@@ -70,6 +72,17 @@ int main(int argc, char** argv)
                    "Effective phase-function table from nebphase: scattering uses Phi(t, mu) of\n"
                    "each voxel's optical thickness t (multiple scattering inside voxels) instead\n"
                    "of the single-scattering a*p(mu)");
+    std::string integrator = "fast";
+    app.add_option("--integrator", integrator,
+                   "fast: ray caster (single scattering, or --phase); path: reference Monte\n"
+                   "Carlo path tracer, all orders of scattering (--spp, --seed)")
+        ->check(CLI::IsMember({"fast", "path"}))
+        ->capture_default_str();
+    app.add_option("--spp", opts.spp, "Path tracer: random walks per pixel and channel")
+        ->capture_default_str()
+        ->check(CLI::Range(1, 1 << 30));
+    app.add_option("--seed", opts.seed, "Path tracer: random seed (same seed, same image)")
+        ->capture_default_str();
     app.add_flag("--phase-ignore-dust", opts.phaseIgnoreDust,
                  "Use the --phase table even if its albedo, g or phase model differ from the dust's");
     auto* exp = app.add_option("--exposure", exposure,
@@ -97,6 +110,7 @@ int main(int argc, char** argv)
             opts.emissionColor = {c[0], c[1], c[2]};
         }
         opts.drawStars = !noStars;
+        opts.integrator = integrator == "path" ? nebula::Integrator::Path : nebula::Integrator::Fast;
         if (noPng) out.png = "none";
         if (exp->count() > 0) {
             out.tone.automatic = false;

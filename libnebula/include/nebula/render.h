@@ -41,9 +41,16 @@ inline Vec3 toVec3(const std::array<double, 3>& a) { return Vec3(a[0], a[1], a[2
 /// to the view direction.
 void validateCamera(const Camera& camera);
 
+/// nebrender's integrators: the fast ray caster (DESIGN §3-5) or the reference path tracer
+/// (DESIGN §6).
+enum class Integrator { Fast, Path };
+
 /// Every render parameter; defaults give the README's example picture.
 struct RenderOptions
 {
+    Integrator integrator = Integrator::Fast;
+    int spp = 64;            ///< path tracer: samples per pixel (per channel)
+    std::uint64_t seed = 1;  ///< path tracer: same seed, same image whatever the threads
     Camera camera;
     double step = 0.5;                              ///< ray step [voxels]
     std::array<double, 3> wavelengths{700.0, 546.1, 435.8};  ///< R, G, B channels [nm]
@@ -105,12 +112,33 @@ struct RenderStats
     /// Channel samples whose voxel optical thickness exceeded the phase table's t_max (the
     /// table's last row was used).
     std::uint64_t phaseClamped = 0;
+    std::uint64_t paths = 0;       ///< path tracer: random walks (pixels x spp x channels)
+    std::uint64_t collisions = 0;  ///< path tracer: tentative collisions (real and null)
 };
 
 /// Renders the single-scattering image: beauty R,G,B,A (A = 1 - T at the green channel),
 /// layer "star.<name>" per star (its scattered light and sprite), layer "transmittance".
 Image renderFrame(const RenderScene& scene, const RenderOptions& opts, const Run* run = nullptr,
                   RenderStats* stats = nullptr);
+
+/// The reference integrator (DESIGN §6): unbiased volumetric path tracing of the same scene,
+/// each RGB channel its own random walk. Free flights by delta tracking against a majorant
+/// that is constant on each occupancy block (kappa_V r_c times the block's largest density);
+/// emission by the collision estimator at every tentative collision (the majorant has a floor
+/// of two collisions per voxel where there is gas); at every real collision the weight is
+/// multiplied by the albedo, every star is sampled (next-event estimation, transmittance by
+/// ratio tracking, 1/r^2 clamped as in renderFrame), and the walk continues in a
+/// phase-sampled direction; Russian roulette after a few bounces. opts.spp walks per pixel
+/// and channel, each pixel and sample with its own PCG32 stream (deterministic for a seed,
+/// whatever the thread count). Output: the beauty R,G,B (the mean), A = 1 - T_G, layers
+/// star.<name> (sprites only), "transmittance" (ratio-tracked, per channel) and "variance"
+/// (variance of each channel's pixel mean, i.e. the squared standard error).
+Image renderPathTraced(const RenderScene& scene, const RenderOptions& opts,
+                       const Run* run = nullptr, RenderStats* stats = nullptr);
+
+/// Adds each star's attenuated sprite to the beauty and its star.<name> layer (renderFrame
+/// does this unless !opts.drawStars).
+void drawStarSprites(Image& img, const RenderScene& scene, const RenderOptions& opts);
 
 
 } // namespace nebula
