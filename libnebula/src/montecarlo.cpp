@@ -76,12 +76,16 @@ struct CubeGeometry
 struct PhotonScratch
 {
     double totals[McTally::TOTALS] = {};
-    std::vector<double> bins, points;
-    PhotonScratch(int muBins, std::size_t muPoints) : bins(muBins), points(muPoints) {}
+    std::vector<double> bins, single, points;
+    PhotonScratch(int muBins, std::size_t muPoints)
+        : bins(muBins), single(muBins), points(muPoints)
+    {
+    }
     void clear()
     {
         std::fill(std::begin(totals), std::end(totals), 0.0);
         std::fill(bins.begin(), bins.end(), 0.0);
+        std::fill(single.begin(), single.end(), 0.0);
         std::fill(points.begin(), points.end(), 0.0);
     }
 };
@@ -156,6 +160,7 @@ std::uint64_t photonAnalog(const Geometry& geo, const Phase& phase, const McSett
                 ph.totals[McTally::DIRECT] += w;
             } else {
                 ph.bins[binOf(d[2], nb)] += w;
+                if (events == 1) ph.single[binOf(d[2], nb)] += w;
                 ph.totals[d[2] < 0.0 ? McTally::REFLECTED : McTally::TRANSMITTED] += w;
             }
             break;
@@ -201,7 +206,7 @@ struct BinDirections
 template <class Geometry>
 void nextEvent(const Geometry& geo, const Phase& phase, const McSettings& set,
                const BinDirections& dirs, double ws, const double p[3], const double d[3],
-               Pcg32& rng, PhotonScratch& ph)
+               bool first, Pcg32& rng, PhotonScratch& ph)
 {
     const double phi0 = 2.0 * PI * rng.uniformDouble();
     const double c0 = std::cos(phi0), s0 = std::sin(phi0);
@@ -217,6 +222,7 @@ void nextEvent(const Geometry& geo, const Phase& phase, const McSettings& set,
         const double pf = phase(cosScatter);
         const double c = ws * pf * std::exp(-geo.exit(p, e)) / (dirs.invSolidAngle + pf);
         ph.bins[k] += c;
+        if (first) ph.single[k] += c;
         (k < nb / 2 ? refl : trans) += c;
     }
     ph.totals[McTally::REFLECTED] += refl;
@@ -253,6 +259,7 @@ std::uint64_t photonNextEvent(const Geometry& geo, const Phase& phase, const McS
             // The phase-sampled strategy of nextEvent(): escape along the scattered direction.
             const double c = w * (1.0 - pInteract) * pfScattered / (dirs.invSolidAngle + pfScattered);
             ph.bins[binOf(d[2], set.muBins)] += c;
+            if (events == 1) ph.single[binOf(d[2], set.muBins)] += c;
             ph.totals[d[2] < 0.0 ? McTally::REFLECTED : McTally::TRANSMITTED] += c;
         }
         w *= pInteract;
@@ -266,7 +273,7 @@ std::uint64_t photonNextEvent(const Geometry& geo, const Phase& phase, const McS
         ph.totals[McTally::ABSORBED] += w * (1.0 - a);
         w *= a;
         if (!(w > 0.0)) break;
-        nextEvent(geo, phase, set, dirs, w, p, d, rng, ph);
+        nextEvent(geo, phase, set, dirs, w, p, d, events == 1, rng, ph);
         pfScattered = phase(phase.scatter(rng, d));
     }
     return events;
@@ -304,6 +311,8 @@ McTally simulate(const Geometry& geo, const ScatteringMedium& medium, const McSe
                 for (int k = 0; k < set.muBins; ++k) {
                     acc.binSum[k] += ph.bins[k];
                     acc.binSumSq[k] += ph.bins[k] * ph.bins[k];
+                    acc.singleSum[k] += ph.single[k];
+                    acc.singleSumSq[k] += ph.single[k] * ph.single[k];
                 }
                 for (std::size_t k = 0; k < np; ++k) {
                     acc.pointSum[k] += ph.points[k];
@@ -370,6 +379,7 @@ void McSettings::validate() const
 
 McTally::McTally(int muBins, std::size_t muPoints)
     : sum(TOTALS, 0.0), sumSq(TOTALS, 0.0), binSum(muBins, 0.0), binSumSq(muBins, 0.0),
+      singleSum(muBins, 0.0), singleSumSq(muBins, 0.0),
       pointSum(muPoints, 0.0), pointSumSq(muPoints, 0.0)
 {
 }
@@ -388,6 +398,8 @@ void McTally::merge(const McTally& o)
     for (std::size_t i = 0; i < binSum.size(); ++i) {
         binSum[i] += o.binSum[i];
         binSumSq[i] += o.binSumSq[i];
+        singleSum[i] += o.singleSum[i];
+        singleSumSq[i] += o.singleSumSq[i];
     }
     for (std::size_t i = 0; i < pointSum.size(); ++i) {
         pointSum[i] += o.pointSum[i];
@@ -414,6 +426,10 @@ McResult summarize(const McTally& t, int muBins)
         e.mean /= dOmega;
         e.error /= dOmega;
         r.perSteradian.push_back(e);
+        Estimate s = estimate(t.singleSum[k], t.singleSumSq[k], n);
+        s.mean /= dOmega;
+        s.error /= dOmega;
+        r.singlePerSteradian.push_back(s);
     }
     for (std::size_t k = 0; k < t.pointSum.size(); ++k) {
         r.points.push_back(estimate(t.pointSum[k], t.pointSumSq[k], n));

@@ -72,7 +72,8 @@ void PhaseTable::validate(const std::string& source) const
                     std::to_string(tCount) + ", mu_bins = " + std::to_string(muBins));
     }
     const std::size_t n = std::size_t(tCount) * muBins;
-    if (phi.size() != n || error.size() != n || photons.size() != std::size_t(tCount)) {
+    if (phi.size() != n || error.size() != n || photons.size() != std::size_t(tCount) ||
+        (!single.empty() && single.size() != n)) {
         throw Error(where + "expected " + std::to_string(n) + " values (" +
                     std::to_string(muBins) + " mu bins x " + std::to_string(tCount) +
                     " t values), got " + std::to_string(phi.size()));
@@ -88,6 +89,19 @@ void PhaseTable::validate(const std::string& source) const
     } catch (const UsageError& e) {
         throw Error(where + e.what());
     }
+}
+
+std::vector<float> PhaseTable::gain() const
+{
+    if (single.size() != phi.size()) {
+        throw Error("phase table: no single-scattering part (phase.single); rebuild it with "
+                    "this version of nebphase");
+    }
+    std::vector<float> g(phi.size());
+    for (std::size_t k = 0; k < phi.size(); ++k) {
+        g[k] = single[k] > 0.0f ? phi[k] / single[k] : 1.0f;
+    }
+    return g;
 }
 
 double PhaseTable::eval(double tt, double mu) const
@@ -126,6 +140,10 @@ std::string PhaseTable::toJson() const
                              error.begin() + std::ptrdiff_t(r + 1) * muBins);
         row["phi"] = p;
         row["error"] = e;
+        if (!single.empty()) {
+            row["single"] = std::vector<float>(single.begin() + std::ptrdiff_t(r) * muBins,
+                                               single.begin() + std::ptrdiff_t(r + 1) * muBins);
+        }
         rows.push_back(row);
     }
     j["rows"] = rows;
@@ -149,6 +167,7 @@ PhaseTable buildPhaseTable(const ScatteringMedium& medium, const PhaseTableSpec&
     table.photons.resize(spec.tCount);
     table.phi.resize(std::size_t(spec.tCount) * spec.muBins);
     table.error.resize(table.phi.size());
+    table.single.resize(table.phi.size());
 
     McSettings set;
     set.muBins = spec.muBins;
@@ -177,6 +196,8 @@ PhaseTable buildPhaseTable(const ScatteringMedium& medium, const PhaseTableSpec&
                     table.phi[std::size_t(j) * spec.muBins + i] = float(r.perSteradian[i].mean / t);
                     table.error[std::size_t(j) * spec.muBins + i] =
                         float(r.perSteradian[i].error / t);
+                    table.single[std::size_t(j) * spec.muBins + i] =
+                        float(r.singlePerSteradian[i].mean / t);
                 }
                 table.photons[j] = n;
                 break;

@@ -70,6 +70,12 @@ void addPhaseTable(GridSet& grids, const PhaseTable& table)
     phi->insertMeta("photons_min", openvdb::Int64Metadata(least));
     grids.replace(phi);
 
+    if (!table.single.empty()) {
+        auto single = tableGrid(table, table.single, PHASE_SINGLE_GRID);
+        single->insertMeta("units", openvdb::StringMetadata(
+                                        "single-scattering part of phase, 1/sr per unit optical depth"));
+        grids.replace(single);
+    }
     auto err = tableGrid(table, table.error, PHASE_ERROR_GRID);
     err->insertMeta("units", openvdb::StringMetadata("standard error of phase, 1/sr per unit optical depth"));
     grids.replace(err);
@@ -148,6 +154,11 @@ PhaseTable readPhaseTable(const GridSet& grids)
         readValues(*eg, t.error);
     } else {
         t.error.assign(t.phi.size(), 0.0f);
+    }
+    if (const auto e = grids.find(PHASE_SINGLE_GRID)) {
+        const auto sg = openvdb::GridBase::grid<openvdb::FloatGrid>(e);
+        if (!sg) throw Error(src + ": grid \"phase.single\" is not a FloatGrid");
+        readValues(*sg, t.single);
     }
     t.validate(src);
     return t;

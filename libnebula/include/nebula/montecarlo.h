@@ -91,6 +91,7 @@ struct McTally
     enum Total { DIRECT, REFLECTED, TRANSMITTED, ABSORBED, ROULETTE, BALANCE, TOTALS };
     std::vector<double> sum, sumSq;          ///< TOTALS entries
     std::vector<double> binSum, binSumSq;    ///< per mu bin: power fraction
+    std::vector<double> singleSum, singleSumSq;  ///< per mu bin: of it, scattered exactly once
     std::vector<double> pointSum, pointSumSq;  ///< per mu point: dF/dOmega
     std::uint64_t events = 0;                ///< interactions simulated
 
@@ -113,6 +114,7 @@ struct McResult
     Estimate balance;      ///< direct + reflected + transmitted + absorbed - roulette
     std::vector<double> muEdges;         ///< muBins + 1 bin edges, -1 .. 1
     std::vector<Estimate> perSteradian;  ///< per bin: scattered power per sr, dF/dOmega
+    std::vector<Estimate> singlePerSteradian;  ///< the part scattered exactly once
     std::vector<Estimate> points;        ///< per McSettings::muPoints: dF/dOmega
 };
 

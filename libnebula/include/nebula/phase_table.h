@@ -45,12 +45,19 @@ struct PhaseTable
     std::vector<std::uint64_t> photons;  ///< per t
     std::vector<float> phi;    ///< [j * muBins + i]: t index j, mu bin i
     std::vector<float> error;  ///< standard error of phi, same layout
+    /// The part of phi scattered exactly once (same layout; empty if the table has none):
+    /// the single-scattering Phi_1(t, mu), which includes the voxel's own extinction of the
+    /// light on its way in and out. Phi / Phi_1 is the voxel's multiple-scattering gain.
+    std::vector<float> single;
 
     /// t of row j (log-spaced).
     double t(int j) const;
     /// Centre cosine of mu bin i.
     double muCentre(int i) const { return -1.0 + (i + 0.5) * 2.0 / muBins; }
     float value(int j, int i) const { return phi[std::size_t(j) * muBins + i]; }
+    /// Multiple-scattering gain Phi / Phi_1 per cell (1 where Phi_1 is 0), for
+    /// PhaseUse::Gain. Throws Error if the table has no single-scattering part.
+    std::vector<float> gain() const;
     /// Phi at (t, mu): linear in log t between rows and in mu between bin centres; mu is
     /// clamped to the outer bin centres, t below tMin uses row 0 (the thin limit) and t above
     /// tMax uses the last row.

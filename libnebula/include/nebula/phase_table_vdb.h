@@ -1,7 +1,7 @@
 #pragma once
 /// @file phase_table_vdb.h
-/// The phase table as grids (DESIGN §2, §4): `phase` (Phi) and `phase.error` (its standard
-/// error), FloatGrids in index space (identity transform) with voxel (i, j, 0) = mu bin i,
+/// The phase table as grids (DESIGN §2, §4): `phase` (Phi), `phase.error` (its standard
+/// error) and `phase.single` (its single-scattering part), FloatGrids in index space (identity transform) with voxel (i, j, 0) = mu bin i,
 /// t row j. The axes, the medium and the Monte Carlo settings are metadata of `phase`.
 
 #include "nebula/grid_io.h"
@@ -11,6 +11,7 @@ namespace nebula {
 
 inline constexpr const char* PHASE_GRID = "phase";
 inline constexpr const char* PHASE_ERROR_GRID = "phase.error";
+inline constexpr const char* PHASE_SINGLE_GRID = "phase.single";
 /// Value of the `table` metadata that marks a grid as nebphase's table.
 inline constexpr const char* PHASE_TABLE_KIND = "nebula effective phase function";
 
