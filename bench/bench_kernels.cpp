@@ -227,6 +227,7 @@ void BM_RenderFramePhaseTable(benchmark::State& state)
             for (int i = 0; i < spec.muBins; ++i)
                 table->phi.push_back(float(0.6 * nebula::henyeyGreenstein(table->muCentre(i), 0.6)));
         table->error.assign(table->phi.size(), 0.0f);
+        table->single = table->phi;
         opts.phaseTable = table;
     }
     nebula::RenderStats stats;

@@ -144,14 +144,61 @@ RenderScene buildScene(const GridSet& grids, const CommonOptions& common,
     }
 
     scene.buildOccupancy();
+
+    if (opts.levels > 0 && !opts.phaseTable) {
+        throw UsageError("--levels needs a phase table (--phase): each level adds the change "
+                         "of the per-voxel scattering Phi as the voxel doubles");
+    }
+    const Affine& a0 = scene.fields.indexToWorld;
+    for (int k = 1; k <= opts.levels; ++k) {
+        const std::string suffix = ".L" + std::to_string(k);
+        const std::string dName = common.densityGrid + suffix;
+        if (!grids.find(dName)) {
+            throw Error(grids.source + ": no grid \"" + dName + "\" for level " +
+                        std::to_string(k) + " of --levels " + std::to_string(opts.levels) +
+                        "; run nebpyramid --levels " + std::to_string(opts.levels) + " first");
+        }
+        auto dk = grids.floatGrid(dName, "");
+        requireFiniteNonNegative(*dk, grids.source);
+        std::vector<openvdb::FloatGrid::ConstPtr> lf{dk, nullptr};
+        auto empty = openvdb::FloatGrid::create(0.0f);
+        empty->setTransform(dk->transform().copy());
+        lf[1] = empty;
+        for (const auto& st : scene.stars) {
+            const std::string name = tauGridName(st.name) + suffix;
+            if (!grids.find(name)) {
+                throw Error(grids.source + ": no grid \"" + name + "\" for star \"" + st.name +
+                            "\" at level " + std::to_string(k) + "; run nebpyramid on this file");
+            }
+            lf.push_back(grids.floatGrid(name, ""));
+        }
+        RenderLevel level;
+        level.level = k;
+        level.fields = denseFromGrids(lf, activeBounds({dk}, 1), grids.source);
+        // Voxels 2^k times level 0's (same orientation): compare the linear maps.
+        const auto& ak = level.fields.indexToWorld;
+        const double scale = double(1 << k);
+        double worst = 0.0, norm = 0.0;
+        for (int i = 0; i < 9; ++i) {
+            worst = std::max(worst, std::abs(ak.m[std::size_t(i)] - scale * a0.m[std::size_t(i)]));
+            norm = std::max(norm, std::abs(scale * a0.m[std::size_t(i)]));
+        }
+        if (worst > 1e-6 * norm) {
+            throw Error(grids.source + ": grid \"" + dName + "\" has voxels that are not " +
+                        std::to_string(1 << k) + " times those of \"" + common.densityGrid +
+                        "\" (level " + std::to_string(k) + "); rebuild the levels with nebpyramid");
+        }
+        buildOccupancy(level.fields, level.blocks, level.occupied);
+        scene.levels.push_back(std::move(level));
+    }
     return scene;
 }
 
-void RenderScene::buildOccupancy()
+void buildOccupancy(const DenseVolume& v, std::array<int, 3>& blocks,
+                    std::vector<std::uint8_t>& occupied)
 {
-    // Occupancy: a lattice cell is occupied if any of its 8 corners has dust or emission.
-    const auto& v = fields;
-    const int B = BLOCK;
+    // A lattice cell is occupied if any of its 8 corners has dust or emission.
+    const int B = RenderScene::BLOCK;
     for (int a = 0; a < 3; ++a) blocks[a] = (v.dims()[a] + B - 1) / B;
     occupied.assign(std::size_t(blocks[0]) * blocks[1] * blocks[2], 0);
     const auto& lo = v.lo();
@@ -165,12 +212,17 @@ void RenderScene::buildOccupancy()
                         for (int di = -1; di <= 0; ++di) {
                             const int ci = i + di, cj = j + dj, ck = k + dk;
                             if (ci < 0 || cj < 0 || ck < 0) continue;
-                            occupied[(std::size_t(ck / B) * blocks[1] + cj / B) *
-                                               blocks[0] + ci / B] = 1;
+                            occupied[(std::size_t(ck / B) * blocks[1] + cj / B) * blocks[0] +
+                                     ci / B] = 1;
                         }
             }
         }
     }
+}
+
+void RenderScene::buildOccupancy()
+{
+    nebula::buildOccupancy(fields, blocks, occupied);
 }
 
 void drawStarSprites(Image& img, const RenderScene& scene, const RenderOptions& opts)
@@ -229,10 +281,89 @@ void drawStarSprites(Image& img, const RenderScene& scene, const RenderOptions& 
     }
 }
 
+namespace {
+
+double voxelSizeOf(const Affine& a)
+{
+    const auto& m = a.m;
+    const double det = m[0] * (m[4] * m[8] - m[5] * m[7]) - m[1] * (m[3] * m[8] - m[5] * m[6]) +
+                       m[2] * (m[3] * m[7] - m[4] * m[6]);
+    return std::cbrt(std::abs(det));
+}
+
+/// Front-to-back stepping of one volume (level 0 or a pyramid level) along camera rays:
+/// clips to the lattice box, skips empty occupancy blocks, and hands each step's midpoint
+/// (index space), world distance and length to a callback.
+struct Marcher
+{
+    const DenseVolume& vol;
+    const std::array<int, 3>& blocks;
+    const std::vector<std::uint8_t>& occupied;
+    Affine w2i;
+    Vec3 eyeI, boxLo, boxHi;
+    double voxelWorld;
+
+    Marcher(const DenseVolume& v, const std::array<int, 3>& b, const std::vector<std::uint8_t>& o,
+            const Vec3& eye)
+        : vol(v), blocks(b), occupied(o), w2i(v.indexToWorld.inverse()), eyeI(w2i.apply(eye)),
+          boxLo(v.lo()[0], v.lo()[1], v.lo()[2]),
+          boxHi(v.lo()[0] + v.dims()[0] - 1, v.lo()[1] + v.dims()[1] - 1, v.lo()[2] + v.dims()[2] - 1),
+          voxelWorld(voxelSizeOf(v.indexToWorld))
+    {
+    }
+
+    /// Calls @p step(pI, tm, seg) for steps of @p stepVoxels voxels along world direction
+    /// @p dW until it returns false; returns whether the ray met the box.
+    template <class Step>
+    bool march(const Vec3& dW, double stepVoxels, Step&& step) const
+    {
+        const int B = RenderScene::BLOCK;
+        const Vec3 dI = w2i.applyLinear(dW);
+        // Ray parameter t is world distance from the eye; clip to the lattice box.
+        double t0 = 0.0, t1 = std::numeric_limits<double>::infinity();
+        for (int a = 0; a < 3; ++a) {
+            if (std::abs(dI[a]) < 1e-300) {
+                if (eyeI[a] < boxLo[a] || eyeI[a] > boxHi[a]) t1 = -1.0;
+                continue;
+            }
+            double ta = (boxLo[a] - eyeI[a]) / dI[a], tb = (boxHi[a] - eyeI[a]) / dI[a];
+            if (ta > tb) std::swap(ta, tb);
+            t0 = std::max(t0, ta);
+            t1 = std::min(t1, tb);
+        }
+        const double dt = stepVoxels / dI.length();
+        for (double t = t0; t < t1;) {
+            const double seg = std::min(dt, t1 - t);
+            const double tm = t + 0.5 * seg;
+            const Vec3 pI = eyeI + dI * tm;
+            // Empty-space skipping: jump to the exit of an empty occupancy block.
+            const int bi = int(std::floor(pI.x - boxLo.x)) / B, bj = int(std::floor(pI.y - boxLo.y)) / B,
+                      bk = int(std::floor(pI.z - boxLo.z)) / B;
+            if (bi >= 0 && bj >= 0 && bk >= 0 && bi < blocks[0] && bj < blocks[1] && bk < blocks[2] &&
+                !occupied[(std::size_t(bk) * blocks[1] + bj) * blocks[0] + bi]) {
+                double tExit = t1;
+                const int bb[3] = {bi, bj, bk};
+                for (int a = 0; a < 3; ++a) {
+                    if (std::abs(dI[a]) < 1e-300) continue;
+                    const double face = boxLo[a] + B * (bb[a] + (dI[a] > 0 ? 1 : 0));
+                    tExit = std::min(tExit, (face - eyeI[a]) / dI[a]);
+                }
+                t = std::max(tExit, t + 1e-6 * dt);
+                continue;
+            }
+            if (!step(pI, tm, seg)) break;
+            t += seg;
+        }
+        return t0 < t1;
+    }
+};
+
+} // namespace
+
 Image renderFrame(const RenderScene& scene, const RenderOptions& opts, const Run* run,
                   RenderStats* stats)
 {
-    std::atomic<std::uint64_t> rayCount{0}, sampleCount{0};
+    std::atomic<std::uint64_t> rayCount{0}, sampleCount{0}, clampedCount{0};
     const Camera& cam = opts.camera;
     if (cam.width <= 0 || cam.height <= 0) throw UsageError("--res must be WxH with W, H > 0");
     if (!(opts.step > 0.0)) throw UsageError("--step must be > 0 voxels");
@@ -245,35 +376,28 @@ Image renderFrame(const RenderScene& scene, const RenderOptions& opts, const Run
     img.layers.push_back({"transmittance", std::vector<float>(std::size_t(W) * H * 3, 1.0f)});
     ImageLayer& transLayer = img.layers.back();
 
-    const DenseVolume& vol = scene.fields;
-    const Affine& i2w = vol.indexToWorld;
-    const Affine w2i = i2w.inverse();
-    const auto& m = i2w.m;
-    const double det = m[0] * (m[4] * m[8] - m[5] * m[7]) - m[1] * (m[3] * m[8] - m[5] * m[6]) +
-                       m[2] * (m[3] * m[7] - m[4] * m[6]);
-    const double voxelWorld = std::cbrt(std::abs(det));
-    const double rmin2 = std::pow(opts.minStarDistance * voxelWorld, 2);
     const auto& dust = scene.dust;
-    const int C = vol.channels();
-    const int B = RenderScene::BLOCK;
+    const Marcher level0(scene.fields, scene.blocks, scene.occupied, cam.eye);
+    std::vector<Marcher> levels;
+    for (const auto& lv : scene.levels) levels.emplace_back(lv.fields, lv.blocks, lv.occupied, cam.eye);
+    const double rmin2 = std::pow(opts.minStarDistance * level0.voxelWorld, 2);
+    const int C = scene.fields.channels();
     std::vector<Vec3> starPos;
     for (const auto& s : scene.stars) starPos.emplace_back(s.position[0], s.position[1], s.position[2]);
-    const Vec3 boxLo(vol.lo()[0], vol.lo()[1], vol.lo()[2]);
-    const Vec3 boxHi(vol.lo()[0] + vol.dims()[0] - 1, vol.lo()[1] + vol.dims()[1] - 1,
-                     vol.lo()[2] + vol.dims()[2] - 1);
-    const Vec3 eyeI = w2i.apply(cam.eye);
-    // Effective phase function: log t_c = log n + log(kappa_V r_c * voxel size).
+
+    // Effective phase function (DESIGN §4): log t_c = log n + log(kappa_V r_c * voxel size).
+    // Replace: the table's Phi; Gain: a p(mu) times Phi / Phi_1 (PhaseUse).
     const PhaseTable* table = opts.phaseTable.get();
-    std::optional<PhaseLookup> lookup;
-    double logTOffset[3] = {0, 0, 0};
-    double tMaxDensity = std::numeric_limits<double>::infinity();  // n above it: t > t_max
-    if (table) {
-        lookup.emplace(*table);
-        for (int c = 0; c < 3; ++c) logTOffset[c] = std::log(dust.kappa_V * dust.r[c] * voxelWorld);
-        const double rMax = std::max({dust.r[0], dust.r[1], dust.r[2]});
-        tMaxDensity = table->tMax / (dust.kappa_V * rMax * voxelWorld);
+    std::optional<PhaseTable> gainTable;
+    if (table && opts.phaseUse == PhaseUse::Gain) {
+        gainTable = *table;
+        gainTable->phi = table->gain();
     }
-    std::atomic<std::uint64_t> clampedCount{0};
+    std::optional<PhaseLookup> lookup;
+    if (table) lookup.emplace(gainTable ? *gainTable : *table);
+    const bool gain = gainTable.has_value();
+    const double logTMax = table ? std::log(table->tMax) : 0.0;
+    auto logTOffset = [&](double voxel, int c) { return std::log(dust.kappa_V * dust.r[c] * voxel); };
 
     Progress bar(run ? *run : Run("nebrender", "", CommonOptions{}), "nebrender",
                  std::uint64_t(H));
@@ -281,109 +405,113 @@ Image renderFrame(const RenderScene& scene, const RenderOptions& opts, const Run
         std::vector<float> f(static_cast<std::size_t>(C));
         std::vector<double> starL(S * 3);
         std::uint64_t rays = 0, samples = 0, clamped = 0;
+        double off0[3];
+        for (int c = 0; c < 3; ++c) off0[c] = table ? logTOffset(level0.voxelWorld, c) : 0.0;
+
+        // Scattering source of star s per channel at a sample: phase factor per channel.
+        auto phaseFactors = [&](double mu, const PhaseLookup::Pos* tPos,
+                                const PhaseLookup::Pos* tPrev, double out[3]) {
+            const double ap = dust.albedo * phaseFunction(dust.phase, mu, dust.g);
+            if (!table) {
+                out[0] = out[1] = out[2] = ap;
+                return;
+            }
+            const auto muPos = lookup->locateMu(mu);
+            for (int c = 0; c < 3; ++c) {
+                double v = lookup->lookup(tPos[c], muPos);
+                if (tPrev) v -= lookup->lookup(tPrev[c], muPos);
+                out[c] = gain ? ap * v : v;
+            }
+        };
+
         for (int py = rows.begin(); py != rows.end(); ++py) {
             for (int px = 0; px < W; ++px) {
                 const Vec3 dW = cam.direction(px + 0.5, py + 0.5);
-                const Vec3 dI = w2i.applyLinear(dW);
-                // Ray parameter t is world distance from the eye; clip to the lattice box.
-                double t0 = 0.0, t1 = std::numeric_limits<double>::infinity();
-                for (int a = 0; a < 3; ++a) {
-                    if (std::abs(dI[a]) < 1e-300) {
-                        if (eyeI[a] < boxLo[a] || eyeI[a] > boxHi[a]) t1 = -1.0;
-                        continue;
-                    }
-                    double ta = (boxLo[a] - eyeI[a]) / dI[a], tb = (boxHi[a] - eyeI[a]) / dI[a];
-                    if (ta > tb) std::swap(ta, tb);
-                    t0 = std::max(t0, ta);
-                    t1 = std::min(t1, tb);
-                }
                 double T[3] = {1, 1, 1}, L[3] = {0, 0, 0};
                 std::fill(starL.begin(), starL.end(), 0.0);
-                const double dt = opts.step / dI.length();
-                rays += t0 < t1;
-                for (double t = t0; t < t1;) {
-                    const double seg = std::min(dt, t1 - t);
-                    const double tm = t + 0.5 * seg;
-                    const Vec3 pI = eyeI + dI * tm;
-                    // Empty-space skipping: jump to the exit of an empty occupancy block.
-                    const int bi = int(std::floor(pI.x - boxLo.x)) / B,
-                              bj = int(std::floor(pI.y - boxLo.y)) / B,
-                              bk = int(std::floor(pI.z - boxLo.z)) / B;
-                    if (bi >= 0 && bj >= 0 && bk >= 0 && bi < scene.blocks[0] &&
-                        bj < scene.blocks[1] && bk < scene.blocks[2] &&
-                        !scene.occupied[(std::size_t(bk) * scene.blocks[1] + bj) *
-                                            scene.blocks[0] + bi]) {
-                        double tExit = t1;
-                        const int bb[3] = {bi, bj, bk};
-                        for (int a = 0; a < 3; ++a) {
-                            if (std::abs(dI[a]) < 1e-300) continue;
-                            const double face = boxLo[a] + B * (bb[a] + (dI[a] > 0 ? 1 : 0));
-                            tExit = std::min(tExit, (face - eyeI[a]) / dI[a]);
+                // Adds star s's scattered light at world point xW with the per-channel
+                // tau_V and phase factors (T: the view ray's transmittance so far).
+                auto scatter = [&](const Vec3& xW, const float* tauV, const double* oneMinus,
+                                   const double* Tv, const PhaseLookup::Pos* tPos,
+                                   const PhaseLookup::Pos* tPrev) {
+                    for (std::size_t s = 0; s < S; ++s) {
+                        const Vec3 v = xW - starPos[s];
+                        const double r2 = v.dot(v);
+                        const double mu = r2 > 0.0 ? -v.dot(dW) / std::sqrt(r2) : 1.0;
+                        double phi[3];
+                        phaseFactors(mu, tPos, tPrev, phi);
+                        const double geom = 1.0 / (4.0 * PI * std::max(r2, rmin2));
+                        for (int c = 0; c < 3; ++c) {
+                            const double E = scene.starColor[s][c] * geom * phi[c] *
+                                             std::exp(-dust.r[c] * tauV[s]);
+                            const double add = Tv[c] * E * oneMinus[c];
+                            L[c] += add;
+                            starL[s * 3 + c] += add;
                         }
-                        t = std::max(tExit, t + 1e-6 * dt);
-                        continue;
                     }
-                    vol.sample(pI, f.data());
+                };
+
+                // Level 0: emission and scattering with the full detail.
+                rays += level0.march(dW, opts.step, [&](const Vec3& pI, double tm, double seg) {
+                    scene.fields.sample(pI, f.data());
                     ++samples;
                     const double n = f[0], em = f[1];
-                    if (n <= 0.0 && em <= 0.0) {
-                        t += seg;
-                        continue;
-                    }
-                    const Vec3 xW = cam.eye + dW * tm;
+                    if (n <= 0.0 && em <= 0.0) return true;
                     // Exact attenuation of a segment of constant k_c: the fraction 1 - e^-x
                     // of its source function reaches the segment's front.
-                    double x[3], oneMinus[3], emitLen[3];
+                    double x[3], oneMinus[3];
                     for (int c = 0; c < 3; ++c) {
                         x[c] = dust.kappa_V * dust.r[c] * n * seg;
                         oneMinus[c] = -std::expm1(-x[c]);
-                        emitLen[c] = x[c] > 1e-7 ? oneMinus[c] / x[c] * seg : seg;
-                        L[c] += T[c] * em * opts.emissionScale * opts.emissionColor[c] *
-                                emitLen[c];
+                        const double emitLen = x[c] > 1e-7 ? oneMinus[c] / x[c] * seg : seg;
+                        L[c] += T[c] * em * opts.emissionScale * opts.emissionColor[c] * emitLen;
                     }
                     if (n > 0.0) {
                         PhaseLookup::Pos tPos[3];
                         if (table) {
                             const double logN = std::log(n);
-                            for (int c = 0; c < 3; ++c) tPos[c] = lookup->locateLogT(logN + logTOffset[c]);
-                            if (n > tMaxDensity) {
-                                for (int c = 0; c < 3; ++c) {
-                                    clamped += logN + logTOffset[c] > std::log(table->tMax);
-                                }
-                            }
-                        }
-                        for (std::size_t s = 0; s < S; ++s) {
-                            // Scattering of star s: source = Phi_c(t_c, mu) E_s,c, Phi -> a p(mu)
-                            // without a table (single scattering, DESIGN §3-4).
-                            const Vec3 v = xW - starPos[s];
-                            const double r2 = v.dot(v);
-                            const double mu = r2 > 0.0 ? -v.dot(dW) / std::sqrt(r2) : 1.0;
-                            double phi[3];
-                            if (table) {
-                                const auto muPos = lookup->locateMu(mu);
-                                for (int c = 0; c < 3; ++c) phi[c] = lookup->lookup(tPos[c], muPos);
-                            } else {
-                                phi[0] = phi[1] = phi[2] =
-                                    dust.albedo * phaseFunction(dust.phase, mu, dust.g);
-                            }
-                            const double geom = 1.0 / (4.0 * PI * std::max(r2, rmin2));
-                            const double tauV = f[2 + s];
                             for (int c = 0; c < 3; ++c) {
-                                const double E = scene.starColor[s][c] * geom * phi[c] *
-                                                 std::exp(-dust.r[c] * tauV);
-                                const double add = T[c] * E * oneMinus[c];
-                                L[c] += add;
-                                starL[s * 3 + c] += add;
+                                tPos[c] = lookup->locateLogT(logN + off0[c]);
+                                clamped += logN + off0[c] > logTMax;
                             }
                         }
+                        scatter(cam.eye + dW * tm, &f[2], oneMinus, T, tPos, nullptr);
                     }
                     for (int c = 0; c < 3; ++c) T[c] *= 1.0 - oneMinus[c];
-                    if (T[0] < opts.minTransmittance && T[1] < opts.minTransmittance &&
-                        T[2] < opts.minTransmittance) {
-                        break;
-                    }
-                    t += seg;
+                    return !(T[0] < opts.minTransmittance && T[1] < opts.minTransmittance &&
+                             T[2] < opts.minTransmittance);
+                });
+
+                // Levels 1..K (DESIGN §5): each adds, at its own resolution, the change of
+                // the per-voxel scattering when the voxel doubles, Phi(t_k) - Phi(t_k / 2)
+                // (or a p (G(t_k) - G(t_k / 2))), attenuated along the view ray at that level.
+                for (std::size_t k = 0; k < levels.size(); ++k) {
+                    const Marcher& lv = levels[k];
+                    const DenseVolume& v = scene.levels[k].fields;
+                    double offK[3];
+                    for (int c = 0; c < 3; ++c) offK[c] = logTOffset(lv.voxelWorld, c);
+                    double Tk[3] = {1, 1, 1};
+                    lv.march(dW, opts.step, [&](const Vec3& pI, double tm, double seg) {
+                        v.sample(pI, f.data());
+                        ++samples;
+                        const double n = f[0];
+                        if (n <= 0.0) return true;
+                        double oneMinus[3];
+                        PhaseLookup::Pos tPos[3], tPrev[3];
+                        const double logN = std::log(n);
+                        for (int c = 0; c < 3; ++c) {
+                            oneMinus[c] = -std::expm1(-dust.kappa_V * dust.r[c] * n * seg);
+                            tPos[c] = lookup->locateLogT(logN + offK[c]);
+                            tPrev[c] = lookup->locateLogT(logN + offK[c] - std::log(2.0));
+                            clamped += logN + offK[c] > logTMax;
+                        }
+                        scatter(cam.eye + dW * tm, &f[2], oneMinus, Tk, tPos, tPrev);
+                        for (int c = 0; c < 3; ++c) Tk[c] *= 1.0 - oneMinus[c];
+                        return !(Tk[0] < opts.minTransmittance && Tk[1] < opts.minTransmittance &&
+                                 Tk[2] < opts.minTransmittance);
+                    });
                 }
+
                 const std::size_t pix = std::size_t(py) * W + px;
                 for (int c = 0; c < 3; ++c) {
                     img.rgba[pix * 4 + c] = float(L[c]);
@@ -405,7 +533,6 @@ Image renderFrame(const RenderScene& scene, const RenderOptions& opts, const Run
         stats->samples = sampleCount;
         stats->phaseClamped = clampedCount;
     }
-
     if (opts.drawStars) drawStarSprites(img, scene, opts);
     return img;
 }

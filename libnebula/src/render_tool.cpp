@@ -42,6 +42,10 @@ void renderToFiles(const GridSet& grids, const CommonOptions& common, const Rend
     const auto built = std::chrono::steady_clock::now();
     RenderStats stats;
     const bool path = opts.integrator == Integrator::Path;
+    if (path && opts.levels > 0) {
+        throw UsageError("--levels is for the fast integrator; --integrator path simulates "
+                         "multiple scattering itself");
+    }
     if (path && opts.phaseTable) {
         throw UsageError("--phase is for the fast integrator; --integrator path simulates "
                          "multiple scattering itself");
@@ -85,8 +89,11 @@ void renderToFiles(const GridSet& grids, const CommonOptions& common, const Rend
         {"nebula:integrator",
          path ? "path tracing (reference), spp " + std::to_string(opts.spp) + ", seed " +
                     std::to_string(opts.seed)
-         : opts.phaseTable ? "single-scattering with effective phase function"
-                           : "single-scattering"},
+         : opts.phaseTable
+             ? std::string("effective phase function (") +
+                   (opts.phaseUse == PhaseUse::Gain ? "gain" : "replace") + "), levels " +
+                   std::to_string(opts.levels)
+             : "single-scattering"},
         {"nebula:units", "L_sun pc^-2 sr^-1"},
         {"nebula:dust", dust.toJson()},
         {"nebula:stars", starsToJson(scene.stars)},

@@ -62,6 +62,7 @@ TEST(Render, PhaseTableReplacesTheThinLimit)
     table->error.assign(8, 0.0f);
     auto opts = axisCamera(eye, 0.5);
     opts.phaseTable = table;
+    opts.phaseUse = PhaseUse::Replace;
     RenderStats stats;
     const Image img = renderFrame(scene, opts, nullptr, &stats);
     const double ratio[3] = {1.0, 1.0 + 2.0 * std::log(1 / 0.75) / std::log(1.33 / 0.75), 3.0};
@@ -78,6 +79,18 @@ TEST(Render, PhaseTableReplacesTheThinLimit)
     dense.dust.g = 0.0;
     renderFrame(dense, opts, nullptr, &stats);
     EXPECT_GT(stats.phaseClamped, 0u);
+
+    // Gain use: a p(mu) times Phi / Phi_1. With Phi_1 = Phi / 2 (gain 2) in row 0 and
+    // Phi_1 = Phi / 4 in row 1, the ratios to the thin image are 2, 2^(1 + w_G) and 4.
+    auto gainTable = std::make_shared<PhaseTable>(*table);
+    gainTable->single = {a / 2, a / 2, a / 2, a / 2, 3 * a / 4, 3 * a / 4, 3 * a / 4, 3 * a / 4};
+    opts.phaseTable = gainTable;
+    opts.phaseUse = PhaseUse::Gain;
+    const Image g = renderFrame(scene, opts);
+    const double w = std::log(1 / 0.75) / std::log(1.33 / 0.75);  // G's position in log t
+    EXPECT_NEAR(g.rgba[0] / thin.rgba[0], 2.0, 1e-6);
+    EXPECT_NEAR(g.rgba[1] / thin.rgba[1], 2.0 + 2.0 * w, 0.03 * (2.0 + 2.0 * w));
+    EXPECT_NEAR(g.rgba[2] / thin.rgba[2], 4.0, 0.03 * 4.0);
 }
 
 TEST(Render, ForwardScatteringIsBrighter)

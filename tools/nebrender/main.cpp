@@ -72,6 +72,18 @@ int main(int argc, char** argv)
                    "Effective phase-function table from nebphase: scattering uses Phi(t, mu) of\n"
                    "each voxel's optical thickness t (multiple scattering inside voxels) instead\n"
                    "of the single-scattering a*p(mu)");
+    std::string phaseUse = "gain";
+    app.add_option("--phase-use", phaseUse,
+                   "How --phase enters: gain = a p(mu) times the voxel's multiple-scattering\n"
+                   "gain Phi/Phi_1 (the ray caster supplies the extinction); replace = Phi itself\n"
+                   "(DESIGN section 4 literally; extinction inside the voxel counted twice)")
+        ->check(CLI::IsMember({"gain", "replace"}))
+        ->capture_default_str();
+    app.add_option("--levels", opts.levels,
+                   "Global scattering from nebpyramid's levels 1..K (needs --phase): each adds\n"
+                   "the change of the voxel scattering as the voxel doubles")
+        ->capture_default_str()
+        ->check(CLI::Range(0, 16));
     std::string integrator = "fast";
     app.add_option("--integrator", integrator,
                    "fast: ray caster (single scattering, or --phase); path: reference Monte\n"
@@ -111,6 +123,7 @@ int main(int argc, char** argv)
         }
         opts.drawStars = !noStars;
         opts.integrator = integrator == "path" ? nebula::Integrator::Path : nebula::Integrator::Fast;
+        opts.phaseUse = phaseUse == "replace" ? nebula::PhaseUse::Replace : nebula::PhaseUse::Gain;
         if (noPng) out.png = "none";
         if (exp->count() > 0) {
             out.tone.automatic = false;

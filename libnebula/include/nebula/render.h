@@ -45,6 +45,14 @@ void validateCamera(const Camera& camera);
 /// (DESIGN §6).
 enum class Integrator { Fast, Path };
 
+/// How the fast integrator uses a phase table (DESIGN §4-5):
+///  - Replace: the scattered source is k Phi(t, mu) E (Phi replaces a p(mu)); Phi includes the
+///    voxel's own extinction of the light, which the ray caster applies as well.
+///  - Gain: k a p(mu) G(t, mu) E with G = Phi / Phi_1, the voxel's multiple-scattering gain
+///    over its single scattering (both from the same Monte Carlo), so the ray caster's
+///    extinction is not applied twice.
+enum class PhaseUse { Replace, Gain };
+
 /// Every render parameter; defaults give the README's example picture.
 struct RenderOptions
 {
@@ -67,6 +75,21 @@ struct RenderOptions
     std::shared_ptr<const PhaseTable> phaseTable;
     std::string phaseSource;       ///< the table's file, for messages and the EXR
     bool phaseIgnoreDust = false;  ///< accept a table whose albedo/g/phase differ from the dust
+    PhaseUse phaseUse = PhaseUse::Gain;
+    /// Multi-resolution global scattering (DESIGN §5): pyramid levels 1..levels (nebpyramid's
+    /// density.L<k>, tau.<star>.L<k>) each add the change of the per-voxel scattering when
+    /// the voxel doubles, see renderFrame(). 0: level 0 only. Needs a phase table.
+    int levels = 0;
+};
+
+/// One pyramid level's fields for the fast integrator: channels as RenderScene::fields
+/// (0 density, 1 emission = 0, 2 + s tau_V of star s), voxel 2^level times level 0's.
+struct RenderLevel
+{
+    int level = 0;
+    DenseVolume fields;
+    std::array<int, 3> blocks{0, 0, 0};
+    std::vector<std::uint8_t> occupied;
 };
 
 /// The per-channel dust numbers the kernel uses.
@@ -94,13 +117,22 @@ struct RenderScene
 
     /// (Re)computes `blocks` and `occupied` from channels 0 (density) and 1 (emission).
     void buildOccupancy();
+
+    /// Pyramid levels 1..K (empty without RenderOptions::levels).
+    std::vector<RenderLevel> levels;
 };
+
+/// Coarse occupancy of @p v: block (bi,bj,bk) of RenderScene::BLOCK^3 lattice cells holds a
+/// lattice point with channel 0 or 1 > 0 at one of its cells' corners.
+void buildOccupancy(const DenseVolume& v, std::array<int, 3>& blocks,
+                    std::vector<std::uint8_t>& occupied);
 
 /// Builds the scene from nebillum's output: density, emission (optional) and tau.<star> for
 /// every star in nebula:stars. Throws Error naming the file and grid on anything missing or
 /// inconsistent (no stars, a tau grid missing, kappa_V of a tau grid != the dust's), or if
 /// opts.phaseTable was made for another albedo, g or phase model than @p dust (unless
-/// opts.phaseIgnoreDust).
+/// opts.phaseIgnoreDust). With opts.levels = K, also reads density.L<k> and tau.<star>.L<k>
+/// for k = 1..K and throws Error if one is missing or its voxels are not 2^k times level 0's.
 RenderScene buildScene(const GridSet& grids, const CommonOptions& common,
                        const RenderOptions& opts, const DustParams& dust);
 
