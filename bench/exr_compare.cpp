@@ -7,7 +7,11 @@
 ///  - flux: the sum over pixels of TEST / the sum of REF, minus 1 (relative error of the
 ///    total flux, the pixels having equal solid angle to first order);
 ///  - rms: the relative RMS error sqrt(mean((TEST - REF)^2 / REF^2)) over the pixels where
-///    REF is above --threshold (default 1 %) of its maximum in that channel.
+///    REF is above --threshold (default 1 %) of its maximum in that channel;
+///  - if REF has a "variance" layer (nebrender --integrator path: squared standard error of
+///    each pixel), ref_noise = sqrt(mean(variance / REF^2)) over the same pixels, REF's own
+///    relative noise, and rms_corrected = sqrt(max(0, rms^2 - ref_noise^2)), the RMS error
+///    with REF's noise taken out (the noise is independent of TEST's error).
 /// --ratio-png writes a map of TEST_Y / REF_Y: white where equal, red where TEST is brighter,
 /// blue where it is darker, full colour at a factor of 2 (log scale); black where REF_Y is
 /// below the threshold. Exit 1 with a message on unreadable or mismatched images.
@@ -67,7 +71,11 @@ int main(int argc, char** argv)
         }
         const std::size_t n = std::size_t(ref.width) * ref.height;
         const char* names[4] = {"R", "G", "B", "Y"};
-        std::printf("channel  flux_ref      flux_test     flux_error  rms_error  pixels\n");
+        const nebula::ImageLayer* variance = nullptr;
+        for (const auto& l : ref.layers) {
+            if (l.name == "variance") variance = &l;
+        }
+        std::printf("channel  flux_ref      flux_test     flux_error  rms_error  pixels  ref_noise  rms_corrected\n");
         for (int c = 0; c < 4; ++c) {
             double sumRef = 0.0, sumTest = 0.0, maxRef = 0.0;
             for (std::size_t i = 0; i < n; ++i) {
@@ -75,17 +83,31 @@ int main(int argc, char** argv)
                 sumTest += channel(test, i, c);
                 maxRef = std::max(maxRef, channel(ref, i, c));
             }
-            double sq = 0.0;
+            double sq = 0.0, noise = 0.0;
             std::size_t count = 0;
             for (std::size_t i = 0; i < n; ++i) {
                 const double r = channel(ref, i, c);
                 if (r <= threshold * maxRef) continue;
                 const double d = (channel(test, i, c) - r) / r;
                 sq += d * d;
+                if (variance) {
+                    const float* v = &variance->rgb[i * 3];
+                    // Luminance variance: the channels' noise taken as independent.
+                    const double var = c < 3 ? v[c]
+                                             : 0.2126 * 0.2126 * v[0] + 0.7152 * 0.7152 * v[1] +
+                                                   0.0722 * 0.0722 * v[2];
+                    noise += var / (r * r);
+                }
                 ++count;
             }
-            std::printf("%-8s %-13.6g %-13.6g %+10.4f  %9.4f  %zu\n", names[c], sumRef, sumTest,
-                        sumTest / sumRef - 1.0, count ? std::sqrt(sq / double(count)) : 0.0, count);
+            const double rms = count ? std::sqrt(sq / double(count)) : 0.0;
+            std::printf("%-8s %-13.6g %-13.6g %+10.4f  %9.4f  %-6zu", names[c], sumRef, sumTest,
+                        sumTest / sumRef - 1.0, rms, count);
+            if (variance && count) {
+                const double rn = std::sqrt(noise / double(count));
+                std::printf("  %9.4f  %13.4f", rn, std::sqrt(std::max(0.0, rms * rms - rn * rn)));
+            }
+            std::printf("\n");
         }
         if (!ratioPng.empty()) {
             double maxY = 0.0;

@@ -358,6 +358,15 @@ struct Marcher
     }
 };
 
+/// A pyramid level looked up at a level-0 sample: where its voxel thickness t_k and t_k / 2
+/// fall in the phase table, and its tau_V per star.
+struct LevelSample
+{
+    PhaseLookup::Pos tPos[3], tPrev[3];
+    std::vector<double> tau;
+    explicit LevelSample(std::size_t stars) : tau(stars) {}
+};
+
 } // namespace
 
 Image renderFrame(const RenderScene& scene, const RenderOptions& opts, const Run* run,
@@ -402,11 +411,15 @@ Image renderFrame(const RenderScene& scene, const RenderOptions& opts, const Run
     Progress bar(run ? *run : Run("nebrender", "", CommonOptions{}), "nebrender",
                  std::uint64_t(H));
     tbb::parallel_for(tbb::blocked_range<int>(0, H, 4), [&](const tbb::blocked_range<int>& rows) {
-        std::vector<float> f(static_cast<std::size_t>(C));
+        std::vector<float> f(static_cast<std::size_t>(C)), fk(static_cast<std::size_t>(C));
         std::vector<double> starL(S * 3);
+        std::vector<LevelSample> levelSamples(levels.size(), LevelSample(S));
         std::uint64_t rays = 0, samples = 0, clamped = 0;
         double off0[3];
         for (int c = 0; c < 3; ++c) off0[c] = table ? logTOffset(level0.voxelWorld, c) : 0.0;
+        std::vector<std::array<double, 3>> offLevel(levels.size());
+        for (std::size_t k = 0; k < levels.size(); ++k)
+            for (int c = 0; c < 3; ++c) offLevel[k][c] = logTOffset(levels[k].voxelWorld, c);
 
         // Scattering source of star s per channel at a sample: phase factor per channel.
         auto phaseFactors = [&](double mu, const PhaseLookup::Pos* tPos,
@@ -429,22 +442,29 @@ Image renderFrame(const RenderScene& scene, const RenderOptions& opts, const Run
                 const Vec3 dW = cam.direction(px + 0.5, py + 0.5);
                 double T[3] = {1, 1, 1}, L[3] = {0, 0, 0};
                 std::fill(starL.begin(), starL.end(), 0.0);
-                // Adds star s's scattered light at world point xW with the per-channel
-                // tau_V and phase factors (T: the view ray's transmittance so far).
+                // Adds every star's scattered light at world point xW (level-0 density n):
+                // for each star the phase factors at level 0 (t_0) times its irradiance from
+                // level 0's tau, plus per pyramid level k the change of the factor from
+                // t_k / 2 to t_k times the irradiance from level k's tau (DESIGN §5).
                 auto scatter = [&](const Vec3& xW, const float* tauV, const double* oneMinus,
                                    const double* Tv, const PhaseLookup::Pos* tPos,
-                                   const PhaseLookup::Pos* tPrev) {
+                                   std::size_t nLevels, const LevelSample* ls) {
                     for (std::size_t s = 0; s < S; ++s) {
                         const Vec3 v = xW - starPos[s];
                         const double r2 = v.dot(v);
                         const double mu = r2 > 0.0 ? -v.dot(dW) / std::sqrt(r2) : 1.0;
-                        double phi[3];
-                        phaseFactors(mu, tPos, tPrev, phi);
+                        double phi[3], src[3];
+                        phaseFactors(mu, tPos, nullptr, phi);
+                        for (int c = 0; c < 3; ++c) src[c] = phi[c] * std::exp(-dust.r[c] * tauV[s]);
+                        for (std::size_t k = 0; k < nLevels; ++k) {
+                            phaseFactors(mu, ls[k].tPos, ls[k].tPrev, phi);
+                            for (int c = 0; c < 3; ++c) {
+                                src[c] += phi[c] * std::exp(-dust.r[c] * ls[k].tau[s]);
+                            }
+                        }
                         const double geom = 1.0 / (4.0 * PI * std::max(r2, rmin2));
                         for (int c = 0; c < 3; ++c) {
-                            const double E = scene.starColor[s][c] * geom * phi[c] *
-                                             std::exp(-dust.r[c] * tauV[s]);
-                            const double add = Tv[c] * E * oneMinus[c];
+                            const double add = Tv[c] * scene.starColor[s][c] * geom * src[c] * oneMinus[c];
                             L[c] += add;
                             starL[s * 3 + c] += add;
                         }
@@ -468,49 +488,40 @@ Image renderFrame(const RenderScene& scene, const RenderOptions& opts, const Run
                     }
                     if (n > 0.0) {
                         PhaseLookup::Pos tPos[3];
+                        const Vec3 xW = cam.eye + dW * tm;
+                        std::size_t nLevels = 0;
                         if (table) {
                             const double logN = std::log(n);
                             for (int c = 0; c < 3; ++c) {
                                 tPos[c] = lookup->locateLogT(logN + off0[c]);
                                 clamped += logN + off0[c] > logTMax;
                             }
+                            // The coarse levels at this point: level k's density sets its voxel
+                            // thickness t_k, and its term is the change of the phase factor as
+                            // a voxel of that density doubles, from t_k / 2 to t_k.
+                            for (std::size_t k = 0; k < levels.size(); ++k) {
+                                LevelSample& q = levelSamples[nLevels];
+                                const Marcher& lv = levels[k];
+                                scene.levels[k].fields.sample(lv.w2i.apply(xW), fk.data());
+                                ++samples;
+                                if (!(fk[0] > 0.0f)) continue;
+                                const double logNk = std::log(double(fk[0]));
+                                for (int c = 0; c < 3; ++c) {
+                                    const double lt = logNk + offLevel[k][c];
+                                    q.tPos[c] = lookup->locateLogT(lt);
+                                    q.tPrev[c] = lookup->locateLogT(lt - std::log(2.0));
+                                    clamped += lt > logTMax;
+                                }
+                                for (std::size_t st = 0; st < S; ++st) q.tau[st] = fk[2 + st];
+                                ++nLevels;
+                            }
                         }
-                        scatter(cam.eye + dW * tm, &f[2], oneMinus, T, tPos, nullptr);
+                        scatter(xW, &f[2], oneMinus, T, tPos, nLevels, levelSamples.data());
                     }
                     for (int c = 0; c < 3; ++c) T[c] *= 1.0 - oneMinus[c];
                     return !(T[0] < opts.minTransmittance && T[1] < opts.minTransmittance &&
                              T[2] < opts.minTransmittance);
                 });
-
-                // Levels 1..K (DESIGN §5): each adds, at its own resolution, the change of
-                // the per-voxel scattering when the voxel doubles, Phi(t_k) - Phi(t_k / 2)
-                // (or a p (G(t_k) - G(t_k / 2))), attenuated along the view ray at that level.
-                for (std::size_t k = 0; k < levels.size(); ++k) {
-                    const Marcher& lv = levels[k];
-                    const DenseVolume& v = scene.levels[k].fields;
-                    double offK[3];
-                    for (int c = 0; c < 3; ++c) offK[c] = logTOffset(lv.voxelWorld, c);
-                    double Tk[3] = {1, 1, 1};
-                    lv.march(dW, opts.step, [&](const Vec3& pI, double tm, double seg) {
-                        v.sample(pI, f.data());
-                        ++samples;
-                        const double n = f[0];
-                        if (n <= 0.0) return true;
-                        double oneMinus[3];
-                        PhaseLookup::Pos tPos[3], tPrev[3];
-                        const double logN = std::log(n);
-                        for (int c = 0; c < 3; ++c) {
-                            oneMinus[c] = -std::expm1(-dust.kappa_V * dust.r[c] * n * seg);
-                            tPos[c] = lookup->locateLogT(logN + offK[c]);
-                            tPrev[c] = lookup->locateLogT(logN + offK[c] - std::log(2.0));
-                            clamped += logN + offK[c] > logTMax;
-                        }
-                        scatter(cam.eye + dW * tm, &f[2], oneMinus, Tk, tPos, tPrev);
-                        for (int c = 0; c < 3; ++c) Tk[c] *= 1.0 - oneMinus[c];
-                        return !(Tk[0] < opts.minTransmittance && Tk[1] < opts.minTransmittance &&
-                                 Tk[2] < opts.minTransmittance);
-                    });
-                }
 
                 const std::size_t pix = std::size_t(py) * W + px;
                 for (int c = 0; c < 3; ++c) {
