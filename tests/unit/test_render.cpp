@@ -195,3 +195,61 @@ TEST(Render, CameraProjectionAndSolidAngle)
     const double pyramid = 4 * std::asin(a * b / std::sqrt((1 + a * a) * (1 + b * b)));
     EXPECT_NEAR(omega, pyramid, 1e-3 * pyramid);
 }
+
+// Pyramid levels (DESIGN §5): level k adds a p(mu) (G(t_k) - G(t_k / 2)) E_k at each level-0
+// sample. Grey dust (r_c = 1) in the uniform cube, a level 1 made by box-averaging it, and a
+// gain table with G = 1 at t_0 = kappa n0 H and G = 2 at 2 t_0: level 0 alone gives the thin
+// image (G(t_0) = 1); with level 1 (t_1 = 2 t_0 inside) the source doubles. The coarse cube's
+// edges are two fine voxels wide instead of one, so allow 4 %.
+TEST(Render, PyramidLevelAddsTheGainOfDoubledVoxels)
+{
+    const double n0 = 150.0;
+    auto scene = cube(n0, 0.0, {farStar(Vec3(-1, 0, 0))});
+    scene.dust.r = {1, 1, 1};
+    scene.dust.g = 0.0;
+    const Vec3 eye(2, 2, -20);
+    const Image thin = renderFrame(scene, axisCamera(eye, 0.5));
+
+    RenderLevel level;
+    level.level = 1;
+    const int M = (N + 1) / 2;  // coarse lattice 0..20 covers fine 0..41
+    level.fields = DenseVolume({0, 0, 0}, {M, M, M}, 3);
+    level.fields.indexToWorld.m = {2 * H, 0, 0, 0, 2 * H, 0, 0, 0, 2 * H};
+    level.fields.indexToWorld.t = Vec3(0.5 * H, 0.5 * H, 0.5 * H);  // block centres
+    for (int k = 0; k < M; ++k)
+        for (int j = 0; j < M; ++j)
+            for (int i = 0; i < M; ++i) {
+                double sum = 0.0;
+                for (int d = 0; d < 8; ++d) {
+                    const int fi = 2 * i + (d & 1), fj = 2 * j + (d >> 1 & 1), fk = 2 * k + (d >> 2);
+                    if (fi < N && fj < N && fk < N) {
+                        sum += scene.fields.voxel(scene.fields.index(fi, fj, fk))[0];
+                    }
+                }
+                level.fields.voxel(level.fields.index(i, j, k))[0] = float(sum / 8.0);
+            }
+    buildOccupancy(level.fields, level.blocks, level.occupied);
+    scene.levels.push_back(std::move(level));
+
+    auto table = std::make_shared<PhaseTable>();
+    table->medium.albedo = 0.6;
+    table->medium.g = 0.0;
+    table->tMin = KAPPA * n0 * H;
+    table->tMax = 2 * KAPPA * n0 * H;
+    table->tCount = 2;
+    table->muBins = 4;
+    table->photons = {1, 1};
+    table->phi.assign(8, 1.0f);
+    table->single = {1, 1, 1, 1, 0.5f, 0.5f, 0.5f, 0.5f};  // G = 1, then 2
+    table->error.assign(8, 0.0f);
+    RenderOptions opts = axisCamera(eye, 0.5);
+    opts.phaseTable = table;
+    opts.levels = 1;
+    const Image one = renderFrame(scene, opts);
+    scene.levels.clear();
+    const Image none = renderFrame(scene, opts);
+    for (int c = 0; c < 3; ++c) {
+        EXPECT_NEAR(none.rgba[c] / thin.rgba[c], 1.0, 0.02) << "c " << c;
+        EXPECT_NEAR(one.rgba[c] / thin.rgba[c], 2.0, 0.04 * 2.0) << "c " << c;
+    }
+}
