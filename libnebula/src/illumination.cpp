@@ -26,6 +26,39 @@ TauSupport tauSupport(const openvdb::FloatGrid& density, const DenseVolume& n)
     return support;
 }
 
+void addOpticalDepths(GridSet& products, const openvdb::FloatGrid& density,
+                      const std::vector<Star>& stars, const DustParams& dust,
+                      const std::string& suffix, const Run& run)
+{
+    // Dense density with a zero border, so the trilinear field falls to zero at the edge.
+    const openvdb::FloatGrid::ConstPtr source = density.copy();  // shares the tree
+    const DenseVolume n = denseFromGrids({source}, activeBounds({source}, 1), products.source);
+    const Affine worldToIndex = n.indexToWorld.inverse();
+    run.info("density " + std::to_string(n.dims()[0]) + "x" + std::to_string(n.dims()[1]) + "x" +
+             std::to_string(n.dims()[2]) + " voxels, " + std::to_string(stars.size()) + " stars");
+
+    const TauSupport support = tauSupport(density, n);
+
+    for (const auto& star : stars) {
+        const Vec3 s = worldToIndex.apply(Vec3(star.position[0], star.position[1],
+                                               star.position[2]));
+        std::vector<float> tau;
+        {
+            Progress bar(run, run.tool() + " " + star.name + suffix, support.points.size());
+            tau = opticalDepthAt(n, s, dust.kappa_V, support.points,
+                                 [&](std::size_t k) { bar.add(k); });
+        }
+        auto grid = gridFromField(n, tau, *support.grid);
+        grid->setName(tauGridName(star.name) + suffix);
+        grid->setGridClass(openvdb::GRID_UNKNOWN);
+        grid->insertMeta("star", openvdb::StringMetadata(star.name));
+        grid->insertMeta("kappa_V", openvdb::DoubleMetadata(dust.kappa_V));
+        grid->insertMeta("density_grid", openvdb::StringMetadata(density.getName()));
+        grid->insertMeta("units", openvdb::StringMetadata("optical depth at V (550 nm)"));
+        products.replace(grid);
+    }
+}
+
 void illuminate(GridSet& grids, const CommonOptions& common, const IllumOptions& opts,
                 const Run& run)
 {
@@ -38,36 +71,12 @@ void illuminate(GridSet& grids, const CommonOptions& common, const IllumOptions&
     }
     opts.dust.validate();
 
-    // Dense density with a zero border, so the trilinear field falls to zero at the edge.
-    const DenseVolume n = denseFromGrids({density}, activeBounds({density}, 1), grids.source);
-    const Affine worldToIndex = n.indexToWorld.inverse();
-    run.info("density " + std::to_string(n.dims()[0]) + "x" + std::to_string(n.dims()[1]) + "x" +
-             std::to_string(n.dims()[2]) + " voxels, " + std::to_string(stars.size()) + " stars");
-
-    const TauSupport support = tauSupport(*density, n);
-
-    std::vector<openvdb::GridBase::Ptr> products;
-    for (const auto& star : stars) {
-        const Vec3 s = worldToIndex.apply(Vec3(star.position[0], star.position[1],
-                                               star.position[2]));
-        std::vector<float> tau;
-        {
-            Progress bar(run, "nebillum " + star.name, support.points.size());
-            tau = opticalDepthAt(n, s, opts.dust.kappa_V, support.points,
-                                 [&](std::size_t k) { bar.add(k); });
-        }
-        auto grid = gridFromField(n, tau, *support.grid);
-        grid->setName(tauGridName(star.name));
-        grid->setGridClass(openvdb::GRID_UNKNOWN);
-        grid->insertMeta("star", openvdb::StringMetadata(star.name));
-        grid->insertMeta("kappa_V", openvdb::DoubleMetadata(opts.dust.kappa_V));
-        grid->insertMeta("density_grid", openvdb::StringMetadata(common.densityGrid));
-        grid->insertMeta("units", openvdb::StringMetadata("optical depth at V (550 nm)"));
-        products.push_back(grid);
-    }
+    GridSet products;
+    products.source = grids.source;
+    addOpticalDepths(products, *density, stars, opts.dust, "", run);
 
     if (common.onlyNew) grids.grids.clear();
-    for (auto& g : products) grids.replace(g);
+    for (auto& g : products.grids) grids.replace(g);
     grids.setStars(stars);
     grids.setDust(opts.dust);
 }

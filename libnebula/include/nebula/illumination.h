@@ -28,6 +28,17 @@ TauSupport tauSupport(const openvdb::FloatGrid& density, const DenseVolume& n);
 /// Name of the optical-depth grid of star @p star.
 inline std::string tauGridName(const std::string& star) { return "tau." + star; }
 
+/// Adds (or replaces) in @p products a FloatGrid tau.<star><suffix> per star: the exact
+/// V-band optical depth (optical_depth.h, kappa_V from @p dust) of the trilinear @p density
+/// from the star to each voxel of tauSupport(), with the density's transform, and the
+/// metadata star, kappa_V, density_grid (@p density's name) and units. The tau computation
+/// of illuminate(), for any density grid (nebpyramid runs it on the coarse levels with
+/// @p suffix ".L<k>"). @p density must be affine with finite values >= 0; @p products'
+/// source names it in errors. The progress bar is labelled "<tool> <star><suffix>".
+void addOpticalDepths(GridSet& products, const openvdb::FloatGrid& density,
+                      const std::vector<Star>& stars, const DustParams& dust,
+                      const std::string& suffix, const Run& run);
+
 /// Adds (or replaces) tau.<star> for every star to @p grids, active on the density's active
 /// voxels and their 26 neighbours (so every dusty lattice cell has tau at all 8 corners),
 /// with the density's transform; exact (optical_depth.h); records stars and dust in the metadata. With --only-new, the
