@@ -12,6 +12,7 @@
 ///    each pixel), ref_noise = sqrt(mean(variance / REF^2)) over the same pixels, REF's own
 ///    relative noise, and rms_corrected = sqrt(max(0, rms^2 - ref_noise^2)), the RMS error
 ///    with REF's noise taken out (the noise is independent of TEST's error).
+/// Also prints the optical depth -ln T of REF's centre pixel (its transmittance layer).
 /// --ratio-png writes a map of TEST_Y / REF_Y: white where equal, red where TEST is brighter,
 /// blue where it is darker, full colour at a factor of 2 (log scale); black where REF_Y is
 /// below the threshold. Exit 1 with a message on unreadable or mismatched images.
@@ -108,6 +109,13 @@ int main(int argc, char** argv)
                 std::printf("  %9.4f  %13.4f", rn, std::sqrt(std::max(0.0, rms * rms - rn * rn)));
             }
             std::printf("\n");
+        }
+        for (const auto& l : ref.layers) {
+            if (l.name != "transmittance") continue;
+            const std::size_t c = std::size_t(ref.height / 2) * ref.width + ref.width / 2;
+            std::printf("centre pixel optical depth of REF (-ln T, R G B): %.4g %.4g %.4g\n",
+                        -std::log(l.rgb[c * 3]), -std::log(l.rgb[c * 3 + 1]),
+                        -std::log(l.rgb[c * 3 + 2]));
         }
         if (!ratioPng.empty()) {
             double maxY = 0.0;
