@@ -178,7 +178,10 @@ std::vector<float> opticalDepthAt(const DenseVolume& n, const Vec3& starIndex, d
                       [&](const tbb::blocked_range<std::size_t>& r) {
         for (std::size_t o = r.begin(); o != r.end(); ++o) {
             const std::size_t idx = points[o];
-            tau[idx] = float(kappa_V * column(n, dusty.data(), starIndex, latticePoint(n, idx)));
+            // The column of a non-negative density is >= 0; Simpson's weights can leave a
+            // rounding residue of -1e-33 next to empty cells, which readers rightly reject.
+            tau[idx] = float(std::max(0.0, kappa_V * column(n, dusty.data(), starIndex,
+                                                            latticePoint(n, idx))));
         }
         if (progress) progress(r.size());
     });

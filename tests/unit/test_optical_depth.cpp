@@ -211,3 +211,24 @@ TEST(OpticalDepth, DeterministicAcrossThreadCounts)
     const auto single = productionTau(vol, Vec3(9.5, 3.2, 11.1));
     EXPECT_EQ(many, single);
 }
+
+// Optical depths are never negative, even next to empty cells where Simpson's weights leave
+// a rounding residue: the example nebula's shape at 64^3 and density 16000 once produced
+// tau = -3e-33 at one voxel, which nebpyramid (rightly) refused to read.
+TEST(OpticalDepth, NeverNegative)
+{
+    std::mt19937 rng(11);
+    std::uniform_real_distribution<double> u(0.0, 1.0);
+    DenseVolume n({0, 0, 0}, {20, 20, 20}, 1);
+    n.indexToWorld.m = {0.156, 0, 0, 0, 0.156, 0, 0, 0, 0.156};
+    std::vector<std::uint32_t> points;
+    for (std::size_t i = 0; i < n.voxelCount(); ++i) {
+        // Sparse, spiky, many decades: isolated dense voxels beside empty ones.
+        n.voxel(i)[0] = u(rng) < 0.3 ? float(std::pow(10.0, 6.0 * u(rng) - 1.0)) : 0.0f;
+        points.push_back(std::uint32_t(i));
+    }
+    for (const Vec3 star : {Vec3(3.3, 17.1, 9.6), Vec3(-30, 4, 50), Vec3(10, 10, 10)}) {
+        const auto tau = opticalDepthAt(n, star, 1.5e-3, points);
+        for (float t : tau) ASSERT_GE(t, 0.0f);
+    }
+}
