@@ -37,10 +37,6 @@ void renderToFiles(const GridSet& grids, const CommonOptions& common, const Rend
     checkOutputWritable(out.exr, "EXR");
     if (!png.empty()) checkOutputWritable(png, "PNG");
 
-    const auto start = std::chrono::steady_clock::now();
-    const RenderScene scene = buildScene(grids, common, opts, dust);
-    const auto built = std::chrono::steady_clock::now();
-    RenderStats stats;
     const bool path = opts.integrator == Integrator::Path;
     if (path && opts.levels > 0) {
         throw UsageError("--levels is for the fast integrator; --integrator path simulates "
@@ -50,6 +46,10 @@ void renderToFiles(const GridSet& grids, const CommonOptions& common, const Rend
         throw UsageError("--phase is for the fast integrator; --integrator path simulates "
                          "multiple scattering itself");
     }
+    const auto start = std::chrono::steady_clock::now();
+    const RenderScene scene = buildScene(grids, common, opts, dust);
+    const auto built = std::chrono::steady_clock::now();
+    RenderStats stats;
     const Image img = path ? renderPathTraced(scene, opts, &run, &stats)
                            : renderFrame(scene, opts, &run, &stats);
     const auto done = std::chrono::steady_clock::now();
