@@ -358,15 +358,6 @@ struct Marcher
     }
 };
 
-/// A pyramid level looked up at a level-0 sample: where its voxel thickness t_k and t_k / 2
-/// fall in the phase table, and its tau_V per star.
-struct LevelSample
-{
-    PhaseLookup::Pos tPos[3], tPrev[3];
-    std::vector<double> tau;
-    explicit LevelSample(std::size_t stars) : tau(stars) {}
-};
-
 } // namespace
 
 Image renderFrame(const RenderScene& scene, const RenderOptions& opts, const Run* run,
@@ -413,7 +404,10 @@ Image renderFrame(const RenderScene& scene, const RenderOptions& opts, const Run
     tbb::parallel_for(tbb::blocked_range<int>(0, H, 4), [&](const tbb::blocked_range<int>& rows) {
         std::vector<float> f(static_cast<std::size_t>(C)), fk(static_cast<std::size_t>(C));
         std::vector<double> starL(S * 3);
-        std::vector<LevelSample> levelSamples(levels.size(), LevelSample(S));
+        // Per level, star and channel: the level's term (phase-factor change times the
+        // star's irradiance factor at that level), resampled every half level-k voxel along
+        // the ray (the level's own resolution) and held between.
+        std::vector<double> held(levels.size() * S * 3), nextT(levels.size());
         std::uint64_t rays = 0, samples = 0, clamped = 0;
         double off0[3];
         for (int c = 0; c < 3; ++c) off0[c] = table ? logTOffset(level0.voxelWorld, c) : 0.0;
@@ -446,21 +440,22 @@ Image renderFrame(const RenderScene& scene, const RenderOptions& opts, const Run
                 // for each star the phase factors at level 0 (t_0) times its irradiance from
                 // level 0's tau, plus per pyramid level k the change of the factor from
                 // t_k / 2 to t_k times the irradiance from level k's tau (DESIGN §5).
+                std::fill(nextT.begin(), nextT.end(), -std::numeric_limits<double>::infinity());
+                auto cosToStar = [&](const Vec3& xW, std::size_t s, double& r2) {
+                    const Vec3 v = xW - starPos[s];
+                    r2 = v.dot(v);
+                    return r2 > 0.0 ? -v.dot(dW) / std::sqrt(r2) : 1.0;
+                };
                 auto scatter = [&](const Vec3& xW, const float* tauV, const double* oneMinus,
-                                   const double* Tv, const PhaseLookup::Pos* tPos,
-                                   std::size_t nLevels, const LevelSample* ls) {
+                                   const double* Tv, const PhaseLookup::Pos* tPos) {
                     for (std::size_t s = 0; s < S; ++s) {
-                        const Vec3 v = xW - starPos[s];
-                        const double r2 = v.dot(v);
-                        const double mu = r2 > 0.0 ? -v.dot(dW) / std::sqrt(r2) : 1.0;
+                        double r2;
+                        const double mu = cosToStar(xW, s, r2);
                         double phi[3], src[3];
                         phaseFactors(mu, tPos, nullptr, phi);
                         for (int c = 0; c < 3; ++c) src[c] = phi[c] * std::exp(-dust.r[c] * tauV[s]);
-                        for (std::size_t k = 0; k < nLevels; ++k) {
-                            phaseFactors(mu, ls[k].tPos, ls[k].tPrev, phi);
-                            for (int c = 0; c < 3; ++c) {
-                                src[c] += phi[c] * std::exp(-dust.r[c] * ls[k].tau[s]);
-                            }
+                        for (std::size_t k = 0; k < levels.size(); ++k) {
+                            for (int c = 0; c < 3; ++c) src[c] += held[(k * S + s) * 3 + c];
                         }
                         const double geom = 1.0 / (4.0 * PI * std::max(r2, rmin2));
                         for (int c = 0; c < 3; ++c) {
@@ -489,34 +484,45 @@ Image renderFrame(const RenderScene& scene, const RenderOptions& opts, const Run
                     if (n > 0.0) {
                         PhaseLookup::Pos tPos[3];
                         const Vec3 xW = cam.eye + dW * tm;
-                        std::size_t nLevels = 0;
                         if (table) {
                             const double logN = std::log(n);
                             for (int c = 0; c < 3; ++c) {
                                 tPos[c] = lookup->locateLogT(logN + off0[c]);
                                 clamped += logN + off0[c] > logTMax;
                             }
-                            // The coarse levels at this point: level k's density sets its voxel
-                            // thickness t_k, and its term is the change of the phase factor as
-                            // a voxel of that density doubles, from t_k / 2 to t_k.
+                            // The coarse levels near this point: level k's density sets its
+                            // voxel thickness t_k; its term is the change of the phase factor as
+                            // a voxel of that density doubles, from t_k / 2 to t_k, times the
+                            // star's irradiance through level k's optical depth.
                             for (std::size_t k = 0; k < levels.size(); ++k) {
-                                LevelSample& q = levelSamples[nLevels];
+                                if (tm < nextT[k]) continue;
                                 const Marcher& lv = levels[k];
+                                nextT[k] = tm + opts.step * lv.voxelWorld;
                                 scene.levels[k].fields.sample(lv.w2i.apply(xW), fk.data());
                                 ++samples;
-                                if (!(fk[0] > 0.0f)) continue;
+                                double* h = &held[k * S * 3];
+                                if (!(fk[0] > 0.0f)) {
+                                    std::fill(h, h + S * 3, 0.0);
+                                    continue;
+                                }
+                                PhaseLookup::Pos tk[3], tHalf[3];
                                 const double logNk = std::log(double(fk[0]));
                                 for (int c = 0; c < 3; ++c) {
                                     const double lt = logNk + offLevel[k][c];
-                                    q.tPos[c] = lookup->locateLogT(lt);
-                                    q.tPrev[c] = lookup->locateLogT(lt - std::log(2.0));
+                                    tk[c] = lookup->locateLogT(lt);
+                                    tHalf[c] = lookup->locateLogT(lt - std::log(2.0));
                                     clamped += lt > logTMax;
                                 }
-                                for (std::size_t st = 0; st < S; ++st) q.tau[st] = fk[2 + st];
-                                ++nLevels;
+                                for (std::size_t st = 0; st < S; ++st) {
+                                    double r2, phi[3];
+                                    phaseFactors(cosToStar(xW, st, r2), tk, tHalf, phi);
+                                    for (int c = 0; c < 3; ++c) {
+                                        h[st * 3 + c] = phi[c] * std::exp(-dust.r[c] * fk[2 + st]);
+                                    }
+                                }
                             }
                         }
-                        scatter(xW, &f[2], oneMinus, T, tPos, nLevels, levelSamples.data());
+                        scatter(xW, &f[2], oneMinus, T, tPos);
                     }
                     for (int c = 0; c < 3; ++c) T[c] *= 1.0 - oneMinus[c];
                     return !(T[0] < opts.minTransmittance && T[1] < opts.minTransmittance &&
