@@ -205,18 +205,22 @@ double transmittance(const PathScene& ps, int c, const Vec3& x, const Vec3& d, d
     return T;
 }
 
-/// One random walk of channel @p c from the eye along @p d; adds the radiance to @p L (and
-/// each star's share to @p Ls), the primary ray's ratio-tracked transmittance to @p Tprim.
-void walk(const PathScene& ps, int c, const Vec3& eye, const Vec3& d0,
-          Pcg32& rng, double& L, double* Ls, double& Tprim, std::uint64_t& collisions)
+/// One random walk from the eye along @p d0 for channels [c, c1), which share their
+/// extinction (all three in grey dust, else one): adds each channel's radiance to @p L[ch]
+/// (and each star's share to @p Ls[s * 3 + ch]) and sets the primary ray's ratio-tracked
+/// transmittance @p Tprim[ch].
+void walk(const PathScene& ps, int c, int c1, const Vec3& eye, const Vec3& d0, Pcg32& rng,
+          double* L, double* Ls, double* Tprim, std::uint64_t& collisions)
 {
     const auto& dust = ps.scene->dust;
     const double k0 = dust.kappa_V * dust.r[c];
-    const double emitC = ps.emissionScale * ps.emissionColor[c];
+    double emitC[3];
+    for (int ch = c; ch < c1; ++ch) emitC[ch] = ps.emissionScale * ps.emissionColor[ch];
     Vec3 x = eye, d = d0;
     double beta = 1.0;
     // The primary ray's transmittance (alpha and the transmittance layer), ratio tracked.
-    Tprim = transmittance(ps, c, eye, d0, INF, rng, collisions);
+    const double T0 = transmittance(ps, c, eye, d0, INF, rng, collisions);
+    for (int ch = c; ch < c1; ++ch) Tprim[ch] = T0;
     for (int depth = 0;; ++depth) {
         const Tracker tr(ps, x, d, INF);
         bool scattered = false;
@@ -226,7 +230,9 @@ void walk(const PathScene& ps, int c, const Vec3& eye, const Vec3& d0,
             ps.fields.sample(tr.oI + tr.dI * t, f);
             const double k = k0 * f[0];
             // Collision estimator of emission: j / majorant at every tentative collision.
-            if (f[1] > 0.0f) L += beta * emitC * f[1] / mu;
+            if (f[1] > 0.0f) {
+                for (int ch = c; ch < c1; ++ch) L[ch] += beta * emitC[ch] * f[1] / mu;
+            }
             if (rng.uniformDouble() * mu < k) {
                 scattered = true;
                 tHit = t;
@@ -247,10 +253,12 @@ void walk(const PathScene& ps, int c, const Vec3& eye, const Vec3& d0,
             const double p = phaseFunction(dust.phase, mu, dust.g);
             const double Tr = r > 0.0 ? transmittance(ps, c, x, v * (1.0 / r), r, rng, collisions)
                                       : 1.0;
-            const double add = beta * p * Tr * ps.scene->starColor[s][c] /
-                               (4.0 * PI * std::max(r2, ps.rmin2));
-            L += add;
-            Ls[s] += add;
+            const double w = beta * p * Tr / (4.0 * PI * std::max(r2, ps.rmin2));
+            for (int ch = c; ch < c1; ++ch) {
+                const double add = w * ps.scene->starColor[s][ch];
+                L[ch] += add;
+                Ls[s * 3 + ch] += add;
+            }
         }
         // Continue in a phase-sampled direction (weight p / pdf = 1).
         const double mu = samplePhaseCosine(dust.phase, dust.g, rng.uniformDouble());
@@ -288,11 +296,14 @@ Image renderPathTraced(const RenderScene& scene, const RenderOptions& opts, cons
     ImageLayer& transLayer = img.layers[S];
     ImageLayer& varLayer = img.layers[S + 1];
 
+    // Grey dust (equal extinction ratios): one walk serves all three channels.
+    const auto& r = scene.dust.r;
+    const bool grey = std::abs(r[0] - r[1]) <= 1e-12 * r[1] && std::abs(r[2] - r[1]) <= 1e-12 * r[1];
     std::atomic<std::uint64_t> pathCount{0}, collisionCount{0};
     Progress bar(run ? *run : Run("nebrender", "", CommonOptions{}), "nebrender path",
                  std::uint64_t(H));
     tbb::parallel_for(tbb::blocked_range<int>(0, H, 1), [&](const tbb::blocked_range<int>& rows) {
-        std::vector<double> Ls(S);
+        std::vector<double> Ls(S * 3);
         std::uint64_t collisions = 0, paths = 0;
         for (int py = rows.begin(); py != rows.end(); ++py) {
             for (int px = 0; px < W; ++px) {
@@ -304,17 +315,24 @@ Image renderPathTraced(const RenderScene& scene, const RenderOptions& opts, cons
                     // One stream per (pixel, sample); the seed picks the family.
                     Pcg32 rng(pix * 0x9E3779B97F4A7C15ULL + std::uint64_t(sample),
                               opts.seed);
-                    for (int c = 0; c < 3; ++c) {
-                        double L = 0.0, T = 1.0;
-                        std::fill(Ls.begin(), Ls.end(), 0.0);
-                        walk(ps, c, cam.eye, d, rng, L, Ls.data(), T, collisions);
+                    double L[3] = {0, 0, 0}, T[3] = {1, 1, 1};
+                    std::fill(Ls.begin(), Ls.end(), 0.0);
+                    if (grey) {
+                        walk(ps, 0, 3, cam.eye, d, rng, L, Ls.data(), T, collisions);
                         ++paths;
+                    } else {
+                        for (int c = 0; c < 3; ++c) {
+                            walk(ps, c, c + 1, cam.eye, d, rng, L, Ls.data(), T, collisions);
+                            ++paths;
+                        }
+                    }
+                    for (int c = 0; c < 3; ++c) {
                         // Welford's running mean and sum of squared deviations.
-                        const double delta = L - mean[c];
+                        const double delta = L[c] - mean[c];
                         mean[c] += delta / (sample + 1);
-                        m2[c] += delta * (L - mean[c]);
-                        trans[c] += T;
-                        for (std::size_t s = 0; s < S; ++s) starSum[s * 3 + c] += Ls[s];
+                        m2[c] += delta * (L[c] - mean[c]);
+                        trans[c] += T[c];
+                        for (std::size_t s = 0; s < S; ++s) starSum[s * 3 + c] += Ls[s * 3 + c];
                     }
                 }
                 const double n = opts.spp;

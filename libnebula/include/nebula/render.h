@@ -154,7 +154,8 @@ Image renderFrame(const RenderScene& scene, const RenderOptions& opts, const Run
                   RenderStats* stats = nullptr);
 
 /// The reference integrator (DESIGN §6): unbiased volumetric path tracing of the same scene,
-/// each RGB channel its own random walk. Free flights by delta tracking against a majorant
+/// each RGB channel its own random walk (one walk for all three in grey dust, where their
+/// extinctions are equal). Free flights by delta tracking against a majorant
 /// that is constant on each occupancy block (kappa_V r_c times the block's largest density);
 /// emission by the collision estimator at every tentative collision (the majorant has a floor
 /// of two collisions per voxel where there is gas); at every real collision the weight is
