@@ -55,50 +55,25 @@ PathScene buildPathScene(const RenderScene& scene, const RenderOptions& opts)
     ps.boxLo = Vec3(v.lo()[0], v.lo()[1], v.lo()[2]);
     ps.boxHi = Vec3(v.lo()[0] + v.dims()[0] - 1, v.lo()[1] + v.dims()[1] - 1,
                     v.lo()[2] + v.dims()[2] - 1);
-    const auto& m = v.indexToWorld.m;
-    const double det = m[0] * (m[4] * m[8] - m[5] * m[7]) - m[1] * (m[3] * m[8] - m[5] * m[6]) +
-                       m[2] * (m[3] * m[7] - m[4] * m[6]);
-    const double voxelWorld = std::cbrt(std::abs(det));
+    const double voxelWorld = voxelSize(v.indexToWorld);
     ps.rmin2 = std::pow(opts.minStarDistance * voxelWorld, 2);
     ps.emissionScale = opts.emissionScale;
     ps.emissionColor = opts.emissionColor;
     for (const auto& s : scene.stars) ps.starPos.emplace_back(s.position[0], s.position[1], s.position[2]);
 
-    // Majorant per block of BLOCK^3 cells: the largest density (emission) at the lattice
-    // points of its cells, i.e. points [B b, B b + B] on each axis; the trilinear field inside
-    // a cell never exceeds its corners.
-    const int B = RenderScene::BLOCK;
-    for (int a = 0; a < 3; ++a) ps.blocks[a] = (v.dims()[a] + B - 1) / B;
-    const std::size_t nb = std::size_t(ps.blocks[0]) * ps.blocks[1] * ps.blocks[2];
-    std::vector<float> nMax(nb, 0.0f), eMax(nb, 0.0f);
-    for (int k = 0; k < v.dims()[2]; ++k)
-        for (int j = 0; j < v.dims()[1]; ++j)
-            for (int i = 0; i < v.dims()[0]; ++i) {
-                const float* q = v.voxel(v.index(v.lo()[0] + i, v.lo()[1] + j, v.lo()[2] + k));
-                if (q[0] <= 0.0f && q[1] <= 0.0f) continue;
-                // Point (i,j,k) is a corner of cells i-1..i (per axis): blocks (i-1)/B and i/B.
-                for (int dk = -1; dk <= 0; ++dk)
-                    for (int dj = -1; dj <= 0; ++dj)
-                        for (int di = -1; di <= 0; ++di) {
-                            const int ci = i + di, cj = j + dj, ck = k + dk;
-                            if (ci < 0 || cj < 0 || ck < 0) continue;
-                            const int b = ps.blockIndex(ci / B, cj / B, ck / B);
-                            if (ci / B >= ps.blocks[0] || cj / B >= ps.blocks[1] ||
-                                ck / B >= ps.blocks[2]) {
-                                continue;
-                            }
-                            nMax[b] = std::max(nMax[b], q[0]);
-                            eMax[b] = std::max(eMax[b], q[1]);
-                        }
-            }
+    // Majorant per block of BLOCK^3 cells from the largest density (emission) at its cells'
+    // corners: the trilinear field inside a cell never exceeds its corners.
+    std::vector<std::array<float, 2>> maxima;
+    blockMaxima(v, ps.blocks, maxima);
+    const std::size_t nb = maxima.size();
     // Where there is gas, at least two tentative collisions per voxel length, so that the
     // collision estimator samples the emission finely enough to have little variance.
     const double emissionFloor = 2.0 / voxelWorld;
     ps.majorant.resize(nb);
     for (std::size_t b = 0; b < nb; ++b) {
         for (int c = 0; c < 3; ++c) {
-            double mu = scene.dust.kappa_V * scene.dust.r[c] * nMax[b];
-            if (eMax[b] > 0.0f) mu = std::max(mu, emissionFloor);
+            double mu = scene.dust.kappa_V * scene.dust.r[c] * maxima[b][0];
+            if (maxima[b][1] > 0.0f) mu = std::max(mu, emissionFloor);
             // A little headroom against float rounding of the trilinear interpolation.
             ps.majorant[b][c] = float(mu * (1.0 + 1e-5));
         }

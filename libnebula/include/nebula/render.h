@@ -127,6 +127,15 @@ struct RenderScene
 void buildOccupancy(const DenseVolume& v, std::array<int, 3>& blocks,
                     std::vector<std::uint8_t>& occupied);
 
+/// Per block of RenderScene::BLOCK^3 lattice cells: the largest channel 0 (density) and
+/// channel 1 (emission) at the corners of its cells, i.e. the largest values the trilinear
+/// fields take in the block (occupancy, and the path tracer's majorant).
+void blockMaxima(const DenseVolume& v, std::array<int, 3>& blocks,
+                 std::vector<std::array<float, 2>>& maxima);
+
+/// The edge of a cube of a voxel's volume: cbrt |det M| of the index-to-world map [pc].
+double voxelSize(const Affine& indexToWorld);
+
 /// Builds the scene from nebillum's output: density, emission (optional) and tau.<star> for
 /// every star in nebula:stars. Throws Error naming the file and grid on anything missing or
 /// inconsistent (no stars, a tau grid missing, kappa_V of a tau grid != the dust's), or if
