@@ -145,12 +145,20 @@ RenderScene buildScene(const GridSet& grids, const CommonOptions& common,
 
     scene.buildOccupancy();
 
-    if (opts.levels > 0 && !opts.phaseTable) {
+    int levelCount = opts.levels;
+    if (levelCount < 0) {  // auto: every level the input has, when there is a table
+        levelCount = 0;
+        while (opts.phaseTable &&
+               grids.find(common.densityGrid + ".L" + std::to_string(levelCount + 1))) {
+            ++levelCount;
+        }
+    }
+    if (levelCount > 0 && !opts.phaseTable) {
         throw UsageError("--levels needs a phase table (--phase): each level adds the change "
                          "of the per-voxel scattering Phi as the voxel doubles");
     }
     const Affine& a0 = scene.fields.indexToWorld;
-    for (int k = 1; k <= opts.levels; ++k) {
+    for (int k = 1; k <= levelCount; ++k) {
         const std::string suffix = ".L" + std::to_string(k);
         const std::string dName = common.densityGrid + suffix;
         if (!grids.find(dName)) {

@@ -92,7 +92,7 @@ void renderToFiles(const GridSet& grids, const CommonOptions& common, const Rend
          : opts.phaseTable
              ? std::string("effective phase function (") +
                    (opts.phaseUse == PhaseUse::Gain ? "gain" : "replace") + "), levels " +
-                   std::to_string(opts.levels)
+                   std::to_string(scene.levels.size())
              : "single-scattering"},
         {"nebula:units", "L_sun pc^-2 sr^-1"},
         {"nebula:dust", dust.toJson()},

@@ -69,7 +69,7 @@ TEST_F(RenderModes, PathTracerWritesMeanVarianceAndProvenance)
 TEST_F(RenderModes, LevelsAddLight)
 {
     makePyramid();
-    ASSERT_EQ(run("nebrender -i pyr.vdb --phase t.vdb --res 24x24 --no-stars -o l0.exr").code, 0);
+    ASSERT_EQ(run("nebrender -i pyr.vdb --phase t.vdb --levels 0 --res 24x24 --no-stars -o l0.exr").code, 0);
     const Result r =
         run("nebrender -i pyr.vdb --phase t.vdb --levels 2 --res 24x24 --no-stars -o l2.exr");
     ASSERT_EQ(r.code, 0) << r.err;
@@ -84,6 +84,10 @@ TEST_F(RenderModes, LevelsAddLight)
     EXPECT_GT(s2, s0);  // coarser voxels scatter more light out (gain > 1)
     EXPECT_NE(attrs["nebula:integrator"].find("levels 2"), std::string::npos);
     ASSERT_EQ(run("nebrender -i pyr.vdb --phase t.vdb --phase-use replace --res 24x24 -o r.exr").code, 0);
+    // By default, with a table, every level the input has (here 2).
+    ASSERT_EQ(run("nebrender -i pyr.vdb --phase t.vdb --res 24x24 --no-stars -o auto.exr").code, 0);
+    EXPECT_EQ(nebula::readExr(path("auto.exr"), nullptr).rgba, l2.rgba);
+    ASSERT_EQ(run("nebrender -i lit.vdb --phase t.vdb --res 24x24 --no-stars -o none.exr").code, 0);
 }
 
 TEST_F(RenderModes, BadCombinationsAndMissingLevels)

@@ -81,8 +81,8 @@ int main(int argc, char** argv)
         ->capture_default_str();
     app.add_option("--levels", opts.levels,
                    "Global scattering from nebpyramid's levels 1..K (needs --phase): each adds\n"
-                   "the change of the voxel scattering as the voxel doubles")
-        ->capture_default_str()
+                   "the change of the voxel scattering as the voxel doubles (default: with\n"
+                   "--phase, every level the input has; 0: none)")
         ->check(CLI::Range(0, 16));
     std::string integrator = "fast";
     app.add_option("--integrator", integrator,

@@ -78,8 +78,10 @@ struct RenderOptions
     PhaseUse phaseUse = PhaseUse::Gain;
     /// Multi-resolution global scattering (DESIGN §5): pyramid levels 1..levels (nebpyramid's
     /// density.L<k>, tau.<star>.L<k>) each add the change of the per-voxel scattering when
-    /// the voxel doubles, see renderFrame(). 0: level 0 only. Needs a phase table.
-    int levels = 0;
+    /// the voxel doubles, see renderFrame(). 0: level 0 only; > 0 needs a phase table.
+    /// -1 (auto): with a phase table, every level the input has (L1, L2, ... while they
+    /// last); without one, none.
+    int levels = -1;
 };
 
 /// One pyramid level's fields for the fast integrator: channels as RenderScene::fields
