@@ -278,14 +278,14 @@ Image renderPathTraced(const RenderScene& scene, const RenderOptions& opts, cons
     Progress bar(run ? *run : Run("nebrender", "", CommonOptions{}), "nebrender path",
                  std::uint64_t(H));
     tbb::parallel_for(tbb::blocked_range<int>(0, H, 1), [&](const tbb::blocked_range<int>& rows) {
-        std::vector<double> Ls(S * 3);
+        std::vector<double> Ls(S * 3), starSum(S * 3);
         std::uint64_t collisions = 0, paths = 0;
         for (int py = rows.begin(); py != rows.end(); ++py) {
             for (int px = 0; px < W; ++px) {
                 const std::size_t pix = std::size_t(py) * W + px;
                 const Vec3 d = cam.direction(px + 0.5, py + 0.5);
                 double mean[3] = {0, 0, 0}, m2[3] = {0, 0, 0}, trans[3] = {0, 0, 0};
-                std::vector<double> starSum(S * 3, 0.0);
+                std::fill(starSum.begin(), starSum.end(), 0.0);
                 for (int sample = 0; sample < opts.spp; ++sample) {
                     // One stream per (pixel, sample); the seed picks the family.
                     Pcg32 rng(pix * 0x9E3779B97F4A7C15ULL + std::uint64_t(sample),

@@ -196,7 +196,6 @@ RenderScene buildScene(const GridSet& grids, const CommonOptions& common,
                         std::to_string(1 << k) + " times those of \"" + common.densityGrid +
                         "\" (level " + std::to_string(k) + "); rebuild the levels with nebpyramid");
         }
-        buildOccupancy(level.fields, level.blocks, level.occupied);
         scene.levels.push_back(std::move(level));
     }
     return scene;
@@ -233,17 +232,6 @@ void blockMaxima(const DenseVolume& v, std::array<int, 3>& blocks,
     }
 }
 
-void buildOccupancy(const DenseVolume& v, std::array<int, 3>& blocks,
-                    std::vector<std::uint8_t>& occupied)
-{
-    // A lattice cell is occupied if any of its 8 corners has dust or emission.
-    std::vector<std::array<float, 2>> maxima;
-    blockMaxima(v, blocks, maxima);
-    occupied.resize(maxima.size());
-    for (std::size_t b = 0; b < maxima.size(); ++b) {
-        occupied[b] = maxima[b][0] > 0.0f || maxima[b][1] > 0.0f;
-    }
-}
 
 double voxelSize(const Affine& indexToWorld)
 {
@@ -255,7 +243,13 @@ double voxelSize(const Affine& indexToWorld)
 
 void RenderScene::buildOccupancy()
 {
-    nebula::buildOccupancy(fields, blocks, occupied);
+    // A lattice cell is occupied if any of its 8 corners has dust or emission.
+    std::vector<std::array<float, 2>> maxima;
+    blockMaxima(fields, blocks, maxima);
+    occupied.resize(maxima.size());
+    for (std::size_t b = 0; b < maxima.size(); ++b) {
+        occupied[b] = maxima[b][0] > 0.0f || maxima[b][1] > 0.0f;
+    }
 }
 
 void drawStarSprites(Image& img, const RenderScene& scene, const RenderOptions& opts)
@@ -404,8 +398,16 @@ Image renderFrame(const RenderScene& scene, const RenderOptions& opts, const Run
 
     const auto& dust = scene.dust;
     const Marcher level0(scene.fields, scene.blocks, scene.occupied, cam.eye);
-    std::vector<Marcher> levels;
-    for (const auto& lv : scene.levels) levels.emplace_back(lv.fields, lv.blocks, lv.occupied, cam.eye);
+    // Pyramid levels: world -> index map and voxel size of each.
+    struct LevelMap
+    {
+        Affine w2i;
+        double voxelWorld;
+    };
+    std::vector<LevelMap> levels;
+    for (const auto& lv : scene.levels) {
+        levels.push_back({lv.fields.indexToWorld.inverse(), voxelSize(lv.fields.indexToWorld)});
+    }
     const double rmin2 = std::pow(opts.minStarDistance * level0.voxelWorld, 2);
     const int C = scene.fields.channels();
     std::vector<Vec3> starPos;
@@ -522,7 +524,7 @@ Image renderFrame(const RenderScene& scene, const RenderOptions& opts, const Run
                             // star's irradiance through level k's optical depth.
                             for (std::size_t k = 0; k < levels.size(); ++k) {
                                 if (tm < nextT[k]) continue;
-                                const Marcher& lv = levels[k];
+                                const LevelMap& lv = levels[k];
                                 nextT[k] = tm + opts.step * lv.voxelWorld;
                                 scene.levels[k].fields.sample(lv.w2i.apply(xW), fk.data());
                                 ++samples;

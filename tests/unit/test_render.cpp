@@ -228,7 +228,6 @@ TEST(Render, PyramidLevelAddsTheGainOfDoubledVoxels)
                 }
                 level.fields.voxel(level.fields.index(i, j, k))[0] = float(sum / 8.0);
             }
-    buildOccupancy(level.fields, level.blocks, level.occupied);
     scene.levels.push_back(std::move(level));
 
     auto table = std::make_shared<PhaseTable>();

@@ -85,13 +85,12 @@ struct RenderOptions
 };
 
 /// One pyramid level's fields for the fast integrator: channels as RenderScene::fields
-/// (0 density, 1 emission = 0, 2 + s tau_V of star s), voxel 2^level times level 0's.
+/// (0 density, 1 emission = 0, 2 + s tau_V of star s), voxel 2^level times level 0's. Levels
+/// are looked up at level-0 samples, never marched, so they need no occupancy.
 struct RenderLevel
 {
     int level = 0;
     DenseVolume fields;
-    std::array<int, 3> blocks{0, 0, 0};
-    std::vector<std::uint8_t> occupied;
 };
 
 /// The per-channel dust numbers the kernel uses.
@@ -123,11 +122,6 @@ struct RenderScene
     /// Pyramid levels 1..K (empty without RenderOptions::levels).
     std::vector<RenderLevel> levels;
 };
-
-/// Coarse occupancy of @p v: block (bi,bj,bk) of RenderScene::BLOCK^3 lattice cells holds a
-/// lattice point with channel 0 or 1 > 0 at one of its cells' corners.
-void buildOccupancy(const DenseVolume& v, std::array<int, 3>& blocks,
-                    std::vector<std::uint8_t>& occupied);
 
 /// Per block of RenderScene::BLOCK^3 lattice cells: the largest channel 0 (density) and
 /// channel 1 (emission) at the corners of its cells, i.e. the largest values the trilinear
