@@ -1,11 +1,12 @@
 /// @file stars.cpp
 /// Stars (DESIGN §2-3): the `nebula:stars` JSON, spectral class -> temperature, Planck's law
-/// and black-body colours in linear sRGB.
+/// and black-body colours in linear sRGB (through the shipped CIE 1931 table, colour.h).
 
 #include "nebula/stars.h"
 
 #include "json_parse.h"
 
+#include "nebula/colour.h"
 #include "nebula/error.h"
 
 #include <nlohmann/json.hpp>
@@ -15,7 +16,6 @@
 #include <cmath>
 #include <cstdlib>
 #include <iterator>
-#include <limits>
 #include <map>
 #include <sstream>
 #include <string>
@@ -76,32 +76,6 @@ Error badSpectralClass(const std::string& spectralClass, const std::string& why)
                  "; expected a main-sequence class O5-M5 such as \"B3V\" or \"G2\": a letter "
                  "OBAFGKM, a subclass 0-9 (decimals like \"B0.5\" allowed), and an optional "
                  "luminosity class V, IV, III, II, I, Iab, Ia or Ib");
-}
-
-// ---------------------------------------------------------------------------------------------
-// CIE 1931 2-degree colour-matching functions.
-
-/// Piecewise Gaussian g(lambda; mu, sigma1, sigma2) of the multi-lobe fit: width sigma1
-/// left of the peak, sigma2 right of it.
-inline double lobe(double lambda_nm, double mu, double sigma1, double sigma2)
-{
-    const double t = (lambda_nm - mu) / (lambda_nm < mu ? sigma1 : sigma2);
-    return std::exp(-0.5 * t * t);
-}
-
-/// CIE 1931 2-degree colour-matching functions x̄, ȳ, z̄ at @p lambda_nm [nm]: the
-/// multi-lobe piecewise-Gaussian fit of Wyman, Sloan & Shirley, "Simple Analytic
-/// Approximations to the CIE XYZ Color Matching Functions", JCGT 2(2), 2013, eq. 2. No
-/// Debian 12 or npm package offered the tabulated CMFs when this was written; the fit
-/// follows the tabulated 1 nm data closely enough for star colours.
-std::array<double, 3> cie1931(double lambda_nm)
-{
-    const double l = lambda_nm;
-    const double x = 1.056 * lobe(l, 599.8, 37.9, 31.0) + 0.362 * lobe(l, 442.0, 16.0, 26.7) -
-                     0.065 * lobe(l, 501.1, 20.4, 26.2);
-    const double y = 0.821 * lobe(l, 568.8, 46.9, 40.5) + 0.286 * lobe(l, 530.9, 16.3, 31.1);
-    const double z = 1.217 * lobe(l, 437.0, 11.8, 36.0) + 0.681 * lobe(l, 459.0, 26.0, 13.8);
-    return {x, y, z};
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -226,45 +200,17 @@ std::array<double, 3> blackbodyLinearSRGB(double T)
                     numberText(T));
     }
 
-    // Planck spectrum over 360-830 nm at 1 nm, relative to its largest sample: computed in
-    // logarithms, so that neither very cold nor very hot bodies under- or overflow.
-    constexpr int LAMBDA_MIN_NM = 360;
-    constexpr int LAMBDA_MAX_NM = 830;
-    constexpr int N = LAMBDA_MAX_NM - LAMBDA_MIN_NM + 1;
-    std::array<double, N> logB{};
-    double logBMax = -std::numeric_limits<double>::infinity();
-    for (int i = 0; i < N; ++i) {
-        const double lambda_m = (LAMBDA_MIN_NM + i) * 1e-9;
-        const double x = PLANCK_H * SPEED_OF_LIGHT / (lambda_m * BOLTZMANN_K * T);
-        // log(1 / (e^x - 1)) = -x - log(1 - e^-x)
-        logB[i] = -5.0 * std::log(lambda_m) - x - std::log1p(-std::exp(-x));
-        logBMax = std::max(logBMax, logB[i]);
-    }
-
-    // XYZ = integral of B * CMF (trapezoid rule, 1 nm steps).
-    double X = 0.0;
-    double Y = 0.0;
-    double Z = 0.0;
-    for (int i = 0; i < N; ++i) {
-        const double weight = (i == 0 || i == N - 1) ? 0.5 : 1.0;
-        const double B = weight * std::exp(logB[i] - logBMax);
-        const auto cmf = cie1931(LAMBDA_MIN_NM + i);
-        X += B * cmf[0];
-        Y += B * cmf[1];
-        Z += B * cmf[2];
-    }
-
-    // XYZ (Y = 1) -> linear sRGB, IEC 61966-2-1 matrix (D65 white).
-    X /= Y;
-    Z /= Y;
-    Y = 1.0;
-    std::array<double, 3> rgb = {3.2406 * X - 1.5372 * Y - 0.4986 * Z,
-                                 -0.9689 * X + 1.8758 * Y + 0.0415 * Z,
-                                 0.0557 * X - 0.2040 * Y + 1.0570 * Z};
+    // XYZ: Planck's law integrated against the shipped CIE 1931 table (colour.h), in scaled
+    // form so that neither very cold nor very hot bodies under- or overflow; then Y = 1.
+    double logScale = 0.0;
+    XYZ xyz = blackbodyXYZScaled(T, logScale);
+    xyz = {xyz[0] / xyz[1], 1.0, xyz[2] / xyz[1]};
+    std::array<double, 3> rgb = xyzToLinearSRGB(xyz);
 
     // Below about 1900 K the black body lies outside the sRGB gamut (blue < 0): clip the
     // negative channel, since negative light has no meaning to a renderer, and restore the
-    // luminance (Rec. 709 / sRGB weights) to 1.
+    // luminance (Rec. 709 / sRGB weights) to 1. These 4-digit weights differ from the Y row
+    // of the matrix (0.2126729, 0.7151522, 0.0721750) by < 1e-4, so Y is 1 within 4e-4 here.
     if (rgb[0] < 0.0 || rgb[1] < 0.0 || rgb[2] < 0.0) {
         for (double& c : rgb) {
             c = std::max(c, 0.0);

@@ -42,10 +42,11 @@ double spectralClassTemperature(const std::string& spectralClass);
 double planck(double lambda_m, double T);
 
 /// Linear sRGB (IEC 61966-2-1, D65) colour of a black body at @p T [K], normalised to
-/// luminance Y = 1 (DESIGN §3): Planck's law integrated against the CIE 1931 2-degree
-/// colour-matching functions over 360-830 nm. Below about 1900 K, where the black body is
-/// outside the sRGB gamut, the negative channel is clipped to 0 and Y restored to 1.
-/// Throws Error unless T is a finite number > 0.
+/// luminance Y = 1 (DESIGN §3): Planck's law integrated against the shipped CIE 1931
+/// 2-degree colour-matching function table over 360-830 nm (blackbodyXYZScaled(), then
+/// xyzToLinearSRGB(), colour.h). Below about 1900 K, where the black body is outside the
+/// sRGB gamut, the negative channel is clipped to 0 and the luminance restored to 1 (Rec.
+/// 709 weights 0.2126, 0.7152, 0.0722). Throws Error unless T is a finite number > 0.
 std::array<double, 3> blackbodyLinearSRGB(double T);
 
 } // namespace nebula
