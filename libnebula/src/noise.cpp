@@ -88,6 +88,29 @@ inline double unitDouble(std::uint64_t bits)
 /// seeds (the noise repeats every 256 units), small enough to keep double precision.
 constexpr double OFFSET_RANGE = 4096.0;
 
+void validateFbm(const FbmParams& params)
+{
+    if (params.octaves < 1 || params.octaves > 16) {
+        throw UsageError("fbm: octaves must be in [1, 16], got " +
+                         std::to_string(params.octaves));
+    }
+    if (!(params.lacunarity > 0.0) || !std::isfinite(params.lacunarity)) {
+        throw UsageError("fbm: lacunarity must be a finite number > 0, got " +
+                         std::to_string(params.lacunarity));
+    }
+    if (!(params.gain > 0.0) || !std::isfinite(params.gain)) {
+        throw UsageError("fbm: gain must be a finite number > 0, got " +
+                         std::to_string(params.gain));
+    }
+}
+
+/// Derivative of fade(): 30 t^4 - 60 t^3 + 30 t^2.
+inline double fadeDerivative(double t)
+{
+    const double s = t * (t - 1.0);
+    return 30.0 * s * s;
+}
+
 } // namespace
 
 double perlinNoise(double x, double y, double z)
@@ -133,18 +156,7 @@ double perlinNoise(double x, double y, double z)
 
 double fbm(double x, double y, double z, const FbmParams& params, std::uint64_t seed)
 {
-    if (params.octaves < 1 || params.octaves > 16) {
-        throw UsageError("fbm: octaves must be in [1, 16], got " +
-                         std::to_string(params.octaves));
-    }
-    if (!(params.lacunarity > 0.0) || !std::isfinite(params.lacunarity)) {
-        throw UsageError("fbm: lacunarity must be a finite number > 0, got " +
-                         std::to_string(params.lacunarity));
-    }
-    if (!(params.gain > 0.0) || !std::isfinite(params.gain)) {
-        throw UsageError("fbm: gain must be a finite number > 0, got " +
-                         std::to_string(params.gain));
-    }
+    validateFbm(params);
 
     // Sum of octaves, each shifted by its own offset drawn from the seed's splitmix64 stream.
     std::uint64_t state = seed;
@@ -162,6 +174,113 @@ double fbm(double x, double y, double z, const FbmParams& params, std::uint64_t 
         frequency *= params.lacunarity;
     }
     return sum / amplitudeSum;
+}
+
+NoiseGradient perlinNoiseGradient(double x, double y, double z)
+{
+    const auto& p = TABLE.p;
+    NoiseGradient out;
+    if (!(std::isfinite(x) && std::isfinite(y) && std::isfinite(z))) {
+        const double nan = std::numeric_limits<double>::quiet_NaN();
+        out.value = nan;
+        out.gradient = {nan, nan, nan};
+        return out;
+    }
+
+    // Cube, hashes and fades exactly as in perlinNoise().
+    const double fx = std::floor(x);
+    const double fy = std::floor(y);
+    const double fz = std::floor(z);
+    const int X = static_cast<int>(std::fmod(fx, 256.0)) & 255;
+    const int Y = static_cast<int>(std::fmod(fy, 256.0)) & 255;
+    const int Z = static_cast<int>(std::fmod(fz, 256.0)) & 255;
+    x -= fx;
+    y -= fy;
+    z -= fz;
+    const double u = fade(x);
+    const double v = fade(y);
+    const double w = fade(z);
+    const int A = p[X] + Y;
+    const int AA = p[A] + Z;
+    const int AB = p[A + 1] + Z;
+    const int B = p[X + 1] + Y;
+    const int BA = p[B] + Z;
+    const int BB = p[B + 1] + Z;
+
+    // Corner hashes, indexed by (dx + 2 dy + 4 dz), and their dot products g.
+    const int h[8] = {p[AA], p[BA], p[AB], p[BB], p[AA + 1], p[BA + 1], p[AB + 1], p[BB + 1]};
+    double g[8];
+    for (int c = 0; c < 8; ++c) {
+        g[c] = grad(h[c], x - (c & 1), y - ((c >> 1) & 1), z - ((c >> 2) & 1));
+    }
+    out.value = lerp(w, lerp(v, lerp(u, g[0], g[1]), lerp(u, g[2], g[3])),
+                     lerp(v, lerp(u, g[4], g[5]), lerp(u, g[6], g[7])));
+
+    // d/dx of the blend = fade'(x) d(blend)/du + sum of blend weights times the corners'
+    // gradient vectors (grad() is linear in its offset, so its unit-vector values give them).
+    const double k1 = g[1] - g[0];
+    const double k2 = g[2] - g[0];
+    const double k3 = g[4] - g[0];
+    const double k4 = g[0] - g[1] - g[2] + g[3];
+    const double k5 = g[0] - g[2] - g[4] + g[6];
+    const double k6 = g[0] - g[1] - g[4] + g[5];
+    const double k7 = -g[0] + g[1] + g[2] - g[3] + g[4] - g[5] - g[6] + g[7];
+    const double dBlend[3] = {k1 + k4 * v + k6 * w + k7 * v * w,
+                              k2 + k4 * u + k5 * w + k7 * u * w,
+                              k3 + k5 * v + k6 * u + k7 * u * v};
+    const double dFade[3] = {fadeDerivative(x), fadeDerivative(y), fadeDerivative(z)};
+    for (int a = 0; a < 3; ++a) {
+        double G[8];
+        for (int c = 0; c < 8; ++c) {
+            G[c] = grad(h[c], a == 0 ? 1.0 : 0.0, a == 1 ? 1.0 : 0.0, a == 2 ? 1.0 : 0.0);
+        }
+        const double weighted = lerp(w, lerp(v, lerp(u, G[0], G[1]), lerp(u, G[2], G[3])),
+                                     lerp(v, lerp(u, G[4], G[5]), lerp(u, G[6], G[7])));
+        out.gradient[a] = dFade[a] * dBlend[a] + weighted;
+    }
+    return out;
+}
+
+NoiseGradient fbmGradient(double x, double y, double z, const FbmParams& params,
+                          std::uint64_t seed)
+{
+    validateFbm(params);
+    // The same sum as fbm(), with the chain rule's factor `frequency` on each gradient.
+    std::uint64_t state = seed;
+    NoiseGradient sum;
+    double amplitudeSum = 0.0;
+    double amplitude = 1.0;
+    double frequency = 1.0;
+    for (int i = 0; i < params.octaves; ++i) {
+        const double ox = OFFSET_RANGE * unitDouble(splitmix64(state));
+        const double oy = OFFSET_RANGE * unitDouble(splitmix64(state));
+        const double oz = OFFSET_RANGE * unitDouble(splitmix64(state));
+        const NoiseGradient n =
+            perlinNoiseGradient(frequency * x + ox, frequency * y + oy, frequency * z + oz);
+        sum.value += amplitude * n.value;
+        for (int a = 0; a < 3; ++a) sum.gradient[a] += amplitude * frequency * n.gradient[a];
+        amplitudeSum += amplitude;
+        amplitude *= params.gain;
+        frequency *= params.lacunarity;
+    }
+    sum.value /= amplitudeSum;
+    for (auto& d : sum.gradient) d /= amplitudeSum;
+    return sum;
+}
+
+std::array<double, 3> curlNoise(double x, double y, double z, const FbmParams& params,
+                                std::uint64_t seed)
+{
+    // Three decorrelated seeds for the potential's components, from their own stream.
+    std::uint64_t state = seed ^ 0x6A09E667F3BCC909ull;
+    const std::uint64_t s0 = splitmix64(state);
+    const std::uint64_t s1 = splitmix64(state);
+    const std::uint64_t s2 = splitmix64(state);
+    const auto psi0 = fbmGradient(x, y, z, params, s0).gradient;
+    const auto psi1 = fbmGradient(x, y, z, params, s1).gradient;
+    const auto psi2 = fbmGradient(x, y, z, params, s2).gradient;
+    // curl psi = (d psi2/dy - d psi1/dz, d psi0/dz - d psi2/dx, d psi1/dx - d psi0/dy).
+    return {psi2[1] - psi1[2], psi0[2] - psi2[0], psi1[0] - psi0[1]};
 }
 
 } // namespace nebula

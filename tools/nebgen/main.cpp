@@ -1,7 +1,35 @@
-// nebgen - procedural reflection nebula: fBm dust density, gas emission, stars.
+// nebgen - procedural reflection nebula: fBm dust density, gas emission, stars, and with
+// --spectral temperature, velocity and [O III] emission.
 #include "nebula/cli.h"
+#include "nebula/error.h"
 #include "nebula/generate.h"
 #include "nebula/options.h"
+
+#include <cstdio>
+#include <string>
+#include <vector>
+
+namespace {
+
+/// The catalogue's names with their wavelengths, wrapped for --help.
+std::string knownLinesHelp()
+{
+    std::string out, row = " ";
+    for (const auto& name : nebula::knownLines()) {
+        char wl[32];
+        std::snprintf(wl, sizeof wl, " %.2f", nebula::lineWavelength(name));
+        const std::string item = " " + name + wl + ",";
+        if (row.size() + item.size() > 80) {
+            out += row + "\n";
+            row = " ";
+        }
+        row += item;
+    }
+    row.back() = '\n';
+    return out + row;
+}
+
+} // namespace
 
 int main(int argc, char** argv)
 {
@@ -10,16 +38,43 @@ int main(int argc, char** argv)
     nebula::StarOptions starOpts;
     nebula::DustOptions dustOpts;
     bool noStars = false;
+    std::string lines = nebula::lineListToString(params.lines);
+    std::string shape = "sphere";
+    std::string rotationAxis = "0,1,0";
+    std::string centre;
 
-    CLI::App app{"nebgen - generate a procedural nebula (dust density, gas emission, stars)\n\n"
-                 "Examples:\n"
-                 "  nebgen -o nebula.vdb                         # the README's example nebula\n"
-                 "  nebgen --res 256 --seed 7 --cavity 0.5 -o big.vdb\n"
-                 "  nebgen --star a:0,0,0:5000:O9V --star b:2,1,0:30:A0V -o two.vdb\n"
-                 "  nebgen -o - | nebillum -i - -o - | nebrender -i - -o frame.exr\n\n"
-                 "Grids: density (n_H [cm^-3], fog volume), emission (linear units).\n"
-                 "Metadata: nebula:stars (JSON), nebula:dust (JSON). Next step: nebillum.",
-                 "nebgen"};
+    const std::string description =
+        std::string(
+            "nebgen - generate a procedural nebula (dust density, gas emission, stars)\n\n"
+            "Examples:\n"
+            "  nebgen -o nebula.vdb                         # the README's example nebula\n"
+            "  nebgen --res 256 --seed 7 --cavity 0.5 -o big.vdb\n"
+            "  nebgen --star a:0,0,0:5000:O9V --star b:2,1,0:30:A0V -o two.vdb\n"
+            "  nebgen -o - | nebillum -i - -o - | nebrender -i - -o frame.exr\n"
+            "  nebgen --spectral --expansion 40 --emission-shape shell -o shell.vdb\n"
+            "  nebgen --spectral --rotation 20 --rotation-axis 0,0,1 --turbulence 5 \\\n"
+            "         --oiii 0.5 --gas-temperature 8000 \\\n"
+            "         --lines 'H-alpha,H-beta:0.35,[N II]6583:0.3' -o spec.vdb\n\n"
+            "Grids: density (n_H [cm^-3], fog volume), emission (linear units; its lines\n"
+            "in the grid metadata nebula:lines).\n"
+            "With --spectral also:\n"
+            "  temperature [K]: dust in radiative equilibrium with the unattenuated stars,\n"
+            "    T = 16.4 K (1 + U)^(1/6), U = sum_s L_s / (4 pi r_s^2 c u_ISRF),\n"
+            "    u_ISRF = 8.64e-13 erg cm^-3, r_s >= half a voxel (Draine 2011,\n"
+            "    eqs. 24.19-24.20, 0.1 um grains); --gas-temperature K sets T = K where\n"
+            "    emission > 0. On every voxel with dust or emission.\n"
+            "  velocity [km/s], world axes, same voxels: expansion v = E (x - c) / R,\n"
+            "    rotation v = W (axis x (x - c)) / R (right-handed), plus divergence-free\n"
+            "    curl-noise turbulence of RMS speed --turbulence over the cube;\n"
+            "    c = --motion-centre, R = --motion-radius. Blender reads `velocity` for\n"
+            "    motion blur in scene units (pc) per second: keep motion blur off.\n"
+            "  emission.oiii with --oiii R: the [O III] 5007/4959 doublet, R times emission\n"
+            "    in the inner part of the ionised region (1 inside 50%, 0 beyond 80% of the\n"
+            "    emission's radial extent, measured from the motion centre).\n"
+            "Lines (case-sensitive; or a rest wavelength in nm such as 587.56):\n") +
+        knownLinesHelp() +
+        "Metadata: nebula:stars (JSON), nebula:dust (JSON). Next step: nebillum.";
+    CLI::App app{description, "nebgen"};
     nebula::cli::addCommon(app, common, nebula::cli::OUTPUT);
     app.add_option("--res", params.res, "Voxels along each axis")->capture_default_str();
     app.add_option("--size", params.size, "Edge length of the cube [pc]")->capture_default_str();
@@ -53,8 +108,108 @@ int main(int argc, char** argv)
     app.add_flag("--no-stars", noStars, "No stars (default: the example's two stars)");
     nebula::cli::addDust(app, dustOpts);
 
+    // Emission lines and shape (with or without --spectral).
+    const std::string emissionGroup = "Emission lines and shape";
+    app.add_option("--lines", lines,
+                   "Lines of the emission grid, NAME[:STRENGTH],... (metadata nebula:lines; "
+                   "Case B H-alpha/H-beta = 2.86 by default)")
+        ->capture_default_str()
+        ->group(emissionGroup);
+    app.add_option("--emission-shape", shape,
+                   "sphere (about the cube centre) or shell (radius --emission-radius about "
+                   "the motion centre)")
+        ->capture_default_str()
+        ->check(CLI::IsMember({"sphere", "shell"}))
+        ->group(emissionGroup);
+    auto* shellWidth = app.add_option("--shell-width", params.shellWidth,
+                                      "Shell thickness (FWHM) relative to its radius, (0, 1]")
+                           ->capture_default_str()
+                           ->group(emissionGroup);
+    auto* motionCentre = app.add_option("--motion-centre", centre,
+                                        "X,Y,Z [pc]: centre of the motion, the shell and the "
+                                        "[O III] zone (default: the first star, or 0,0,0)")
+                             ->group(emissionGroup);
+
+    // Spectral grids.
+    const std::string spectralGroup = "Spectral grids (temperature, velocity, [O III])";
+    app.add_flag("--spectral", params.spectral.enabled,
+                 "Also write the temperature and velocity grids")
+        ->group(spectralGroup);
+    std::vector<CLI::Option*> spectralOnly;
+    spectralOnly.push_back(
+        app.add_option("--gas-temperature", params.spectral.gasTemperature,
+                       "Ionised-gas temperature [K] where emission > 0 (e.g. 8000; 0: dust "
+                       "temperature everywhere)")
+            ->capture_default_str()
+            ->group(spectralGroup));
+    spectralOnly.push_back(
+        app.add_option("--expansion", params.spectral.motion.expansion,
+                       "Homologous expansion speed [km/s] at --motion-radius (negative: "
+                       "contraction)")
+            ->capture_default_str()
+            ->group(spectralGroup));
+    spectralOnly.push_back(
+        app.add_option("--rotation", params.spectral.motion.rotation,
+                       "Solid-body rotation speed [km/s] at --motion-radius from the axis "
+                       "(positive: counter-clockwise seen from +axis)")
+            ->capture_default_str()
+            ->group(spectralGroup));
+    spectralOnly.push_back(app.add_option("--rotation-axis", rotationAxis,
+                                          "X,Y,Z: rotation axis (any length)")
+                               ->capture_default_str()
+                               ->group(spectralGroup));
+    spectralOnly.push_back(
+        app.add_option("--turbulence", params.spectral.motion.turbulence,
+                       "RMS speed [km/s] of divergence-free curl-noise turbulence "
+                       "(Kolmogorov-like octaves)")
+            ->capture_default_str()
+            ->group(spectralGroup));
+    spectralOnly.push_back(app.add_option("--turbulence-frequency",
+                                          params.spectral.motion.turbulenceFrequency,
+                                          "Turbulence features across the cube")
+                               ->capture_default_str()
+                               ->group(spectralGroup));
+    spectralOnly.push_back(
+        app.add_option("--motion-radius", params.motionRadius,
+                       "Distance [pc] at which --expansion and --rotation are reached "
+                       "(default: --emission-radius times --size)")
+            ->group(spectralGroup));
+    spectralOnly.push_back(
+        app.add_option("--oiii", params.spectral.oiii,
+                       "Also write emission.oiii ([O III] 5007/4959 = 2.98) at this strength "
+                       "relative to emission, in the inner ionised region (0: none)")
+            ->capture_default_str()
+            ->group(spectralGroup));
+
     return nebula::cli::run(app, "nebgen", common, argc, argv, [&](nebula::Run& run) {
         nebula::cli::refuseBinaryToTerminal(common.output, "-o");
+        params.emissionShape =
+            shape == "shell" ? nebula::EmissionShape::Shell : nebula::EmissionShape::Sphere;
+        if (!params.spectral.enabled) {
+            for (const auto* opt : spectralOnly) {
+                if (opt->count() > 0) {
+                    throw nebula::UsageError(opt->get_name() + " needs --spectral");
+                }
+            }
+            if (motionCentre->count() > 0 && params.emissionShape != nebula::EmissionShape::Shell) {
+                throw nebula::UsageError(
+                    "--motion-centre needs --spectral or --emission-shape shell");
+            }
+        }
+        if (shellWidth->count() > 0 && params.emissionShape != nebula::EmissionShape::Shell) {
+            throw nebula::UsageError("--shell-width needs --emission-shape shell");
+        }
+        try {
+            params.lines = nebula::parseLineList(lines, "--lines");
+        } catch (const nebula::UsageError&) {
+            throw;
+        } catch (const nebula::Error& e) {
+            throw nebula::UsageError(e.what());
+        }
+        if (motionCentre->count() > 0) {
+            params.motionCentre = nebula::cli::parseVec3(centre, "--motion-centre");
+        }
+        params.spectral.motion.axis = nebula::cli::parseVec3(rotationAxis, "--rotation-axis");
         params.stars = nebula::cli::loadStars(starOpts);
         if (params.stars.empty() && !noStars) params.stars = nebula::exampleStars();
         params.dust = dustOpts.apply(params.dust);

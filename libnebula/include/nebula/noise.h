@@ -3,6 +3,7 @@
 /// Ken Perlin's improved noise (SIGGRAPH 2002, with his permutation table) and fractal
 /// Brownian motion built on it. Used by nebgen for dust density and gas emission.
 
+#include <array>
 #include <cstdint>
 
 namespace nebula {
@@ -27,5 +28,33 @@ struct FbmParams
 /// Throws UsageError naming the parameter if octaves is outside [1, 16] or lacunarity or
 /// gain is not a finite number > 0.
 double fbm(double x, double y, double z, const FbmParams& params, std::uint64_t seed);
+
+/// A noise value and its gradient d/d(x, y, z).
+struct NoiseGradient
+{
+    double value = 0.0;
+    std::array<double, 3> gradient{0, 0, 0};
+};
+
+/// perlinNoise() and its analytic gradient: the chain rule through the fade curves
+/// (fade'(t) = 30 t^2 (t - 1)^2) and the corners' gradient dot products, no finite
+/// differences. The value is computed exactly as perlinNoise() computes it. Improved noise
+/// is C2 (the quintic fade has zero second derivatives at the lattice planes), so the
+/// gradient is continuous. NaN if a coordinate is not finite.
+NoiseGradient perlinNoiseGradient(double x, double y, double z);
+
+/// fbm() and its analytic gradient (same octaves, offsets and normalisation; the value
+/// equals fbm()'s). Throws UsageError as fbm() does.
+NoiseGradient fbmGradient(double x, double y, double z, const FbmParams& params,
+                          std::uint64_t seed);
+
+/// Curl noise (Bridson, Hourihan & Nordenstam 2007, "Curl-noise for procedural fluid
+/// flow", SIGGRAPH): the curl of a vector potential psi whose three components are fBm
+/// fields with decorrelated seeds derived from @p seed, v = curl psi. Computed from the
+/// analytic gradients, so div v = 0 up to rounding (psi is C2, its mixed second
+/// derivatives agree); the field is in noise units (per unit of x, y, z), unnormalised.
+/// Throws UsageError as fbm() does.
+std::array<double, 3> curlNoise(double x, double y, double z, const FbmParams& params,
+                                std::uint64_t seed);
 
 } // namespace nebula
