@@ -168,6 +168,11 @@ double samplePhaseCosine(PhaseModel model, double g, double u)
     throw Error("unknown PhaseModel value " + std::to_string(static_cast<int>(model)));
 }
 
+double extinctionRatio(const DustParams& dust, double lambda_nm)
+{
+    return dust.curve == "grey" ? 1.0 : ccmExtinction(lambda_nm, dust.R_V);
+}
+
 double ccmExtinction(double lambda_nm, double R_V)
 {
     // Cardelli, Clayton & Mathis 1989, ApJ 345, 245, eqs. 2-4: A/A_V = a(x) + b(x)/R_V with
@@ -232,8 +237,9 @@ void DustParams::validate() const
         throw UsageError("dust parameter R_V must be a finite number > 0, got " +
                          numberText(R_V));
     }
-    if (curve != "CCM89") {
-        throw UsageError("dust parameter curve must be \"CCM89\", got \"" + curve + "\"");
+    if (curve != "CCM89" && curve != "grey") {
+        throw UsageError("dust parameter curve must be \"CCM89\" or \"grey\", got \"" + curve +
+                         "\"");
     }
     if (phase != PhaseModel::HenyeyGreenstein && phase != PhaseModel::Rayleigh &&
         phase != PhaseModel::MieHazy && phase != PhaseModel::MieMurky) {

@@ -67,6 +67,16 @@ void validateImage(const std::string& where, const Image& image, bool withLayers
                         std::to_string(n * 3));
         }
     }
+    for (const ImageChannel& ch : image.channels) {
+        if (ch.name.empty()) throw Error(where + ": image channel with an empty name");
+        if (!names.insert(ch.name).second) {
+            throw Error(where + ": image channel \"" + ch.name + "\" appears twice");
+        }
+        if (ch.values.size() != n) {
+            throw Error(where + ": channel \"" + ch.name + "\" has " +
+                        std::to_string(ch.values.size()) + " floats, expected " + std::to_string(n));
+        }
+    }
 }
 
 /// An Imf::OStream over a FILE* that remembers its first failure. OutputFile's destructor
@@ -229,6 +239,11 @@ void writeExr(const std::string& path, const Image& image,
                                            rgbY));
             }
         }
+        for (const ImageChannel& ch : image.channels) {
+            header.channels().insert(ch.name, Imf::Channel(Imf::FLOAT));
+            fb.insert(ch.name, Imf::Slice(Imf::FLOAT, sliceBase(ch.values.data()), sizeof(float),
+                                          sizeof(float) * std::size_t(image.width)));
+        }
         for (const auto& [key, value] : attributes) {
             header.insert(key, Imf::StringAttribute(value));
         }
@@ -309,6 +324,23 @@ Image readExr(const std::string& path, std::map<std::string, std::string>* attri
                           Imf::Slice::Make(Imf::FLOAT, layer.rgb.data() + c, dw, rgbX,
                                            rgbX * std::size_t(w)));
             }
+        }
+        // Single channels: everything that is neither R,G,B,A nor part of a layer.
+        for (auto it = channels.begin(); it != channels.end(); ++it) {
+            const std::string name = it.name();
+            if (name == "R" || name == "G" || name == "B" || name == "A") continue;
+            bool inLayer = false;
+            for (const ImageLayer& layer : image.layers) {
+                if (name.size() == layer.name.size() + 2 &&
+                    name.compare(0, layer.name.size(), layer.name) == 0) {
+                    inLayer = true;
+                }
+            }
+            if (!inLayer) image.channels.push_back({name, std::vector<float>(pixelCount(width, height))});
+        }
+        for (ImageChannel& ch : image.channels) {
+            fb.insert(ch.name, Imf::Slice::Make(Imf::FLOAT, ch.values.data(), dw, sizeof(float),
+                                                sizeof(float) * std::size_t(w)));
         }
 
         in.setFrameBuffer(fb);

@@ -16,6 +16,7 @@ DustParams DustOptions::apply(DustParams d) const
     if (g) d.g = *g;
     if (R_V) d.R_V = *R_V;
     if (phase) d.phase = phaseModelFromString(*phase);
+    if (curve) d.curve = *curve;
     d.validate();
     return d;
 }
@@ -116,6 +117,8 @@ void addDust(CLI::App& app, DustOptions& opts, bool withKappa)
     grp->add_option("--g", opts.g, "Henyey-Greenstein asymmetry in (-1,1) (default 0.6)");
     grp->add_option("--phase-function", opts.phase, "Phase function: hg, rayleigh, hazy, murky (default hg)");
     grp->add_option("--rv", opts.R_V, "Extinction curve R_V = A_V/E(B-V) (default 3.1)");
+    grp->add_option("--extinction-curve", opts.curve,
+                    "Extinction curve: CCM89 (default) or grey (the same at every wavelength)");
 }
 
 } // namespace cli

@@ -7,6 +7,8 @@
 #include "nebula/optical_depth.h"
 #include "nebula/volume_vdb.h"
 
+#include "marcher.h"
+
 #include <tbb/blocked_range2d.h>
 #include <tbb/parallel_for.h>
 
@@ -122,7 +124,7 @@ RenderScene buildScene(const GridSet& grids, const CommonOptions& common,
         scene.starColor.push_back({c[0] * s.luminosity, c[1] * s.luminosity,
                                    c[2] * s.luminosity});
     }
-    for (int c = 0; c < 3; ++c) scene.dust.r[c] = ccmExtinction(opts.wavelengths[c], dust.R_V);
+    for (int c = 0; c < 3; ++c) scene.dust.r[c] = extinctionRatio(dust, opts.wavelengths[c]);
     scene.dust.kappa_V = dust.kappa_V;
     scene.dust.albedo = dust.albedo;
     scene.dust.g = dust.g;
@@ -252,7 +254,9 @@ void RenderScene::buildOccupancy()
     }
 }
 
-void drawStarSprites(Image& img, const RenderScene& scene, const RenderOptions& opts)
+void drawStarSprites(Image& img, const RenderScene& scene, const RenderOptions& opts,
+                     const std::function<std::array<double, 3>(std::size_t, double)>& colour,
+                     const std::function<void(std::size_t, std::size_t, double)>& footprint)
 {
     const Camera& cam = opts.camera;
     const int W = cam.width, H = cam.height;
@@ -290,16 +294,23 @@ void drawStarSprites(Image& img, const RenderScene& scene, const RenderOptions& 
                     w.push_back(std::exp(-(dx * dx + dy * dy) / (2 * sigma * sigma)));
                     wsum += w.back();
                 }
+            std::array<double, 3> F;
+            for (int c = 0; c < 3; ++c) {
+                F[std::size_t(c)] = scene.starColor[s][c] / (4.0 * PI * d2) * std::exp(-dust.r[c] * tauV);
+            }
+            if (colour) {
+                const auto col = colour(s, tauV);
+                for (int c = 0; c < 3; ++c) F[std::size_t(c)] = col[std::size_t(c)] / (4.0 * PI * d2);
+            }
             std::size_t wi = 0;
             for (int y = cy - R; y <= cy + R; ++y)
                 for (int x = cx - R; x <= cx + R; ++x, ++wi) {
                     if (x < 0 || y < 0 || x >= W || y >= H) continue;
                     const double omega = cam.pixelSolidAngle(x + 0.5, y + 0.5);
                     const std::size_t pix = std::size_t(y) * W + x;
+                    if (footprint) footprint(s, pix, w[wi] / wsum / omega / (4.0 * PI * d2));
                     for (int c = 0; c < 3; ++c) {
-                        const double F = scene.starColor[s][c] / (4.0 * PI * d2) *
-                                         std::exp(-dust.r[c] * tauV);
-                        const float Lpix = float(F * w[wi] / wsum / omega);
+                        const float Lpix = float(F[std::size_t(c)] * w[wi] / wsum / omega);
                         img.rgba[pix * 4 + c] += Lpix;
                         img.layers[s].rgb[pix * 3 + c] += Lpix;
                     }
@@ -308,77 +319,6 @@ void drawStarSprites(Image& img, const RenderScene& scene, const RenderOptions& 
     }
 }
 
-namespace {
-
-
-/// Front-to-back stepping of one volume (level 0 or a pyramid level) along camera rays:
-/// clips to the lattice box, skips empty occupancy blocks, and hands each step's midpoint
-/// (index space), world distance and length to a callback.
-struct Marcher
-{
-    const DenseVolume& vol;
-    const std::array<int, 3>& blocks;
-    const std::vector<std::uint8_t>& occupied;
-    Affine w2i;
-    Vec3 eyeI, boxLo, boxHi;
-    double voxelWorld;
-
-    Marcher(const DenseVolume& v, const std::array<int, 3>& b, const std::vector<std::uint8_t>& o,
-            const Vec3& eye)
-        : vol(v), blocks(b), occupied(o), w2i(v.indexToWorld.inverse()), eyeI(w2i.apply(eye)),
-          boxLo(v.lo()[0], v.lo()[1], v.lo()[2]),
-          boxHi(v.lo()[0] + v.dims()[0] - 1, v.lo()[1] + v.dims()[1] - 1, v.lo()[2] + v.dims()[2] - 1),
-          voxelWorld(voxelSize(v.indexToWorld))
-    {
-    }
-
-    /// Calls @p step(pI, tm, seg) for steps of @p stepVoxels voxels along world direction
-    /// @p dW until it returns false; returns whether the ray met the box.
-    template <class Step>
-    bool march(const Vec3& dW, double stepVoxels, Step&& step) const
-    {
-        const int B = RenderScene::BLOCK;
-        const Vec3 dI = w2i.applyLinear(dW);
-        // Ray parameter t is world distance from the eye; clip to the lattice box.
-        double t0 = 0.0, t1 = std::numeric_limits<double>::infinity();
-        for (int a = 0; a < 3; ++a) {
-            if (std::abs(dI[a]) < 1e-300) {
-                if (eyeI[a] < boxLo[a] || eyeI[a] > boxHi[a]) t1 = -1.0;
-                continue;
-            }
-            double ta = (boxLo[a] - eyeI[a]) / dI[a], tb = (boxHi[a] - eyeI[a]) / dI[a];
-            if (ta > tb) std::swap(ta, tb);
-            t0 = std::max(t0, ta);
-            t1 = std::min(t1, tb);
-        }
-        const double dt = stepVoxels / dI.length();
-        for (double t = t0; t < t1;) {
-            const double seg = std::min(dt, t1 - t);
-            const double tm = t + 0.5 * seg;
-            const Vec3 pI = eyeI + dI * tm;
-            // Empty-space skipping: jump to the exit of an empty occupancy block.
-            const int bi = int(std::floor(pI.x - boxLo.x)) / B, bj = int(std::floor(pI.y - boxLo.y)) / B,
-                      bk = int(std::floor(pI.z - boxLo.z)) / B;
-            if (bi >= 0 && bj >= 0 && bk >= 0 && bi < blocks[0] && bj < blocks[1] && bk < blocks[2] &&
-                !occupied[(std::size_t(bk) * blocks[1] + bj) * blocks[0] + bi]) {
-                double tExit = t1;
-                const int bb[3] = {bi, bj, bk};
-                for (int a = 0; a < 3; ++a) {
-                    if (std::abs(dI[a]) < 1e-300) continue;
-                    const double face = boxLo[a] + B * (bb[a] + (dI[a] > 0 ? 1 : 0));
-                    tExit = std::min(tExit, (face - eyeI[a]) / dI[a]);
-                }
-                t = std::max(tExit, t + 1e-6 * dt);
-                continue;
-            }
-            if (!step(pI, tm, seg)) break;
-            t += seg;
-        }
-        return t0 < t1;
-    }
-};
-
-} // namespace
 
 Image renderFrame(const RenderScene& scene, const RenderOptions& opts, const Run* run,
                   RenderStats* stats)

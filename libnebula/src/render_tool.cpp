@@ -1,6 +1,7 @@
 #include "nebula/atomic_file.h"
 #include "nebula/error.h"
 #include "nebula/render.h"
+#include "nebula/spectral.h"
 
 #include <chrono>
 #include <sstream>
@@ -46,12 +47,20 @@ void renderToFiles(const GridSet& grids, const CommonOptions& common, const Rend
         throw UsageError("--phase is for the fast integrator; --integrator path simulates "
                          "multiple scattering itself");
     }
+    const bool spectral = opts.spectral.enabled;
     const auto start = std::chrono::steady_clock::now();
-    const RenderScene scene = buildScene(grids, common, opts, dust);
+    SpectralScene sscene;  // the spectral scene, or just its RGB base
+    if (spectral) {
+        sscene = buildSpectralScene(grids, common, opts, dust);
+    } else {
+        sscene.base = buildScene(grids, common, opts, dust);
+    }
+    const RenderScene& scene = sscene.base;
     const auto built = std::chrono::steady_clock::now();
     RenderStats stats;
-    const Image img = path ? renderPathTraced(scene, opts, &run, &stats)
-                           : renderFrame(scene, opts, &run, &stats);
+    const Image img = spectral ? renderSpectral(sscene, opts, &run, &stats)
+                      : path   ? renderPathTraced(scene, opts, &run, &stats)
+                               : renderFrame(scene, opts, &run, &stats);
     const auto done = std::chrono::steady_clock::now();
     const double tBuild = std::chrono::duration<double>(built - start).count();
     const double tRender = std::chrono::duration<double>(done - built).count();
@@ -60,6 +69,23 @@ void renderToFiles(const GridSet& grids, const CommonOptions& common, const Rend
                  std::to_string(stats.collisions) + " tentative collisions, " +
                  std::to_string(1e9 * tRender / double(std::max<std::uint64_t>(stats.paths, 1))) +
                  " ns wall per walk");
+    }
+    if (spectral) {
+        run.info(std::string("spectral: ") +
+                 (opts.spectral.bands > 0 ? std::to_string(opts.spectral.bands) + " fixed bands"
+                                          : "piecewise-linear") +
+                 ", " + std::to_string(sscene.emitters.size()) + " emission grid(s), " +
+                 std::to_string(stats.pieces) + " linear pieces projected (" +
+                 std::to_string(double(stats.pieces) / double(std::max<std::uint64_t>(stats.rays, 1))) +
+                 " per ray)");
+        if (opts.spectral.countPieces && opts.spectral.bands == 0) {
+            const double rays = double(std::max<std::uint64_t>(stats.rays, 1));
+            run.info("spectral: the rays' spectra have " +
+                     std::to_string(double(stats.spectrumPieces) / rays) +
+                     " pieces on average (largest " + std::to_string(stats.maxSpectrumPieces) +
+                     "), " + std::to_string(double(stats.mergedPieces) / rays) +
+                     " after merging at tolerance " + std::to_string(opts.spectral.mergeTolerance));
+        }
     }
     run.info("scene " + std::to_string(tBuild) + " s, render " + std::to_string(tRender) +
              " s, " + std::to_string(stats.rays) + " rays, " + std::to_string(stats.samples) +
@@ -82,6 +108,7 @@ void renderToFiles(const GridSet& grids, const CommonOptions& common, const Rend
         << "], \"fov_deg\": " << opts.camera.fovDeg << ", \"projection\": \"perspective\"}";
     std::map<std::string, std::string> attrs{
         {"comments", path ? "nebula reference path-traced render (DESIGN section 6); linear radiance"
+                     : spectral ? "nebula spectral ray-cast render (DESIGN section 7); linear sRGB of CIE 1931 XYZ"
                           : "nebula ray-cast render (DESIGN sections 3-4); linear radiance"},
         {"nebula:tool", run.tool()},
         {"nebula:version", NEBULA_VERSION_STRING},
@@ -89,6 +116,11 @@ void renderToFiles(const GridSet& grids, const CommonOptions& common, const Rend
         {"nebula:integrator",
          path ? "path tracing (reference), spp " + std::to_string(opts.spp) + ", seed " +
                     std::to_string(opts.seed)
+         : spectral
+             ? (opts.spectral.bands > 0
+                    ? "spectral, " + std::to_string(opts.spectral.bands) + " fixed bands"
+                    : std::string("spectral, piecewise-linear")) +
+                   ", exaggerate-velocity " + std::to_string(opts.spectral.exaggerateVelocity)
          : opts.phaseTable
              ? std::string("effective phase function (") +
                    (opts.phaseUse == PhaseUse::Gain ? "gain" : "replace") + "), levels " +

@@ -113,6 +113,51 @@ Piece pieceThrough(double x0, double y0, double x1, double y1)
     return Piece{x0, x1, m, y0 - m * x0};
 }
 
+Spectrum Spectrum::sum(std::vector<Piece> pieces)
+{
+    struct Event
+    {
+        double x;
+        double dm, db;
+        int dActive;
+    };
+    std::vector<Event> events;
+    events.reserve(2 * pieces.size());
+    for (const Piece& p : pieces) {
+        if (!(p.x0 <= p.x1) || !std::isfinite(p.x0) || !std::isfinite(p.x1)) {
+            std::ostringstream msg;
+            msg << "spectrum piece with x0 > x1 (or not a number): [" << p.x0 << ", " << p.x1
+                << "] nm";
+            throw UsageError(msg.str());
+        }
+        if (sameBreakpoint(p.x0, p.x1)) continue;
+        events.push_back({p.x0, p.m, p.b, 1});
+        events.push_back({p.x1, -p.m, -p.b, -1});
+    }
+    std::sort(events.begin(), events.end(), [](const Event& a, const Event& b) { return a.x < b.x; });
+    Spectrum out;
+    out.mPieces.reserve(events.size());
+    double m = 0.0, b = 0.0;
+    int active = 0;
+    std::size_t i = 0;
+    while (i < events.size()) {
+        // One breakpoint: every event within BREAKPOINT_REL_TOL of the first one.
+        const double x = events[i].x;
+        while (i < events.size() && sameBreakpoint(events[i].x, x)) {
+            m += events[i].dm;
+            b += events[i].db;
+            active += events[i].dActive;
+            ++i;
+        }
+        if (active == 0) {
+            m = b = 0.0;  // drop rounding residue: nothing is active here
+            continue;
+        }
+        if (i < events.size()) out.mPieces.push_back(Piece{x, events[i].x, m, b});
+    }
+    return out;
+}
+
 void Spectrum::add(const Piece& piece)
 {
     if (!(piece.x0 <= piece.x1)) {

@@ -197,6 +197,7 @@ TEST_F(ImageTest, ExrRoundTripIsExact)
         EXPECT_EQ(back.layers[i].rgb, image.layers[i].rgb);
     }
     EXPECT_EQ(readAttrs, attrs);
+    EXPECT_TRUE(back.channels.empty());
 
     // Null attribute map is allowed.
     EXPECT_EQ(nebula::readExr(path, nullptr).rgba, image.rgba);
@@ -551,4 +552,28 @@ TEST_F(ImageTest, WriteErrorsLeaveNothing)
     EXPECT_NE(exrMessage.find("File too large"), std::string::npos) << exrMessage;
     EXPECT_NE(pngMessage.find("File too large"), std::string::npos) << pngMessage;
     EXPECT_TRUE(listing().empty());
+}
+
+TEST_F(ImageTest, ExrSingleChannelsRoundTrip)
+{
+    nebula::Image image = sampleImage();
+    for (const char* name : {"S0.550,00nm", "S0.365,00nm"}) {
+        nebula::ImageChannel ch{name, std::vector<float>(std::size_t(image.width) * image.height)};
+        for (std::size_t i = 0; i < ch.values.size(); ++i) ch.values[i] = float(i) * 0.25f + name[4];
+        image.channels.push_back(ch);
+    }
+    const std::string path = file("spectral.exr");
+    nebula::writeExr(path, image, {});
+    const nebula::Image back = nebula::readExr(path, nullptr);
+    ASSERT_EQ(back.layers.size(), image.layers.size());  // layers are not taken for channels
+    ASSERT_EQ(back.channels.size(), 2u);
+    EXPECT_EQ(back.channels[0].name, "S0.365,00nm");      // channel-name order
+    EXPECT_EQ(back.channels[0].values, image.channels[1].values);
+    EXPECT_EQ(back.channels[1].values, image.channels[0].values);
+    // A channel of the wrong size, or named twice, is refused before anything is written.
+    image.channels[1].values.pop_back();
+    EXPECT_THROW(nebula::writeExr(file("bad.exr"), image, {}), nebula::Error);
+    image.channels[1] = image.channels[0];
+    EXPECT_THROW(nebula::writeExr(file("bad.exr"), image, {}), nebula::Error);
+    EXPECT_FALSE(std::filesystem::exists(file("bad.exr")));
 }

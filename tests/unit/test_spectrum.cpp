@@ -319,6 +319,35 @@ TEST(SpectrumRandom, ManyTrapezoidsMatchBruteForce)
     std::cout << "[ piece count ] 400 random trapezoids -> " << s.size() << " pieces\n";
 }
 
+TEST(SpectrumRandom, SumOfPiecesEqualsAddingThemOneByOne)
+{
+    std::mt19937_64 rng(11);
+    const std::vector<Trapezoid> traps = randomTrapezoids(rng, 300);
+    const Spectrum added = spectrumOf(traps);
+    std::vector<Piece> pieces;
+    for (const Trapezoid& t : traps) {
+        if (t.x1 > t.x0) pieces.push_back(nebula::pieceThrough(t.x0, t.y0, t.x1, t.y1));
+    }
+    const Spectrum summed = Spectrum::sum(pieces);
+    expectSortedDisjoint(summed);
+    ASSERT_EQ(summed.size(), added.size());
+    for (std::size_t i = 0; i < summed.size(); ++i) {
+        const Piece& a = summed.pieces()[i];
+        const Piece& b = added.pieces()[i];
+        EXPECT_NEAR(a.x0, b.x0, 1e-12 * b.x0);
+        EXPECT_NEAR(a.x1, b.x1, 1e-12 * b.x1);
+        const double scale = std::fabs(b.at(b.x0)) + std::fabs(b.at(b.x1)) + 1.0;
+        EXPECT_NEAR(a.at(a.x0), b.at(b.x0), 1e-9 * scale);
+        EXPECT_NEAR(a.at(a.x1), b.at(b.x1), 1e-9 * scale);
+    }
+    // Gaps stay gaps; a reversed piece is refused.
+    const Spectrum gap = Spectrum::sum(
+        std::vector<Piece>{nebula::pieceThrough(400, 1, 410, 1), nebula::pieceThrough(420, 2, 430, 2)});
+    ASSERT_EQ(gap.size(), 2u);
+    EXPECT_EQ(gap(415.0), 0.0);
+    EXPECT_THROW(Spectrum::sum(std::vector<Piece>{Piece{410, 400, 0, 1}}), nebula::UsageError);
+}
+
 TEST(SpectrumRandom, AddOrderDoesNotChangeTheSum)
 {
     std::mt19937_64 rng(7);

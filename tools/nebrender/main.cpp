@@ -1,8 +1,10 @@
 // nebrender - single-scattering ray caster: scattered starlight + gas emission to EXR/PNG.
 #include "nebula/cli.h"
+#include "nebula/error.h"
 #include "nebula/options.h"
 #include "nebula/phase_table_vdb.h"
 #include "nebula/render.h"
+#include "nebula/spectral.h"
 
 #include <cstdio>
 
@@ -24,12 +26,19 @@ int main(int argc, char** argv)
         "  nebrender -i lit.vdb --rv 5 --albedo 0.6 --g 0.6 -o rv5.exr\n"
         "  nebphase -i lit.vdb -o phase.vdb && nebrender -i lit.vdb --phase phase.vdb -o f.exr\n"
         "  nebrender -i lit.vdb --integrator path --spp 256 -o reference.exr\n"
+        "  nebrender -i lit.vdb --spectral -o spectral.exr      # lines, black bodies, Doppler\n"
+        "  nebrender -i shell.vdb --spectral --exaggerate-velocity 50 --spectral-layers 47 -o d.exr\n"
         "  nebgen -o - | nebillum -i - -o - | nebrender -i - -o frame.exr\n\n"
         "Needs the density grid, the tau.<star> grids from nebillum and nebula:stars;\n"
         "uses the emission grid if present. EXR: linear radiance [L_sun pc^-2 sr^-1], R,G,B,A\n"
         "(A = 1 - transmittance), layers star.<name>.R/G/B and transmittance.R/G/B (and\n"
         "variance.R/G/B, the squared standard error of each pixel, with --integrator path).\n"
-        "PNG: sRGB after the automatic exposure and tone curve (or --exposure).",
+        "PNG: sRGB after the automatic exposure and tone curve (or --exposure).\n"
+        "--spectral: spectra per ray (360-830 nm) instead of R,G,B: line emission from each\n"
+        "emission grid's nebula:lines (Doppler-shifted by the velocity grid, v_r > 0\n"
+        "receding: lambda' = lambda (1 + v_r/c)), black-body (Kirchhoff) emission from the\n"
+        "temperature grid, starlight scattered by dust with the extinction curve at every\n"
+        "wavelength; colour = CIE 1931 XYZ -> linear sRGB (may be negative out of gamut).",
         "nebrender"};
     nebula::cli::addCommon(app, common, nebula::cli::INPUT | nebula::cli::DENSITY_GRID);
     app.add_option("-o,--output", out.exr, "Output EXR file")->required();
@@ -97,6 +106,50 @@ int main(int argc, char** argv)
         ->capture_default_str();
     app.add_flag("--phase-ignore-dust", opts.phaseIgnoreDust,
                  "Use the --phase table even if its albedo, g or phase model differ from the dust's");
+    auto& sp = opts.spectral;
+    auto* spectral = app.add_option_group("Spectral", "Spectral rendering (DESIGN section 7)");
+    spectral->add_flag("--spectral", sp.enabled,
+                       "Render spectra: piecewise-linear (exact Doppler trapezoids) by default");
+    auto* bandsOpt = spectral->add_option("--bands", sp.bands,
+                         "Fixed-band mode instead: N bands over 360-830 nm, point-sampled at\n"
+                         "their centres (for comparison; implies --spectral)")
+        ->check(CLI::Range(1, 1000000));
+    std::vector<CLI::Option*> spectralOnly;
+    spectralOnly.push_back(spectral->add_option("--continuum-step", sp.continuumStep,
+                         "Piecewise-linear mode: continuum node spacing [nm]")
+        ->capture_default_str());
+    spectralOnly.push_back(spectral->add_option("--exaggerate-velocity", sp.exaggerateVelocity,
+                         "Multiply every velocity by F before the Doppler shift (visualisation):\n"
+                         "the velocity grid and the line width alike")
+        ->capture_default_str());
+    spectralOnly.push_back(spectral->add_option("--line-width", sp.lineWidth,
+                         "Half-width of each line's rest-frame box profile [km/s] (thermal and\n"
+                         "turbulent broadening)")
+        ->capture_default_str());
+    spectralOnly.push_back(spectral->add_option("--lines", sp.lines,
+                         "Lines of the emission grid, e.g. H-alpha:1,H-beta:0.35,[O III]5007:0.5\n"
+                         "(overrides its nebula:lines; default H-alpha:1,H-beta:0.35)"));
+    spectralOnly.push_back(spectral->add_option("--blackbody-scale", sp.blackbodyScale,
+                         "Multiply the black-body emission (1 = Kirchhoff's law, physical)")
+        ->capture_default_str());
+    spectralOnly.push_back(spectral->add_option("--temperature-scale", sp.temperatureScale,
+                         "Multiply the temperature grid (visualisation of cold dust)")
+        ->capture_default_str());
+    spectralOnly.push_back(spectral->add_option("--temperature-grid", sp.temperatureGrid,
+                         "Temperature grid [K]")->capture_default_str());
+    spectralOnly.push_back(spectral->add_option("--velocity-grid", sp.velocityGrid,
+                         "Velocity grid (Vec3f, km/s, world axes)")->capture_default_str());
+    spectralOnly.push_back(spectral->add_option("--spectral-layers", sp.layers,
+                         "Also write N spectral EXR channels S0.<centre>nm: mean radiance per nm\n"
+                         "in N equal bands over 360-830 nm")
+        ->check(CLI::Range(1, 470)));
+    spectralOnly.push_back(spectral->add_flag("--count-pieces", sp.countPieces,
+                         "Assemble each ray's piecewise-linear spectrum and report its piece count\n"
+                         "with -v (slower; for benchmarks)"));
+    spectralOnly.push_back(spectral->add_option("--merge-tolerance", sp.mergeTolerance,
+                         "With --count-pieces: also count the pieces left after merging\n"
+                         "neighbours under this relative tolerance (Spectrum::merge)")
+        ->check(CLI::Range(0.0, 1.0)));
     auto* exp = app.add_option("--exposure", exposure,
                                "PNG: fixed exposure in stops (white = 2^-E); turns off the "
                                "automatic tone curve");
@@ -122,6 +175,12 @@ int main(int argc, char** argv)
             opts.emissionColor = {c[0], c[1], c[2]};
         }
         opts.drawStars = !noStars;
+        if (bandsOpt->count() > 0) sp.enabled = true;
+        for (const auto* o : spectralOnly) {
+            if (o->count() > 0 && !sp.enabled) {
+                throw nebula::UsageError(o->get_name() + " needs --spectral");
+            }
+        }
         opts.integrator = integrator == "path" ? nebula::Integrator::Path : nebula::Integrator::Fast;
         opts.phaseUse = phaseUse == "replace" ? nebula::PhaseUse::Replace : nebula::PhaseUse::Gain;
         if (noPng) out.png = "none";

@@ -75,6 +75,10 @@ inline void sampleDirection(double mu, double phi, const double in[3], double ou
 /// not implemented); throws Error outside, or if R_V is not a finite number > 0.
 double ccmExtinction(double lambda_nm, double R_V);
 
+struct DustParams;
+/// A(lambda)/A_V of @p dust's extinction curve at @p lambda_nm [nm] (see DustParams::curve).
+double extinctionRatio(const DustParams& dust, double lambda_nm);
+
 /// Dust parameters shared by every stage (DESIGN §2-3).
 struct DustParams
 {
@@ -82,7 +86,9 @@ struct DustParams
     double albedo = 0.6;      ///< single-scattering albedo a [0, 1]
     double g = 0.6;           ///< Henyey-Greenstein asymmetry (-1, 1)
     PhaseModel phase = PhaseModel::HenyeyGreenstein;
-    std::string curve = "CCM89";  ///< extinction curve name (only CCM89 for now)
+    /// Extinction curve: "CCM89" (Cardelli, Clayton & Mathis 1989 with R_V) or "grey"
+    /// (A(lambda) = A_V at every wavelength: large grains; also for tests).
+    std::string curve = "CCM89";
     double R_V = 3.1;         ///< total-to-selective extinction A_V / E(B-V)
 
     /// Throws UsageError naming the offending parameter if any value is out of range.

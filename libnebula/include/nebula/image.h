@@ -16,6 +16,13 @@ struct ImageLayer
     std::vector<float> rgb;  ///< width * height * 3, row-major, top row first
 };
 
+/// A single float channel written under its own name (e.g. a spectral band "S0.550,00nm").
+struct ImageChannel
+{
+    std::string name;
+    std::vector<float> values;  ///< width * height, row-major, top row first
+};
+
 /// A frame: premultiplied linear RGBA (A = 1 - transmittance) plus extra layers.
 struct Image
 {
@@ -23,20 +30,22 @@ struct Image
     int height = 0;
     std::vector<float> rgba;          ///< width * height * 4, row-major, top row first
     std::vector<ImageLayer> layers;   ///< e.g. "star.<name>"
+    std::vector<ImageChannel> channels;  ///< single channels, e.g. spectral bands
 
     Image() = default;
     Image(int w, int h) : width(w), height(h), rgba(std::size_t(w) * h * 4, 0.0f) {}
 };
 
-/// Writes @p image as a float (32-bit) ZIP-compressed EXR: channels R,G,B,A and each layer's
-/// <name>.R/G/B. @p attributes become string header attributes (e.g. "nebula:command"),
+/// Writes @p image as a float (32-bit) ZIP-compressed EXR: channels R,G,B,A, each layer's
+/// <name>.R/G/B and each single channel under its name. @p attributes become string header attributes (e.g. "nebula:command"),
 /// "comments" is set if present. Atomic (AtomicFile). Throws Error on failure.
 void writeExr(const std::string& path, const Image& image,
               const std::map<std::string, std::string>& attributes);
 
 /// Reads an EXR written by writeExr (R,G,B,A and layers) and its string attributes; for
 /// tests and tools that post-process frames. Layers are every "<name>.R/G/B" triple, in
-/// channel-name (alphabetical) order; a missing A reads as 1. @p attributes (may be null) is
+/// channel-name (alphabetical) order; every other channel (not R,G,B,A) is read into
+/// Image::channels, in channel-name order; a missing A reads as 1. @p attributes (may be null) is
 /// replaced by the file's string attributes. Throws Error on failure.
 Image readExr(const std::string& path, std::map<std::string, std::string>* attributes);
 

@@ -25,10 +25,11 @@ struct DustOptions
 {
     std::optional<double> kappa_V, albedo, g, R_V;
     std::optional<std::string> phase;
+    std::optional<std::string> curve;
 
     /// @p base with every option that was given applied; validated.
     DustParams apply(DustParams base) const;
-    bool any() const { return kappa_V || albedo || g || R_V || phase; }
+    bool any() const { return kappa_V || albedo || g || R_V || phase || curve; }
 };
 
 namespace cli {
@@ -40,7 +41,7 @@ std::vector<Star> loadStars(const StarOptions& opts);
 /// Parses one --star value.
 Star parseStarOption(const std::string& text);
 
-/// --kappa-v, --albedo, --g, --phase, --rv. @p withKappa false leaves out --kappa-v.
+/// --kappa-v, --albedo, --g, --phase-function, --rv, --extinction-curve. @p withKappa false leaves out --kappa-v.
 void addDust(CLI::App& app, DustOptions& opts, bool withKappa = true);
 
 } // namespace cli

@@ -11,6 +11,7 @@
 #include "nebula/volume.h"
 
 #include <array>
+#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
@@ -53,6 +54,29 @@ enum class Integrator { Fast, Path };
 ///    extinction is not applied twice.
 enum class PhaseUse { Replace, Gain };
 
+/// nebrender --spectral (DESIGN §7): spectra along each ray instead of three channels.
+struct SpectralOptions
+{
+    bool enabled = false;
+    /// 0: piecewise-linear spectra (lines as exact Doppler trapezoids, continuum on nodes
+    /// continuumStep apart); N > 0: N fixed bands over 360-830 nm, point-sampled at their
+    /// centres (for comparison).
+    int bands = 0;
+    double continuumStep = 5.0;      ///< piecewise-linear mode: continuum node spacing [nm]
+    /// Multiplies every velocity before the Doppler shift: the velocity grid's and the line
+    /// width alike (visualisation).
+    double exaggerateVelocity = 1.0;
+    double lineWidth = 10.0;         ///< half-width of a line's rest-frame box profile [km/s]
+    double blackbodyScale = 1.0;     ///< multiplies the black-body (Kirchhoff) emission
+    double temperatureScale = 1.0;   ///< multiplies the temperature grid (visualisation)
+    std::string temperatureGrid = "temperature";
+    std::string velocityGrid = "velocity";
+    std::string lines;               ///< line list of the emission grid (overrides metadata)
+    int layers = 0;                  ///< spectral EXR channels: N bands over 360-830 nm
+    bool countPieces = false;        ///< build each ray's spectrum to count its pieces (stats)
+    double mergeTolerance = 0.0;     ///< with countPieces: also count after merge(tolerance)
+};
+
 /// Every render parameter; defaults give the README's example picture.
 struct RenderOptions
 {
@@ -82,6 +106,7 @@ struct RenderOptions
     /// -1 (auto): with a phase table, every level the input has (L1, L2, ... while they
     /// last); without one, none.
     int levels = -1;
+    SpectralOptions spectral;
 };
 
 /// One pyramid level's fields for the fast integrator: channels as RenderScene::fields
@@ -151,6 +176,10 @@ struct RenderStats
     std::uint64_t phaseClamped = 0;
     std::uint64_t paths = 0;       ///< path tracer: random walks (pixels x spp x channels)
     std::uint64_t collisions = 0;  ///< path tracer: tentative collisions (real and null)
+    std::uint64_t pieces = 0;      ///< spectral: linear pieces projected (lines + continuum)
+    std::uint64_t spectrumPieces = 0;  ///< spectral, countPieces: pieces of the rays' spectra
+    std::uint64_t mergedPieces = 0;    ///< the same after merge(mergeTolerance)
+    std::uint64_t maxSpectrumPieces = 0;  ///< the largest ray spectrum
 };
 
 /// Renders the single-scattering image: beauty R,G,B,A (A = 1 - T at the green channel),
@@ -176,7 +205,14 @@ Image renderPathTraced(const RenderScene& scene, const RenderOptions& opts,
 
 /// Adds each star's attenuated sprite to the beauty and its star.<name> layer (renderFrame
 /// does this unless !opts.drawStars).
-void drawStarSprites(Image& img, const RenderScene& scene, const RenderOptions& opts);
+/// @p colour, if set, gives star s's attenuated colour (linear sRGB, L_sun) from its V-band
+/// optical depth from the eye; otherwise starColor[s] * exp(-r_c tau_V) per channel.
+/// @p footprint, if set, is called for every pixel a sprite touches with the star, the pixel
+/// index and the factor that turns the star's attenuated luminosity into the pixel's radiance
+/// (for outputs other than R,G,B, e.g. spectral channels).
+void drawStarSprites(Image& img, const RenderScene& scene, const RenderOptions& opts,
+                     const std::function<std::array<double, 3>(std::size_t, double)>& colour = {},
+                     const std::function<void(std::size_t, std::size_t, double)>& footprint = {});
 
 
 } // namespace nebula

@@ -54,6 +54,14 @@ public:
     /// (x1 - x0) (y0 + y1) / 2, up to rounding.
     void addTrapezoid(double x0, double x1, double y0, double y1);
 
+    /// The sum of @p pieces (any order, overlaps allowed, each x0 <= x1 and finite), built
+    /// by one sort and sweep over their endpoints: O(P log P) for P pieces, where adding them
+    /// one by one costs O(P n). Equal to adding them with add() up to rounding; breakpoints
+    /// within BREAKPOINT_REL_TOL of each other are one breakpoint, zero-width pieces are
+    /// ignored, and no piece is made where none of the inputs is active (gaps stay gaps).
+    /// Throws UsageError like add() on a reversed or non-finite piece.
+    static Spectrum sum(std::vector<Piece> pieces);
+
     /// Multiplies every value by @p s (dimensionless or a unit conversion).
     void scale(double s);
 

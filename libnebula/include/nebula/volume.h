@@ -112,6 +112,31 @@ public:
         }
     }
 
+    /// Trilinear interpolation of channels [@p first, @p first + @p count) only (see sample()).
+    void sampleChannels(const Vec3& p, int first, int count, float* out) const
+    {
+        const double fx = std::floor(p.x), fy = std::floor(p.y), fz = std::floor(p.z);
+        const int i = int(fx), j = int(fy), k = int(fz);
+        if (!(fx >= mLo[0] && fy >= mLo[1] && fz >= mLo[2] && i + 1 < mLo[0] + mDims[0] &&
+              j + 1 < mLo[1] + mDims[1] && k + 1 < mLo[2] + mDims[2])) {
+            for (int c = 0; c < count; ++c) out[c] = 0.0f;
+            return;
+        }
+        const float u = float(p.x - fx), v = float(p.y - fy), w = float(p.z - fz);
+        const std::size_t sx = std::size_t(mChannels), sy = sx * mDims[0], sz = sy * mDims[1];
+        const float* b = mData.data() + index(i, j, k) * sx + first;
+        for (int c = 0; c < count; ++c) {
+            const float* q = b + c;
+            const float c00 = q[0] + u * (q[sx] - q[0]);
+            const float c10 = q[sy] + u * (q[sy + sx] - q[sy]);
+            const float c01 = q[sz] + u * (q[sz + sx] - q[sz]);
+            const float c11 = q[sz + sy] + u * (q[sz + sy + sx] - q[sz + sy]);
+            const float c0 = c00 + v * (c10 - c00);
+            const float c1 = c01 + v * (c11 - c01);
+            out[c] = c0 + w * (c1 - c0);
+        }
+    }
+
     /// Channel 0 at @p p (see sample()).
     float sample0(const Vec3& p) const
     {
