@@ -62,7 +62,7 @@ struct SpectralOptions
     /// continuumStep apart); N > 0: N fixed bands over 360-830 nm, point-sampled at their
     /// centres (for comparison).
     int bands = 0;
-    double continuumStep = 5.0;      ///< piecewise-linear mode: continuum node spacing [nm]
+    double continuumStep = 10.0;     ///< piecewise-linear mode: continuum node spacing [nm]
     /// Multiplies every velocity before the Doppler shift: the velocity grid's and the line
     /// width alike (visualisation).
     double exaggerateVelocity = 1.0;
