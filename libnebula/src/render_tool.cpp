@@ -120,7 +120,8 @@ void renderToFiles(const GridSet& grids, const CommonOptions& common, const Rend
              ? (opts.spectral.bands > 0
                     ? "spectral, " + std::to_string(opts.spectral.bands) + " fixed bands"
                     : std::string("spectral, piecewise-linear")) +
-                   ", exaggerate-velocity " + std::to_string(opts.spectral.exaggerateVelocity)
+                   ", exaggerate-velocity " + std::to_string(opts.spectral.exaggerateVelocity) +
+                   (opts.spectral.relativistic ? ", relativistic Doppler" : ", first-order Doppler")
          : opts.phaseTable
              ? std::string("effective phase function (") +
                    (opts.phaseUse == PhaseUse::Gain ? "gain" : "replace") + "), levels " +

@@ -46,7 +46,13 @@ double LineTrapezoid::at(double lambda) const
 
 LineTrapezoid lineTrapezoid(double lambda0, double vA, double vB, double halfWidth, double energy)
 {
-    const double cA = lambda0 * dopplerFactor(vA), cB = lambda0 * dopplerFactor(vB);
+    return lineTrapezoidFactors(lambda0, dopplerFactor(vA), dopplerFactor(vB), halfWidth, energy);
+}
+
+LineTrapezoid lineTrapezoidFactors(double lambda0, double dA, double dB, double halfWidth,
+                                   double energy)
+{
+    const double cA = lambda0 * dA, cB = lambda0 * dB;
     const double lo = std::min(cA, cB), hi = std::max(cA, cB);
     const double eps = lambda0 * halfWidth / SPEED_OF_LIGHT_KMS;
     const double spread = hi - lo;
@@ -226,6 +232,16 @@ SpectralScene buildSpectralScene(const GridSet& grids, const CommonOptions& comm
             }
             velocity.push_back(comp);
         }
+        // Gas as fast as light (after exaggeration) has no Doppler factor: refuse it.
+        double vmax2 = 0.0;
+        for (auto it = v->cbeginValueOn(); it; ++it) vmax2 = std::max(vmax2, double((*it).lengthSqr()));
+        const double vmax = std::sqrt(vmax2) * std::abs(so.exaggerateVelocity);
+        if (vmax >= SPEED_OF_LIGHT_KMS) {
+            throw UsageError("--exaggerate-velocity " + std::to_string(so.exaggerateVelocity) +
+                             " makes the fastest gas of grid \"" + so.velocityGrid + "\" move at " +
+                             std::to_string(vmax) + " km/s, not slower than light (" +
+                             std::to_string(SPEED_OF_LIGHT_KMS) + " km/s)");
+        }
     }
 
     // One lattice for everything: channels as documented in SpectralScene.
@@ -376,12 +392,17 @@ Image renderSpectral(const SpectralScene& scene, const RenderOptions& opts, cons
                 rayPieces.clear();
                 XYZ lineXYZ{0, 0, 0};
                 double tau = 0.0;
-                // Radial velocity at the end of the previous segment (shared with the next).
-                double lastEndT = -1.0, lastEndV = 0.0;
-                auto radialAt = [&](const Vec3& pI) {
+                // Doppler factor at the end of the previous segment (shared with the next).
+                double lastEndT = -1.0, lastEndD = 1.0;
+                // Doppler factor lambda_observed / lambda_emitted of the gas at pI.
+                auto dopplerAt = [&](const Vec3& pI) {
                     float v[3];
                     rs.fields.sampleChannels(pI, velCh, 3, v);
-                    return vScale * (double(v[0]) * dW.x + double(v[1]) * dW.y + double(v[2]) * dW.z);
+                    const double vr = vScale * (double(v[0]) * dW.x + double(v[1]) * dW.y + double(v[2]) * dW.z);
+                    if (!so.relativistic) return dopplerFactor(vr);
+                    const double v2 = vScale * vScale *
+                                      (double(v[0]) * v[0] + double(v[1]) * v[1] + double(v[2]) * v[2]);
+                    return relativisticDopplerFactor(vr, v2);
                 };
                 // Adds the linear piece through (a, ya), (b, yb) of the line emission.
                 auto addLinePiece = [&](double a, double ya, double b, double yb) {
@@ -426,7 +447,7 @@ Image renderSpectral(const SpectralScene& scene, const RenderOptions& opts, cons
                             // Kirchhoff: j = (1 - a) k(lambda_e) B(lambda_e, T), emitted at
                             // lambda_e = lambda / (1 + v_r/c) and stretched by 1 + v_r/c.
                             const double T = so.temperatureScale * f[std::size_t(tempCh)];
-                            const double D = velCh >= 0 ? dopplerFactor(radialAt(pI)) : 1.0;
+                            const double D = velCh >= 0 ? dopplerAt(pI) : 1.0;
                             for (std::size_t j = 0; j < J; ++j) {
                                 const double le = lam[j] / D;
                                 const double ratio = D == 1.0 ? 1.0 : Lambda(le) / lamExt[j];
@@ -436,14 +457,14 @@ Image renderSpectral(const SpectralScene& scene, const RenderOptions& opts, cons
                         }
                     }
                     if (em > 0.0) {
-                        double vA = 0.0, vB = 0.0;
+                        double dA = 1.0, dB = 1.0;  // Doppler factors at the segment's ends
                         if (velCh >= 0) {
                             const double tA = tm - 0.5 * seg, tB = tm + 0.5 * seg;
-                            vA = std::abs(tA - lastEndT) <= 1e-9 * seg ? lastEndV
-                                                                         : radialAt(pI - dI * (0.5 * seg));
-                            vB = radialAt(pI + dI * (0.5 * seg));
+                            dA = std::abs(tA - lastEndT) <= 1e-9 * seg ? lastEndD
+                                                                         : dopplerAt(pI - dI * (0.5 * seg));
+                            dB = dopplerAt(pI + dI * (0.5 * seg));
                             lastEndT = tB;
-                            lastEndV = vB;
+                            lastEndD = dB;
                         }
                         // The segment's transmittance factor at wavelength lambda: e^-tau L
                         // (1 - e^-x L) / (x L) times its length.
@@ -454,8 +475,8 @@ Image renderSpectral(const SpectralScene& scene, const RenderOptions& opts, cons
                             const double value = f[std::size_t(e.channel)];
                             if (!(value > 0.0)) continue;
                             for (const auto& line : e.lines) {
-                                const LineTrapezoid t = lineTrapezoid(
-                                    line.wavelength, vA, vB, lineWidth,
+                                const LineTrapezoid t = lineTrapezoidFactors(
+                                    line.wavelength, dA, dB, lineWidth,
                                     value * e.unit * line.strength);
                                 if (t.x[3] <= SPECTRAL_MIN_NM || t.x[0] >= SPECTRAL_MAX_NM) continue;
                                 if (bandsMode) {

@@ -101,6 +101,9 @@ TEST_F(RenderSpectral, BadInputIsAClearErrorWithNoOutput)
     expectFailure("nebrender -i spec.vdb --spectral --lines '0:1' -o f.exr", 2, "--lines");
     expectFailure("nebrender -i spec.vdb --spectral --line-width 0 -o f.exr", 2, "--line-width");
     expectFailure("nebrender -i spec.vdb --spectral --integrator path -o f.exr", 2, "--spectral");
+    // nebgen's 40 km/s times 1e5 is faster than light.
+    expectFailure("nebrender -i spec.vdb --spectral --exaggerate-velocity 1e5 -o f.exr", 2,
+                  "not slower than light");
 
     // A temperature grid with a negative value, one with a NaN.
     for (const float bad : {-5.0f, std::nanf("")}) {

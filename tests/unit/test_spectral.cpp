@@ -197,6 +197,37 @@ TEST(SpectralRender, UniformVelocityShiftsByExactlyLambdaVOverC)
     }
 }
 
+TEST(SpectralRender, RelativisticOptionRedshiftsTransverseMotionByGamma)
+{
+    // Gas moving at 0.2 c across the line of sight (along x; the ray runs along z): no shift
+    // to first order; gamma = 1 / sqrt(1 - 0.04) = 1.0206 with --relativistic.
+    const double lambda0 = 520.0, v = 0.2 * SPEED_OF_LIGHT_KMS;
+    auto none = [](int, int, int) { return 0.0; };
+    auto gas = [](int, int, int) { return 1.0; };
+    const auto XYZof = [](const Image& im) {
+        return linearSRGBToXYZ({im.rgba[0], im.rgba[1], im.rgba[2]});
+    };
+    auto o = zCamera(1, 0.5);
+    const auto render = [&](double lambda, double vx, bool relativistic) {
+        o.spectral.relativistic = relativistic;
+        return XYZof(renderSpectral(
+            makeScene(none, gas, [&](int, int, int) { return std::array<double, 3>{vx, 0, 0}; }, {},
+                      oneLine(lambda)),
+            o));
+    };
+    const double gamma = 1.0 / std::sqrt(1.0 - 0.04);
+    const XYZ classic = render(lambda0, v, false), rest = render(lambda0, 0.0, false);
+    const XYZ rel = render(lambda0, v, true), shifted = render(lambda0 * gamma, 0.0, false);
+    for (int c = 0; c < 3; ++c) {
+        EXPECT_NEAR(classic[std::size_t(c)], rest[std::size_t(c)], 1e-5 * rest[1]);
+        EXPECT_NEAR(rel[std::size_t(c)], shifted[std::size_t(c)], 1e-4 * rest[1]);
+    }
+    EXPECT_GT(chromaticity(rel)[0], chromaticity(rest)[0] + 0.01);  // redder
+    EXPECT_NEAR(relativisticDopplerFactor(-0.6 * SPEED_OF_LIGHT_KMS,
+                                          0.36 * SPEED_OF_LIGHT_KMS * SPEED_OF_LIGHT_KMS),
+                0.5, 1e-12);  // approaching at 0.6 c: sqrt((1 - b)/(1 + b)) = 0.5
+}
+
 TEST(SpectralRender, LineEnergyUnchangedByAVelocityGradient)
 {
     auto none = [](int, int, int) { return 0.0; };

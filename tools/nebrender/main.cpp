@@ -122,6 +122,9 @@ int main(int argc, char** argv)
                          "Multiply every velocity by F before the Doppler shift (visualisation):\n"
                          "the velocity grid and the line width alike")
         ->capture_default_str());
+    spectralOnly.push_back(spectral->add_flag("--relativistic", sp.relativistic,
+                         "Relativistic Doppler factor gamma (1 + v_r/c): gas moving across the\n"
+                         "line of sight is red-shifted too (default: first order, 1 + v_r/c)"));
     spectralOnly.push_back(spectral->add_option("--line-width", sp.lineWidth,
                          "Half-width of each line's rest-frame box profile [km/s] (thermal and\n"
                          "turbulent broadening)")

@@ -67,6 +67,8 @@ struct SpectralOptions
     /// width alike (visualisation).
     double exaggerateVelocity = 1.0;
     double lineWidth = 10.0;         ///< half-width of a line's rest-frame box profile [km/s]
+    /// Relativistic Doppler factor gamma (1 + v_r/c) instead of 1 + v_r/c.
+    bool relativistic = false;
     double blackbodyScale = 1.0;     ///< multiplies the black-body (Kirchhoff) emission
     double temperatureScale = 1.0;   ///< multiplies the temperature grid (visualisation)
     std::string temperatureGrid = "temperature";

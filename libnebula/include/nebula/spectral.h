@@ -11,6 +11,7 @@
 #include "nebula/render.h"
 #include "nebula/spectrum.h"
 
+#include <cmath>
 #include <string>
 #include <vector>
 
@@ -29,6 +30,15 @@ inline constexpr double WM2_TO_LSUN_PC2 =
 /// Observed over emitted wavelength for radial velocity @p vr [km/s], v_r > 0 receding
 /// (DESIGN §7, first order in v/c): lambda' / lambda = 1 + v_r / c.
 inline double dopplerFactor(double vr) { return 1.0 + vr / SPEED_OF_LIGHT_KMS; }
+
+/// The relativistic Doppler factor (DESIGN §7's option) for radial velocity @p vr [km/s]
+/// and squared speed @p v2 [km^2/s^2]: lambda' / lambda = gamma (1 + v_r / c), gamma =
+/// 1 / sqrt(1 - v^2/c^2): gas moving across the line of sight is red-shifted by gamma.
+inline double relativisticDopplerFactor(double vr, double v2)
+{
+    const double c = SPEED_OF_LIGHT_KMS;
+    return (1.0 + vr / c) / std::sqrt(1.0 - v2 / (c * c));
+}
 
 /// The observed profile of one spectral line emitted along one ray segment: a trapezoid
 /// through (x[0], 0), (x[1], height), (x[2], height), (x[3], 0) [nm].
@@ -53,6 +63,11 @@ struct LineTrapezoid
 /// Works for either order of vA and vB.
 LineTrapezoid lineTrapezoid(double lambda0, double vA, double vB, double halfWidth,
                             double energy);
+
+/// The same with the Doppler factors lambda'/lambda at the segment's ends given, @p dA and
+/// @p dB > 0 (e.g. relativisticDopplerFactor()).
+LineTrapezoid lineTrapezoidFactors(double lambda0, double dA, double dB, double halfWidth,
+                                   double energy);
 
 /// One emission grid as the spectral renderer sees it.
 struct SpectralEmitter
