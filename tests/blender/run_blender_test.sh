@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Opens nebgen's and nebillum's output in headless Blender and checks the grid
+# Opens nebgen's (also --spectral) and nebillum's output in headless Blender and checks the grid
 # names, voxel size, transform, active-voxel bounding box and value range that
 # Blender sees against `vdb_print -l -m` (OpenVDB's own numbers).
 #
@@ -40,7 +40,7 @@ done
 mkdir -p "$WORK" || fail "cannot create $WORK"
 WORK=$(cd "$WORK" && pwd)
 rm -rf "$WORK/blender-user"
-rm -f "$WORK"/nebula.* "$WORK"/lit.* "$WORK"/wrong_*
+rm -f "$WORK"/nebula.* "$WORK"/lit.* "$WORK"/spectral.* "$WORK"/wrong_*
 # Keep Blender away from the user's own configuration and scripts.
 export BLENDER_USER_CONFIG=$WORK/blender-user/config
 export BLENDER_USER_SCRIPTS=$WORK/blender-user/scripts
@@ -55,6 +55,9 @@ SIZE=10
 echo "== generating a small nebula in $WORK (nebgen --res $RES --size $SIZE, nebillum)"
 "$TOOLS/nebgen" --res $RES --size $SIZE -q -o "$WORK/nebula.vdb" || fail "nebgen failed"
 "$TOOLS/nebillum" -q -i "$WORK/nebula.vdb" -o "$WORK/lit.vdb" || fail "nebillum failed"
+# The spectral grids: temperature (float), velocity (vec3s, world space), emission.oiii.
+"$TOOLS/nebgen" --res $RES --size $SIZE -q --spectral --rotation 20 --turbulence 5 --oiii 0.5 \
+    -o "$WORK/spectral.vdb" || fail "nebgen --spectral failed"
 
 # expected_json VDB OUT.json NOMINAL_VOXEL_SIZE REQUIRED_NAME...: OpenVDB's truth,
 # parsed from vdb_print -l -m.
@@ -176,11 +179,12 @@ run_blender() {
 }
 
 failures=0
-for f in nebula lit; do
+for f in nebula lit spectral; do
     vdb=$WORK/$f.vdb
     case $f in
         nebula) required=(density emission) ;;
         lit) required=(density emission 'tau.*') ;;
+        spectral) required=(density emission emission.oiii temperature velocity) ;;
     esac
     echo "== $f.vdb: OpenVDB (vdb_print -l -m) says"
     expected_json "$vdb" "$WORK/$f.expected.json" "$(python3 -c "print($SIZE / $RES)")" "${required[@]}"
