@@ -228,6 +228,42 @@ TEST(SpectralRender, RelativisticOptionRedshiftsTransverseMotionByGamma)
                 0.5, 1e-12);  // approaching at 0.6 c: sqrt((1 - b)/(1 + b)) = 0.5
 }
 
+TEST(SpectralRender, BlackBodyEmissionFollowsKirchhoff)
+{
+    // A cube of grey dust (n0 on lattice 1..19, trilinear ramps: column 19 voxels) at
+    // temperature T, no stars: L = (1 - a) B(T) (1 - e^-tau) at every wavelength (Kirchhoff's
+    // law for a slab of uniform temperature), so XYZ = (1 - a)(1 - e^-tau) XYZ_B(T) in
+    // L_sun pc^-2 sr^-1. The continuum nodes are 1 nm apart here (1e-5 from linear
+    // interpolation of B); the trilinear ramps at the faces change nothing (uniform T).
+    const double n0 = 2000.0, T = 5000.0;
+    SpectralScene s;
+    s.base.fields = DenseVolume({0, 0, 0}, {N, N, N}, 3);  // density, emission sum, T
+    s.base.fields.indexToWorld.m = {H, 0, 0, 0, H, 0, 0, 0, H};
+    for (int k = 0; k < N; ++k)
+        for (int j = 0; j < N; ++j)
+            for (int i = 0; i < N; ++i) {
+                float* q = s.base.fields.voxel(s.base.fields.index(i, j, k));
+                q[2] = float(T);
+                const bool inside = i > 0 && j > 0 && k > 0 && i < N - 1 && j < N - 1 && k < N - 1;
+                q[0] = inside ? float(n0) : 0.0f;
+            }
+    s.dust.kappa_V = KAPPA;
+    s.dust.curve = "grey";
+    s.base.dust.kappa_V = KAPPA;
+    s.base.buildOccupancy();
+    s.temperatureChannel = 2;
+    auto o = zCamera(1, 0.5);
+    o.spectral.continuumStep = 1.0;
+    const Image img = renderSpectral(s, o);
+    const XYZ got = linearSRGBToXYZ({img.rgba[0], img.rgba[1], img.rgba[2]});
+    const double tau = KAPPA * n0 * 19 * H;
+    const XYZ B = blackbodyXYZ(T);
+    for (int c = 0; c < 3; ++c) {
+        const double want = (1.0 - s.dust.albedo) * -std::expm1(-tau) * B[std::size_t(c)] * WM2_TO_LSUN_PC2;
+        EXPECT_NEAR(got[std::size_t(c)], want, 1e-4 * want) << c;
+    }
+}
+
 TEST(SpectralRender, LineEnergyUnchangedByAVelocityGradient)
 {
     auto none = [](int, int, int) { return 0.0; };
