@@ -127,10 +127,13 @@ inline double pieceIntegral(const Piece& p, double a, double b)
     return (hi - lo) * p.at(0.5 * (lo + hi));
 }
 
-/// Luminance Y of linear sRGB (IEC 61966-2-1).
-inline double luminance(const std::array<double, 3>& rgb)
+/// XYZ of a continuum given by its values at the nodes, from the nodes' colour weights.
+XYZ nodesToXYZ(const double* values, const std::vector<XYZ>& weight)
 {
-    return 0.2126 * rgb[0] + 0.7152 * rgb[1] + 0.0722 * rgb[2];
+    XYZ xyz{0, 0, 0};
+    for (std::size_t j = 0; j < weight.size(); ++j)
+        for (std::size_t c = 0; c < 3; ++c) xyz[c] += values[j] * weight[j][c];
+    return xyz;
 }
 
 } // namespace
@@ -155,8 +158,8 @@ SpectralScene buildSpectralScene(const GridSet& grids, const CommonOptions& comm
     if (!(so.lineWidth > 0.0) || !std::isfinite(so.lineWidth)) {
         throw UsageError("--line-width must be a finite number > 0 [km/s]");
     }
-    if (!std::isfinite(so.exaggerateVelocity)) {
-        throw UsageError("--exaggerate-velocity must be a finite number");
+    if (!(so.exaggerateVelocity > 0.0) || !std::isfinite(so.exaggerateVelocity)) {
+        throw UsageError("--exaggerate-velocity must be a finite number > 0 (1: true speeds)");
     }
     if (!(so.blackbodyScale >= 0.0) || !std::isfinite(so.blackbodyScale)) {
         throw UsageError("--blackbody-scale must be a finite number >= 0");
@@ -182,7 +185,7 @@ SpectralScene buildSpectralScene(const GridSet& grids, const CommonOptions& comm
     } catch (const Error& e) {
         throw UsageError(e.what());  // a bad option value: usage error (exit 2)
     }
-    const double targetY = luminance(opts.emissionColor) * opts.emissionScale;
+    const double targetY = linearSRGBToXYZ(opts.emissionColor)[1] * opts.emissionScale;
     auto addEmitter = [&](const openvdb::FloatGrid::Ptr& g, bool main) {
         requireFiniteNonNegative(*g, grids.source);
         SpectralEmitter e;
@@ -325,6 +328,11 @@ Image renderSpectral(const SpectralScene& scene, const RenderOptions& opts, cons
             starSpec[s * J + j] = planckFast(lam[j], rs.stars[s].temperature);
             Y += starSpec[s * J + j] * weight[j][1];
         }
+        if (!(Y > 0.0)) {
+            throw Error("star \"" + rs.stars[s].name + "\" at " +
+                        std::to_string(rs.stars[s].temperature) +
+                        " K emits no light between 360 and 830 nm to render");
+        }
         for (std::size_t j = 0; j < J; ++j) starSpec[s * J + j] *= rs.stars[s].luminosity / Y;
     }
 
@@ -369,7 +377,7 @@ Image renderSpectral(const SpectralScene& scene, const RenderOptions& opts, cons
     const double vScale = so.exaggerateVelocity;
     // Every velocity is exaggerated alike, the thermal and turbulent line width included, so
     // that a spectrum keeps its shape and is only stretched.
-    const double lineWidth = so.lineWidth * std::abs(vScale);
+    const double lineWidth = so.lineWidth * vScale;
     const int velCh = scene.velocityChannel, tempCh = scene.temperatureChannel;
     std::array<double, 3> rChannel;
     for (int c = 0; c < 3; ++c) rChannel[std::size_t(c)] = extinctionRatio(dust, opts.wavelengths[std::size_t(c)]);
@@ -379,7 +387,8 @@ Image renderSpectral(const SpectralScene& scene, const RenderOptions& opts, cons
     Progress bar(run ? *run : Run("nebrender", "", CommonOptions{}), "nebrender", std::uint64_t(H));
     tbb::parallel_for(tbb::blocked_range<int>(0, H, 4), [&](const tbb::blocked_range<int>& rows) {
         std::vector<float> f(static_cast<std::size_t>(C));
-        std::vector<double> Cstar(S * J), Cgas(J), A(J), layerAcc(static_cast<std::size_t>(NL));
+        std::vector<double> Cstar(S * J), Cgas(J), Ctotal(J), A(J),
+            layerAcc(static_cast<std::size_t>(NL));
         std::vector<Piece> rayPieces;
         std::uint64_t rays = 0, samples = 0, pieces = 0, sp = 0, mp = 0, mx = 0;
         for (int py = rows.begin(); py != rows.end(); ++py) {
@@ -506,21 +515,15 @@ Image renderSpectral(const SpectralScene& scene, const RenderOptions& opts, cons
                 // Colour: continuum (per star, gas) plus the lines.
                 const std::size_t pix = std::size_t(py) * W + px;
                 XYZ total = lineXYZ;
-                auto project = [&](const double* values) {
-                    XYZ xyz{0, 0, 0};
-                    for (std::size_t j = 0; j < J; ++j)
-                        for (int c = 0; c < 3; ++c) xyz[std::size_t(c)] += values[j] * weight[j][std::size_t(c)];
-                    return xyz;
-                };
                 for (std::size_t s = 0; s < S; ++s) {
-                    const XYZ xyz = project(&Cstar[s * J]);
+                    const XYZ xyz = nodesToXYZ(&Cstar[s * J], weight);
                     const auto rgb = xyzToLinearSRGB(xyz);
                     for (int c = 0; c < 3; ++c) {
                         total[std::size_t(c)] += xyz[std::size_t(c)];
                         img.layers[s].rgb[pix * 3 + std::size_t(c)] = float(rgb[std::size_t(c)]);
                     }
                 }
-                const XYZ gas = project(Cgas.data());
+                const XYZ gas = nodesToXYZ(Cgas.data(), weight);
                 for (int c = 0; c < 3; ++c) total[std::size_t(c)] += gas[std::size_t(c)];
                 const auto rgb = xyzToLinearSRGB(total);
                 for (int c = 0; c < 3; ++c) {
@@ -528,26 +531,24 @@ Image renderSpectral(const SpectralScene& scene, const RenderOptions& opts, cons
                     transLayer.rgb[pix * 3 + std::size_t(c)] = float(std::exp(-tau * rChannel[std::size_t(c)]));
                 }
                 img.rgba[pix * 4 + 3] = float(1.0 - std::exp(-tau * rChannel[1]));
+                if (NL > 0 || so.countPieces) {
+                    // The whole continuum at the nodes (stars and gas).
+                    for (std::size_t j = 0; j < J; ++j) {
+                        Ctotal[j] = Cgas[j];
+                        for (std::size_t s = 0; s < S; ++s) Ctotal[j] += Cstar[s * J + j];
+                    }
+                }
                 for (int b = 0; b < NL; ++b) {
                     double v = layerAcc[std::size_t(b)];
-                    for (std::size_t j = 0; j < J; ++j) {
-                        const double wgt = layerOfNode[std::size_t(b) * J + j];
-                        if (wgt == 0.0) continue;
-                        double sumC = Cgas[j];
-                        for (std::size_t s = 0; s < S; ++s) sumC += Cstar[s * J + j];
-                        v += wgt * sumC;
-                    }
+                    for (std::size_t j = 0; j < J; ++j) v += layerOfNode[std::size_t(b) * J + j] * Ctotal[j];
                     img.channels[std::size_t(b)].values[pix] = float(v);
                 }
                 if (so.countPieces && !bandsMode) {
                     // The ray's whole spectrum: continuum pieces between nodes plus the lines.
                     for (std::size_t j = 0; j + 1 < J; ++j) {
-                        double a = Cgas[j], b = Cgas[j + 1];
-                        for (std::size_t s = 0; s < S; ++s) {
-                            a += Cstar[s * J + j];
-                            b += Cstar[s * J + j + 1];
+                        if (Ctotal[j] != 0.0 || Ctotal[j + 1] != 0.0) {
+                            rayPieces.push_back(pieceThrough(lam[j], Ctotal[j], lam[j + 1], Ctotal[j + 1]));
                         }
-                        if (a != 0.0 || b != 0.0) rayPieces.push_back(pieceThrough(lam[j], a, lam[j + 1], b));
                     }
                     Spectrum spec = Spectrum::sum(rayPieces);
                     sp += spec.size();
@@ -582,12 +583,10 @@ Image renderSpectral(const SpectralScene& scene, const RenderOptions& opts, cons
         drawStarSprites(
             img, rs, opts,
             [&](std::size_t s, double tauV) {
-                XYZ xyz{0, 0, 0};
                 for (std::size_t j = 0; j < J; ++j) {
                     att[s * J + j] = starSpec[s * J + j] * std::exp(-tauV * lamExt[j]);
-                    for (int c = 0; c < 3; ++c) xyz[std::size_t(c)] += att[s * J + j] * weight[j][std::size_t(c)];
                 }
-                return xyzToLinearSRGB(xyz);
+                return xyzToLinearSRGB(nodesToXYZ(&att[s * J], weight));
             },
             [&](std::size_t s, std::size_t pix, double factor) {
                 for (int b = 0; b < NL; ++b) {

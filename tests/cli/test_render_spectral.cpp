@@ -100,6 +100,8 @@ TEST_F(RenderSpectral, BadInputIsAClearErrorWithNoOutput)
     expectFailure("nebrender -i spec.vdb --spectral --lines 'H-alpha:-1' -o f.exr", 2, "H-alpha");
     expectFailure("nebrender -i spec.vdb --spectral --lines '0:1' -o f.exr", 2, "--lines");
     expectFailure("nebrender -i spec.vdb --spectral --line-width 0 -o f.exr", 2, "--line-width");
+    expectFailure("nebrender -i spec.vdb --spectral --exaggerate-velocity 0 -o f.exr", 2,
+                  "--exaggerate-velocity");
     expectFailure("nebrender -i spec.vdb --spectral --integrator path -o f.exr", 2, "--spectral");
     // nebgen's 40 km/s times 1e5 is faster than light.
     expectFailure("nebrender -i spec.vdb --spectral --exaggerate-velocity 1e5 -o f.exr", 2,

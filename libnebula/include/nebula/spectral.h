@@ -100,7 +100,8 @@ struct SpectralScene
 /// Vec3fGrid of finite values). The emission grid's lines: opts.spectral.lines if given,
 /// else its nebula:lines metadata, else "H-alpha:1,H-beta:0.35" (Case B Balmer ratio).
 /// UsageError for options the spectral renderer cannot honour (a phase table, levels,
-/// the path tracer, bands < 0, a continuum step outside (0, 50] nm, a line width <= 0).
+/// the path tracer, bands < 0, a continuum step outside (0, 50] nm, a line width <= 0, an
+/// --exaggerate-velocity <= 0 or one that makes gas move at the speed of light).
 SpectralScene buildSpectralScene(const GridSet& grids, const CommonOptions& common,
                                  const RenderOptions& opts, const DustParams& dust);
 
