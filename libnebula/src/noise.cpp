@@ -111,6 +111,30 @@ inline double fadeDerivative(double t)
     return 30.0 * s * s;
 }
 
+/// The unit cube of the permutation lattice that contains (x, y, z) (wrapped to the table's
+/// period of 256, as Java's `(int)Math.floor(x) & 255` does), the point's position inside it
+/// and the hashes of the cube's corners (Perlin's AA, AB, BA, BB; +1 for z + 1). The input
+/// must be finite.
+struct LatticeCell
+{
+    double x, y, z;     ///< position inside the cube, [0, 1)
+    int AA, AB, BA, BB; ///< corner hashes
+};
+
+inline LatticeCell latticeCell(double x, double y, double z)
+{
+    const auto& p = TABLE.p;
+    const double fx = std::floor(x);
+    const double fy = std::floor(y);
+    const double fz = std::floor(z);
+    const int X = static_cast<int>(std::fmod(fx, 256.0)) & 255;
+    const int Y = static_cast<int>(std::fmod(fy, 256.0)) & 255;
+    const int Z = static_cast<int>(std::fmod(fz, 256.0)) & 255;
+    const int A = p[X] + Y;
+    const int B = p[X + 1] + Y;
+    return {x - fx, y - fy, z - fz, p[A] + Z, p[A + 1] + Z, p[B] + Z, p[B + 1] + Z};
+}
+
 } // namespace
 
 double perlinNoise(double x, double y, double z)
@@ -122,28 +146,15 @@ double perlinNoise(double x, double y, double z)
         return std::numeric_limits<double>::quiet_NaN();
     }
 
-    // Unit cube that contains the point (wrapped to the table's period of 256, as Java's
-    // `(int)Math.floor(x) & 255` does), and the point's position inside it.
-    const double fx = std::floor(x);
-    const double fy = std::floor(y);
-    const double fz = std::floor(z);
-    const int X = static_cast<int>(std::fmod(fx, 256.0)) & 255;
-    const int Y = static_cast<int>(std::fmod(fy, 256.0)) & 255;
-    const int Z = static_cast<int>(std::fmod(fz, 256.0)) & 255;
-    x -= fx;
-    y -= fy;
-    z -= fz;
-
-    // Fade curves and hashes of the eight cube corners.
+    // The cube that contains the point, and fade curves.
+    const LatticeCell cell = latticeCell(x, y, z);
+    x = cell.x;
+    y = cell.y;
+    z = cell.z;
+    const int AA = cell.AA, AB = cell.AB, BA = cell.BA, BB = cell.BB;
     const double u = fade(x);
     const double v = fade(y);
     const double w = fade(z);
-    const int A = p[X] + Y;
-    const int AA = p[A] + Z;
-    const int AB = p[A + 1] + Z;
-    const int B = p[X + 1] + Y;
-    const int BA = p[B] + Z;
-    const int BB = p[B + 1] + Z;
 
     // Trilinear blend of the corner gradients.
     return lerp(w,
@@ -188,24 +199,14 @@ NoiseGradient perlinNoiseGradient(double x, double y, double z)
     }
 
     // Cube, hashes and fades exactly as in perlinNoise().
-    const double fx = std::floor(x);
-    const double fy = std::floor(y);
-    const double fz = std::floor(z);
-    const int X = static_cast<int>(std::fmod(fx, 256.0)) & 255;
-    const int Y = static_cast<int>(std::fmod(fy, 256.0)) & 255;
-    const int Z = static_cast<int>(std::fmod(fz, 256.0)) & 255;
-    x -= fx;
-    y -= fy;
-    z -= fz;
+    const LatticeCell cell = latticeCell(x, y, z);
+    x = cell.x;
+    y = cell.y;
+    z = cell.z;
+    const int AA = cell.AA, AB = cell.AB, BA = cell.BA, BB = cell.BB;
     const double u = fade(x);
     const double v = fade(y);
     const double w = fade(z);
-    const int A = p[X] + Y;
-    const int AA = p[A] + Z;
-    const int AB = p[A + 1] + Z;
-    const int B = p[X + 1] + Y;
-    const int BA = p[B] + Z;
-    const int BB = p[B + 1] + Z;
 
     // Corner hashes, indexed by (dx + 2 dy + 4 dz), and their dot products g.
     const int h[8] = {p[AA], p[BA], p[AB], p[BB], p[AA + 1], p[BA + 1], p[AB + 1], p[BB + 1]};

@@ -87,30 +87,7 @@ public:
     /// Trilinear interpolation of every channel at index-space point @p p into @p out
     /// (channels() floats); zero outside the lattice, so keep a zero border if the field
     /// should fall to zero smoothly.
-    void sample(const Vec3& p, float* out) const
-    {
-        const double fx = std::floor(p.x), fy = std::floor(p.y), fz = std::floor(p.z);
-        const int i = int(fx), j = int(fy), k = int(fz);
-        const int C = mChannels;
-        if (!(fx >= mLo[0] && fy >= mLo[1] && fz >= mLo[2] && i + 1 < mLo[0] + mDims[0] &&
-              j + 1 < mLo[1] + mDims[1] && k + 1 < mLo[2] + mDims[2])) {
-            for (int c = 0; c < C; ++c) out[c] = 0.0f;
-            return;
-        }
-        const float u = float(p.x - fx), v = float(p.y - fy), w = float(p.z - fz);
-        const std::size_t sx = std::size_t(C), sy = sx * mDims[0], sz = sy * mDims[1];
-        const float* b = mData.data() + index(i, j, k) * sx;
-        for (int c = 0; c < C; ++c) {
-            const float* q = b + c;
-            const float c00 = q[0] + u * (q[sx] - q[0]);
-            const float c10 = q[sy] + u * (q[sy + sx] - q[sy]);
-            const float c01 = q[sz] + u * (q[sz + sx] - q[sz]);
-            const float c11 = q[sz + sy] + u * (q[sz + sy + sx] - q[sz + sy]);
-            const float c0 = c00 + v * (c10 - c00);
-            const float c1 = c01 + v * (c11 - c01);
-            out[c] = c0 + w * (c1 - c0);
-        }
-    }
+    void sample(const Vec3& p, float* out) const { sampleChannels(p, 0, mChannels, out); }
 
     /// Trilinear interpolation of channels [@p first, @p first + @p count) only (see sample()).
     void sampleChannels(const Vec3& p, int first, int count, float* out) const
