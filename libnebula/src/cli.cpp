@@ -74,6 +74,14 @@ std::array<double, 3> parseVec3(const std::string& text, const std::string& opti
     return v;
 }
 
+void requireMode(const std::vector<CLI::Option*>& options, bool enabled, const std::string& mode)
+{
+    if (enabled) return;
+    for (const auto* opt : options) {
+        if (opt->count() > 0) throw UsageError(opt->get_name() + " needs " + mode);
+    }
+}
+
 void parseResolution(const std::string& text, int& width, int& height)
 {
     const auto x = text.find('x');

@@ -111,6 +111,30 @@ inline double fadeDerivative(double t)
     return 30.0 * s * s;
 }
 
+/// The octaves of fBm: validates @p params, then calls add(amplitude, frequency, px, py, pz)
+/// for each octave with the point scaled by its frequency and shifted by its own offset drawn
+/// from the seed's splitmix64 stream; returns the sum of the amplitudes.
+template <class Add>
+double forEachOctave(double x, double y, double z, const FbmParams& params, std::uint64_t seed,
+                     Add&& add)
+{
+    validateFbm(params);
+    std::uint64_t state = seed;
+    double amplitudeSum = 0.0;
+    double amplitude = 1.0;
+    double frequency = 1.0;
+    for (int i = 0; i < params.octaves; ++i) {
+        const double ox = OFFSET_RANGE * unitDouble(splitmix64(state));
+        const double oy = OFFSET_RANGE * unitDouble(splitmix64(state));
+        const double oz = OFFSET_RANGE * unitDouble(splitmix64(state));
+        add(amplitude, frequency, frequency * x + ox, frequency * y + oy, frequency * z + oz);
+        amplitudeSum += amplitude;
+        amplitude *= params.gain;
+        frequency *= params.lacunarity;
+    }
+    return amplitudeSum;
+}
+
 /// The unit cube of the permutation lattice that contains (x, y, z) (wrapped to the table's
 /// period of 256, as Java's `(int)Math.floor(x) & 255` does), the point's position inside it
 /// and the hashes of the cube's corners (Perlin's AA, AB, BA, BB; +1 for z + 1). The input
@@ -167,23 +191,11 @@ double perlinNoise(double x, double y, double z)
 
 double fbm(double x, double y, double z, const FbmParams& params, std::uint64_t seed)
 {
-    validateFbm(params);
-
-    // Sum of octaves, each shifted by its own offset drawn from the seed's splitmix64 stream.
-    std::uint64_t state = seed;
     double sum = 0.0;
-    double amplitudeSum = 0.0;
-    double amplitude = 1.0;
-    double frequency = 1.0;
-    for (int i = 0; i < params.octaves; ++i) {
-        const double ox = OFFSET_RANGE * unitDouble(splitmix64(state));
-        const double oy = OFFSET_RANGE * unitDouble(splitmix64(state));
-        const double oz = OFFSET_RANGE * unitDouble(splitmix64(state));
-        sum += amplitude * perlinNoise(frequency * x + ox, frequency * y + oy, frequency * z + oz);
-        amplitudeSum += amplitude;
-        amplitude *= params.gain;
-        frequency *= params.lacunarity;
-    }
+    const double amplitudeSum =
+        forEachOctave(x, y, z, params, seed, [&](double amplitude, double, double px, double py, double pz) {
+            sum += amplitude * perlinNoise(px, py, pz);
+        });
     return sum / amplitudeSum;
 }
 
@@ -245,25 +257,14 @@ NoiseGradient perlinNoiseGradient(double x, double y, double z)
 NoiseGradient fbmGradient(double x, double y, double z, const FbmParams& params,
                           std::uint64_t seed)
 {
-    validateFbm(params);
     // The same sum as fbm(), with the chain rule's factor `frequency` on each gradient.
-    std::uint64_t state = seed;
     NoiseGradient sum;
-    double amplitudeSum = 0.0;
-    double amplitude = 1.0;
-    double frequency = 1.0;
-    for (int i = 0; i < params.octaves; ++i) {
-        const double ox = OFFSET_RANGE * unitDouble(splitmix64(state));
-        const double oy = OFFSET_RANGE * unitDouble(splitmix64(state));
-        const double oz = OFFSET_RANGE * unitDouble(splitmix64(state));
-        const NoiseGradient n =
-            perlinNoiseGradient(frequency * x + ox, frequency * y + oy, frequency * z + oz);
-        sum.value += amplitude * n.value;
-        for (int a = 0; a < 3; ++a) sum.gradient[a] += amplitude * frequency * n.gradient[a];
-        amplitudeSum += amplitude;
-        amplitude *= params.gain;
-        frequency *= params.lacunarity;
-    }
+    const double amplitudeSum = forEachOctave(
+        x, y, z, params, seed, [&](double amplitude, double frequency, double px, double py, double pz) {
+            const NoiseGradient n = perlinNoiseGradient(px, py, pz);
+            sum.value += amplitude * n.value;
+            for (int a = 0; a < 3; ++a) sum.gradient[a] += amplitude * frequency * n.gradient[a];
+        });
     sum.value /= amplitudeSum;
     for (auto& d : sum.gradient) d /= amplitudeSum;
     return sum;

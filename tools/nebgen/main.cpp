@@ -185,12 +185,8 @@ int main(int argc, char** argv)
         nebula::cli::refuseBinaryToTerminal(common.output, "-o");
         params.emissionShape =
             shape == "shell" ? nebula::EmissionShape::Shell : nebula::EmissionShape::Sphere;
+        nebula::cli::requireMode(spectralOnly, params.spectral.enabled, "--spectral");
         if (!params.spectral.enabled) {
-            for (const auto* opt : spectralOnly) {
-                if (opt->count() > 0) {
-                    throw nebula::UsageError(opt->get_name() + " needs --spectral");
-                }
-            }
             if (motionCentre->count() > 0 && params.emissionShape != nebula::EmissionShape::Shell) {
                 throw nebula::UsageError(
                     "--motion-centre needs --spectral or --emission-shape shell");

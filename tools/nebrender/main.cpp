@@ -179,11 +179,7 @@ int main(int argc, char** argv)
         }
         opts.drawStars = !noStars;
         if (bandsOpt->count() > 0) sp.enabled = true;
-        for (const auto* o : spectralOnly) {
-            if (o->count() > 0 && !sp.enabled) {
-                throw nebula::UsageError(o->get_name() + " needs --spectral");
-            }
-        }
+        nebula::cli::requireMode(spectralOnly, sp.enabled, "--spectral");
         opts.integrator = integrator == "path" ? nebula::Integrator::Path : nebula::Integrator::Fast;
         opts.phaseUse = phaseUse == "replace" ? nebula::PhaseUse::Replace : nebula::PhaseUse::Gain;
         if (noPng) out.png = "none";

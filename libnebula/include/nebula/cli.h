@@ -107,5 +107,9 @@ std::array<double, 3> parseVec3(const std::string& text, const std::string& opti
 /// Parses "WxH" (positive integers) for @p option "--res"; throws UsageError otherwise.
 void parseResolution(const std::string& text, int& width, int& height);
 
+/// Throws UsageError("<option> needs <mode>") for the first of @p options that was given
+/// while @p enabled is false (options that only mean something in a mode, e.g. --spectral).
+void requireMode(const std::vector<CLI::Option*>& options, bool enabled, const std::string& mode);
+
 } // namespace cli
 } // namespace nebula
