@@ -10,14 +10,14 @@
 /// Inputs are fixed-seed random, so runs are comparable. Each benchmark is short: the
 /// machine is shared.
 
-#include "nebula/cli.h"
-#include "nebula/dust.h"
-#include "nebula/generate.h"
-#include "nebula/illumination.h"
-#include "nebula/noise.h"
-#include "nebula/optical_depth.h"
-#include "nebula/render.h"
-#include "nebula/volume.h"
+#include "nebula/cli/cli.h"
+#include "nebula/physics/dust.h"
+#include "nebula/stages/generate.h"
+#include "nebula/stages/illuminate.h"
+#include "nebula/physics/noise.h"
+#include "nebula/physics/optical_depth.h"
+#include "nebula/render/fast.h"
+#include "nebula/volume/volume.h"
 
 #include <benchmark/benchmark.h>
 #include <openvdb/openvdb.h>
@@ -161,9 +161,7 @@ const nebula::RenderScene& smallScene()
 {
     static const std::unique_ptr<nebula::RenderScene> scene = [] {
         openvdb::initialize();
-        nebula::CommonOptions common;
-        common.quiet = true;  // no progress bars
-        const nebula::Run run("nebula_bench", "", common);
+        const nebula::Run run;  // silent: no progress bars
         nebula::NebulaParams params;
         params.res = 64;
         nebula::Star alpha;
@@ -175,9 +173,9 @@ const nebula::RenderScene& smallScene()
         nebula::GridSet grids = nebula::generateNebula(params);
         nebula::IllumOptions illum;
         illum.dust = params.dust;
-        nebula::illuminate(grids, common, illum, run);
+        nebula::illuminate(grids, illum, run);
         return std::make_unique<nebula::RenderScene>(
-            nebula::buildScene(grids, common, nebula::RenderOptions{}, grids.dust()));
+            nebula::buildScene(grids, nebula::RenderOptions{}, grids.dust()));
     }();
     return *scene;
 }
@@ -187,9 +185,7 @@ void BM_RenderFrame(benchmark::State& state)
     const nebula::RenderScene& scene = smallScene();
     tbb::global_control threads(tbb::global_control::max_allowed_parallelism,
                                 std::size_t(state.range(0)));
-    nebula::CommonOptions common;
-    common.quiet = true;
-    const nebula::Run run("nebula_bench", "", common);
+    const nebula::Run run;  // silent: no progress bars
     nebula::RenderOptions opts;
     opts.camera.width = opts.camera.height = 128;
     nebula::RenderStats stats;

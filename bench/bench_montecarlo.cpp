@@ -6,7 +6,7 @@
 ///
 ///     build-bench/bench/nebula_bench --benchmark_filter=MonteCarlo --benchmark_min_time=0.2
 
-#include "nebula/montecarlo.h"
+#include "nebula/physics/montecarlo.h"
 
 #include <benchmark/benchmark.h>
 #include <tbb/global_control.h>

@@ -11,9 +11,9 @@
 /// Prints one line per test image: mean, 99th percentile and maximum Delta E 2000 over the
 /// pixels counted, and the fraction of them above 1. Exit 1 on unreadable or mismatched images.
 
-#include "nebula/colour.h"
-#include "nebula/error.h"
-#include "nebula/image.h"
+#include "nebula/physics/colour.h"
+#include "nebula/core/error.h"
+#include "nebula/io/image.h"
 
 #include <algorithm>
 #include <cmath>

@@ -17,8 +17,8 @@
 /// blue where it is darker, full colour at a factor of 2 (log scale); black where REF_Y is
 /// below the threshold. Exit 1 with a message on unreadable or mismatched images.
 
-#include "nebula/error.h"
-#include "nebula/image.h"
+#include "nebula/core/error.h"
+#include "nebula/io/image.h"
 
 #include <algorithm>
 #include <cmath>

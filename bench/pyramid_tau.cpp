@@ -8,11 +8,11 @@
 // recomputed tau < 5, also split into dusty voxels (coarse density active) and their empty
 // neighbours; then how far each method is from the exact optical depth of the level-0
 // density at the coarse voxel centres (columnDensity through the level-0 lattice).
-#include "nebula/generate.h"
-#include "nebula/illumination.h"
-#include "nebula/optical_depth.h"
-#include "nebula/pyramid.h"
-#include "nebula/volume_vdb.h"
+#include "nebula/stages/generate.h"
+#include "nebula/stages/illuminate.h"
+#include "nebula/physics/optical_depth.h"
+#include "nebula/stages/pyramid.h"
+#include "nebula/io/volume_vdb.h"
 
 #include <chrono>
 #include <cmath>
@@ -49,15 +49,13 @@ int main(int argc, char** argv)
     const int levels = argc > 2 ? std::stoi(argv[2]) : 3;
     params.stars = nebula::exampleStars();
 
-    nebula::CommonOptions common;
-    common.quiet = true;
-    const nebula::Run run("pyramid_tau", "pyramid_tau", common);
+    const nebula::Run run;  // silent
 
     auto grids = nebula::generateNebula(params);
     nebula::IllumOptions illum;
     illum.dust = grids.dust();
     auto start = std::chrono::steady_clock::now();
-    nebula::illuminate(grids, common, illum, run);
+    nebula::illuminate(grids, illum, run);
     std::printf("res %d^3, %zu stars: level-0 tau (nebillum) %.3f s\n", params.res,
                 params.stars.size(), secondsSince(start));
     const auto density = grids.floatGrid("density", "");

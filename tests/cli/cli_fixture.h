@@ -2,7 +2,7 @@
 // The end-to-end test fixture shared by the CLI test files: a fresh folder per test, the
 // built tools on PATH, and helpers to run them and to check failures (STYLE.md: exit code,
 // message, no output left).
-#include "nebula/grid_io.h"
+#include "nebula/io/grid_io.h"
 
 #include <openvdb/openvdb.h>
 

@@ -2,8 +2,8 @@
 // metadata, images, exit codes, messages, and that failures leave no output (STYLE.md).
 #include "cli_fixture.h"
 
-#include "nebula/grid_io.h"
-#include "nebula/image.h"
+#include "nebula/io/grid_io.h"
+#include "nebula/io/image.h"
 
 #include <openvdb/openvdb.h>
 

@@ -2,10 +2,11 @@
 // emission grids' line metadata, [O III] and shells, their options and their errors.
 #include "cli_fixture.h"
 
-#include "nebula/generate.h"
-#include "nebula/grid_io.h"
-#include "nebula/lines.h"
-#include "nebula/motion.h"
+#include "nebula/stages/generate.h"
+#include "nebula/io/grid_io.h"
+#include "nebula/io/spectral_grids.h"
+#include "nebula/physics/lines.h"
+#include "nebula/physics/motion.h"
 
 #include <openvdb/openvdb.h>
 

@@ -2,9 +2,9 @@
 // limit, determinism, the dust it is made for, slab runs, and bad input.
 #include "cli_fixture.h"
 
-#include "nebula/dust.h"
-#include "nebula/grid_io.h"
-#include "nebula/phase_table_vdb.h"
+#include "nebula/physics/dust.h"
+#include "nebula/io/grid_io.h"
+#include "nebula/io/phase_table_vdb.h"
 
 #include <nlohmann/json.hpp>
 

@@ -2,8 +2,8 @@
 // conservation, metadata, pass-through and --only-new, determinism, and bad input.
 #include "cli_fixture.h"
 
-#include "nebula/grid_io.h"
-#include "nebula/pyramid.h"
+#include "nebula/io/grid_io.h"
+#include "nebula/stages/pyramid.h"
 
 #include <openvdb/openvdb.h>
 

@@ -2,8 +2,8 @@
 // and global scattering from pyramid levels (--levels), with their bad inputs.
 #include "cli_fixture.h"
 
-#include "nebula/grid_io.h"
-#include "nebula/image.h"
+#include "nebula/io/grid_io.h"
+#include "nebula/io/image.h"
 
 #include <openvdb/openvdb.h>
 

@@ -2,10 +2,10 @@
 // and its bad inputs (DESIGN §7).
 #include "cli_fixture.h"
 
-#include "nebula/colour.h"
-#include "nebula/grid_io.h"
-#include "nebula/image.h"
-#include "nebula/lines.h"
+#include "nebula/physics/colour.h"
+#include "nebula/io/grid_io.h"
+#include "nebula/io/image.h"
+#include "nebula/physics/lines.h"
 
 #include <openvdb/openvdb.h>
 

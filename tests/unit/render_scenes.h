@@ -1,7 +1,8 @@
 #pragma once
 // Small analytic scenes shared by the renderer tests (fast ray caster and path tracer).
-#include "nebula/optical_depth.h"
-#include "nebula/render.h"
+#include "nebula/physics/optical_depth.h"
+#include "nebula/render/fast.h"
+#include "nebula/render/path_tracer.h"
 
 #include <cmath>
 #include <vector>

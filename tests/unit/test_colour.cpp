@@ -4,11 +4,13 @@
 /// Planckian-locus chromaticities, XYZ <-> linear sRGB, CIE L*a*b* and CIEDE2000 against
 /// Sharma, Wu & Dalal's test data, and black-body colours.
 
-#include "nebula/colour.h"
+#include "nebula/physics/colour.h"
 
-#include "nebula/error.h"
-#include "nebula/spectrum.h"
-#include "nebula/stars.h"
+#include "nebula/core/error.h"
+#include "nebula/physics/spectrum.h"
+#include "nebula/physics/blackbody.h"
+#include "nebula/physics/colour.h"
+#include "nebula/physics/stars.h"
 
 #include "test_util.h"
 

@@ -2,9 +2,9 @@
 /// Phase functions (normalisation, asymmetry), the CCM89 extinction curve against published
 /// values, and the dust parameters' validation and JSON form.
 
-#include "nebula/dust.h"
+#include "nebula/physics/dust.h"
 
-#include "nebula/error.h"
+#include "nebula/core/error.h"
 
 #include "test_util.h"
 

@@ -1,8 +1,8 @@
 // Tests for nebula/image.h: EXR round trip, atomic failure behaviour, PNG encoding and the
 // automatic tone curve (DESIGN §8, notes/physics-sources.md 4.3).
 
-#include "nebula/error.h"
-#include "nebula/image.h"
+#include "nebula/core/error.h"
+#include "nebula/io/image.h"
 
 #include <gtest/gtest.h>
 #include <png.h>

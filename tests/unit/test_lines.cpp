@@ -2,10 +2,11 @@
 /// Spectral inputs: the emission-line catalogue, line lists and their metadata, the
 /// temperature grid's check, and nebgen's dust temperature (radiative equilibrium).
 
-#include "nebula/lines.h"
+#include "nebula/physics/lines.h"
 
-#include "nebula/error.h"
-#include "nebula/generate.h"
+#include "nebula/core/error.h"
+#include "nebula/io/spectral_grids.h"
+#include "nebula/stages/generate.h"
 
 #include "test_util.h"
 

@@ -1,7 +1,7 @@
 // The Monte Carlo core (montecarlo.h): exact bookkeeping, the two estimators against each
 // other, determinism, the thin limit, and plane-parallel slabs against published results.
-#include "nebula/error.h"
-#include "nebula/montecarlo.h"
+#include "nebula/core/error.h"
+#include "nebula/physics/montecarlo.h"
 
 #include <tbb/task_arena.h>
 

@@ -2,10 +2,11 @@
 /// Gas motion: analytic noise gradients, curl noise, the expansion, rotation and turbulence
 /// models of MotionField, and the velocity-grid check.
 
-#include "nebula/motion.h"
+#include "nebula/physics/motion.h"
 
-#include "nebula/error.h"
-#include "nebula/noise.h"
+#include "nebula/core/error.h"
+#include "nebula/io/spectral_grids.h"
+#include "nebula/physics/noise.h"
 
 #include "test_util.h"
 

@@ -1,9 +1,9 @@
 /// @file test_noise.cpp
 /// Perlin's improved noise against his reference code, and properties of fBm.
 
-#include "nebula/noise.h"
+#include "nebula/physics/noise.h"
 
-#include "nebula/error.h"
+#include "nebula/core/error.h"
 
 #include <gtest/gtest.h>
 

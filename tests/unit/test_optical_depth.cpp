@@ -1,5 +1,5 @@
 // Optical depth (nebillum) against closed forms and brute force (DESIGN §2-3).
-#include "nebula/optical_depth.h"
+#include "nebula/physics/optical_depth.h"
 
 #include <gtest/gtest.h>
 #include <tbb/global_control.h>

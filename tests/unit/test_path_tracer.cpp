@@ -1,7 +1,7 @@
 // The reference path tracer (DESIGN §6) against closed forms and published slab results.
 // Monte Carlo estimates are compared within 3 of their own standard errors (the variance
 // layer) plus a stated allowance for what the closed form leaves out.
-#include "nebula/render.h"
+#include "nebula/render/fast.h"
 
 #include "render_scenes.h"
 

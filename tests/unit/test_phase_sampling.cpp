@@ -3,8 +3,8 @@
 /// samplers (DESIGN §3-4) against their densities: chi-squared goodness of fit in the style of
 /// Mitsuba's chi2 tests, mean cosines, exact inverse CDFs, and the scattering frame.
 
-#include "nebula/dust.h"
-#include "nebula/rng.h"
+#include "nebula/physics/dust.h"
+#include "nebula/core/rng.h"
 
 #include "test_util.h"
 

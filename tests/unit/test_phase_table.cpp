@@ -1,7 +1,7 @@
 // The effective phase-function table (phase_table.h, phase_table_vdb.h): building, lookup,
 // and the grid form with its error messages.
-#include "nebula/error.h"
-#include "nebula/phase_table_vdb.h"
+#include "nebula/core/error.h"
+#include "nebula/io/phase_table_vdb.h"
 
 #include <openvdb/openvdb.h>
 

@@ -1,8 +1,8 @@
 // The multi-resolution levels (nebpyramid, DESIGN §5): box averages that conserve mass,
 // the coarse transform, and the two ways of making tau.<star>.L<k>.
-#include "nebula/pyramid.h"
+#include "nebula/stages/pyramid.h"
 
-#include "nebula/illumination.h"
+#include "nebula/stages/illuminate.h"
 #include "test_util.h"
 
 #include <openvdb/openvdb.h>
@@ -258,13 +258,6 @@ openvdb::FloatGrid::Ptr sphereGrid(double h, F f)
     return g;
 }
 
-CommonOptions quietOptions()
-{
-    CommonOptions common;
-    common.quiet = true;
-    return common;
-}
-
 } // namespace
 
 // Uniform sphere, star at its centre: where every coarse cell along the ray is made of full
@@ -281,11 +274,10 @@ TEST_F(PyramidTest, RecomputedTauOfUniformSphereMatchesClosedForm)
     });
     const auto star = density->indexToWorld(openvdb::Vec3d(0.0));
     auto grids = sceneWith(density, star);
-    const CommonOptions common = quietOptions();
-    const nebula::Run run("test", "test", common);
+    const nebula::Run run;
     PyramidOptions opts;
     opts.levels = 2;
-    buildPyramid(grids, common, opts, run);
+    buildPyramid(grids, opts, run);
     for (int level = 1; level <= 2; ++level) {
         const auto tau = grids.floatGrid(levelGridName("tau.c", level), "");
         EXPECT_EQ(tau->metaValue<std::string>("method"), "recompute");
@@ -326,21 +318,20 @@ TEST_F(PyramidTest, AverageAgreesWithRecomputeForSmoothField)
     });
     const openvdb::Vec3d starIndex(6.3, -4.1, 2.7);
     const auto star = density->indexToWorld(starIndex);
-    const CommonOptions common = quietOptions();
-    const nebula::Run run("test", "test", common);
+    const nebula::Run run;
     auto lit = sceneWith(density, star);
     IllumOptions illum;
     illum.dust = lit.dust();
-    illuminate(lit, common, illum, run);
+    illuminate(lit, illum, run);
 
     auto averaged = lit;
     auto recomputed = lit;
     PyramidOptions opts;
     opts.levels = 2;
     opts.tau = TauMethod::Average;
-    buildPyramid(averaged, common, opts, run);
+    buildPyramid(averaged, opts, run);
     opts.tau = TauMethod::Recompute;
-    buildPyramid(recomputed, common, opts, run);
+    buildPyramid(recomputed, opts, run);
 
     const double bound[] = {0.0, 0.006, 0.015};
     for (int level = 1; level <= 2; ++level) {
@@ -371,8 +362,7 @@ TEST_F(PyramidTest, AverageAgreesWithRecomputeForSmoothField)
 
 TEST_F(PyramidTest, BadInput)
 {
-    const CommonOptions common = quietOptions();
-    const nebula::Run run("test", "test", common);
+    const nebula::Run run;
     const auto cube = [] {
         auto g = openvdb::FloatGrid::create(0.0f);
         g->setName("density");
@@ -382,21 +372,21 @@ TEST_F(PyramidTest, BadInput)
     PyramidOptions opts;
     auto grids = sceneWith(cube(), openvdb::Vec3d(0.0));
     opts.levels = 0;
-    EXPECT_THROW(buildPyramid(grids, common, opts, run), UsageError);
+    EXPECT_THROW(buildPyramid(grids, opts, run), UsageError);
     opts.levels = 3;  // 8 voxels across: at most 2 levels
-    EXPECT_TRUE(test::contains(test::errorMessage([&] { buildPyramid(grids, common, opts, run); }),
+    EXPECT_TRUE(test::contains(test::errorMessage([&] { buildPyramid(grids, opts, run); }),
                                "at most --levels 2"));
-    EXPECT_THROW(buildPyramid(grids, common, opts, run), UsageError);
+    EXPECT_THROW(buildPyramid(grids, opts, run), UsageError);
     opts.levels = 2;
     opts.tau = TauMethod::Average;
-    EXPECT_TRUE(test::contains(test::errorMessage([&] { buildPyramid(grids, common, opts, run); }),
+    EXPECT_TRUE(test::contains(test::errorMessage([&] { buildPyramid(grids, opts, run); }),
                                "test: no grid \"tau.c\" for star \"c\""));
     GridSet noStars;
     noStars.source = "nostars.vdb";
     noStars.grids.push_back(cube());
     opts.tau = TauMethod::Recompute;
     EXPECT_TRUE(test::contains(
-        test::errorMessage([&] { buildPyramid(noStars, common, opts, run); }),
+        test::errorMessage([&] { buildPyramid(noStars, opts, run); }),
         "nostars.vdb: no stars"));
     // Nothing was added by the failures.
     EXPECT_EQ(grids.grids.size(), 1u);

@@ -2,7 +2,7 @@
 // function S = j / k is constant along a ray, exact per-step attenuation telescopes to
 // L = S (1 - exp(-tau)) for any step length, so these tests hold for large steps too, where
 // the `1 - k dl` scheme would amplify light.
-#include "nebula/render.h"
+#include "nebula/render/fast.h"
 
 #include "render_scenes.h"
 

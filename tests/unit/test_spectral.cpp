@@ -1,8 +1,9 @@
 // Spectral rendering (DESIGN §7): Doppler line profiles, the spectral ray caster against
 // closed forms, its fixed-band mode and the RGB mode.
-#include "nebula/colour.h"
-#include "nebula/spectral.h"
-#include "nebula/stars.h"
+#include "nebula/physics/colour.h"
+#include "nebula/render/fast.h"
+#include "nebula/render/spectral.h"
+#include "nebula/physics/stars.h"
 
 #include <gtest/gtest.h>
 

@@ -3,9 +3,9 @@
 /// table, random sums against brute force, exact integrals of products, merging and
 /// multiplication by a smooth function.
 
-#include "nebula/spectrum.h"
+#include "nebula/physics/spectrum.h"
 
-#include "nebula/error.h"
+#include "nebula/core/error.h"
 
 #include "test_util.h"
 

@@ -2,9 +2,11 @@
 /// The stars JSON (parsing, every error, round trip), spectral classes, Planck's law against
 /// Wien's and Stefan-Boltzmann's laws, and black-body colours.
 
-#include "nebula/stars.h"
+#include "nebula/physics/blackbody.h"
+#include "nebula/physics/colour.h"
+#include "nebula/physics/stars.h"
 
-#include "nebula/error.h"
+#include "nebula/core/error.h"
 
 #include "test_util.h"
 

@@ -1,7 +1,7 @@
 #pragma once
 // Small helpers shared by the unit tests.
 
-#include "nebula/error.h"
+#include "nebula/core/error.h"
 
 #include <gtest/gtest.h>
 

@@ -1,9 +1,9 @@
 // nebgen - procedural reflection nebula: fBm dust density, gas emission, stars, and with
 // --spectral temperature, velocity and [O III] emission.
-#include "nebula/cli.h"
-#include "nebula/error.h"
-#include "nebula/generate.h"
-#include "nebula/options.h"
+#include "nebula/cli/cli.h"
+#include "nebula/core/error.h"
+#include "nebula/stages/generate.h"
+#include "nebula/cli/options.h"
 
 #include <cstdio>
 #include <string>
@@ -182,7 +182,7 @@ int main(int argc, char** argv)
             ->group(spectralGroup));
 
     return nebula::cli::run(app, "nebgen", common, argc, argv, [&](nebula::Run& run) {
-        nebula::cli::refuseBinaryToTerminal(common.output, "-o");
+        nebula::refuseBinaryToTerminal(common.output, "-o");
         params.emissionShape =
             shape == "shell" ? nebula::EmissionShape::Shell : nebula::EmissionShape::Sphere;
         nebula::cli::requireMode(spectralOnly, params.spectral.enabled, "--spectral");

@@ -1,7 +1,7 @@
 // nebillum - per-star optical depth from each star to every voxel.
-#include "nebula/cli.h"
-#include "nebula/illumination.h"
-#include "nebula/options.h"
+#include "nebula/cli/cli.h"
+#include "nebula/stages/illuminate.h"
+#include "nebula/cli/options.h"
 
 int main(int argc, char** argv)
 {
@@ -29,11 +29,13 @@ int main(int argc, char** argv)
                     "V-band extinction per n_H per pc [pc^-1 cm^3] (default: the input's)");
 
     return nebula::cli::run(app, "nebillum", common, argc, argv, [&](nebula::Run& run) {
-        nebula::cli::refuseBinaryToTerminal(common.output, "-o");
+        nebula::refuseBinaryToTerminal(common.output, "-o");
         auto grids = nebula::readGrids(common.input);
         opts.stars = nebula::cli::loadStars(starOpts);
         opts.dust = dustOpts.apply(grids.dust());
-        nebula::illuminate(grids, common, opts, run);
+        opts.densityGrid = common.densityGrid;
+        opts.onlyNew = common.onlyNew;
+        nebula::illuminate(grids, opts, run);
         nebula::writeGrids(common.output, std::move(grids), "nebillum", run.command());
     });
 }

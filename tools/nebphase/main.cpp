@@ -1,13 +1,13 @@
 // nebphase - the effective phase function Phi(t, mu) of a dust voxel by Monte Carlo
 // (DESIGN §4), and plane-parallel slab runs of the same Monte Carlo core.
-#include "nebula/atomic_file.h"
-#include "nebula/cli.h"
-#include "nebula/error.h"
-#include "nebula/grid_io.h"
-#include "nebula/montecarlo.h"
-#include "nebula/options.h"
-#include "nebula/phase_table.h"
-#include "nebula/phase_table_vdb.h"
+#include "nebula/core/atomic_file.h"
+#include "nebula/cli/cli.h"
+#include "nebula/core/error.h"
+#include "nebula/io/grid_io.h"
+#include "nebula/physics/montecarlo.h"
+#include "nebula/cli/options.h"
+#include "nebula/physics/phase_table.h"
+#include "nebula/io/phase_table_vdb.h"
 
 #include <nlohmann/json.hpp>
 
@@ -128,7 +128,7 @@ void tableMode(const nebula::Run& run, const nebula::CommonOptions& common,
         throw nebula::UsageError("-o/--output is required: the phase table VDB file, or - for "
                                  "stdout (or --slab --tau T for a slab run)");
     }
-    nebula::cli::refuseBinaryToTerminal(output, "-o");
+    nebula::refuseBinaryToTerminal(output, "-o");
     if (opts.json == "-" && output == "-") {
         throw nebula::UsageError("--json - and -o - both write to stdout; give one a file name");
     }

@@ -1,7 +1,7 @@
 // nebpyramid - multi-resolution levels of the density and the optical depths (DESIGN §5).
-#include "nebula/cli.h"
-#include "nebula/error.h"
-#include "nebula/pyramid.h"
+#include "nebula/cli/cli.h"
+#include "nebula/core/error.h"
+#include "nebula/stages/pyramid.h"
 
 int main(int argc, char** argv)
 {
@@ -46,14 +46,16 @@ int main(int argc, char** argv)
         ->capture_default_str();
 
     return nebula::cli::run(app, "nebpyramid", common, argc, argv, [&](nebula::Run& run) {
-        nebula::cli::refuseBinaryToTerminal(common.output, "-o");
+        nebula::refuseBinaryToTerminal(common.output, "-o");
         opts.tau = nebula::tauMethodFromString(tau);
         if (opts.levels < 1) {
             throw nebula::UsageError("--levels must be >= 1, got " +
                                      std::to_string(opts.levels));
         }
         auto grids = nebula::readGrids(common.input);
-        nebula::buildPyramid(grids, common, opts, run);
+        opts.densityGrid = common.densityGrid;
+        opts.onlyNew = common.onlyNew;
+        nebula::buildPyramid(grids, opts, run);
         nebula::writeGrids(common.output, std::move(grids), "nebpyramid", run.command());
     });
 }

@@ -1,10 +1,9 @@
 // nebrender - single-scattering ray caster: scattered starlight + gas emission to EXR/PNG.
-#include "nebula/cli.h"
-#include "nebula/error.h"
-#include "nebula/options.h"
-#include "nebula/phase_table_vdb.h"
-#include "nebula/render.h"
-#include "nebula/spectral.h"
+#include "nebula/cli/cli.h"
+#include "nebula/core/error.h"
+#include "nebula/cli/options.h"
+#include "nebula/io/phase_table_vdb.h"
+#include "nebula/stages/render.h"
 
 #include <cstdio>
 
@@ -194,6 +193,7 @@ int main(int argc, char** argv)
         }
         const auto grids = nebula::readGrids(common.input);
         const auto dust = dustOpts.apply(grids.dust());
-        nebula::renderToFiles(grids, common, opts, dust, out, run);
+        opts.densityGrid = common.densityGrid;
+        nebula::renderToFiles(grids, opts, dust, out, run);
     });
 }

@@ -1,0 +1,74 @@
+#pragma once
+/// @file run.h
+/// What a running tool knows about itself (its name, the command line for provenance, how
+/// talkative to be) and the TTY-only progress bar. Knows nothing of command-line parsing:
+/// cli/ builds a Run from the parsed options; the library only reports through it.
+
+#include <atomic>
+#include <chrono>
+#include <cstdint>
+#include <mutex>
+#include <string>
+
+namespace nebula {
+
+/// How much a run says on stderr.
+struct Verbosity
+{
+    bool quiet = false;  ///< no progress bar, no warnings
+    int verbose = 0;     ///< > 0: a line per stage (Run::info)
+};
+
+/// A tool's identity and its stderr reporting. A default-constructed Run is silent (library
+/// callers such as tests and benchmarks that want no output).
+class Run
+{
+public:
+    Run() : Run("nebula", "", Verbosity{true, 0}) {}
+    Run(std::string tool, std::string command, Verbosity verbosity = {});
+
+    const std::string& tool() const { return mTool; }
+    const std::string& command() const { return mCommand; }
+    const Verbosity& verbosity() const { return mVerbosity; }
+
+    /// A line on stderr under -v ("tool: message"); silent otherwise.
+    void info(const std::string& message) const;
+    /// A warning on stderr unless -q.
+    void warn(const std::string& message) const;
+
+    /// Whether progress bars are drawn (stderr is a TTY and not -q).
+    bool showProgress() const { return mProgress; }
+
+private:
+    std::string mTool;
+    std::string mCommand;
+    Verbosity mVerbosity;
+    bool mProgress = false;
+};
+
+/// A thread-safe progress bar on stderr, drawn only when the run shows progress; redrawn at
+/// most 10 times a second with '\r', finished with a newline. A null run draws nothing.
+class Progress
+{
+public:
+    Progress(const Run* run, std::string label, std::uint64_t total);
+    Progress(const Run& run, std::string label, std::uint64_t total)
+        : Progress(&run, std::move(label), total)
+    {
+    }
+    ~Progress();
+    Progress(const Progress&) = delete;
+    Progress& operator=(const Progress&) = delete;
+    void add(std::uint64_t n);
+
+private:
+    void draw(bool final);
+    bool mEnabled;
+    std::string mLabel;
+    std::uint64_t mTotal;
+    std::atomic<std::uint64_t> mDone{0};
+    std::mutex mMutex;
+    std::chrono::steady_clock::time_point mLast;
+};
+
+} // namespace nebula

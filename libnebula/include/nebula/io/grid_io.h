@@ -1,0 +1,69 @@
+#pragma once
+/// @file grid_io.h
+/// Reading and writing the grids that flow between the tools (DESIGN §1-2): files or "-"
+/// (stdin/stdout), input grids passed through, a grid of the same name replaced, and the
+/// file metadata that records provenance, stars and dust.
+
+#include "nebula/io/grid_names.h"
+#include "nebula/physics/dust.h"
+#include "nebula/physics/stars.h"
+
+#include <openvdb/openvdb.h>
+
+#include <string>
+#include <vector>
+
+namespace nebula {
+
+/// The grids of one VDB file or stream, with its file-level metadata.
+struct GridSet
+{
+    std::string source;              ///< file name, or "<stdin>", for error messages
+    openvdb::GridPtrVec grids;
+    openvdb::MetaMap meta;
+
+    /// The grid called @p name, or null.
+    openvdb::GridBase::Ptr find(const std::string& name) const;
+    /// Adds @p grid, replacing any grid of the same name (never duplicating it).
+    void replace(openvdb::GridBase::Ptr grid);
+
+    /// The FloatGrid @p name; throws Error naming the source and grid if it is missing, of
+    /// another type, or has a non-affine transform. @p option names the option that chose
+    /// the name (e.g. "--density-grid"), for the message.
+    openvdb::FloatGrid::Ptr floatGrid(const std::string& name, const std::string& option) const;
+
+    /// Stars from `nebula:stars` (empty if absent). Throws Error if it does not parse.
+    std::vector<Star> stars() const;
+    void setStars(const std::vector<Star>& stars);
+    /// Dust from `nebula:dust`, or the defaults if absent.
+    DustParams dust() const;
+    bool hasDust() const;
+    void setDust(const DustParams& dust);
+
+    /// A string file-level metadata value, or @p fallback.
+    std::string metaString(const std::string& key, const std::string& fallback = "") const;
+    void setMetaString(const std::string& key, const std::string& value);
+};
+
+/// Reads every grid of @p path ("-" = stdin, read with delayLoad=false). Throws Error
+/// naming the file: missing, not a VDB, truncated or unreadable.
+GridSet readGrids(const std::string& path);
+
+/// Writes @p grids to @p path ("-" = stdout) atomically, stamping `nebula:tool`,
+/// `nebula:version` and `nebula:command` into the file metadata. @p path "-" on a terminal
+/// is refused (UsageError).
+void writeGrids(const std::string& path, GridSet grids, const std::string& tool,
+                const std::string& command);
+
+/// Throws UsageError if @p path is "-" and stdout is a terminal (binary output); @p option
+/// names the option that gave the path.
+void refuseBinaryToTerminal(const std::string& path, const std::string& option);
+
+/// Throws Error unless @p grid's transform is affine (linear map, any scale/rotation/mirror).
+void requireAffine(const openvdb::GridBase& grid, const std::string& source);
+
+/// Throws Error naming @p source and the grid if any active value is NaN, infinite or
+/// negative (returns the number of active voxels checked).
+std::size_t requireFiniteNonNegative(const openvdb::FloatGrid& grid, const std::string& source);
+
+} // namespace nebula

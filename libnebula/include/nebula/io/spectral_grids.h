@@ -1,0 +1,31 @@
+#pragma once
+/// @file spectral_grids.h
+/// Reading the spectral grids (DESIGN §2, §7): an emission grid's lines, the temperature
+/// grid and the velocity grid, with errors that name the file and grid.
+
+#include "nebula/io/grid_io.h"
+#include "nebula/physics/lines.h"
+
+#include <string>
+#include <vector>
+
+namespace nebula {
+
+/// The lines of the emission grid @p grid: its `nebula:lines` metadata parsed, or
+/// @p fallback if it has none. Throws Error naming @p source and the grid if the metadata
+/// is not a string or does not parse.
+std::vector<SpectralLine> gridLines(const openvdb::GridBase& grid, const std::string& source,
+                                    const std::vector<SpectralLine>& fallback);
+
+/// Throws Error naming @p source and the grid if any active temperature value is negative,
+/// NaN or infinite.
+void requireValidTemperature(const openvdb::FloatGrid& grid, const std::string& source);
+
+/// The Vec3fGrid @p name of @p grids (a velocity [km/s] in world axes). Throws Error naming
+/// the source and grid (and @p option, e.g. "--velocity-grid") if it is missing, of another
+/// type (saying which, and that a Vec3fGrid [km/s] is expected), has a non-affine
+/// transform, or has a non-finite active value or background.
+openvdb::Vec3fGrid::Ptr velocityGrid(const GridSet& grids, const std::string& name,
+                                     const std::string& option);
+
+} // namespace nebula

@@ -1,0 +1,31 @@
+#pragma once
+/// @file volume_vdb.h
+/// Conversions between OpenVDB grids and the compact DenseVolume of volume.h.
+
+#include "nebula/volume/volume.h"
+
+#include <openvdb/openvdb.h>
+
+#include <string>
+#include <vector>
+
+namespace nebula {
+
+/// The affine index-to-world map of @p transform (which must be linear).
+Affine affineFromTransform(const openvdb::math::Transform& transform);
+
+/// The bounding box of the active values of @p grids (union), grown by @p pad voxels.
+openvdb::CoordBBox activeBounds(const std::vector<openvdb::FloatGrid::ConstPtr>& grids, int pad);
+
+/// A DenseVolume over @p bounds with one channel per grid (in order), holding each grid's
+/// active values (voxels and tiles) and zero elsewhere. Every grid must share the first
+/// grid's transform; otherwise Error naming @p source and the grid.
+DenseVolume denseFromGrids(const std::vector<openvdb::FloatGrid::ConstPtr>& grids,
+                           const openvdb::CoordBBox& bounds, const std::string& source);
+
+/// A FloatGrid with the active topology and transform of @p topology whose active values
+/// come from @p field, a scalar per lattice point of @p lattice (zero off the lattice).
+openvdb::FloatGrid::Ptr gridFromField(const DenseVolume& lattice, const std::vector<float>& field,
+                                      const openvdb::FloatGrid& topology);
+
+} // namespace nebula

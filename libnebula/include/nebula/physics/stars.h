@@ -1,0 +1,40 @@
+#pragma once
+/// @file stars.h
+/// Stars: the `nebula:stars` JSON (DESIGN §2), spectral classes, black-body colours.
+
+#include <array>
+#include <string>
+#include <vector>
+
+namespace nebula {
+
+/// A point source. Travels as the file metadata `nebula:stars`.
+struct Star
+{
+    std::string name;                       ///< [A-Za-z0-9_-]+, used in grid names tau.<name>
+    std::array<double, 3> position{0, 0, 0};///< world position [pc]
+    double luminosity = 1.0;                ///< bolometric-free scale [L_sun], > 0
+    double temperature = 5772.0;            ///< effective temperature [K], > 0
+};
+
+/// Parses a JSON array of {"name", "position":[x,y,z], "luminosity", "temperature"} where a
+/// "class" (e.g. "B3V") may stand in for "temperature". @p source names the file (or
+/// "nebula:stars metadata") in error messages. Throws Error on a parse error, a missing or
+/// mistyped field, a non-positive luminosity or temperature, a bad or duplicate name, or a
+/// star with both "temperature" and "class". Messages start with the source and name the
+/// star (counted from 1) and the field: `stars.json: star 2 ("beta"): "luminosity" must be
+/// > 0 [L_sun], got -1`. Unknown fields are ignored.
+std::vector<Star> parseStars(const std::string& json, const std::string& source);
+
+/// The JSON array parseStars() reads (always with "temperature").
+std::string starsToJson(const std::vector<Star>& stars);
+
+/// Effective temperature [K] of a main-sequence spectral class "O5" ... "M5", with an
+/// optional subclass digit and luminosity class ("B3V", "G2V", "A0", "K5III": the
+/// luminosity class V, IV, III, II, I, Iab, Ia or Ib is accepted and ignored, as is one
+/// space before it). The subclass may have decimals ("B0.5"); a bare letter ("G") means
+/// the middle of its class (G5). Interpolates a standard table (documented in the
+/// implementation) linearly between tabulated subtypes. Throws Error on anything else.
+double spectralClassTemperature(const std::string& spectralClass);
+
+} // namespace nebula

@@ -1,0 +1,101 @@
+#pragma once
+/// @file options.h
+/// Every render parameter, with its default and unit (the values nebrender's options fill).
+
+#include "nebula/physics/phase_table.h"
+#include "nebula/render/camera.h"
+
+#include <array>
+#include <cstdint>
+#include <memory>
+#include <string>
+
+namespace nebula {
+
+/// nebrender's integrators: the fast ray caster (DESIGN §3-5) or the reference path tracer
+/// (DESIGN §6).
+enum class Integrator { Fast, Path };
+
+/// How the fast integrator uses a phase table (DESIGN §4-5):
+///  - Replace: the scattered source is k Phi(t, mu) E (Phi replaces a p(mu)); Phi includes the
+///    voxel's own extinction of the light, which the ray caster applies as well.
+///  - Gain: k a p(mu) G(t, mu) E with G = Phi / Phi_1, the voxel's multiple-scattering gain
+///    over its single scattering (both from the same Monte Carlo), so the ray caster's
+///    extinction is not applied twice.
+enum class PhaseUse { Replace, Gain };
+
+/// nebrender --spectral (DESIGN §7): spectra along each ray instead of three channels.
+struct SpectralOptions
+{
+    bool enabled = false;
+    /// 0: piecewise-linear spectra (lines as exact Doppler trapezoids, continuum on nodes
+    /// continuumStep apart); N > 0: N fixed bands over 360-830 nm, point-sampled at their
+    /// centres (for comparison).
+    int bands = 0;
+    double continuumStep = 10.0;     ///< piecewise-linear mode: continuum node spacing [nm]
+    /// Multiplies every velocity before the Doppler shift: the velocity grid's and the line
+    /// width alike (visualisation).
+    double exaggerateVelocity = 1.0;
+    double lineWidth = 10.0;         ///< half-width of a line's rest-frame box profile [km/s]
+    /// Relativistic Doppler factor gamma (1 + v_r/c) instead of 1 + v_r/c.
+    bool relativistic = false;
+    double blackbodyScale = 1.0;     ///< multiplies the black-body (Kirchhoff) emission
+    double temperatureScale = 1.0;   ///< multiplies the temperature grid (visualisation)
+    std::string temperatureGrid = "temperature";
+    std::string velocityGrid = "velocity";
+    std::string lines;               ///< line list of the emission grid (overrides metadata)
+    int layers = 0;                  ///< spectral EXR channels: N bands over 360-830 nm
+    bool countPieces = false;        ///< build each ray's spectrum to count its pieces (stats)
+    double mergeTolerance = 0.0;     ///< with countPieces: also count after merge(tolerance)
+};
+
+/// Every render parameter; defaults give the README's example picture.
+struct RenderOptions
+{
+    Integrator integrator = Integrator::Fast;
+    std::string densityGrid = "density";  ///< the dust density grid (n_H [cm^-3])
+    int spp = 64;            ///< path tracer: samples per pixel (per channel)
+    std::uint64_t seed = 1;  ///< path tracer: same seed, same image whatever the threads
+    Camera camera;
+    double step = 0.5;                              ///< ray step [voxels]
+    std::array<double, 3> wavelengths{700.0, 546.1, 435.8};  ///< R, G, B channels [nm]
+    double emissionScale = 1.0;                     ///< multiplies the emission grid
+    std::array<double, 3> emissionColor{1.0, 0.15, 0.2};  ///< linear sRGB (H-alpha + H-beta pink)
+    std::string emissionGrid = "emission";
+    bool drawStars = true;                          ///< star sprites
+    double spriteRadius = 2.5;                      ///< sprite radius [pixels]
+    double minStarDistance = 0.5;                   ///< 1/r^2 clamp radius [voxels]
+    double minTransmittance = 1e-5;                 ///< rays stop below this in all channels
+    /// Effective phase function (DESIGN §4): with a table, the scattered radiance uses
+    /// Phi(t_c, mu) at the voxel's optical thickness t_c = k_c * voxel size instead of the
+    /// thin limit a p(mu). Null: single scattering, a p(mu).
+    std::shared_ptr<const PhaseTable> phaseTable;
+    std::string phaseSource;       ///< the table's file, for messages and the EXR
+    bool phaseIgnoreDust = false;  ///< accept a table whose albedo/g/phase differ from the dust
+    PhaseUse phaseUse = PhaseUse::Gain;
+    /// Multi-resolution global scattering (DESIGN §5): pyramid levels 1..levels (nebpyramid's
+    /// density.L<k>, tau.<star>.L<k>) each add the change of the per-voxel scattering when
+    /// the voxel doubles, see renderFrame(). 0: level 0 only; > 0 needs a phase table.
+    /// -1 (auto): with a phase table, every level the input has (L1, L2, ... while they
+    /// last); without one, none.
+    int levels = -1;
+    SpectralOptions spectral;
+};
+
+/// What a render did, for benchmarks and -v.
+struct RenderStats
+{
+    std::uint64_t rays = 0;     ///< rays that met the volume's box
+    std::uint64_t samples = 0;  ///< field lookups (ray steps in occupied space)
+    /// Channel samples whose voxel optical thickness exceeded the phase table's t_max (the
+    /// table's last row was used).
+    std::uint64_t phaseClamped = 0;
+    std::uint64_t paths = 0;       ///< path tracer: random walks (pixels x spp x channels)
+    std::uint64_t collisions = 0;  ///< path tracer: tentative collisions (real and null)
+    std::uint64_t pieces = 0;      ///< spectral: linear pieces projected (lines + continuum)
+    std::uint64_t spectrumPieces = 0;  ///< spectral, countPieces: pieces of the rays' spectra
+    std::uint64_t mergedPieces = 0;    ///< the same after merge(mergeTolerance)
+    std::uint64_t maxSpectrumPieces = 0;  ///< the largest ray spectrum
+};
+
+} // namespace nebula

@@ -1,0 +1,67 @@
+#pragma once
+/// @file scene.h
+/// What the integrators render: compact dense fields built once from the grids (the only
+/// render unit that reads OpenVDB grids), the stars and the per-channel dust.
+
+#include "nebula/physics/dust.h"
+#include "nebula/physics/stars.h"
+#include "nebula/render/options.h"
+#include "nebula/volume/block_walk.h"
+#include "nebula/volume/volume.h"
+
+#include <array>
+#include <cstdint>
+#include <vector>
+
+namespace nebula {
+
+struct GridSet;
+
+/// One pyramid level's fields for the fast integrator: channels as RenderScene::fields
+/// (0 density, 1 emission = 0, 2 + s tau_V of star s), voxel 2^level times level 0's. Levels
+/// are looked up at level-0 samples, never marched, so they need no occupancy.
+struct RenderLevel
+{
+    int level = 0;
+    DenseVolume fields;
+};
+
+/// The per-channel dust numbers the kernel uses.
+struct ChannelDust
+{
+    std::array<double, 3> r{1, 1, 1};  ///< A(lambda_c)/A_V (CCM)
+    double kappa_V = 1.5e-3;
+    double albedo = 0.6;
+    double g = 0.6;
+    PhaseModel phase = PhaseModel::HenyeyGreenstein;
+};
+
+/// What the kernel renders: compact fields plus the stars and dust.
+struct RenderScene
+{
+    /// Channels: 0 density n_H, 1 emission, 2 + s: tau_V of star s.
+    DenseVolume fields;
+    std::vector<Star> stars;
+    std::vector<std::array<double, 3>> starColor;  ///< L_s * linear sRGB (Y = 1) [L_sun]
+    ChannelDust dust;
+    /// Coarse occupancy: block (bi,bj,bk) of BLOCK^3 lattice cells holds dust or emission.
+    static constexpr int BLOCK = OCCUPANCY_BLOCK;
+    std::array<int, 3> blocks{0, 0, 0};
+    std::vector<std::uint8_t> occupied;
+
+    /// (Re)computes `blocks` and `occupied` from channels 0 (density) and 1 (emission).
+    void buildOccupancy();
+
+    /// Pyramid levels 1..K (empty without RenderOptions::levels).
+    std::vector<RenderLevel> levels;
+};
+
+/// Builds the scene from nebillum's output: density (opts.densityGrid), emission (optional) and tau.<star> for
+/// every star in nebula:stars. Throws Error naming the file and grid on anything missing or
+/// inconsistent (no stars, a tau grid missing, kappa_V of a tau grid != the dust's), or if
+/// opts.phaseTable was made for another albedo, g or phase model than @p dust (unless
+/// opts.phaseIgnoreDust). With opts.levels = K, also reads density.L<k> and tau.<star>.L<k>
+/// for k = 1..K and throws Error if one is missing or its voxels are not 2^k times level 0's.
+RenderScene buildScene(const GridSet& grids, const RenderOptions& opts, const DustParams& dust);
+
+} // namespace nebula

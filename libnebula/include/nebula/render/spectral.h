@@ -1,0 +1,73 @@
+#pragma once
+/// @file spectral.h
+/// nebrender --spectral (DESIGN §7): spectra along camera rays instead of three channels.
+/// Line emission is shifted by the gas's radial velocity and broadened into exact
+/// trapezoids (Alghamdi et al. 2023, notes §6.2); black-body emission and the starlight the
+/// dust scatters carry the extinction curve at every wavelength. Colour is the exact
+/// integral of the piecewise-linear spectrum against the CIE 1931 colour-matching functions,
+/// then linear sRGB. A fixed-band mode point-samples the same spectra for comparison.
+
+#include "nebula/physics/lines.h"
+#include "nebula/core/run.h"
+#include "nebula/io/image.h"
+#include "nebula/render/options.h"
+#include "nebula/render/scene.h"
+#include "nebula/physics/spectrum.h"
+
+#include <cmath>
+#include <string>
+#include <vector>
+
+namespace nebula {
+
+struct GridSet;
+
+/// The visible range every spectral image covers (the CMF table's range) [nm].
+inline constexpr double SPECTRAL_MIN_NM = 360.0;
+inline constexpr double SPECTRAL_MAX_NM = 830.0;
+/// One emission grid as the spectral renderer sees it.
+struct SpectralEmitter
+{
+    std::string grid;                ///< grid name
+    int channel = -1;                ///< its channel in RenderScene::fields
+    std::vector<SpectralLine> lines; ///< what it emits
+    /// Energy of line l per unit of the grid per pc: unit * lines[l].strength. Chosen so that
+    /// the line mix has the luminance Y of the RGB mode's --emission-color times
+    /// --emission-scale: the two modes show the gas equally bright.
+    double unit = 1.0;
+};
+
+/// The scene of a spectral render: the RGB scene's fields (channels 0 density, 1 the sum of
+/// every emission grid (occupancy only), 2 + s tau_V of star s) followed by the emission
+/// grids, the temperature and the velocity (3 channels), each where present.
+struct SpectralScene
+{
+    RenderScene base;
+    DustParams dust;
+    std::vector<SpectralEmitter> emitters;
+    int temperatureChannel = -1;  ///< -1: no temperature grid
+    int velocityChannel = -1;     ///< vx; vy, vz follow. -1: no velocity grid
+};
+
+/// Builds the spectral scene: everything buildScene() checks and reads, plus every emission
+/// grid (opts.emissionGrid and each FloatGrid with nebula:lines metadata), the temperature
+/// grid (opts.spectral.temperatureGrid, optional; Error if a value is negative, NaN or
+/// infinite) and the velocity grid (opts.spectral.velocityGrid, optional; Error unless a
+/// Vec3fGrid of finite values). The emission grid's lines: opts.spectral.lines if given,
+/// else its nebula:lines metadata, else "H-alpha:1,H-beta:0.35" (Case B Balmer ratio).
+/// UsageError for options the spectral renderer cannot honour (a phase table, levels,
+/// the path tracer, bands < 0, a continuum step outside (0, 50] nm, a line width <= 0, an
+/// --exaggerate-velocity <= 0 or one that makes gas move at the speed of light).
+SpectralScene buildSpectralScene(const GridSet& grids,
+                                 const RenderOptions& opts, const DustParams& dust);
+
+/// Renders @p scene spectrally (see the file comment and DESIGN §7). Output as renderFrame:
+/// beauty R,G,B (linear sRGB of the spectrum's XYZ; may be negative for colours outside the
+/// sRGB gamut, such as a lone H-alpha line), A = 1 - T at the green channel's wavelength,
+/// layers star.<name> and transmittance, plus opts.spectral.layers single channels
+/// "S0.<centre>nm" (mean spectral radiance per nm over equal bands of 360-830 nm, named
+/// after the OpenEXR spectral layout of Fichet et al. 2021, with ',' for the decimal point).
+Image renderSpectral(const SpectralScene& scene, const RenderOptions& opts,
+                     const Run* run = nullptr, RenderStats* stats = nullptr);
+
+} // namespace nebula

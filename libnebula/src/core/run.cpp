@@ -1,0 +1,63 @@
+#include "nebula/core/run.h"
+
+#include <algorithm>
+#include <cstdio>
+#include <iostream>
+
+#include <unistd.h>
+
+namespace nebula {
+
+Run::Run(std::string tool, std::string command, Verbosity verbosity)
+    : mTool(std::move(tool)), mCommand(std::move(command)), mVerbosity(verbosity)
+{
+    mProgress = !verbosity.quiet && ::isatty(STDERR_FILENO);
+}
+
+void Run::info(const std::string& message) const
+{
+    if (mVerbosity.verbose > 0 && !mVerbosity.quiet) std::cerr << mTool << ": " << message << "\n";
+}
+
+void Run::warn(const std::string& message) const
+{
+    if (!mVerbosity.quiet) std::cerr << mTool << ": warning: " << message << "\n";
+}
+
+Progress::Progress(const Run* run, std::string label, std::uint64_t total)
+    : mEnabled(run && run->showProgress() && total > 0), mLabel(std::move(label)), mTotal(total),
+      mLast(std::chrono::steady_clock::now())
+{
+}
+
+Progress::~Progress()
+{
+    if (mEnabled) draw(true);
+}
+
+void Progress::add(std::uint64_t n)
+{
+    mDone += n;
+    if (!mEnabled) return;
+    // Only one thread draws, and at most every 100 ms; the others just count.
+    std::unique_lock<std::mutex> lock(mMutex, std::try_to_lock);
+    if (!lock.owns_lock()) return;
+    const auto now = std::chrono::steady_clock::now();
+    if (now - mLast < std::chrono::milliseconds(100)) return;
+    mLast = now;
+    draw(false);
+}
+
+void Progress::draw(bool final)
+{
+    const double f = std::min(1.0, double(mDone.load()) / double(mTotal));
+    const int width = 30;
+    const int filled = int(f * width + 0.5);
+    std::string bar(std::size_t(filled), '#');
+    bar.resize(std::size_t(width), '.');
+    std::fprintf(stderr, "\r%s [%s] %3d%%%s", mLabel.c_str(), bar.c_str(), int(f * 100 + 0.5),
+                 final ? "\n" : "");
+    std::fflush(stderr);
+}
+
+} // namespace nebula

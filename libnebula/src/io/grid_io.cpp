@@ -1,0 +1,185 @@
+#include "nebula/io/grid_io.h"
+
+#include "nebula/core/atomic_file.h"
+#include "nebula/core/error.h"
+
+#include <openvdb/io/File.h>
+#include <openvdb/io/Stream.h>
+
+#include <cmath>
+#include <fstream>
+#include <iostream>
+#include <sstream>
+#include <unistd.h>
+
+namespace nebula {
+
+openvdb::GridBase::Ptr GridSet::find(const std::string& name) const
+{
+    for (const auto& g : grids) {
+        if (g && g->getName() == name) return g;
+    }
+    return nullptr;
+}
+
+void GridSet::replace(openvdb::GridBase::Ptr grid)
+{
+    for (auto& g : grids) {
+        if (g && g->getName() == grid->getName()) {
+            g = grid;
+            return;
+        }
+    }
+    grids.push_back(grid);
+}
+
+openvdb::FloatGrid::Ptr GridSet::floatGrid(const std::string& name,
+                                           const std::string& option) const
+{
+    const auto base = find(name);
+    if (!base) {
+        std::string names;
+        for (const auto& g : grids) names += (names.empty() ? "" : ", ") + g->getName();
+        throw Error(source + ": no grid \"" + name + "\"" +
+                    (option.empty() ? "" : " (" + option + ")") + "; the file has " +
+                    (names.empty() ? std::string("no grids") : "grids: " + names));
+    }
+    auto grid = openvdb::gridPtrCast<openvdb::FloatGrid>(base);
+    if (!grid) {
+        throw Error(source + ": grid \"" + name + "\" is a " + base->type() +
+                    ", expected a FloatGrid (Tree_float_5_4_3)");
+    }
+    requireAffine(*grid, source);
+    return grid;
+}
+
+std::string GridSet::metaString(const std::string& key, const std::string& fallback) const
+{
+    const auto m = meta[key];
+    if (!m) return fallback;
+    return m->str();
+}
+
+void GridSet::setMetaString(const std::string& key, const std::string& value)
+{
+    meta.removeMeta(key);  // a key of another type would make insertMeta throw
+    meta.insertMeta(key, openvdb::StringMetadata(value));
+}
+
+std::vector<Star> GridSet::stars() const
+{
+    const std::string json = metaString(META_STARS);
+    if (json.empty()) return {};
+    return parseStars(json, source + ": metadata " + META_STARS);
+}
+
+void GridSet::setStars(const std::vector<Star>& stars)
+{
+    setMetaString(META_STARS, starsToJson(stars));
+}
+
+bool GridSet::hasDust() const { return bool(meta[META_DUST]); }
+
+DustParams GridSet::dust() const
+{
+    const std::string json = metaString(META_DUST);
+    if (json.empty()) return DustParams{};
+    return DustParams::fromJson(json, source + ": metadata " + META_DUST);
+}
+
+void GridSet::setDust(const DustParams& dust) { setMetaString(META_DUST, dust.toJson()); }
+
+void requireAffine(const openvdb::GridBase& grid, const std::string& source)
+{
+    if (!grid.transform().isLinear()) {
+        throw Error(source + ": grid \"" + grid.getName() + "\" has a non-affine transform (" +
+                    grid.transform().mapType() + "); only affine (linear) transforms are supported");
+    }
+}
+
+std::size_t requireFiniteNonNegative(const openvdb::FloatGrid& grid, const std::string& source)
+{
+    std::size_t n = 0;
+    for (auto it = grid.cbeginValueOn(); it; ++it, ++n) {
+        const float v = *it;
+        if (!std::isfinite(v) || v < 0.0f) {
+            const auto c = it.getCoord();
+            std::ostringstream msg;
+            msg << source << ": grid \"" << grid.getName() << "\" has "
+                << (std::isnan(v) ? "a NaN" : std::isinf(v) ? "an infinite" : "a negative")
+                << " value " << v << " at voxel (" << c.x() << ", " << c.y() << ", " << c.z()
+                << "); expected finite values >= 0";
+            throw Error(msg.str());
+        }
+    }
+    return n;
+}
+
+GridSet readGrids(const std::string& path)
+{
+    GridSet set;
+    set.source = path == "-" ? std::string("<stdin>") : path;
+    try {
+        if (path == "-") {
+            if (::isatty(STDIN_FILENO)) {
+                throw UsageError("-i -: stdin is a terminal; pipe a VDB stream in or give a file");
+            }
+            // delayLoad=false: otherwise io::Stream copies all of stdin to a temp file.
+            openvdb::io::Stream stream(std::cin, /*delayLoad=*/false);
+            set.grids = *stream.getGrids();
+            if (auto m = stream.getMetadata()) set.meta = *m;
+        } else {
+            if (!std::ifstream(path).good()) throw Error(path + ": cannot open file");
+            openvdb::io::File file(path);
+            file.open(/*delayLoad=*/false);
+            set.grids = *file.getGrids();
+            if (auto m = file.getMetadata()) set.meta = *m;
+            file.close();
+        }
+    } catch (const Error&) {
+        throw;
+    } catch (const std::exception& e) {
+        throw Error(set.source + ": not a valid, complete VDB file (" + e.what() + ")");
+    }
+    for (const auto& g : set.grids) {
+        if (!g) throw Error(set.source + ": not a valid, complete VDB file (empty grid entry)");
+    }
+    return set;
+}
+
+void writeGrids(const std::string& path, GridSet grids, const std::string& tool,
+                const std::string& command)
+{
+    grids.setMetaString(META_TOOL, tool);
+    grids.setMetaString(META_VERSION, NEBULA_VERSION_STRING);
+    grids.setMetaString(META_COMMAND, command);
+    for (auto& g : grids.grids) {
+        if (g->getCreator().empty()) g->setCreator(tool + " " NEBULA_VERSION_STRING);
+    }
+    if (path == "-") {
+        refuseBinaryToTerminal(path, "-o");
+        openvdb::io::Stream(std::cout).write(grids.grids, grids.meta);
+        std::cout.flush();
+        if (!std::cout) throw Error("<stdout>: write failed");
+        return;
+    }
+    AtomicFile out(path);
+    try {
+        openvdb::io::File file(out.tmpPath());
+        file.write(grids.grids, grids.meta);
+        file.close();
+    } catch (const std::exception& e) {
+        throw Error(path + ": cannot write VDB file (" + e.what() + ")");
+    }
+    out.commit();
+}
+
+void refuseBinaryToTerminal(const std::string& path, const std::string& option)
+{
+    if (path == "-" && ::isatty(STDOUT_FILENO)) {
+        throw UsageError(option + " -: refusing to write binary data to a terminal; "
+                                  "redirect stdout or give a file name");
+    }
+}
+
+} // namespace nebula

@@ -1,0 +1,539 @@
+#include "nebula/io/image.h"
+
+#include "nebula/core/atomic_file.h"
+#include "nebula/core/error.h"
+
+#include <IexBaseExc.h>
+#include <ImfChannelList.h>
+#include <ImfFrameBuffer.h>
+#include <ImfHeader.h>
+#include <ImfIO.h>
+#include <ImfInputFile.h>
+#include <ImfOutputFile.h>
+#include <ImfStringAttribute.h>
+
+#include <png.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <climits>
+#include <cmath>
+#include <csetjmp>
+#include <cstdint>
+#include <cstdio>
+#include <cstring>
+#include <exception>
+#include <memory>
+#include <set>
+
+namespace nebula {
+
+namespace {
+
+/// Rec. 709 / sRGB luminance of linear RGB.
+inline double luminance(float r, float g, float b)
+{
+    return 0.2126 * r + 0.7152 * g + 0.0722 * b;
+}
+
+std::size_t pixelCount(int width, int height)
+{
+    return std::size_t(width) * std::size_t(height);
+}
+
+/// Throws Error (prefixed with @p where) unless the frame's sizes are consistent.
+void validateImage(const std::string& where, const Image& image, bool withLayers)
+{
+    if (image.width <= 0 || image.height <= 0) {
+        throw Error(where + ": image size must be positive, got " + std::to_string(image.width) +
+                    " x " + std::to_string(image.height));
+    }
+    const std::size_t n = pixelCount(image.width, image.height);
+    if (image.rgba.size() != n * 4) {
+        throw Error(where + ": RGBA data has " + std::to_string(image.rgba.size()) +
+                    " floats, expected " + std::to_string(n * 4) + " for " +
+                    std::to_string(image.width) + " x " + std::to_string(image.height));
+    }
+    if (!withLayers) return;
+    std::set<std::string> names;
+    for (const ImageLayer& layer : image.layers) {
+        if (layer.name.empty()) throw Error(where + ": image layer with an empty name");
+        if (!names.insert(layer.name).second) {
+            throw Error(where + ": image layer \"" + layer.name + "\" appears twice");
+        }
+        if (layer.rgb.size() != n * 3) {
+            throw Error(where + ": layer \"" + layer.name + "\" has " +
+                        std::to_string(layer.rgb.size()) + " floats, expected " +
+                        std::to_string(n * 3));
+        }
+    }
+    for (const ImageChannel& ch : image.channels) {
+        if (ch.name.empty()) throw Error(where + ": image channel with an empty name");
+        if (!names.insert(ch.name).second) {
+            throw Error(where + ": image channel \"" + ch.name + "\" appears twice");
+        }
+        if (ch.values.size() != n) {
+            throw Error(where + ": channel \"" + ch.name + "\" has " +
+                        std::to_string(ch.values.size()) + " floats, expected " + std::to_string(n));
+        }
+    }
+}
+
+/// An Imf::OStream over a FILE* that remembers its first failure. OutputFile's destructor
+/// writes the line offset table and swallows exceptions, so a full disk would otherwise go
+/// unnoticed and a truncated EXR be committed.
+class CheckedOStream : public Imf::OStream
+{
+public:
+    CheckedOStream(std::FILE* fp, const std::string& name) : Imf::OStream(name.c_str()), mFp(fp)
+    {
+    }
+
+    void write(const char c[], int n) override
+    {
+        if (std::fwrite(c, 1, std::size_t(n), mFp) != std::size_t(n)) fail("write");
+    }
+    uint64_t tellp() override
+    {
+        const off_t pos = ::ftello(mFp);
+        if (pos < 0) fail("tell");
+        return uint64_t(pos);
+    }
+    void seekp(uint64_t pos) override
+    {
+        if (::fseeko(mFp, off_t(pos), SEEK_SET) != 0) fail("seek");
+    }
+
+    /// errno of the first failure, 0 if none.
+    int error() const { return mError; }
+
+private:
+    [[noreturn]] void fail(const char* what)
+    {
+        if (mError == 0) mError = errno != 0 ? errno : EIO;
+        throw Iex::IoExc(std::string(what) + " failed (" + std::strerror(mError) + ")");
+    }
+
+    std::FILE* mFp;
+    int mError = 0;
+};
+
+struct FileCloser
+{
+    void operator()(std::FILE* fp) const { std::fclose(fp); }
+};
+
+char* sliceBase(const float* p)
+{
+    // Imf::Slice takes a non-const pointer for both directions; OutputFile only reads it.
+    return const_cast<char*>(reinterpret_cast<const char*>(p));
+}
+
+// ---- PNG ------------------------------------------------------------------------------------
+
+/// Where the libpng callbacks leave their messages (libpng often explains an error in the
+/// warning just before it, e.g. "Image width exceeds user limit" before "Invalid IHDR data").
+struct PngErrorState
+{
+    char message[256] = {};
+    char lastWarning[256] = {};
+};
+
+void pngError(png_structp png, png_const_charp msg)
+{
+    auto* state = static_cast<PngErrorState*>(png_get_error_ptr(png));
+    if (state) std::snprintf(state->message, sizeof state->message, "%s", msg ? msg : "?");
+    png_longjmp(png, 1);
+}
+
+void pngWarning(png_structp png, png_const_charp msg)
+{
+    // libnebula never prints: keep the warning for the error message, if one follows.
+    auto* state = static_cast<PngErrorState*>(png_get_error_ptr(png));
+    if (state) std::snprintf(state->lastWarning, sizeof state->lastWarning, "%s", msg ? msg : "");
+}
+
+/// Every libpng call that may longjmp happens inside this function, which holds only
+/// trivially destructible locals: the jump back to setjmp skips no C++ destructor.
+/// Returns false after a libpng error (the message is in the error state).
+bool pngWriteAll(png_structp png, png_infop info, std::FILE* fp, png_uint_32 width,
+                 png_uint_32 height, png_bytepp rows, png_textp text, int numText)
+{
+    if (setjmp(png_jmpbuf(png))) return false;
+    png_init_io(png, fp);
+    png_set_IHDR(png, info, width, height, 8, PNG_COLOR_TYPE_RGB_ALPHA, PNG_INTERLACE_NONE,
+                 PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
+    png_set_sRGB_gAMA_and_cHRM(png, info, PNG_sRGB_INTENT_PERCEPTUAL);
+    if (numText > 0) png_set_text(png, info, text, numText);
+    png_write_info(png, info);
+    png_write_image(png, rows);
+    png_write_end(png, info);
+    return true;
+}
+
+/// PNG keywords: 1 to 79 printable Latin-1 characters without leading, trailing or double
+/// spaces (PNG spec 11.3.4.3); we accept the ASCII subset.
+bool validPngKeyword(const std::string& key)
+{
+    if (key.empty() || key.size() > 79 || key.front() == ' ' || key.back() == ' ') return false;
+    for (std::size_t i = 0; i < key.size(); ++i) {
+        const unsigned char c = static_cast<unsigned char>(key[i]);
+        if (c < 32 || c > 126) return false;
+        if (c == ' ' && key[i + 1] == ' ') return false;
+    }
+    return true;
+}
+
+bool isAscii(const std::string& s)
+{
+    return std::all_of(s.begin(), s.end(),
+                       [](char c) { return static_cast<unsigned char>(c) < 128 && c != '\0'; });
+}
+
+} // namespace
+
+// ---- EXR ------------------------------------------------------------------------------------
+
+void writeExr(const std::string& path, const Image& image,
+              const std::map<std::string, std::string>& attributes)
+{
+    validateImage(path, image, true);
+
+    Imf::Header header(image.width, image.height);
+    header.compression() = Imf::ZIP_COMPRESSION;
+
+    // Attributes OpenEXR defines with other types (or uses to describe the file layout)
+    // cannot be replaced by strings; say so instead of failing deep inside OpenEXR.
+    static const char* const reserved[] = {"type", "tiles", "chunkCount", "version",
+                                           "maxSamplesPerPixel", "name"};
+    for (const auto& [key, value] : attributes) {
+        if (key.empty()) throw Error(path + ": EXR attribute with an empty name");
+        const bool isReserved = header.find(key) != header.end() ||
+                                std::find(std::begin(reserved), std::end(reserved), key) !=
+                                    std::end(reserved);
+        if (isReserved) {
+            throw Error(path + ": EXR attribute \"" + key +
+                        "\" is reserved by OpenEXR and cannot be set as a string");
+        }
+    }
+
+    try {
+        const std::size_t rgbaX = 4 * sizeof(float);
+        const std::size_t rgbaY = rgbaX * std::size_t(image.width);
+        const std::size_t rgbX = 3 * sizeof(float);
+        const std::size_t rgbY = rgbX * std::size_t(image.width);
+
+        // Beauty pass in unprefixed R,G,B,A (ecosystem B3), layers as <name>.R/G/B.
+        Imf::FrameBuffer fb;
+        static const char* const rgbaNames[] = {"R", "G", "B", "A"};
+        for (int c = 0; c < 4; ++c) {
+            header.channels().insert(rgbaNames[c], Imf::Channel(Imf::FLOAT));
+            fb.insert(rgbaNames[c], Imf::Slice(Imf::FLOAT, sliceBase(image.rgba.data() + c),
+                                               rgbaX, rgbaY));
+        }
+        for (const ImageLayer& layer : image.layers) {
+            for (int c = 0; c < 3; ++c) {
+                const std::string name = layer.name + "." + rgbaNames[c];
+                header.channels().insert(name, Imf::Channel(Imf::FLOAT));
+                fb.insert(name, Imf::Slice(Imf::FLOAT, sliceBase(layer.rgb.data() + c), rgbX,
+                                           rgbY));
+            }
+        }
+        for (const ImageChannel& ch : image.channels) {
+            header.channels().insert(ch.name, Imf::Channel(Imf::FLOAT));
+            fb.insert(ch.name, Imf::Slice(Imf::FLOAT, sliceBase(ch.values.data()), sizeof(float),
+                                          sizeof(float) * std::size_t(image.width)));
+        }
+        for (const auto& [key, value] : attributes) {
+            header.insert(key, Imf::StringAttribute(value));
+        }
+
+        AtomicFile file(path);
+        std::unique_ptr<std::FILE, FileCloser> fp(std::fopen(file.tmpPath().c_str(), "wb"));
+        if (!fp) {
+            throw Error(path + ": cannot write EXR: cannot open \"" + file.tmpPath() + "\" (" +
+                        std::strerror(errno) + ")");
+        }
+        CheckedOStream os(fp.get(), file.tmpPath());
+        {
+            Imf::OutputFile out(os, header);
+            out.setFrameBuffer(fb);
+            out.writePixels(image.height);
+        }  // the destructor writes the line offset table
+        if (os.error() != 0) {
+            throw Error(path + ": cannot write EXR: " + std::strerror(os.error()));
+        }
+        if (std::fclose(fp.release()) != 0) {
+            throw Error(path + ": cannot write EXR: " + std::strerror(errno));
+        }
+        file.commit();
+    } catch (const Error&) {
+        throw;
+    } catch (const std::exception& e) {
+        throw Error(path + ": cannot write EXR: " + e.what());
+    }
+}
+
+Image readExr(const std::string& path, std::map<std::string, std::string>* attributes)
+{
+    try {
+        Imf::InputFile in(path.c_str());
+        const Imf::Header& header = in.header();
+        const Imath::Box2i dw = header.dataWindow();
+        const std::int64_t w = std::int64_t(dw.max.x) - dw.min.x + 1;
+        const std::int64_t h = std::int64_t(dw.max.y) - dw.min.y + 1;
+        if (w <= 0 || h <= 0 || w > INT_MAX || h > INT_MAX) {
+            throw Error(path + ": EXR data window has an invalid size");
+        }
+
+        const Imf::ChannelList& channels = header.channels();
+        for (const char* c : {"R", "G", "B"}) {
+            if (!channels.findChannel(c)) {
+                throw Error(path + ": EXR has no channel \"" + c + "\" (expected R,G,B,A)");
+            }
+        }
+
+        const int width = static_cast<int>(w);
+        const int height = static_cast<int>(h);
+        Image image(width, height);
+        const std::size_t rgbaX = 4 * sizeof(float);
+        const std::size_t rgbX = 3 * sizeof(float);
+        static const char* const names[] = {"R", "G", "B", "A"};
+
+        Imf::FrameBuffer fb;
+        for (int c = 0; c < 4; ++c) {
+            // A missing alpha reads as opaque.
+            const double fill = c == 3 ? 1.0 : 0.0;
+            fb.insert(names[c], Imf::Slice::Make(Imf::FLOAT, image.rgba.data() + c, dw, rgbaX,
+                                                 rgbaX * std::size_t(w), 1, 1, fill));
+        }
+
+        // Layers: every "<layer>.R" with matching ".G" and ".B", in channel-name order.
+        for (auto it = channels.begin(); it != channels.end(); ++it) {
+            const std::string name = it.name();
+            if (name.size() < 3 || name.compare(name.size() - 2, 2, ".R") != 0) continue;
+            const std::string layer = name.substr(0, name.size() - 2);
+            if (!channels.findChannel(layer + ".G") || !channels.findChannel(layer + ".B")) {
+                continue;
+            }
+            image.layers.push_back({layer, std::vector<float>(pixelCount(width, height) * 3)});
+        }
+        for (ImageLayer& layer : image.layers) {
+            for (int c = 0; c < 3; ++c) {
+                fb.insert(layer.name + "." + names[c],
+                          Imf::Slice::Make(Imf::FLOAT, layer.rgb.data() + c, dw, rgbX,
+                                           rgbX * std::size_t(w)));
+            }
+        }
+        // Single channels: everything that is neither R,G,B,A nor part of a layer.
+        for (auto it = channels.begin(); it != channels.end(); ++it) {
+            const std::string name = it.name();
+            if (name == "R" || name == "G" || name == "B" || name == "A") continue;
+            bool inLayer = false;
+            for (const ImageLayer& layer : image.layers) {
+                if (name.size() == layer.name.size() + 2 &&
+                    name.compare(0, layer.name.size(), layer.name) == 0) {
+                    inLayer = true;
+                }
+            }
+            if (!inLayer) image.channels.push_back({name, std::vector<float>(pixelCount(width, height))});
+        }
+        for (ImageChannel& ch : image.channels) {
+            fb.insert(ch.name, Imf::Slice::Make(Imf::FLOAT, ch.values.data(), dw, sizeof(float),
+                                                sizeof(float) * std::size_t(w)));
+        }
+
+        in.setFrameBuffer(fb);
+        in.readPixels(dw.min.y, dw.max.y);
+
+        if (attributes) {
+            attributes->clear();
+            for (auto it = header.begin(); it != header.end(); ++it) {
+                if (const auto* s = dynamic_cast<const Imf::StringAttribute*>(&it.attribute())) {
+                    (*attributes)[it.name()] = s->value();
+                }
+            }
+        }
+        return image;
+    } catch (const Error&) {
+        throw;
+    } catch (const std::exception& e) {
+        throw Error(path + ": cannot read EXR: " + e.what());
+    }
+}
+
+// ---- Tone curve -----------------------------------------------------------------------------
+
+ToneCurve computeToneCurve(const Image& image, const ToneParams& params)
+{
+    ToneCurve curve;
+    if (!params.automatic) {
+        if (!std::isfinite(params.exposure)) throw Error("tone curve: exposure must be finite");
+        if (!(params.gamma > 0.0) || !std::isfinite(params.gamma)) {
+            throw Error("tone curve: gamma must be positive, got " +
+                        std::to_string(params.gamma));
+        }
+        curve.white = std::exp2(-params.exposure);
+        curve.gamma = params.gamma;
+        if (!(curve.white > 0.0) || !std::isfinite(curve.white)) {
+            throw Error("tone curve: exposure " + std::to_string(params.exposure) +
+                        " is out of range");
+        }
+        return curve;
+    }
+    if (!(params.percentile >= 0.0 && params.percentile <= 100.0)) {
+        throw Error("tone curve: percentile must be in [0, 100], got " +
+                    std::to_string(params.percentile));
+    }
+    validateImage("tone curve", image, false);
+
+    // Luminance of the lit pixels (NaN, infinity and black excluded), in pixel order.
+    const std::size_t n = pixelCount(image.width, image.height);
+    std::vector<double> Y;
+    Y.reserve(n);
+    for (std::size_t i = 0; i < n; ++i) {
+        const float* p = &image.rgba[4 * i];
+        const double L = luminance(p[0], p[1], p[2]);
+        if (L > 0.0 && std::isfinite(L)) Y.push_back(L);
+    }
+    if (Y.empty()) return curve;  // black frame: white 1, gamma 1
+
+    // White point: nearest-rank percentile, the smallest Y with at least p% of Y <= it.
+    std::vector<double> sorted = Y;
+    const double rank = std::ceil(params.percentile * double(sorted.size()) / 100.0 - 1e-9);
+    const std::size_t k =
+        std::size_t(std::clamp(rank - 1.0, 0.0, double(sorted.size() - 1)));
+    std::nth_element(sorted.begin(), sorted.begin() + std::ptrdiff_t(k), sorted.end());
+    const double white = sorted[k];
+
+    // Log-mean over the pixels above 1e-6 white, summed in pixel order (deterministic).
+    double sumLog = 0.0;
+    std::size_t count = 0;
+    for (double L : Y) {
+        if (L > 1e-6 * white) {
+            sumLog += std::log(L);
+            ++count;
+        }
+    }
+    const double L_avg = std::exp(sumLog / double(count));  // count >= 1: white itself
+
+    // gamma maps the log-mean to the photographic key, linear display 0.18 (sRGB ~0.46):
+    // (L_avg / white)^gamma = 0.18; clamped so that dark frames are not flattened.
+    curve.white = white;
+    curve.gamma = 1.0;
+    if (L_avg < white) {
+        curve.gamma = std::clamp(std::log(TONE_KEY) / std::log(L_avg / white), TONE_MIN_GAMMA, 1.0);
+    }
+    return curve;
+}
+
+double srgbEncode(double linear)
+{
+    if (!(linear > 0.0)) return 0.0;  // also NaN
+    if (linear >= 1.0) return 1.0;
+    if (linear <= 0.0031308) return 12.92 * linear;
+    return 1.055 * std::pow(linear, 1.0 / 2.4) - 0.055;
+}
+
+// ---- PNG ------------------------------------------------------------------------------------
+
+void writePng(const std::string& path, const Image& image, const ToneCurve& curve,
+              const std::map<std::string, std::string>& text)
+{
+    validateImage(path, image, false);
+    if (!(curve.white > 0.0) || !std::isfinite(curve.white) || !(curve.gamma > 0.0) ||
+        !std::isfinite(curve.gamma)) {
+        throw Error(path + ": invalid tone curve (white " + std::to_string(curve.white) +
+                    ", gamma " + std::to_string(curve.gamma) + ")");
+    }
+    for (const auto& [key, value] : text) {
+        if (!validPngKeyword(key)) {
+            throw Error(path + ": PNG text key \"" + key +
+                        "\" must be 1 to 79 printable ASCII characters without leading, "
+                        "trailing or double spaces");
+        }
+    }
+
+    // The tone curve acts on luminance and scales R,G,B alike, so hues survive (a per-channel
+    // curve would push the blue of a hot star's halo to white); a colour brighter than
+    // display white is scaled down as a whole. Then sRGB; alpha opaque.
+    const std::size_t n = pixelCount(image.width, image.height);
+    std::vector<png_byte> pixels(n * 4);
+    const double invWhite = 1.0 / curve.white;
+    for (std::size_t i = 0; i < n; ++i) {
+        double rgb[3];
+        for (int c = 0; c < 3; ++c) {
+            const double x = double(image.rgba[4 * i + c]) * invWhite;
+            rgb[c] = x > 0.0 ? x : 0.0;  // NaN -> 0
+        }
+        const double Y = 0.2126 * rgb[0] + 0.7152 * rgb[1] + 0.0722 * rgb[2];
+        const double scale = Y > 0.0 ? std::pow(Y, curve.gamma) / Y : 0.0;
+        const double peak = std::max({rgb[0], rgb[1], rgb[2]}) * scale;
+        const double fit = peak > 1.0 ? 1.0 / peak : 1.0;
+        for (int c = 0; c < 3; ++c) {
+            const double display = srgbEncode(std::min(1.0, rgb[c] * scale * fit));
+            pixels[4 * i + c] = png_byte(std::lround(display * 255.0));
+        }
+        pixels[4 * i + 3] = 255;
+    }
+    std::vector<png_bytep> rows(std::size_t(image.height));
+    for (int y = 0; y < image.height; ++y) {
+        rows[std::size_t(y)] = pixels.data() + std::size_t(y) * std::size_t(image.width) * 4;
+    }
+
+    // tEXt for ASCII values, iTXt (UTF-8) otherwise. libpng copies the strings.
+    std::vector<png_text> chunks;
+    for (const auto& [key, value] : text) {
+        png_text t;
+        std::memset(&t, 0, sizeof t);
+        const bool ascii = isAscii(value);
+        t.compression = ascii ? PNG_TEXT_COMPRESSION_NONE : PNG_ITXT_COMPRESSION_NONE;
+        t.key = const_cast<png_charp>(key.c_str());
+        t.text = const_cast<png_charp>(value.c_str());
+        t.text_length = ascii ? value.size() : 0;
+        t.itxt_length = ascii ? 0 : value.size();
+        t.lang = nullptr;
+        t.lang_key = nullptr;
+        chunks.push_back(t);
+    }
+
+    AtomicFile file(path);
+    std::FILE* fp = std::fopen(file.tmpPath().c_str(), "wb");
+    if (!fp) {
+        throw Error(path + ": cannot write PNG: cannot open \"" + file.tmpPath() + "\" (" +
+                    std::strerror(errno) + ")");
+    }
+
+    PngErrorState err;
+    bool ok = false;
+    errno = 0;
+    png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, &err, pngError, pngWarning);
+    png_infop info = png ? png_create_info_struct(png) : nullptr;
+    if (!png || !info) {
+        std::snprintf(err.message, sizeof err.message, "out of memory");
+    } else {
+        ok = pngWriteAll(png, info, fp, png_uint_32(image.width), png_uint_32(image.height),
+                         rows.data(), chunks.data(), int(chunks.size()));
+    }
+    const int writeErrno = errno;  // from a failed fwrite inside libpng, if any
+    if (png) png_destroy_write_struct(&png, info ? &info : nullptr);
+
+    const bool streamError = std::ferror(fp) != 0;
+    const int closeError = std::fclose(fp) != 0 ? errno : 0;
+    if (!ok) {
+        std::string why = err.message;
+        if (streamError && writeErrno != 0) {
+            why += std::string(" (") + std::strerror(writeErrno) + ")";
+        } else if (err.lastWarning[0] != '\0') {
+            why += std::string(" (") + err.lastWarning + ")";
+        }
+        throw Error(path + ": cannot write PNG: " + why);
+    }
+    if (streamError || closeError) {
+        throw Error(path + ": cannot write PNG: write error (" +
+                    std::strerror(closeError ? closeError : EIO) + ")");
+    }
+    file.commit();
+}
+
+} // namespace nebula

@@ -1,0 +1,95 @@
+#include "nebula/io/spectral_grids.h"
+
+#include "nebula/core/error.h"
+
+#include <cmath>
+#include <sstream>
+
+namespace nebula {
+
+namespace {
+
+std::string inQuotes(const std::string& s) { return "\"" + s + "\""; }
+
+std::string gridTypeName(const openvdb::GridBase& g)
+{
+    if (g.isType<openvdb::FloatGrid>()) return "FloatGrid";
+    if (g.isType<openvdb::DoubleGrid>()) return "DoubleGrid";
+    if (g.isType<openvdb::Int32Grid>()) return "Int32Grid";
+    if (g.isType<openvdb::Int64Grid>()) return "Int64Grid";
+    if (g.isType<openvdb::BoolGrid>()) return "BoolGrid";
+    if (g.isType<openvdb::MaskGrid>()) return "MaskGrid";
+    if (g.isType<openvdb::Vec3dGrid>()) return "Vec3dGrid";
+    if (g.isType<openvdb::Vec3IGrid>()) return "Vec3IGrid";
+    return g.type();
+}
+
+} // namespace
+
+std::vector<SpectralLine> gridLines(const openvdb::GridBase& grid, const std::string& source,
+                                    const std::vector<SpectralLine>& fallback)
+{
+    const auto meta = grid[META_LINES];
+    if (!meta) return fallback;
+    const std::string where =
+        source + ": grid " + inQuotes(grid.getName()) + " metadata " + META_LINES;
+    const auto str = grid.getMetadata<openvdb::StringMetadata>(META_LINES);
+    if (!str) throw Error(where + " is a " + meta->typeName() + ", expected a string");
+    return parseLineList(str->value(), where);
+}
+
+void requireValidTemperature(const openvdb::FloatGrid& grid, const std::string& source)
+{
+    for (auto it = grid.cbeginValueOn(); it; ++it) {
+        const float T = *it;
+        if (std::isfinite(T) && T >= 0.0f) continue;
+        const auto c = it.getCoord();
+        std::ostringstream msg;
+        msg << source << ": grid " << inQuotes(grid.getName()) << " has "
+            << (std::isnan(T) ? "a NaN" : std::isinf(T) ? "an infinite" : "a negative")
+            << " temperature " << T << " at voxel (" << c.x() << ", " << c.y() << ", " << c.z()
+            << "); expected finite temperatures >= 0 [K]";
+        throw Error(msg.str());
+    }
+}
+
+openvdb::Vec3fGrid::Ptr velocityGrid(const GridSet& grids, const std::string& name,
+                                     const std::string& option)
+{
+    const std::string opt = option.empty() ? "" : " (" + option + ")";
+    const auto base = grids.find(name);
+    if (!base) {
+        std::string names;
+        for (const auto& g : grids.grids) names += (names.empty() ? "" : ", ") + g->getName();
+        throw Error(grids.source + ": no grid \"" + name + "\"" + opt +
+                    " for the gas velocity; the file has " +
+                    (names.empty() ? std::string("no grids") : "grids: " + names));
+    }
+    auto grid = openvdb::gridPtrCast<openvdb::Vec3fGrid>(base);
+    if (!grid) {
+        throw Error(grids.source + ": grid \"" + name + "\"" + opt + " is a " +
+                    gridTypeName(*base) + " (" + base->type() +
+                    "), expected a Vec3fGrid of velocities [km/s]");
+    }
+    requireAffine(*grid, grids.source);
+    const auto bad = [&](const openvdb::Vec3f& v) {
+        return !(std::isfinite(v[0]) && std::isfinite(v[1]) && std::isfinite(v[2]));
+    };
+    if (bad(grid->background())) {
+        throw Error(grids.source + ": grid \"" + name + "\" has a non-finite background value; "
+                    "expected finite velocities [km/s]");
+    }
+    for (auto it = grid->cbeginValueOn(); it; ++it) {
+        if (!bad(*it)) continue;
+        const auto c = it.getCoord();
+        const auto v = *it;
+        std::ostringstream msg;
+        msg << grids.source << ": grid \"" << name << "\" has a non-finite velocity (" << v[0]
+            << ", " << v[1] << ", " << v[2] << ") at voxel (" << c.x() << ", " << c.y() << ", "
+            << c.z() << "); expected finite velocities [km/s]";
+        throw Error(msg.str());
+    }
+    return grid;
+}
+
+} // namespace nebula

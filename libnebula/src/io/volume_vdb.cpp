@@ -1,0 +1,94 @@
+#include "nebula/io/volume_vdb.h"
+
+#include "nebula/core/error.h"
+
+#include <openvdb/tree/LeafManager.h>
+
+#include <tbb/parallel_for.h>
+
+namespace nebula {
+
+Affine affineFromTransform(const openvdb::math::Transform& transform)
+{
+    // Read the map off by applying it: robust to OpenVDB's row-vector conventions.
+    const auto o = transform.indexToWorld(openvdb::Vec3d(0, 0, 0));
+    Affine a;
+    for (int i = 0; i < 3; ++i) {
+        openvdb::Vec3d e(0, 0, 0);
+        e[i] = 1.0;
+        const auto col = transform.indexToWorld(e) - o;
+        for (int r = 0; r < 3; ++r) a.m[std::size_t(r * 3 + i)] = col[r];
+    }
+    a.t = Vec3(o[0], o[1], o[2]);
+    return a;
+}
+
+openvdb::CoordBBox activeBounds(const std::vector<openvdb::FloatGrid::ConstPtr>& grids, int pad)
+{
+    openvdb::CoordBBox box;
+    for (const auto& g : grids) {
+        if (g) box.expand(g->evalActiveVoxelBoundingBox());
+    }
+    if (box.empty()) box = openvdb::CoordBBox(openvdb::Coord(0), openvdb::Coord(0));
+    box.expand(pad);
+    return box;
+}
+
+DenseVolume denseFromGrids(const std::vector<openvdb::FloatGrid::ConstPtr>& grids,
+                           const openvdb::CoordBBox& bounds, const std::string& source)
+{
+    const auto dim = bounds.dim();
+    DenseVolume vol({bounds.min().x(), bounds.min().y(), bounds.min().z()},
+                    {dim.x(), dim.y(), dim.z()}, int(grids.size()));
+    if (!grids.empty()) vol.indexToWorld = affineFromTransform(grids[0]->transform());
+    for (std::size_t c = 0; c < grids.size(); ++c) {
+        const auto& grid = *grids[c];
+        if (grid.transform() != grids[0]->transform()) {
+            throw Error(source + ": grid \"" + grid.getName() +
+                        "\" does not share the transform of grid \"" + grids[0]->getName() +
+                        "\"; resample it onto the same voxels first");
+        }
+        // Leaves in parallel (each writes its own voxels), then tiles serially.
+        openvdb::tree::LeafManager<const openvdb::FloatTree> leaves(grid.tree());
+        leaves.foreach([&](const openvdb::FloatTree::LeafNodeType& leaf, std::size_t) {
+            for (auto it = leaf.cbeginValueOn(); it; ++it) {
+                const auto& p = it.getCoord();
+                if (vol.contains(p.x(), p.y(), p.z())) {
+                    vol.voxel(vol.index(p.x(), p.y(), p.z()))[c] = *it;
+                }
+            }
+        });
+        auto it = grid.tree().cbeginValueOn();
+        it.setMaxDepth(openvdb::FloatTree::ValueOnCIter::LEAF_DEPTH - 1);  // tiles only
+        for (; it; ++it) {
+            openvdb::CoordBBox tile;
+            it.getBoundingBox(tile);
+            tile.intersect(bounds);
+            for (auto p = tile.beginXYZ(); p; ++p) {
+                vol.voxel(vol.index((*p).x(), (*p).y(), (*p).z()))[c] = *it;
+            }
+        }
+    }
+    return vol;
+}
+
+openvdb::FloatGrid::Ptr gridFromField(const DenseVolume& lattice, const std::vector<float>& field,
+                                      const openvdb::FloatGrid& topology)
+{
+    auto grid = openvdb::FloatGrid::create(0.0f);
+    grid->setTransform(topology.transform().copy());
+    grid->tree().topologyUnion(topology.tree());
+    grid->tree().voxelizeActiveTiles();
+    openvdb::tree::LeafManager<openvdb::FloatTree> leaves(grid->tree());
+    leaves.foreach([&](openvdb::FloatTree::LeafNodeType& leaf, std::size_t) {
+        for (auto it = leaf.beginValueOn(); it; ++it) {
+            const auto& p = it.getCoord();
+            it.setValue(lattice.contains(p.x(), p.y(), p.z())
+                            ? field[lattice.index(p.x(), p.y(), p.z())]
+                            : 0.0f);
+        }
+    });
+    return grid;
+}
+
+} // namespace nebula

@@ -1,0 +1,150 @@
+#include "nebula/render/scene.h"
+
+#include "nebula/core/error.h"
+#include "nebula/core/format.h"
+#include "nebula/io/grid_io.h"
+#include "nebula/io/grid_names.h"
+#include "nebula/io/volume_vdb.h"
+#include "nebula/physics/colour.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace nebula {
+
+using detail::numberText;
+
+RenderScene buildScene(const GridSet& grids, const RenderOptions& opts, const DustParams& dust)
+{
+    RenderScene scene;
+    const auto density = grids.floatGrid(opts.densityGrid, "--density-grid");
+    requireFiniteNonNegative(*density, grids.source);
+    openvdb::FloatGrid::Ptr emission;
+    if (grids.find(opts.emissionGrid)) {
+        emission = grids.floatGrid(opts.emissionGrid, "--emission-grid");
+        requireFiniteNonNegative(*emission, grids.source);
+    }
+    scene.stars = grids.stars();
+    if (scene.stars.empty()) {
+        throw Error(grids.source + ": no stars: the file has no " + std::string(META_STARS) +
+                    " metadata (run nebgen and nebillum, or nebillum --star)");
+    }
+    if (!emission) {
+        emission = openvdb::FloatGrid::create(0.0f);  // no emission: an empty grid
+        emission->setTransform(density->transform().copy());
+    }
+    std::vector<openvdb::FloatGrid::ConstPtr> fields{density, emission};
+    for (const auto& s : scene.stars) {
+        const std::string name = tauGridName(s.name);
+        if (!grids.find(name)) {
+            throw Error(grids.source + ": no grid \"" + name + "\" for star \"" + s.name +
+                        "\"; run nebillum on this file first");
+        }
+        auto tau = grids.floatGrid(name, "");
+        if (const auto k = tau->getMetadata<openvdb::DoubleMetadata>("kappa_V")) {
+            if (std::abs(k->value() - dust.kappa_V) > 1e-9 * dust.kappa_V) {
+                throw Error(grids.source + ": grid \"" + name + "\" was computed with kappa_V = " +
+                            std::to_string(k->value()) + " but the dust has kappa_V = " +
+                            std::to_string(dust.kappa_V) + "; rerun nebillum");
+            }
+        }
+        fields.push_back(tau);
+    }
+    scene.fields = denseFromGrids(fields, activeBounds({density, fields[1]}, 1), grids.source);
+
+    for (const auto& s : scene.stars) {
+        const auto c = blackbodyLinearSRGB(s.temperature);
+        scene.starColor.push_back({c[0] * s.luminosity, c[1] * s.luminosity,
+                                   c[2] * s.luminosity});
+    }
+    for (int c = 0; c < 3; ++c) scene.dust.r[c] = extinctionRatio(dust, opts.wavelengths[c]);
+    scene.dust.kappa_V = dust.kappa_V;
+    scene.dust.albedo = dust.albedo;
+    scene.dust.g = dust.g;
+    scene.dust.phase = dust.phase;
+
+    if (const auto& table = opts.phaseTable) {
+        const auto& m = table->medium;
+        const bool same = std::abs(m.albedo - dust.albedo) <= 1e-9 &&
+                          std::abs(m.g - dust.g) <= 1e-9 && m.phase == dust.phase;
+        if (!same && !opts.phaseIgnoreDust) {
+            throw Error(opts.phaseSource + ": the phase table was made for albedo " +
+                        numberText(m.albedo) + ", g " + numberText(m.g) + ", phase " +
+                        toString(m.phase) + " but " + grids.source + "'s dust has albedo " +
+                        numberText(dust.albedo) + ", g " + numberText(dust.g) + ", phase " +
+                        toString(dust.phase) +
+                        "; rebuild it (nebphase -i " + grids.source +
+                        " -o phase.vdb) or pass --phase-ignore-dust");
+        }
+    }
+
+    scene.buildOccupancy();
+
+    int levelCount = opts.levels;
+    if (levelCount < 0) {  // auto: every level the input has, when there is a table
+        levelCount = 0;
+        while (opts.phaseTable &&
+               grids.find(opts.densityGrid + ".L" + std::to_string(levelCount + 1))) {
+            ++levelCount;
+        }
+    }
+    if (levelCount > 0 && !opts.phaseTable) {
+        throw UsageError("--levels needs a phase table (--phase): each level adds the change "
+                         "of the per-voxel scattering Phi as the voxel doubles");
+    }
+    const Affine& a0 = scene.fields.indexToWorld;
+    for (int k = 1; k <= levelCount; ++k) {
+        const std::string suffix = ".L" + std::to_string(k);
+        const std::string dName = opts.densityGrid + suffix;
+        if (!grids.find(dName)) {
+            throw Error(grids.source + ": no grid \"" + dName + "\" for level " +
+                        std::to_string(k) + " of --levels " + std::to_string(opts.levels) +
+                        "; run nebpyramid --levels " + std::to_string(opts.levels) + " first");
+        }
+        auto dk = grids.floatGrid(dName, "");
+        requireFiniteNonNegative(*dk, grids.source);
+        std::vector<openvdb::FloatGrid::ConstPtr> lf{dk, nullptr};
+        auto empty = openvdb::FloatGrid::create(0.0f);
+        empty->setTransform(dk->transform().copy());
+        lf[1] = empty;
+        for (const auto& st : scene.stars) {
+            const std::string name = tauGridName(st.name) + suffix;
+            if (!grids.find(name)) {
+                throw Error(grids.source + ": no grid \"" + name + "\" for star \"" + st.name +
+                            "\" at level " + std::to_string(k) + "; run nebpyramid on this file");
+            }
+            lf.push_back(grids.floatGrid(name, ""));
+        }
+        RenderLevel level;
+        level.level = k;
+        level.fields = denseFromGrids(lf, activeBounds({dk}, 1), grids.source);
+        // Voxels 2^k times level 0's (same orientation): compare the linear maps.
+        const auto& ak = level.fields.indexToWorld;
+        const double scale = double(1 << k);
+        double worst = 0.0, norm = 0.0;
+        for (int i = 0; i < 9; ++i) {
+            worst = std::max(worst, std::abs(ak.m[std::size_t(i)] - scale * a0.m[std::size_t(i)]));
+            norm = std::max(norm, std::abs(scale * a0.m[std::size_t(i)]));
+        }
+        if (worst > 1e-6 * norm) {
+            throw Error(grids.source + ": grid \"" + dName + "\" has voxels that are not " +
+                        std::to_string(1 << k) + " times those of \"" + opts.densityGrid +
+                        "\" (level " + std::to_string(k) + "); rebuild the levels with nebpyramid");
+        }
+        scene.levels.push_back(std::move(level));
+    }
+    return scene;
+}
+
+void RenderScene::buildOccupancy()
+{
+    // A lattice cell is occupied if any of its 8 corners has dust or emission.
+    std::vector<std::array<float, 2>> maxima;
+    blockMaxima(fields, blocks, maxima);
+    occupied.resize(maxima.size());
+    for (std::size_t b = 0; b < maxima.size(); ++b) {
+        occupied[b] = maxima[b][0] > 0.0f || maxima[b][1] > 0.0f;
+    }
+}
+
+} // namespace nebula

@@ -1,0 +1,565 @@
+/// @file spectral_render.cpp
+/// nebrender --spectral (DESIGN §7): see spectral.h.
+///
+/// Along a ray the renderer keeps the V-band optical depth tau from the eye; every
+/// extinction in the scene is kappa_V A(lambda)/A_V n, so the transmittance at any wavelength
+/// is exp(-tau Lambda(lambda)) with Lambda = A(lambda)/A_V. A segment of V optical depth x lets
+/// the fraction (1 - exp(-x Lambda)) / (x Lambda) of its emission out and, for its scattered
+/// light, contributes S (1 - exp(-x Lambda)) with S the source function (as the RGB kernel).
+///
+/// Continuum (each star's black body scattered by the dust, black-body emission of the gas):
+/// smooth spectra, accumulated on fixed wavelengths (piecewise-linear mode: nodes
+/// continuumStep apart, the spectrum linear between them; fixed-band mode: the band centres).
+/// Lines: each segment adds an exact trapezoid per line (lineTrapezoid) whose values are
+/// multiplied by the segment's transmittance factor at its breakpoints. Colour is linear in
+/// the spectrum, so each piece is integrated against the CMFs as it is made (exact, O(1));
+/// the ray's spectrum is assembled (Spectrum::sum) only to count its pieces.
+
+#include "nebula/render/spectral.h"
+
+#include "nebula/physics/colour.h"
+#include "nebula/core/error.h"
+#include "nebula/io/grid_names.h"
+#include "nebula/io/spectral_grids.h"
+#include "nebula/physics/blackbody.h"
+#include "nebula/render/sprites.h"
+#include "nebula/physics/motion.h"
+#include "nebula/io/volume_vdb.h"
+
+#include "nebula/volume/block_walk.h"
+
+#include <openvdb/tools/ValueTransformer.h>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+
+namespace nebula {
+
+namespace {
+
+constexpr const char* DEFAULT_LINES = "H-alpha:1,H-beta:0.35";
+
+/// A(lambda)/A_V tabulated every 0.25 nm over 300-1000 nm, linear between (the curve is
+/// smooth: the table's error is below 1e-7 relative), clamped outside.
+class ExtinctionTable
+{
+public:
+    explicit ExtinctionTable(const DustParams& dust)
+    {
+        mValues.resize(std::size_t((HI - LO) / STEP) + 1);
+        for (std::size_t i = 0; i < mValues.size(); ++i) {
+            mValues[i] = extinctionRatio(dust, LO + STEP * double(i));
+        }
+    }
+    double operator()(double lambda) const
+    {
+        const double u = std::clamp((lambda - LO) / STEP, 0.0, double(mValues.size() - 1));
+        const std::size_t i = std::min(std::size_t(u), mValues.size() - 2);
+        const double f = u - double(i);
+        return mValues[i] + f * (mValues[i + 1] - mValues[i]);
+    }
+
+private:
+    static constexpr double LO = 300.0, HI = 1000.0, STEP = 0.25;
+    std::vector<double> mValues;
+};
+
+/// (1 - e^-y) / y, -> 1 as y -> 0.
+inline double escapeFraction(double y) { return y > 1e-7 ? -std::expm1(-y) / y : 1.0 - 0.5 * y; }
+
+std::string bandName(double centre)
+{
+    char buf[64];
+    std::snprintf(buf, sizeof buf, "S0.%.2fnm", centre);
+    std::string s = buf;
+    std::replace(s.begin(), s.end() - 2, '.', ',');
+    s[2] = '.';  // "S0." keeps its dot: the layer separator
+    return s;
+}
+
+/// Integral of the piece p over [a, b] (clipped to the piece).
+inline double pieceIntegral(const Piece& p, double a, double b)
+{
+    const double lo = std::max(a, p.x0), hi = std::min(b, p.x1);
+    if (!(hi > lo)) return 0.0;
+    return (hi - lo) * p.at(0.5 * (lo + hi));
+}
+
+/// XYZ of a continuum given by its values at the nodes, from the nodes' colour weights.
+XYZ nodesToXYZ(const double* values, const std::vector<XYZ>& weight)
+{
+    XYZ xyz{0, 0, 0};
+    for (std::size_t j = 0; j < weight.size(); ++j)
+        for (std::size_t c = 0; c < 3; ++c) xyz[c] += values[j] * weight[j][c];
+    return xyz;
+}
+
+} // namespace
+
+SpectralScene buildSpectralScene(const GridSet& grids,
+                                 const RenderOptions& opts, const DustParams& dust)
+{
+    const SpectralOptions& so = opts.spectral;
+    if (opts.integrator == Integrator::Path) {
+        throw UsageError("--spectral is for the fast integrator (--integrator fast)");
+    }
+    if (opts.phaseTable) {
+        throw UsageError("--spectral renders single scattering; it does not use --phase (the "
+                         "table's gain depends on the wavelength through the voxel's optical "
+                         "thickness)");
+    }
+    if (opts.levels > 0) throw UsageError("--spectral does not use pyramid levels (--levels)");
+    if (so.bands < 0) throw UsageError("--bands must be >= 1 (0: piecewise-linear spectra)");
+    if (!(so.continuumStep > 0.0 && so.continuumStep <= 50.0)) {
+        throw UsageError("--continuum-step must be in (0, 50] nm");
+    }
+    if (!(so.lineWidth > 0.0) || !std::isfinite(so.lineWidth)) {
+        throw UsageError("--line-width must be a finite number > 0 [km/s]");
+    }
+    if (!(so.exaggerateVelocity > 0.0) || !std::isfinite(so.exaggerateVelocity)) {
+        throw UsageError("--exaggerate-velocity must be a finite number > 0 (1: true speeds)");
+    }
+    if (!(so.blackbodyScale >= 0.0) || !std::isfinite(so.blackbodyScale)) {
+        throw UsageError("--blackbody-scale must be a finite number >= 0");
+    }
+    if (!(so.temperatureScale > 0.0) || !std::isfinite(so.temperatureScale)) {
+        throw UsageError("--temperature-scale must be a finite number > 0");
+    }
+    if (so.layers < 0 || so.layers > 470) throw UsageError("--spectral-layers must be in [0, 470]");
+
+    SpectralScene scene;
+    scene.dust = dust;
+    RenderOptions base = opts;
+    base.levels = 0;
+    scene.base = buildScene(grids, base, dust);
+
+    // Emission grids: the main one, then every other FloatGrid that says what it emits.
+    std::vector<openvdb::FloatGrid::ConstPtr> emitGrids;
+    std::vector<SpectralLine> fallback;
+    try {
+        fallback = parseLineList(so.lines.empty() ? DEFAULT_LINES : so.lines, "--lines");
+    } catch (const UsageError&) {
+        throw;
+    } catch (const Error& e) {
+        throw UsageError(e.what());  // a bad option value: usage error (exit 2)
+    }
+    const double targetY = linearSRGBToXYZ(opts.emissionColor)[1] * opts.emissionScale;
+    auto addEmitter = [&](const openvdb::FloatGrid::Ptr& g, bool main) {
+        requireFiniteNonNegative(*g, grids.source);
+        SpectralEmitter e;
+        e.grid = g->getName();
+        e.lines = (main && !so.lines.empty()) ? fallback
+                                              : gridLines(*g, grids.source, fallback);
+        double Y = 0.0;
+        for (const auto& l : e.lines) Y += l.strength * cmfAt(l.wavelength)[1];
+        if (!(Y > 0.0)) {
+            throw Error(grids.source + ": grid \"" + e.grid + "\" emits only lines outside " +
+                        "360-830 nm (" + lineListToString(e.lines) + "): nothing to see");
+        }
+        e.unit = targetY / Y;
+        scene.emitters.push_back(e);
+        emitGrids.push_back(g);
+    };
+    if (grids.find(opts.emissionGrid)) {
+        addEmitter(grids.floatGrid(opts.emissionGrid, "--emission-grid"), true);
+    }
+    for (const auto& g : grids.grids) {
+        if (!g || g->getName() == opts.emissionGrid) continue;
+        if (!g->getMetadata<openvdb::StringMetadata>(META_LINES)) continue;
+        addEmitter(grids.floatGrid(g->getName(), ""), false);
+    }
+
+    openvdb::FloatGrid::Ptr temperature;
+    if (grids.find(so.temperatureGrid)) {
+        temperature = grids.floatGrid(so.temperatureGrid, "--temperature-grid");
+        requireValidTemperature(*temperature, grids.source);
+    }
+    std::vector<openvdb::FloatGrid::Ptr> velocity;
+    if (grids.find(so.velocityGrid)) {
+        const auto v = velocityGrid(grids, so.velocityGrid, "--velocity-grid");
+        for (int c = 0; c < 3; ++c) {
+            auto comp = openvdb::FloatGrid::create(0.0f);
+            comp->setTransform(v->transform().copy());
+            comp->setName(so.velocityGrid + "xyz"[c]);
+            auto acc = comp->getAccessor();
+            for (auto it = v->cbeginValueOn(); it; ++it) {
+                if (it.isVoxelValue()) {
+                    acc.setValue(it.getCoord(), (*it)[c]);
+                } else {
+                    openvdb::CoordBBox box;
+                    it.getBoundingBox(box);
+                    comp->tree().fill(box, (*it)[c], true);
+                }
+            }
+            velocity.push_back(comp);
+        }
+        // Gas as fast as light (after exaggeration) has no Doppler factor: refuse it.
+        double vmax2 = 0.0;
+        for (auto it = v->cbeginValueOn(); it; ++it) vmax2 = std::max(vmax2, double((*it).lengthSqr()));
+        const double vmax = std::sqrt(vmax2) * std::abs(so.exaggerateVelocity);
+        if (vmax >= SPEED_OF_LIGHT_KMS) {
+            throw UsageError("--exaggerate-velocity " + std::to_string(so.exaggerateVelocity) +
+                             " makes the fastest gas of grid \"" + so.velocityGrid + "\" move at " +
+                             std::to_string(vmax) + " km/s, not slower than light (" +
+                             std::to_string(SPEED_OF_LIGHT_KMS) + " km/s)");
+        }
+    }
+
+    // One lattice for everything: channels as documented in SpectralScene.
+    const auto density = grids.floatGrid(opts.densityGrid, "--density-grid");
+    std::vector<openvdb::FloatGrid::ConstPtr> boundsGrids{density};
+    for (const auto& g : emitGrids) boundsGrids.push_back(g);
+    std::vector<openvdb::FloatGrid::ConstPtr> fields{density};
+    auto empty = openvdb::FloatGrid::create(0.0f);
+    empty->setTransform(density->transform().copy());
+    fields.push_back(empty);  // channel 1: filled below with the sum of the emission grids
+    for (const auto& s : scene.base.stars) fields.push_back(grids.floatGrid(tauGridName(s.name), ""));
+    int ch = int(fields.size());
+    for (std::size_t k = 0; k < emitGrids.size(); ++k) {
+        scene.emitters[k].channel = ch++;
+        fields.push_back(emitGrids[k]);
+    }
+    if (temperature) {
+        scene.temperatureChannel = ch++;
+        fields.push_back(temperature);
+    }
+    if (!velocity.empty()) {
+        scene.velocityChannel = ch;
+        ch += 3;
+        for (const auto& v : velocity) fields.push_back(v);
+    }
+    DenseVolume vol = denseFromGrids(fields, activeBounds(boundsGrids, 1), grids.source);
+    const int C = vol.channels();
+    for (std::size_t i = 0; i < vol.voxelCount(); ++i) {
+        float* q = vol.data().data() + i * std::size_t(C);
+        float sum = 0.0f;
+        for (const auto& e : scene.emitters) sum += q[e.channel];
+        q[1] = sum;
+    }
+    scene.base.fields = std::move(vol);
+    scene.base.buildOccupancy();
+    return scene;
+}
+
+Image renderSpectral(const SpectralScene& scene, const RenderOptions& opts, const Run* run,
+                     RenderStats* stats)
+{
+    const SpectralOptions& so = opts.spectral;
+    const RenderScene& rs = scene.base;
+    const Camera& view = opts.camera;
+    if (view.width <= 0 || view.height <= 0) throw UsageError("--res must be WxH with W, H > 0");
+    if (!(opts.step > 0.0)) throw UsageError("--step must be > 0 voxels");
+    const PinholeProjection cam(view);
+    const int W = view.width, H = view.height;
+    const std::size_t S = rs.stars.size();
+    const auto& dust = scene.dust;
+    const ExtinctionTable Lambda(dust);
+
+    // Continuum wavelengths and their colour weights (XYZ of a unit value there).
+    const bool bandsMode = so.bands > 0;
+    std::vector<double> lam, lamExt;
+    std::vector<XYZ> weight;
+    double bandWidth = 0.0;
+    if (bandsMode) {
+        bandWidth = (SPECTRAL_MAX_NM - SPECTRAL_MIN_NM) / so.bands;
+        for (int j = 0; j < so.bands; ++j) {
+            lam.push_back(SPECTRAL_MIN_NM + (j + 0.5) * bandWidth);
+            XYZ w = cmfAt(lam.back());
+            for (auto& c : w) c *= bandWidth;
+            weight.push_back(w);
+        }
+    } else {
+        const int n = int(std::ceil((SPECTRAL_MAX_NM - SPECTRAL_MIN_NM) / so.continuumStep - 1e-9)) + 1;
+        const double step = (SPECTRAL_MAX_NM - SPECTRAL_MIN_NM) / (n - 1);
+        for (int j = 0; j < n; ++j) lam.push_back(SPECTRAL_MIN_NM + j * step);
+        weight = hatWeights(SPECTRAL_MIN_NM, step, n);
+    }
+    const std::size_t J = lam.size();
+    for (double l : lam) lamExt.push_back(Lambda(l));
+    const double LambdaMin = *std::min_element(lamExt.begin(), lamExt.end());
+
+    // Star spectra at the continuum wavelengths, normalised so that each star's Y is L_s in
+    // this representation (the RGB mode's convention, DESIGN §3).
+    std::vector<double> starSpec(S * J);
+    for (std::size_t s = 0; s < S; ++s) {
+        double Y = 0.0;
+        for (std::size_t j = 0; j < J; ++j) {
+            starSpec[s * J + j] = planckPerNmUnchecked(lam[j], rs.stars[s].temperature);
+            Y += starSpec[s * J + j] * weight[j][1];
+        }
+        if (!(Y > 0.0)) {
+            throw Error("star \"" + rs.stars[s].name + "\" at " +
+                        std::to_string(rs.stars[s].temperature) +
+                        " K emits no light between 360 and 830 nm to render");
+        }
+        for (std::size_t j = 0; j < J; ++j) starSpec[s * J + j] *= rs.stars[s].luminosity / Y;
+    }
+
+    // Spectral layers: equal bands over 360-830 nm; the continuum's share of each.
+    const int NL = so.layers;
+    const double layerWidth = NL > 0 ? (SPECTRAL_MAX_NM - SPECTRAL_MIN_NM) / NL : 0.0;
+    std::vector<double> layerOfNode(std::size_t(NL) * J, 0.0);  // [b][j]
+    for (int b = 0; b < NL; ++b) {
+        const double a = SPECTRAL_MIN_NM + b * layerWidth, e = a + layerWidth;
+        for (std::size_t j = 0; j < J; ++j) {
+            double v = 0.0;
+            if (bandsMode) {
+                const double lo = std::max(a, lam[j] - 0.5 * bandWidth);
+                const double hi = std::min(e, lam[j] + 0.5 * bandWidth);
+                v = std::max(0.0, hi - lo);
+            } else {  // the hat function of node j
+                if (j > 0) v += pieceIntegral(pieceThrough(lam[j - 1], 0.0, lam[j], 1.0), a, e);
+                if (j + 1 < J) v += pieceIntegral(pieceThrough(lam[j], 1.0, lam[j + 1], 0.0), a, e);
+            }
+            layerOfNode[std::size_t(b) * J + j] = v / layerWidth;
+        }
+    }
+
+    Image img(W, H);
+    for (const auto& s : rs.stars) {
+        img.layers.push_back({"star." + s.name, std::vector<float>(std::size_t(W) * H * 3, 0.0f)});
+    }
+    img.layers.push_back({"transmittance", std::vector<float>(std::size_t(W) * H * 3, 1.0f)});
+    ImageLayer& transLayer = img.layers.back();
+    for (int b = 0; b < NL; ++b) {
+        img.channels.push_back({bandName(SPECTRAL_MIN_NM + (b + 0.5) * layerWidth),
+                                std::vector<float>(std::size_t(W) * H, 0.0f)});
+    }
+
+    const Marcher level0(rs.fields, rs.blocks, rs.occupied, cam.eye());
+    const double rmin2 = std::pow(opts.minStarDistance * level0.voxelWorld, 2);
+    const int C = rs.fields.channels();
+    std::vector<Vec3> starPos;
+    for (const auto& s : rs.stars) starPos.emplace_back(s.position[0], s.position[1], s.position[2]);
+    const double kappa = dust.kappa_V, albedo = dust.albedo;
+    const double bbFactor = so.blackbodyScale * (1.0 - albedo) * WM2_TO_LSUN_PC2;
+    const double vScale = so.exaggerateVelocity;
+    // Every velocity is exaggerated alike, the thermal and turbulent line width included, so
+    // that a spectrum keeps its shape and is only stretched.
+    const double lineWidth = so.lineWidth * vScale;
+    const int velCh = scene.velocityChannel, tempCh = scene.temperatureChannel;
+    std::array<double, 3> rChannel;
+    for (int c = 0; c < 3; ++c) rChannel[std::size_t(c)] = extinctionRatio(dust, opts.wavelengths[std::size_t(c)]);
+
+    std::atomic<std::uint64_t> rayCount{0}, sampleCount{0}, pieceCount{0}, specPieces{0},
+        mergedPieces{0}, maxPieces{0};
+    Progress bar(run, "nebrender", std::uint64_t(H));
+    tbb::parallel_for(tbb::blocked_range<int>(0, H, 4), [&](const tbb::blocked_range<int>& rows) {
+        std::vector<float> f(static_cast<std::size_t>(C));
+        std::vector<double> Cstar(S * J), Cgas(J), Ctotal(J), A(J),
+            layerAcc(static_cast<std::size_t>(NL));
+        std::vector<Piece> rayPieces;
+        std::uint64_t rays = 0, samples = 0, pieces = 0, sp = 0, mp = 0, mx = 0;
+        for (int py = rows.begin(); py != rows.end(); ++py) {
+            for (int px = 0; px < W; ++px) {
+                const Vec3 dW = cam.direction(px + 0.5, py + 0.5);
+                const Vec3 dI = level0.w2i.applyLinear(dW);
+                std::fill(Cstar.begin(), Cstar.end(), 0.0);
+                std::fill(Cgas.begin(), Cgas.end(), 0.0);
+                std::fill(layerAcc.begin(), layerAcc.end(), 0.0);
+                rayPieces.clear();
+                XYZ lineXYZ{0, 0, 0};
+                double tau = 0.0;
+                // Doppler factor at the end of the previous segment (shared with the next).
+                double lastEndT = -1.0, lastEndD = 1.0;
+                // Doppler factor lambda_observed / lambda_emitted of the gas at pI.
+                auto dopplerAt = [&](const Vec3& pI) {
+                    float v[3];
+                    rs.fields.sampleChannels(pI, velCh, 3, v);
+                    const double vr = vScale * (double(v[0]) * dW.x + double(v[1]) * dW.y + double(v[2]) * dW.z);
+                    if (!so.relativistic) return dopplerFactor(vr);
+                    const double v2 = vScale * vScale *
+                                      (double(v[0]) * v[0] + double(v[1]) * v[1] + double(v[2]) * v[2]);
+                    return relativisticDopplerFactor(vr, v2);
+                };
+                // Adds the linear piece through (a, ya), (b, yb) of the line emission.
+                auto addLinePiece = [&](double a, double ya, double b, double yb) {
+                    if (!(b > a)) return;
+                    const Piece p = pieceThrough(a, ya, b, yb);
+                    const XYZ xyz = pieceToXYZ(p);
+                    for (int c = 0; c < 3; ++c) lineXYZ[std::size_t(c)] += xyz[std::size_t(c)];
+                    for (int k = 0; k < NL; ++k) {
+                        const double lo = SPECTRAL_MIN_NM + k * layerWidth;
+                        layerAcc[std::size_t(k)] += pieceIntegral(p, lo, lo + layerWidth) / layerWidth;
+                    }
+                    if (so.countPieces) rayPieces.push_back(p);
+                    ++pieces;
+                };
+
+                rays += level0.march(dW, opts.step, [&](const Vec3& pI, double tm, double seg) {
+                    rs.fields.sample(pI, f.data());
+                    ++samples;
+                    const double n = std::max(0.0f, f[0]), em = f[1];
+                    if (n <= 0.0 && em <= 0.0) return true;
+                    const double x = kappa * n * seg;  // the segment's V optical depth
+                    if (n > 0.0) {
+                        // The fraction of the segment's source function that leaves it
+                        // (1 - e^-x Lambda); the eye's attenuation e^-tau Lambda is folded into
+                        // each star's (one exponential per node for both).
+                        for (std::size_t j = 0; j < J; ++j) A[j] = -std::expm1(-x * lamExt[j]);
+                        const Vec3 xW = cam.eye() + dW * tm;
+                        for (std::size_t s = 0; s < S; ++s) {
+                            const Vec3 v = xW - starPos[s];
+                            const double r2 = v.dot(v);
+                            const double mu = r2 > 0.0 ? -v.dot(dW) / std::sqrt(r2) : 1.0;
+                            const double w = albedo * phaseFunction(dust.phase, mu, dust.g) /
+                                             (4.0 * PI * std::max(r2, rmin2));
+                            const double tauS = tau + std::max(0.0f, f[2 + s]);
+                            const double* spec = &starSpec[s * J];
+                            double* acc = &Cstar[s * J];
+                            for (std::size_t j = 0; j < J; ++j) {
+                                acc[j] += w * spec[j] * std::exp(-tauS * lamExt[j]) * A[j];
+                            }
+                        }
+                        if (tempCh >= 0 && f[std::size_t(tempCh)] > 0.0f && bbFactor > 0.0) {
+                            // Kirchhoff: j = (1 - a) k(lambda_e) B(lambda_e, T), emitted at
+                            // lambda_e = lambda / (1 + v_r/c) and stretched by 1 + v_r/c.
+                            const double T = so.temperatureScale * f[std::size_t(tempCh)];
+                            const double D = velCh >= 0 ? dopplerAt(pI) : 1.0;
+                            for (std::size_t j = 0; j < J; ++j) {
+                                const double le = lam[j] / D;
+                                const double ratio = D == 1.0 ? 1.0 : Lambda(le) / lamExt[j];
+                                Cgas[j] += bbFactor * ratio * planckPerNmUnchecked(le, T) / D * A[j] *
+                                           std::exp(-tau * lamExt[j]);
+                            }
+                        }
+                    }
+                    if (em > 0.0) {
+                        double dA = 1.0, dB = 1.0;  // Doppler factors at the segment's ends
+                        if (velCh >= 0) {
+                            const double tA = tm - 0.5 * seg, tB = tm + 0.5 * seg;
+                            dA = std::abs(tA - lastEndT) <= 1e-9 * seg ? lastEndD
+                                                                         : dopplerAt(pI - dI * (0.5 * seg));
+                            dB = dopplerAt(pI + dI * (0.5 * seg));
+                            lastEndT = tB;
+                            lastEndD = dB;
+                        }
+                        // The segment's transmittance factor at wavelength lambda: e^-tau L
+                        // (1 - e^-x L) / (x L) times its length.
+                        auto factor = [&](double ext) {
+                            return seg * std::exp(-tau * ext) * escapeFraction(x * ext);
+                        };
+                        for (const auto& e : scene.emitters) {
+                            const double value = f[std::size_t(e.channel)];
+                            if (!(value > 0.0)) continue;
+                            for (const auto& line : e.lines) {
+                                const LineTrapezoid t = lineTrapezoidFactors(
+                                    line.wavelength, dA, dB, lineWidth,
+                                    value * e.unit * line.strength);
+                                if (t.x[3] <= SPECTRAL_MIN_NM || t.x[0] >= SPECTRAL_MAX_NM) continue;
+                                if (bandsMode) {
+                                    const int j0 = std::max(0, int(std::ceil((t.x[0] - SPECTRAL_MIN_NM) / bandWidth - 0.5)));
+                                    const int j1 = std::min(int(J) - 1, int(std::floor((t.x[3] - SPECTRAL_MIN_NM) / bandWidth - 0.5)));
+                                    for (int j = j0; j <= j1; ++j) {
+                                        const double v = t.at(lam[std::size_t(j)]);
+                                        if (v > 0.0) Cgas[std::size_t(j)] += v * factor(lamExt[std::size_t(j)]);
+                                    }
+                                } else {
+                                    double y[4];
+                                    for (int i = 0; i < 4; ++i) {
+                                        const double h = (i == 0 || i == 3) ? 0.0 : t.height;
+                                        y[i] = h * factor(Lambda(t.x[i]));
+                                    }
+                                    addLinePiece(t.x[0], y[0], t.x[1], y[1]);
+                                    addLinePiece(t.x[1], y[1], t.x[2], y[2]);
+                                    addLinePiece(t.x[2], y[2], t.x[3], y[3]);
+                                }
+                            }
+                        }
+                    }
+                    tau += x;
+                    return std::exp(-tau * LambdaMin) >= opts.minTransmittance;
+                });
+
+                // Colour: continuum (per star, gas) plus the lines.
+                const std::size_t pix = std::size_t(py) * W + px;
+                XYZ total = lineXYZ;
+                for (std::size_t s = 0; s < S; ++s) {
+                    const XYZ xyz = nodesToXYZ(&Cstar[s * J], weight);
+                    const auto rgb = xyzToLinearSRGB(xyz);
+                    for (int c = 0; c < 3; ++c) {
+                        total[std::size_t(c)] += xyz[std::size_t(c)];
+                        img.layers[s].rgb[pix * 3 + std::size_t(c)] = float(rgb[std::size_t(c)]);
+                    }
+                }
+                const XYZ gas = nodesToXYZ(Cgas.data(), weight);
+                for (int c = 0; c < 3; ++c) total[std::size_t(c)] += gas[std::size_t(c)];
+                const auto rgb = xyzToLinearSRGB(total);
+                for (int c = 0; c < 3; ++c) {
+                    img.rgba[pix * 4 + std::size_t(c)] = float(rgb[std::size_t(c)]);
+                    transLayer.rgb[pix * 3 + std::size_t(c)] = float(std::exp(-tau * rChannel[std::size_t(c)]));
+                }
+                img.rgba[pix * 4 + 3] = float(1.0 - std::exp(-tau * rChannel[1]));
+                if (NL > 0 || so.countPieces) {
+                    // The whole continuum at the nodes (stars and gas).
+                    for (std::size_t j = 0; j < J; ++j) {
+                        Ctotal[j] = Cgas[j];
+                        for (std::size_t s = 0; s < S; ++s) Ctotal[j] += Cstar[s * J + j];
+                    }
+                }
+                for (int b = 0; b < NL; ++b) {
+                    double v = layerAcc[std::size_t(b)];
+                    for (std::size_t j = 0; j < J; ++j) v += layerOfNode[std::size_t(b) * J + j] * Ctotal[j];
+                    img.channels[std::size_t(b)].values[pix] = float(v);
+                }
+                if (so.countPieces && !bandsMode) {
+                    // The ray's whole spectrum: continuum pieces between nodes plus the lines.
+                    for (std::size_t j = 0; j + 1 < J; ++j) {
+                        if (Ctotal[j] != 0.0 || Ctotal[j + 1] != 0.0) {
+                            rayPieces.push_back(pieceThrough(lam[j], Ctotal[j], lam[j + 1], Ctotal[j + 1]));
+                        }
+                    }
+                    Spectrum spec = Spectrum::sum(rayPieces);
+                    sp += spec.size();
+                    mx = std::max<std::uint64_t>(mx, spec.size());
+                    if (so.mergeTolerance > 0.0) spec.merge(so.mergeTolerance);
+                    mp += spec.size();
+                }
+                pieces += bandsMode ? 0 : J - 1;
+            }
+        }
+        bar.add(std::uint64_t(rows.size()));
+        rayCount += rays;
+        sampleCount += samples;
+        pieceCount += pieces;
+        specPieces += sp;
+        mergedPieces += mp;
+        std::uint64_t prev = maxPieces.load();
+        while (mx > prev && !maxPieces.compare_exchange_weak(prev, mx)) {
+        }
+    });
+    if (stats) {
+        stats->rays = rayCount;
+        stats->samples = sampleCount;
+        stats->pieces = pieceCount;
+        stats->spectrumPieces = specPieces;
+        stats->mergedPieces = mergedPieces;
+        stats->maxSpectrumPieces = maxPieces;
+    }
+    if (opts.drawStars) {
+        // Each star's attenuated spectrum, for its sprite's colour and spectral channels.
+        std::vector<double> att(S * J);
+        drawStarSprites(
+            img, rs, opts,
+            [&](std::size_t s, double tauV) {
+                for (std::size_t j = 0; j < J; ++j) {
+                    att[s * J + j] = starSpec[s * J + j] * std::exp(-tauV * lamExt[j]);
+                }
+                return xyzToLinearSRGB(nodesToXYZ(&att[s * J], weight));
+            },
+            [&](std::size_t s, std::size_t pix, double factor) {
+                for (int b = 0; b < NL; ++b) {
+                    double v = 0.0;
+                    for (std::size_t j = 0; j < J; ++j) v += layerOfNode[std::size_t(b) * J + j] * att[s * J + j];
+                    img.channels[std::size_t(b)].values[pix] += float(v * factor);
+                }
+            });
+    }
+    return img;
+}
+
+} // namespace nebula

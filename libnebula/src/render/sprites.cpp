@@ -1,0 +1,77 @@
+#include "nebula/render/sprites.h"
+
+#include "nebula/core/units.h"
+#include "nebula/physics/optical_depth.h"
+
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+namespace nebula {
+
+void drawStarSprites(Image& img, const RenderScene& scene, const RenderOptions& opts,
+                     const std::function<std::array<double, 3>(std::size_t, double)>& colour,
+                     const std::function<void(std::size_t, std::size_t, double)>& footprint)
+{
+    const PinholeProjection cam(opts.camera);
+    const int W = opts.camera.width, H = opts.camera.height;
+    const std::size_t S = scene.stars.size();
+    const DenseVolume& vol = scene.fields;
+    const Affine& i2w = vol.indexToWorld;
+    const Affine w2i = i2w.inverse();
+    const auto& dust = scene.dust;
+    const Vec3 eyeI = w2i.apply(cam.eye());
+    std::vector<Vec3> starPos;
+    for (const auto& s : scene.stars) starPos.emplace_back(s.position[0], s.position[1], s.position[2]);
+    // Star sprites: the attenuated flux F_c = L_c / (4 pi d^2) e^(-r_c tau) spread over a
+    // small Gaussian footprint whose radiance times pixel solid angle sums to F_c.
+    if (S > 0) {
+        // Column density eye -> star through the dust, exact; the density channel and the
+        // integrator's cell occupancy are built once for all stars.
+        DenseVolume density(vol.lo(), vol.dims(), 1);
+        density.indexToWorld = i2w;
+        for (std::size_t i = 0; i < vol.voxelCount(); ++i) density.voxel(i)[0] = vol.voxel(i)[0];
+        const ColumnIntegrator column(density);
+        for (std::size_t s = 0; s < S; ++s) {
+            double sx, sy;
+            if (!cam.project(starPos[s], sx, sy)) continue;
+            const Vec3 toStar = starPos[s] - cam.eye();
+            const double d2 = toStar.dot(toStar);
+            const double tauV = dust.kappa_V * column(eyeI, w2i.apply(starPos[s]));
+            const double sigma = std::max(0.3, 0.5 * opts.spriteRadius);
+            const int R = int(std::ceil(2.0 * opts.spriteRadius)) + 1;
+            const int cx = int(std::floor(sx)), cy = int(std::floor(sy));
+            std::vector<double> w;
+            double wsum = 0.0;
+            for (int y = cy - R; y <= cy + R; ++y)
+                for (int x = cx - R; x <= cx + R; ++x) {
+                    const double dx = x + 0.5 - sx, dy = y + 0.5 - sy;
+                    w.push_back(std::exp(-(dx * dx + dy * dy) / (2 * sigma * sigma)));
+                    wsum += w.back();
+                }
+            std::array<double, 3> F;
+            for (int c = 0; c < 3; ++c) {
+                F[std::size_t(c)] = scene.starColor[s][c] / (4.0 * PI * d2) * std::exp(-dust.r[c] * tauV);
+            }
+            if (colour) {
+                const auto col = colour(s, tauV);
+                for (int c = 0; c < 3; ++c) F[std::size_t(c)] = col[std::size_t(c)] / (4.0 * PI * d2);
+            }
+            std::size_t wi = 0;
+            for (int y = cy - R; y <= cy + R; ++y)
+                for (int x = cx - R; x <= cx + R; ++x, ++wi) {
+                    if (x < 0 || y < 0 || x >= W || y >= H) continue;
+                    const double omega = cam.pixelSolidAngle(x + 0.5, y + 0.5);
+                    const std::size_t pix = std::size_t(y) * W + x;
+                    if (footprint) footprint(s, pix, w[wi] / wsum / omega / (4.0 * PI * d2));
+                    for (int c = 0; c < 3; ++c) {
+                        const float Lpix = float(F[std::size_t(c)] * w[wi] / wsum / omega);
+                        img.rgba[pix * 4 + c] += Lpix;
+                        img.layers[s].rgb[pix * 3 + c] += Lpix;
+                    }
+                }
+        }
+    }
+}
+
+} // namespace nebula

@@ -1,0 +1,310 @@
+#include "nebula/stages/generate.h"
+
+#include "nebula/core/error.h"
+
+#include <openvdb/tools/Dense.h>
+#include <openvdb/tools/Prune.h>
+#include <openvdb/tree/LeafManager.h>
+
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <cmath>
+#include <memory>
+#include <sstream>
+
+namespace nebula {
+
+namespace {
+
+double smoothstep(double e0, double e1, double x)
+{
+    const double t = std::clamp((x - e0) / (e1 - e0), 0.0, 1.0);
+    return t * t * (3.0 - 2.0 * t);
+}
+
+/// Shapes fBm (about [-1, 1]) into a clumpy non-negative field: zero in the voids below
+/// the threshold, growing as a power into the clumps.
+double shape(double f, double threshold, double contrast, double exponent)
+{
+    const double v = contrast * (f - threshold);
+    return v > 0.0 ? std::pow(v, exponent) : 0.0;
+}
+
+std::string numberText(double v)
+{
+    std::ostringstream s;
+    s << v;
+    return s.str();
+}
+
+using DenseGrid = openvdb::tools::Dense<float, openvdb::tools::LayoutXYZ>;
+
+/// The spectral grids' shared active topology: density union emission, as voxels.
+template <typename TreeT>
+typename TreeT::Ptr unionTopology(const openvdb::FloatGrid& a, const openvdb::FloatGrid& b,
+                                  const typename TreeT::ValueType& background)
+{
+    auto tree = std::make_shared<TreeT>(a.tree(), background, openvdb::TopologyCopy());
+    tree->topologyUnion(b.tree());
+    tree->voxelizeActiveTiles();
+    return tree;
+}
+
+/// `temperature` [K] on the active voxels of density and emission (DESIGN §2).
+openvdb::FloatGrid::Ptr temperatureGrid(const NebulaParams& p, const openvdb::FloatGrid& dGrid,
+                                        const openvdb::FloatGrid& eGrid)
+{
+    auto tree = unionTopology<openvdb::FloatTree>(dGrid, eGrid, 0.0f);
+    const auto& xform = dGrid.transform();
+    const double rMin = 0.5 * p.size / p.res;  // r clamped to half a voxel
+    const auto& eTree = eGrid.tree();
+    openvdb::tree::LeafManager<openvdb::FloatTree> leaves(*tree);
+    leaves.foreach([&](openvdb::FloatTree::LeafNodeType& leaf, std::size_t) {
+        const auto* eLeaf = eTree.probeConstLeaf(leaf.origin());
+        for (auto it = leaf.beginValueOn(); it; ++it) {
+            const openvdb::Coord c = it.getCoord();
+            const float e = eLeaf ? eLeaf->getValue(c) : eTree.getValue(c);
+            if (p.spectral.gasTemperature > 0.0 && e > 0.0f) {
+                it.setValue(float(p.spectral.gasTemperature));
+                continue;
+            }
+            const openvdb::Vec3d x = xform.indexToWorld(c);
+            const double U = radiationFieldU({x[0], x[1], x[2]}, p.stars, rMin);
+            it.setValue(float(dustTemperature(U)));
+        }
+    });
+    auto grid = openvdb::FloatGrid::create(tree);
+    grid->setTransform(xform.copy());
+    grid->setName("temperature");
+    grid->setGridClass(openvdb::GRID_UNKNOWN);
+    grid->insertMeta("units", openvdb::StringMetadata("K"));
+    return grid;
+}
+
+/// `velocity` [km/s] in world axes on the active voxels of density and emission.
+openvdb::Vec3fGrid::Ptr velocityGridOf(const NebulaParams& p, const openvdb::FloatGrid& dGrid,
+                                       const openvdb::FloatGrid& eGrid)
+{
+    const MotionField field(motionParams(p), p.size);
+    auto tree = unionTopology<openvdb::Vec3fTree>(dGrid, eGrid, openvdb::Vec3f(0.0f));
+    const auto& xform = dGrid.transform();
+    openvdb::tree::LeafManager<openvdb::Vec3fTree> leaves(*tree);
+    leaves.foreach([&](openvdb::Vec3fTree::LeafNodeType& leaf, std::size_t) {
+        for (auto it = leaf.beginValueOn(); it; ++it) {
+            const openvdb::Vec3d x = xform.indexToWorld(it.getCoord());
+            const auto v = field({x[0], x[1], x[2]});
+            it.setValue(openvdb::Vec3f(float(v[0]), float(v[1]), float(v[2])));
+        }
+    });
+    auto grid = openvdb::Vec3fGrid::create(tree);
+    grid->setTransform(xform.copy());
+    grid->setName("velocity");
+    grid->setGridClass(openvdb::GRID_UNKNOWN);
+    grid->setVectorType(openvdb::VEC_CONTRAVARIANT_RELATIVE);
+    grid->setIsInWorldSpace(true);
+    grid->insertMeta("units", openvdb::StringMetadata("km/s"));
+    return grid;
+}
+
+} // namespace
+
+std::array<double, 3> motionCentre(const NebulaParams& params)
+{
+    if (params.motionCentre) return *params.motionCentre;
+    if (!params.stars.empty()) return params.stars.front().position;
+    return {0.0, 0.0, 0.0};
+}
+
+MotionParams motionParams(const NebulaParams& params)
+{
+    MotionParams m = params.spectral.motion;
+    m.centre = motionCentre(params);
+    m.radius = params.motionRadius ? *params.motionRadius : params.emissionRadius * params.size;
+    m.seed = params.seed;
+    return m;
+}
+
+double radiationFieldU(const std::array<double, 3>& x, const std::vector<Star>& stars,
+                       double rMin)
+{
+    double U = 0.0;
+    for (const auto& s : stars) {
+        const double dx = x[0] - s.position[0], dy = x[1] - s.position[1],
+                     dz = x[2] - s.position[2];
+        const double r_cm = std::max(std::sqrt(dx * dx + dy * dy + dz * dz), rMin) * PC_CM;
+        // u = L / (4 pi r^2 c): the energy density of the star's unattenuated light.
+        U += s.luminosity * L_SUN_CGS / (4.0 * PI * r_cm * r_cm * SPEED_OF_LIGHT_CGS * U_ISRF);
+    }
+    return U;
+}
+
+std::vector<Star> exampleStars()
+{
+    Star alpha;
+    alpha.name = "alpha";
+    alpha.position = {0.4, 0.3, -0.2};
+    alpha.luminosity = 8000.0;
+    alpha.temperature = spectralClassTemperature("B1V");
+    Star beta;
+    beta.name = "beta";
+    beta.position = {-2.6, -1.5, 1.2};
+    beta.luminosity = 60.0;
+    beta.temperature = spectralClassTemperature("A0V");
+    return {alpha, beta};
+}
+
+GridSet generateNebula(const NebulaParams& p, const std::function<void(std::size_t)>& progress)
+{
+    if (p.res < 2 || p.res > 2048) throw UsageError("--res must be in [2, 2048]");
+    if (!(p.size > 0.0) || !std::isfinite(p.size)) throw UsageError("--size must be > 0 pc");
+    if (!(p.densityPeak >= 0.0)) throw UsageError("--density must be >= 0 cm^-3");
+    if (!(p.emissionPeak >= 0.0)) throw UsageError("--emission must be >= 0");
+    if (p.fbm.octaves < 1 || p.fbm.octaves > 16) throw UsageError("--octaves must be in [1, 16]");
+    if (!(p.cavity >= 0.0)) throw UsageError("--cavity must be >= 0 pc");
+    if (!(p.contrast > 0.0)) throw UsageError("--contrast must be > 0");
+    if (!(p.exponent > 0.0)) throw UsageError("--exponent must be > 0");
+    p.dust.validate();
+    const bool shell = p.emissionShape == EmissionShape::Shell;
+    if (shell && !(p.emissionRadius > 0.0 && std::isfinite(p.emissionRadius))) {
+        throw UsageError("--emission-radius must be > 0 for --emission-shape shell, got " +
+                         numberText(p.emissionRadius));
+    }
+    if (!(p.shellWidth > 0.0 && p.shellWidth <= 1.0)) {
+        throw UsageError("--shell-width must be in (0, 1] (relative to the radius), got " +
+                         numberText(p.shellWidth));
+    }
+    if (p.motionCentre) {
+        for (double c : *p.motionCentre) {
+            if (!std::isfinite(c)) throw UsageError("--motion-centre must be finite [pc]");
+        }
+    }
+    if (p.lines.empty()) throw UsageError("--lines must name at least one line");
+    const bool oiiiOn = p.spectral.enabled && p.spectral.oiii > 0.0;
+    if (p.spectral.enabled) {
+        if (!(p.spectral.gasTemperature >= 0.0) || !std::isfinite(p.spectral.gasTemperature)) {
+            throw UsageError("--gas-temperature must be a finite number >= 0 [K] (0: off), got " +
+                             numberText(p.spectral.gasTemperature));
+        }
+        if (!(p.spectral.oiii >= 0.0) || !std::isfinite(p.spectral.oiii)) {
+            throw UsageError("--oiii must be a finite number >= 0 (0: off), got " +
+                             numberText(p.spectral.oiii));
+        }
+        motionParams(p).validate();
+    }
+
+    const int n = p.res;
+    const double voxel = p.size / n;
+    // Voxel centres at integer index coordinates, the cube centred on the world origin.
+    auto xform = openvdb::math::Transform::createLinearTransform(voxel);
+    xform->postTranslate(openvdb::Vec3d(-0.5 * (n - 1) * voxel));
+
+    const openvdb::CoordBBox box(openvdb::Coord(0), openvdb::Coord(n - 1));
+    openvdb::tools::Dense<float, openvdb::tools::LayoutXYZ> density(box, 0.0f), emission(box, 0.0f);
+    std::unique_ptr<DenseGrid> oiii;
+    if (oiiiOn) oiii = std::make_unique<DenseGrid>(box, 0.0f);
+    const std::uint64_t seed = p.seed;
+    const std::uint64_t seedWarp = seed * 0x9E3779B97F4A7C15ull + 1;
+    // Motion centre in cube units; the shell's radius and width, the [O III] zone's extent.
+    const auto centrePc = motionCentre(p);
+    const double cx = centrePc[0] / p.size, cy = centrePc[1] / p.size, cz = centrePc[2] / p.size;
+    const double R = p.emissionRadius, wR = p.shellWidth * p.emissionRadius;
+    const double r0 = shell ? R - wR : 0.0, r1 = shell ? R + wR : R;
+
+    tbb::parallel_for(0, n, [&](int k) {
+        for (int j = 0; j < n; ++j) {
+            for (int i = 0; i < n; ++i) {
+                // Position in cube units, [-0.5, 0.5]^3.
+                const double x = (i + 0.5) / n - 0.5, y = (j + 0.5) / n - 0.5,
+                             z = (k + 0.5) / n - 0.5;
+                const double r = std::sqrt(x * x + y * y + z * z);
+                const openvdb::Coord c(i, j, k);
+                // Domain warp: displace the lookup by a vector fBm for filaments and lanes.
+                const double f = p.frequency;
+                const double wx = fbm(x * f, y * f, z * f, p.fbm, seedWarp);
+                const double wy = fbm(x * f + 31.4, y * f, z * f, p.fbm, seedWarp);
+                const double wz = fbm(x * f, y * f + 47.2, z * f, p.fbm, seedWarp);
+                const double qx = x + p.warp * wx, qy = y + p.warp * wy, qz = z + p.warp * wz;
+                // Soft spherical envelope, perturbed so the edge is not a sphere.
+                // (capped at the cube's inscribed sphere so no face cuts the cloud).
+                const double edge = std::min(0.5, p.envelope * (1.0 + 0.35 * wx));
+                const double env = 1.0 - smoothstep(0.25 * edge, edge, r);
+                double dens = 0.0;
+                if (env > 0.0) {
+                    const double d = fbm(qx * f, qy * f, qz * f, p.fbm, seed);
+                    dens = p.densityPeak * env * shape(d, p.threshold, p.contrast, p.exponent);
+                }
+                for (const auto& s : p.stars) {
+                    if (p.cavity <= 0.0) break;
+                    const double sx = x * p.size - s.position[0], sy = y * p.size - s.position[1],
+                                 sz = z * p.size - s.position[2];
+                    const double dist = std::sqrt(sx * sx + sy * sy + sz * sz);
+                    dens *= smoothstep(0.5 * p.cavity, p.cavity, dist);
+                }
+                double em = 0.0;
+                // Distance from the motion centre [cube edges] (shell, [O III] zone).
+                const double dc = std::sqrt((x - cx) * (x - cx) + (y - cy) * (y - cy) +
+                                            (z - cz) * (z - cz));
+                const double envEm =
+                    shell ? 1.0 - smoothstep(0.0, wR, std::abs(dc - R))
+                          : 1.0 - smoothstep(0.4 * p.emissionRadius, p.emissionRadius, r);
+                if (envEm > 0.0 && p.emissionPeak > 0.0) {
+                    const double e = fbm(qx * f * 1.5, qy * f * 1.5, qz * f * 1.5, p.fbm, seed + 7);
+                    em = p.emissionPeak * envEm * shape(e, p.threshold - 0.1, p.contrast, p.exponent);
+                }
+                density.setValue(c, float(dens));
+                emission.setValue(c, float(em));
+                if (oiii && em > 0.0) {
+                    // Ionisation stratification: O++ in the inner part of the ionised region.
+                    const double s =
+                        1.0 - smoothstep(r0 + 0.5 * (r1 - r0), r0 + 0.8 * (r1 - r0), dc);
+                    oiii->setValue(c, float(p.spectral.oiii * em * s));
+                }
+            }
+        }
+        if (progress) progress(1);
+    });
+
+    // Zero voxels stay inactive (tolerance 0 keeps every non-zero value active).
+    auto dGrid = openvdb::FloatGrid::create(0.0f);
+    openvdb::tools::copyFromDense(density, dGrid->tree(), 0.0f);
+    openvdb::tools::prune(dGrid->tree());
+    dGrid->setTransform(xform);
+    dGrid->setName("density");
+    dGrid->setGridClass(openvdb::GRID_FOG_VOLUME);
+    dGrid->insertMeta("units", openvdb::StringMetadata("n_H [cm^-3]"));
+
+    auto eGrid = openvdb::FloatGrid::create(0.0f);
+    openvdb::tools::copyFromDense(emission, eGrid->tree(), 0.0f);
+    openvdb::tools::prune(eGrid->tree());
+    eGrid->setTransform(xform->copy());
+    eGrid->setName("emission");
+    eGrid->setGridClass(openvdb::GRID_FOG_VOLUME);
+    eGrid->insertMeta("units", openvdb::StringMetadata("emission [L_sun pc^-3 sr^-1]"));
+    eGrid->insertMeta(META_LINES, openvdb::StringMetadata(lineListToString(p.lines)));
+
+    GridSet set;
+    set.source = "nebgen";
+    set.grids = {dGrid, eGrid};
+    if (oiii) {
+        auto oGrid = openvdb::FloatGrid::create(0.0f);
+        openvdb::tools::copyFromDense(*oiii, oGrid->tree(), 0.0f);
+        openvdb::tools::prune(oGrid->tree());
+        oGrid->setTransform(xform->copy());
+        oGrid->setName("emission.oiii");
+        oGrid->setGridClass(openvdb::GRID_FOG_VOLUME);
+        oGrid->insertMeta("units", openvdb::StringMetadata("emission [L_sun pc^-3 sr^-1]"));
+        oGrid->insertMeta(META_LINES, openvdb::StringMetadata(lineListToString(
+                                          parseLineList(OIII_EMISSION_LINES, "[O III] lines"))));
+        set.grids.push_back(oGrid);
+    }
+    if (p.spectral.enabled) {
+        set.grids.push_back(temperatureGrid(p, *dGrid, *eGrid));
+        set.grids.push_back(velocityGridOf(p, *dGrid, *eGrid));
+    }
+    set.setStars(p.stars);
+    set.setDust(p.dust);
+    return set;
+}
+
+} // namespace nebula

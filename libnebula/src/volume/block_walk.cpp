@@ -1,0 +1,47 @@
+#include "nebula/volume/block_walk.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace nebula {
+
+void blockMaxima(const DenseVolume& v, std::array<int, 3>& blocks,
+                 std::vector<std::array<float, 2>>& maxima)
+{
+    const int B = OCCUPANCY_BLOCK;
+    for (int a = 0; a < 3; ++a) blocks[a] = (v.dims()[a] + B - 1) / B;
+    maxima.assign(std::size_t(blocks[0]) * blocks[1] * blocks[2], {0.0f, 0.0f});
+    const auto& lo = v.lo();
+    for (int k = 0; k < v.dims()[2]; ++k) {
+        for (int j = 0; j < v.dims()[1]; ++j) {
+            for (int i = 0; i < v.dims()[0]; ++i) {
+                const float* q = v.voxel(v.index(lo[0] + i, lo[1] + j, lo[2] + k));
+                if (q[0] <= 0.0f && q[1] <= 0.0f) continue;
+                // Point (i,j,k) is a corner of cells i-1..i per axis: blocks (i-1)/B, i/B.
+                for (int dk = -1; dk <= 0; ++dk)
+                    for (int dj = -1; dj <= 0; ++dj)
+                        for (int di = -1; di <= 0; ++di) {
+                            const int ci = i + di, cj = j + dj, ck = k + dk;
+                            if (ci < 0 || cj < 0 || ck < 0 || ci / B >= blocks[0] ||
+                                cj / B >= blocks[1] || ck / B >= blocks[2]) {
+                                continue;
+                            }
+                            auto& m = maxima[(std::size_t(ck / B) * blocks[1] + cj / B) *
+                                                 blocks[0] + ci / B];
+                            m[0] = std::max(m[0], q[0]);
+                            m[1] = std::max(m[1], q[1]);
+                        }
+            }
+        }
+    }
+}
+
+double voxelSize(const Affine& indexToWorld)
+{
+    const auto& m = indexToWorld.m;
+    const double det = m[0] * (m[4] * m[8] - m[5] * m[7]) - m[1] * (m[3] * m[8] - m[5] * m[6]) +
+                       m[2] * (m[3] * m[7] - m[4] * m[6]);
+    return std::cbrt(std::abs(det));
+}
+
+} // namespace nebula
