@@ -1,0 +1,162 @@
+/// @file same_output.cpp
+/// Whether two nebula outputs hold the same data, bit for bit: the check behind
+/// bench/before_after.sh (a refactoring must not change a single value).
+///
+///     build/bench/same_output A B
+///
+/// .vdb: the same grids in the same order, each with the same name, type, transform, grid
+/// metadata, active topology and values (compared as bits), and the same file metadata apart
+/// from nebula:history and nebula:version (the file UUID is not compared: OpenVDB writes a
+/// new one every time). .exr: the same size, channels (beauty, layers, single channels) as
+/// bits, and attributes apart from nebula:history and nebula:version. Anything else: the same
+/// bytes. Prints "same" or the first difference; exit 0 if the same, 1 if not, 2 on bad use.
+
+#include "nebula/core/error.h"
+#include "nebula/io/grid_io.h"
+#include "nebula/io/image.h"
+
+#include <openvdb/openvdb.h>
+
+#include <cstdio>
+#include <cstring>
+#include <fstream>
+#include <iostream>
+#include <iterator>
+#include <set>
+#include <sstream>
+#include <string>
+
+namespace {
+
+const std::set<std::string> IGNORED_META = {"nebula:history", "nebula:version"};
+
+bool endsWith(const std::string& s, const std::string& suffix)
+{
+    return s.size() >= suffix.size() && s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
+}
+
+bool sameBits(const float* a, const float* b, std::size_t n)
+{
+    return std::memcmp(a, b, n * sizeof(float)) == 0;
+}
+
+std::string metaText(const openvdb::MetaMap& meta, bool fileLevel)
+{
+    std::ostringstream out;
+    for (auto it = meta.beginMeta(); it != meta.endMeta(); ++it) {
+        if (fileLevel && IGNORED_META.count(it->first)) continue;
+        out << it->first << "=" << it->second->str() << "\n";
+    }
+    return out.str();
+}
+
+template <typename GridT>
+std::string compareValues(const GridT& a, const GridT& b)
+{
+    if (a.activeVoxelCount() != b.activeVoxelCount()) return "active voxel counts differ";
+    if (!a.tree().hasSameTopology(b.tree())) return "active topologies differ";
+    auto acc = b.getConstAccessor();
+    for (auto it = a.cbeginValueOn(); it; ++it) {
+        const auto va = *it, vb = acc.getValue(it.getCoord());
+        if (std::memcmp(&va, &vb, sizeof(va)) != 0) {
+            std::ostringstream out;
+            out << "values differ at " << it.getCoord();
+            return out.str();
+        }
+    }
+    const auto ba = a.background(), bb = b.background();
+    if (std::memcmp(&ba, &bb, sizeof(ba)) != 0) return "backgrounds differ";
+    return "";
+}
+
+std::string compareVdb(const std::string& pa, const std::string& pb)
+{
+    const auto a = nebula::readGrids(pa), b = nebula::readGrids(pb);
+    if (metaText(a.meta, true) != metaText(b.meta, true)) {
+        return "file metadata differs:\n" + metaText(a.meta, true) + "---\n" + metaText(b.meta, true);
+    }
+    if (a.grids.size() != b.grids.size()) return "numbers of grids differ";
+    for (std::size_t i = 0; i < a.grids.size(); ++i) {
+        const auto& ga = a.grids[i];
+        const auto& gb = b.grids[i];
+        const std::string name = "grid \"" + ga->getName() + "\": ";
+        if (ga->getName() != gb->getName()) return "grid " + std::to_string(i) + ": names differ";
+        if (ga->type() != gb->type()) return name + "types differ";
+        if (ga->transform() != gb->transform()) return name + "transforms differ";
+        if (metaText(*ga, false) != metaText(*gb, false)) return name + "grid metadata differs";
+        std::string diff;
+        if (auto fa = openvdb::gridPtrCast<openvdb::FloatGrid>(ga)) {
+            diff = compareValues(*fa, *openvdb::gridPtrCast<openvdb::FloatGrid>(gb));
+        } else if (auto va = openvdb::gridPtrCast<openvdb::Vec3fGrid>(ga)) {
+            diff = compareValues(*va, *openvdb::gridPtrCast<openvdb::Vec3fGrid>(gb));
+        } else {
+            return name + "type " + ga->type() + " not compared";
+        }
+        if (!diff.empty()) return name + diff;
+    }
+    return "";
+}
+
+std::string compareExr(const std::string& pa, const std::string& pb)
+{
+    std::map<std::string, std::string> ma, mb;
+    const auto a = nebula::readExr(pa, &ma), b = nebula::readExr(pb, &mb);
+    for (const auto& key : IGNORED_META) {
+        ma.erase(key);
+        mb.erase(key);
+    }
+    if (a.width != b.width || a.height != b.height) return "sizes differ";
+    if (ma != mb) return "attributes differ";
+    if (!sameBits(a.rgba.data(), b.rgba.data(), a.rgba.size())) return "R,G,B,A differ";
+    if (a.layers.size() != b.layers.size()) return "numbers of layers differ";
+    for (std::size_t i = 0; i < a.layers.size(); ++i) {
+        if (a.layers[i].name != b.layers[i].name) return "layer names differ";
+        if (!sameBits(a.layers[i].rgb.data(), b.layers[i].rgb.data(), a.layers[i].rgb.size())) {
+            return "layer " + a.layers[i].name + " differs";
+        }
+    }
+    if (a.channels.size() != b.channels.size()) return "numbers of channels differ";
+    for (std::size_t i = 0; i < a.channels.size(); ++i) {
+        if (a.channels[i].name != b.channels[i].name ||
+            !sameBits(a.channels[i].values.data(), b.channels[i].values.data(),
+                      a.channels[i].values.size())) {
+            return "channel " + a.channels[i].name + " differs";
+        }
+    }
+    return "";
+}
+
+std::string compareBytes(const std::string& pa, const std::string& pb)
+{
+    std::ifstream fa(pa, std::ios::binary), fb(pb, std::ios::binary);
+    if (!fa || !fb) throw nebula::Error("cannot open " + std::string(!fa ? pa : pb));
+    const std::string a((std::istreambuf_iterator<char>(fa)), {});
+    const std::string b((std::istreambuf_iterator<char>(fb)), {});
+    return a == b ? "" : "bytes differ";
+}
+
+} // namespace
+
+int main(int argc, char** argv)
+{
+    if (argc != 3) {
+        std::fprintf(stderr, "usage: same_output A B\n");
+        return 2;
+    }
+    const std::string a = argv[1], b = argv[2];
+    try {
+        openvdb::initialize();
+        const std::string diff = endsWith(a, ".vdb")   ? compareVdb(a, b)
+                                 : endsWith(a, ".exr") ? compareExr(a, b)
+                                                       : compareBytes(a, b);
+        if (diff.empty()) {
+            std::printf("same       %s\n", a.c_str());
+            return 0;
+        }
+        std::printf("DIFFERENT  %s: %s\n", a.c_str(), diff.c_str());
+        return 1;
+    } catch (const std::exception& e) {
+        std::fprintf(stderr, "same_output: error: %s\n", e.what());
+        return 2;
+    }
+}
