@@ -14,6 +14,13 @@
 #   BLENDER (default blender), EXR_COMPARE (default build/bench/exr_compare), OUTDIR (copy
 #   the comparison PNGs there), KEEP=1 keeps the temp dir.
 #
+# Requirements, checked before anything runs: nebgen, nebillum, nebrender and exr_compare
+# (make -f Makefile.data build), vdb_print (Debian libopenvdb-tools), GNU time (time), Blender
+# (blender), and in Blender's Python numpy and PIL (cycles_scene.py reads EXR files with
+# numpy and writes the comparison PNGs with PIL: Debian python3-numpy and python3-pil, which
+# Debian's Blender uses). Missing Debian packages are installed with apt-get (as root, else
+# with sudo), as Makefile.data does; BENCH_INSTALL=0 only names them.
+#
 # The scene: nebgen --res 64 (10 pc cube), dust only (--emission 0), one B1V star of
 # 8000 L_sun at (0.4, 0.3, -0.2) pc; nebrender's default view (eye 4,3,-19, look-at origin,
 # up +y, horizontal fov 36 deg), RES pixels.
@@ -76,9 +83,46 @@ SCRIPT=cycles_vs_path
 HERE=$(cd "$(dirname "$0")" && pwd)
 # shellcheck source=bench/common.sh
 source "$HERE/common.sh"
-bench_require "$TOOLS/nebgen" "$TOOLS/nebillum" "$TOOLS/nebrender" "$EXR_COMPARE" "$TIME" \
-    /usr/bin/vdb_print
-command -v "$BLENDER" >/dev/null || { echo "$SCRIPT: error: $BLENDER not found" >&2; exit 1; }
+# --- requirements (see the top) -------------------------------------------------------------
+bench_install_debs libopenvdb-tools time   # /usr/bin/vdb_print, /usr/bin/time
+[[ $BLENDER != blender ]] || command -v blender >/dev/null || bench_install_debs blender
+for exe in "$TOOLS/nebgen" "$TOOLS/nebillum" "$TOOLS/nebrender" "$EXR_COMPARE"; do
+    [[ -x $exe ]] || {
+        echo "$SCRIPT: error: $exe not found: build it first (make -f Makefile.data build, or cmake --build build --target $(basename "$exe"))" >&2
+        exit 1
+    }
+done
+bench_require "$TIME" /usr/bin/vdb_print
+command -v "$BLENDER" >/dev/null || { echo "$SCRIPT: error: $BLENDER not found (Debian: apt-get install blender)" >&2; exit 1; }
+# Blender's Python modules: prints the missing ones of numpy and PIL, or fails if Blender's
+# Python does not run at all.
+blender_missing_modules() {
+    local out
+    if ! out=$("$BLENDER" -b --factory-startup --python-exit-code 1 --python-expr 'import importlib.util
+print("missing-modules:", *[m for m in ("numpy", "PIL") if importlib.util.find_spec(m) is None])' 2>&1) ||
+        ! grep -q '^missing-modules:' <<<"$out"; then
+        echo "$SCRIPT: error: cannot run Python in $BLENDER:" >&2
+        echo "$out" | tail -n 5 >&2
+        exit 1
+    fi
+    sed -n 's/^missing-modules: *//p' <<<"$out"
+}
+deb_of_module() { case $1 in numpy) echo python3-numpy ;; PIL) echo python3-pil ;; esac; }
+MODULES=$(blender_missing_modules)
+if [[ -n $MODULES ]]; then
+    DEBS=$(for m in $MODULES; do deb_of_module "$m"; done | tr '\n' ' ')
+    if [[ $(readlink -f "$(command -v "$BLENDER")") == /usr/bin/blender* ]]; then
+        # Debian's Blender runs the system Python 3: the Debian packages provide the modules.
+        # shellcheck disable=SC2086
+        bench_install_debs $DEBS
+        MODULES=$(blender_missing_modules)
+    fi
+    if [[ -n $MODULES ]]; then
+        echo "$SCRIPT: error: Blender's Python ($BLENDER) cannot import: $MODULES (Debian packages:" \
+            "${DEBS% }; a Blender with its own Python needs them installed into that Python)" >&2
+        exit 1
+    fi
+fi
 TOOLS=$(cd "$TOOLS" && pwd)
 EXR_COMPARE=$(cd "$(dirname "$EXR_COMPARE")" && pwd)/$(basename "$EXR_COMPARE")
 PY=$HERE/cycles_scene.py
