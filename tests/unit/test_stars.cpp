@@ -170,11 +170,24 @@ TEST(SpectralClass, StandardTemperatures)
     EXPECT_NEAR(nebula::spectralClassTemperature("M5V"), 3060.0, 50.0);
 }
 
-TEST(SpectralClass, LuminosityClassIsIgnored)
+TEST(SpectralClass, DwarfLuminosityClassIsTheTable)
 {
     const double b3 = nebula::spectralClassTemperature("B3");
-    for (const char* suffix : {"V", "IV", "III", "II", "I", "Ia", "Ib", "Iab", " V", " III"}) {
+    for (const char* suffix : {"V", " V"}) {
         EXPECT_EQ(nebula::spectralClassTemperature(std::string("B3") + suffix), b3) << suffix;
+    }
+}
+
+// The table is the main sequence's: a giant or supergiant is refused, never given a dwarf's
+// temperature (K0III is about 4800 K, K0V about 5300 K).
+TEST(SpectralClass, RefusesGiantsAndSupergiants)
+{
+    for (const char* name : {"K0III", "K0 III", "B3IV", "B3II", "B3I", "B3Ia", "B3Ib", "B3Iab"}) {
+        const std::string message = errorMessage([&] { nebula::spectralClassTemperature(name); });
+        EXPECT_EQ(message.rfind(std::string("spectral class \"") + name + "\"", 0), 0u)
+            << message;
+        EXPECT_NE(message.find("is not supported"), std::string::npos) << message;
+        EXPECT_NE(message.find("kelvin"), std::string::npos) << message;
     }
 }
 

@@ -66,8 +66,8 @@ Error badSpectralClass(const std::string& spectralClass, const std::string& why)
 {
     return Error("spectral class \"" + spectralClass + "\": " + why +
                  "; expected a main-sequence class O5-M5 such as \"B3V\" or \"G2\": a letter "
-                 "OBAFGKM, a subclass 0-9 (decimals like \"B0.5\" allowed), and an optional "
-                 "luminosity class V, IV, III, II, I, Iab, Ia or Ib");
+                 "OBAFGKM, a subclass 0-9 (decimals like \"B0.5\" allowed), and optionally the "
+                 "dwarf luminosity class V");
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -139,7 +139,10 @@ double spectralClassTemperature(const std::string& spectralClass)
         }
     }
 
-    // Optional luminosity class (one space allowed before it), accepted and ignored.
+    // Optional luminosity class (one space allowed before it). The table is the main
+    // sequence's, so only dwarfs (V, or no class) are accepted: a giant or supergiant of the
+    // same spectral type is several hundred to a few thousand kelvin cooler, and giving it a
+    // dwarf's temperature would be silently wrong.
     std::string rest = spectralClass.substr(pos);
     if (!rest.empty() && rest[0] == ' ') {
         rest.erase(0, 1);
@@ -147,10 +150,20 @@ double spectralClassTemperature(const std::string& spectralClass)
             throw badSpectralClass(spectralClass, "trailing space");
         }
     }
-    static const char* const LUMINOSITY_CLASSES[] = {"", "V", "IV", "III", "II", "I", "Iab",
-                                                     "Ia", "Ib"};
-    if (std::find(std::begin(LUMINOSITY_CLASSES), std::end(LUMINOSITY_CLASSES), rest) ==
-        std::end(LUMINOSITY_CLASSES)) {
+    static const char* const OTHER_LUMINOSITY_CLASSES[] = {"IV", "III", "II", "I", "Iab", "Ia",
+                                                           "Ib"};
+    if (std::find(std::begin(OTHER_LUMINOSITY_CLASSES), std::end(OTHER_LUMINOSITY_CLASSES),
+                  rest) != std::end(OTHER_LUMINOSITY_CLASSES)) {
+        const std::string kind = rest == "IV" ? "subgiant" : rest == "III" ? "giant"
+                                 : rest == "II"                        ? "bright giant"
+                                                                       : "supergiant";
+        throw badSpectralClass(spectralClass,
+                               "luminosity class " + rest + " (" + kind +
+                                   ") is not supported: the temperature table is the main "
+                                   "sequence's (class V); give the star's temperature in kelvin "
+                                   "instead");
+    }
+    if (!rest.empty() && rest != "V") {
         throw badSpectralClass(spectralClass, "unexpected \"" + rest + "\" after the subclass");
     }
 

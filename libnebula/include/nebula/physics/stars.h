@@ -30,9 +30,10 @@ std::vector<Star> parseStars(const std::string& json, const std::string& source)
 std::string starsToJson(const std::vector<Star>& stars);
 
 /// Effective temperature [K] of a main-sequence spectral class "O5" ... "M5", with an
-/// optional subclass digit and luminosity class ("B3V", "G2V", "A0", "K5III": the
-/// luminosity class V, IV, III, II, I, Iab, Ia or Ib is accepted and ignored, as is one
-/// space before it). The subclass may have decimals ("B0.5"); a bare letter ("G") means
+/// optional subclass digit and the dwarf luminosity class V ("B3V", "G2 V", "A0"). Other
+/// luminosity classes (IV, III, II, I, Iab, Ia, Ib) are refused with an Error that asks for
+/// the temperature in kelvin: the table is the main sequence's, and a giant is cooler than
+/// a dwarf of the same type. The subclass may have decimals ("B0.5"); a bare letter ("G") means
 /// the middle of its class (G5). Interpolates a standard table (documented in the
 /// implementation) linearly between tabulated subtypes. Throws Error on anything else.
 double spectralClassTemperature(const std::string& spectralClass);
