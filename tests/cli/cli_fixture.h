@@ -1,6 +1,6 @@
 #pragma once
 // The end-to-end test fixture shared by the CLI test files: a fresh folder per test, the
-// built tools on PATH, and helpers to run them and to check failures (STYLE.md: exit code,
+// built tools on PATH, and helpers to run them and to check failures (exit code,
 // message, no output left).
 #include "nebula/io/grid_io.h"
 

@@ -1,5 +1,5 @@
 // End-to-end tests: run the built tools on tiny generated grids and check grid values,
-// metadata, images, exit codes, messages, and that failures leave no output (STYLE.md).
+// metadata, images, exit codes, messages, and that failures leave no output.
 #include "cli_fixture.h"
 
 #include "nebula/io/grid_io.h"

@@ -44,6 +44,8 @@ void addCommon(CLI::App& app, CommonOptions& opts, unsigned flags)
     app.add_flag("-v,--verbose", opts.verbose, "Report each stage on stderr");
     app.set_version_flag("--version", versionString(app.get_name()));
     app.set_config("--config", "", "Read options from a TOML file (CLI11 format)");
+    // A misspelt key in a config file is an error, as a misspelt option is on the command line.
+    app.allow_config_extras(CLI::config_extras_mode::error);
 }
 
 std::array<double, 3> parseVec3(const std::string& text, const std::string& option)
@@ -122,7 +124,15 @@ int run(CLI::App& app, const std::string& tool, CommonOptions& opts, int argc, c
         app.parse(argc, argv);
     } catch (const CLI::ParseError& e) {
         if (e.get_exit_code() == 0) return app.exit(e);  // --help, --version: stdout, 0
-        std::cerr << tool << ": error: " << e.what() << "\n"
+        std::string message = e.what();
+        // CLI11 says "INI was not able to parse KEY" for a key of a --config file that is no
+        // option of this tool.
+        const std::string extras = "INI was not able to parse ";
+        if (dynamic_cast<const CLI::ConfigError*>(&e) && message.rfind(extras, 0) == 0) {
+            message = "--config: unknown option \"" + message.substr(extras.size()) +
+                      "\" in the config file (not an option of " + tool + ")";
+        }
+        std::cerr << tool << ": error: " << message << "\n"
                   << "Run " << tool << " --help for the options and examples.\n";
         return 2;
     }

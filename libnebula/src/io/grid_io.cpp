@@ -2,6 +2,7 @@
 
 #include "nebula/core/atomic_file.h"
 #include "nebula/core/error.h"
+#include "nebula/core/format.h"
 
 #include <openvdb/io/File.h>
 #include <openvdb/io/Stream.h>
@@ -115,6 +116,34 @@ std::size_t requireFiniteNonNegative(const openvdb::FloatGrid& grid, const std::
     return n;
 }
 
+nlohmann::json GridSet::history() const
+{
+    const std::string text = metaString(META_HISTORY);
+    if (!text.empty()) {
+        const auto history =
+            detail::parseJson(text, source, std::string("metadata ") + META_HISTORY + " is ");
+        if (!history.is_array()) {
+            throw Error(source + ": metadata " + META_HISTORY + " is not a JSON array");
+        }
+        return history;
+    }
+    // A file from before nebula:history: its last stage is all that it recorded.
+    nlohmann::json history = nlohmann::json::array();
+    if (!metaString(META_TOOL).empty()) {
+        history.push_back({{"tool", metaString(META_TOOL)},
+                           {"version", metaString(META_VERSION)},
+                           {"command", metaString(META_COMMAND)}});
+    }
+    return history;
+}
+
+nlohmann::json GridSet::historyWith(const std::string& tool, const std::string& command) const
+{
+    nlohmann::json history = this->history();
+    history.push_back({{"tool", tool}, {"version", NEBULA_VERSION_STRING}, {"command", command}});
+    return history;
+}
+
 GridSet readGrids(const std::string& path)
 {
     GridSet set;
@@ -150,9 +179,11 @@ GridSet readGrids(const std::string& path)
 void writeGrids(const std::string& path, GridSet grids, const std::string& tool,
                 const std::string& command)
 {
+    const nlohmann::json history = grids.historyWith(tool, command);
     grids.setMetaString(META_TOOL, tool);
     grids.setMetaString(META_VERSION, NEBULA_VERSION_STRING);
     grids.setMetaString(META_COMMAND, command);
+    grids.setMetaString(META_HISTORY, history.dump());
     for (auto& g : grids.grids) {
         if (g->getCreator().empty()) g->setCreator(tool + " " NEBULA_VERSION_STRING);
     }
@@ -180,6 +211,30 @@ void refuseBinaryToTerminal(const std::string& path, const std::string& option)
         throw UsageError(option + " -: refusing to write binary data to a terminal; "
                                   "redirect stdout or give a file name");
     }
+}
+
+std::string describeGrids(const GridSet& grids)
+{
+    std::string text = std::to_string(grids.grids.size()) +
+                       (grids.grids.size() == 1 ? " grid" : " grids");
+    for (std::size_t i = 0; i < grids.grids.size(); ++i) {
+        text += (i ? ", " : ": ") + grids.grids[i]->getName();
+    }
+    return text;
+}
+
+GridSet readGrids(const std::string& path, const Run& run)
+{
+    GridSet grids = readGrids(path);
+    run.info("read " + grids.source + ": " + describeGrids(grids));
+    return grids;
+}
+
+void writeGrids(const std::string& path, GridSet grids, const Run& run)
+{
+    const std::string what = describeGrids(grids);
+    writeGrids(path, std::move(grids), run.tool(), run.command());
+    run.info("wrote " + (path == "-" ? std::string("<stdout>") : path) + ": " + what);
 }
 
 } // namespace nebula

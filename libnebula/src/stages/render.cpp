@@ -2,12 +2,14 @@
 
 #include "nebula/core/atomic_file.h"
 #include "nebula/core/error.h"
+#include "nebula/io/grid_names.h"
 #include "nebula/render/fast.h"
 #include "nebula/render/path_tracer.h"
 #include "nebula/render/spectral.h"
 
+#include <nlohmann/json.hpp>
+
 #include <chrono>
-#include <sstream>
 
 namespace nebula {
 
@@ -16,14 +18,6 @@ namespace {
 bool endsWith(const std::string& s, const std::string& suffix)
 {
     return s.size() >= suffix.size() && s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
-}
-
-std::string vecString(const Vec3& v)
-{
-    std::ostringstream o;
-    o.precision(9);
-    o << v.x << "," << v.y << "," << v.z;
-    return o.str();
 }
 
 } // namespace
@@ -45,6 +39,17 @@ void renderToFiles(const GridSet& grids, const RenderOptions& opts,
     if (path && opts.levels > 0) {
         throw UsageError("--levels is for the fast integrator; --integrator path simulates "
                          "multiple scattering itself");
+    }
+    if (opts.levels > 0 && !opts.phaseTable && !path) {
+        throw UsageError("--levels needs a phase table (--phase): each level adds the change "
+                         "of the per-voxel scattering Phi as the voxel doubles");
+    }
+    if (opts.levels < 0 && !opts.phaseTable && !opts.spectral.enabled &&
+        grids.find(levelGridName(opts.densityGrid, 1))) {
+        run.warn(grids.source + " has pyramid levels (" + levelGridName(opts.densityGrid, 1) +
+                 ", ...), which only a phase table uses: this image is single scattering. "
+                 "Pass --phase (nebphase -i " + grids.source + " -o phase.vdb) to use them, or "
+                 "--levels 0 to say you mean it");
     }
     if (path && opts.phaseTable) {
         throw UsageError("--phase is for the fast integrator; --integrator path simulates "
@@ -102,13 +107,14 @@ void renderToFiles(const GridSet& grids, const RenderOptions& opts,
                  std::to_string(opts.phaseTable->tMax) + "; its last row was used");
     }
     const ToneCurve curve = computeToneCurve(img, out.tone);
-    std::ostringstream tone;
-    tone << "{\"white\": " << curve.white << ", \"gamma\": " << curve.gamma << ", \"automatic\": "
-         << (out.tone.automatic ? "true" : "false") << "}";
-    std::ostringstream cam;
-    cam << "{\"eye\": [" << vecString(opts.camera.eye) << "], \"look_at\": ["
-        << vecString(opts.camera.lookAt) << "], \"up\": [" << vecString(opts.camera.up)
-        << "], \"fov_deg\": " << opts.camera.fovDeg << ", \"projection\": \"perspective\"}";
+    const auto vec = [](const Vec3& v) { return nlohmann::json::array({v.x, v.y, v.z}); };
+    const nlohmann::json tone = {
+        {"white", curve.white}, {"gamma", curve.gamma}, {"automatic", out.tone.automatic}};
+    const nlohmann::json cam = {{"eye", vec(opts.camera.eye)},
+                                {"look_at", vec(opts.camera.lookAt)},
+                                {"up", vec(opts.camera.up)},
+                                {"fov_deg", opts.camera.fovDeg},
+                                {"projection", "perspective"}};
     std::map<std::string, std::string> attrs{
         {"comments", path ? "nebula reference path-traced render (DESIGN section 6); linear radiance"
                      : spectral ? "nebula spectral ray-cast render (DESIGN section 7); linear sRGB of CIE 1931 XYZ"
@@ -133,16 +139,19 @@ void renderToFiles(const GridSet& grids, const RenderOptions& opts,
         {"nebula:units", "L_sun pc^-2 sr^-1"},
         {"nebula:dust", dust.toJson()},
         {"nebula:stars", starsToJson(scene.stars)},
-        {"nebula:camera", cam.str()},
-        {"nebula:exposure", tone.str()},
+        {"nebula:camera", cam.dump()},
+        {"nebula:exposure", tone.dump()},
+        {"nebula:history", grids.historyWith(run.tool(), run.command()).dump()},
     };
     if (opts.phaseTable) {
         const auto& t = *opts.phaseTable;
-        std::ostringstream p;
-        p << "{\"file\": \"" << opts.phaseSource << "\", \"albedo\": " << t.medium.albedo
-          << ", \"g\": " << t.medium.g << ", \"phase\": \"" << toString(t.medium.phase)
-          << "\", \"t_min\": " << t.tMin << ", \"t_max\": " << t.tMax << "}";
-        attrs["nebula:phase_table"] = p.str();
+        const nlohmann::json table = {{"file", opts.phaseSource},
+                                      {"albedo", t.medium.albedo},
+                                      {"g", t.medium.g},
+                                      {"phase", toString(t.medium.phase)},
+                                      {"t_min", t.tMin},
+                                      {"t_max", t.tMax}};
+        attrs["nebula:phase_table"] = table.dump();
     }
     writeExr(out.exr, img, attrs);
     if (!png.empty()) {
@@ -150,6 +159,7 @@ void renderToFiles(const GridSet& grids, const RenderOptions& opts,
                  {{"Software", std::string("nebrender ") + NEBULA_VERSION_STRING},
                   {"Comment", run.command()}});
     }
+    run.info("wrote " + out.exr + (png.empty() ? std::string() : " and " + png));
 }
 
 } // namespace nebula

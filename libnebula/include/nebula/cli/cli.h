@@ -1,6 +1,6 @@
 #pragma once
 /// @file cli.h
-/// The command-line vocabulary every tool shares (STYLE.md): -i/-o with "-" for
+/// The command-line vocabulary every tool shares (docs/ARCHITECTURE.md): -i/-o with "-" for
 /// stdin/stdout, --only-new, --density-grid, --threads, -q, -v, --version, --config, and
 /// the run() wrapper that turns exceptions into exit codes (0 ok, 1 error, 2 usage).
 

@@ -4,7 +4,7 @@
 /// Statistically Good Algorithms for Random Number Generation"), as in pbrt-v4's util/rng.h:
 /// 64-bit LCG state, XSH RR output permutation, 2^63 selectable streams. Header-only.
 ///
-/// Determinism (STYLE.md): give every photon / item its own stream with
+/// Determinism (docs/DESIGN.md §1): give every photon / item its own stream with
 /// setSequence(itemIndex, seed), so that results do not depend on which thread draws them or in
 /// what order. Floats are made from the raw bits, never by dividing by a maximum, so the
 /// same seed gives the same floats on every platform.

@@ -4,10 +4,12 @@
 /// (stdin/stdout), input grids passed through, a grid of the same name replaced, and the
 /// file metadata that records provenance, stars and dust.
 
+#include "nebula/core/run.h"
 #include "nebula/io/grid_names.h"
 #include "nebula/physics/dust.h"
 #include "nebula/physics/stars.h"
 
+#include <nlohmann/json.hpp>
 #include <openvdb/openvdb.h>
 
 #include <string>
@@ -40,6 +42,14 @@ struct GridSet
     bool hasDust() const;
     void setDust(const DustParams& dust);
 
+    /// The stages that made these grids, oldest first: `nebula:history` (a JSON array of
+    /// {"tool", "version", "command"}). A file without it but with `nebula:tool` (written
+    /// before the history existed) gives that one stage; a file with neither, an empty array.
+    /// Throws Error naming the source if the metadata is not a JSON array.
+    nlohmann::json history() const;
+    /// history() with one more stage appended (what writeGrids() records).
+    nlohmann::json historyWith(const std::string& tool, const std::string& command) const;
+
     /// A string file-level metadata value, or @p fallback.
     std::string metaString(const std::string& key, const std::string& fallback = "") const;
     void setMetaString(const std::string& key, const std::string& value);
@@ -49,8 +59,18 @@ struct GridSet
 /// naming the file: missing, not a VDB, truncated or unreadable.
 GridSet readGrids(const std::string& path);
 
+/// readGrids(), reporting what it read under -v ("read <file>: 3 grids: density, ...").
+GridSet readGrids(const std::string& path, const Run& run);
+
+/// "N grids: name, name, ..." (for -v reports).
+std::string describeGrids(const GridSet& grids);
+
+/// writeGrids() as @p run's tool and command, reporting what it wrote under -v.
+void writeGrids(const std::string& path, GridSet grids, const Run& run);
+
 /// Writes @p grids to @p path ("-" = stdout) atomically, stamping `nebula:tool`,
-/// `nebula:version` and `nebula:command` into the file metadata. @p path "-" on a terminal
+/// `nebula:version` and `nebula:command` into the file metadata and appending this stage to
+/// `nebula:history` (GridSet::historyWith()). @p path "-" on a terminal
 /// is refused (UsageError).
 void writeGrids(const std::string& path, GridSet grids, const std::string& tool,
                 const std::string& command);

@@ -1,9 +1,9 @@
 #pragma once
 /// @file lines.h
-/// Spectral emission inputs (DESIGN §2, §7): the catalogue of nebular emission lines, the
-/// `nebula:lines` metadata that says which lines an emission grid emits, and the checks the
-/// spectral renderer runs on the `temperature` grid.
-
+/// Spectral lines (DESIGN §2, §7): the catalogue of nebular emission lines, line lists
+/// ("NAME:STRENGTH,...", the text of an emission grid's `nebula:lines`), Doppler factors and
+/// the exact Doppler-broadened line profile of a ray segment. Reading the lines from a grid's
+/// metadata is io/spectral_grids.h.
 
 #include "nebula/core/units.h"
 

@@ -1,8 +1,7 @@
 #pragma once
 /// @file motion.h
 /// Gas motion (DESIGN §2, §7): the `velocity` field [km/s] in world axes (parsec world) as a
-/// sum of simple models, and the check the spectral renderer runs on a velocity grid.
-
+/// sum of simple models. Reading and checking a velocity grid is io/spectral_grids.h.
 
 #include <array>
 #include <cstdint>

@@ -1,7 +1,8 @@
 #pragma once
 /// @file scene.h
-/// What the integrators render: compact dense fields built once from the grids (the only
-/// render unit that reads OpenVDB grids), the stars and the per-channel dust.
+/// What the integrators render: compact dense fields built once from the grids (with
+/// render/spectral's buildSpectralScene, the only render code that reads OpenVDB grids; the
+/// integrators never touch them), the stars and the per-channel dust.
 
 #include "nebula/physics/dust.h"
 #include "nebula/physics/stars.h"

@@ -1,5 +1,5 @@
 #pragma once
-/// @file marcher.h
+/// @file block_walk.h
 /// Occupancy blocks over a dense volume and the walk along rays that skips the empty ones,
 /// shared by the integrators (DESIGN §9).
 
