@@ -210,7 +210,10 @@ int main(int argc, char** argv)
         if (params.stars.empty() && !noStars) params.stars = nebula::exampleStars();
         params.dust = dustOpts.apply(params.dust);
         nebula::Progress bar(run, "nebgen", std::uint64_t(params.res));
+        run.info("generating a " + std::to_string(params.res) + "^3 nebula, seed " +
+                 std::to_string(params.seed) + ", " + std::to_string(params.stars.size()) +
+                 " stars" + (params.spectral.enabled ? ", spectral grids" : ""));
         auto grids = nebula::generateNebula(params, [&](std::size_t n) { bar.add(n); });
-        nebula::writeGrids(common.output, std::move(grids), "nebgen", run.command());
+        nebula::writeGrids(common.output, std::move(grids), run);
     });
 }

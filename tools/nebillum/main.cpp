@@ -30,12 +30,12 @@ int main(int argc, char** argv)
 
     return nebula::cli::run(app, "nebillum", common, argc, argv, [&](nebula::Run& run) {
         nebula::refuseBinaryToTerminal(common.output, "-o");
-        auto grids = nebula::readGrids(common.input);
+        auto grids = nebula::readGrids(common.input, run);
         opts.stars = nebula::cli::loadStars(starOpts);
         opts.dust = dustOpts.apply(grids.dust());
         opts.densityGrid = common.densityGrid;
         opts.onlyNew = common.onlyNew;
         nebula::illuminate(grids, opts, run);
-        nebula::writeGrids(common.output, std::move(grids), "nebillum", run.command());
+        nebula::writeGrids(common.output, std::move(grids), run);
     });
 }

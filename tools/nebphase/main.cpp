@@ -88,7 +88,7 @@ nebula::DustParams loadDust(const nebula::Run& run, const std::string& input,
     checkDustOptions(dustOpts);
     nebula::DustParams base;
     if (!input.empty()) {
-        const auto grids = nebula::readGrids(input);
+        const auto grids = nebula::readGrids(input, run);
         if (!grids.hasDust()) {
             run.warn(grids.source + " has no " + nebula::META_DUST + "; using the default dust");
         }
@@ -201,7 +201,7 @@ void tableMode(const nebula::Run& run, const nebula::CommonOptions& common,
     grids.source = output;
     nebula::addPhaseTable(grids, table);
     grids.setDust(dust);
-    nebula::writeGrids(output, std::move(grids), "nebphase", run.command());
+    nebula::writeGrids(output, std::move(grids), run);
 
     if (jsonFile) {
         jsonFile->commit();

@@ -52,10 +52,10 @@ int main(int argc, char** argv)
             throw nebula::UsageError("--levels must be >= 1, got " +
                                      std::to_string(opts.levels));
         }
-        auto grids = nebula::readGrids(common.input);
+        auto grids = nebula::readGrids(common.input, run);
         opts.densityGrid = common.densityGrid;
         opts.onlyNew = common.onlyNew;
         nebula::buildPyramid(grids, opts, run);
-        nebula::writeGrids(common.output, std::move(grids), "nebpyramid", run.command());
+        nebula::writeGrids(common.output, std::move(grids), run);
     });
 }

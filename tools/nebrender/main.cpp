@@ -188,10 +188,10 @@ int main(int argc, char** argv)
         }
         if (!phaseFile.empty()) {
             opts.phaseTable = std::make_shared<const nebula::PhaseTable>(
-                nebula::readPhaseTable(nebula::readGrids(phaseFile)));
+                nebula::readPhaseTable(nebula::readGrids(phaseFile, run)));
             opts.phaseSource = phaseFile;
         }
-        const auto grids = nebula::readGrids(common.input);
+        const auto grids = nebula::readGrids(common.input, run);
         const auto dust = dustOpts.apply(grids.dust());
         opts.densityGrid = common.densityGrid;
         nebula::renderToFiles(grids, opts, dust, out, run);
