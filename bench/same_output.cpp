@@ -8,15 +8,19 @@
 /// metadata, active topology and values (compared as bits), and the same file metadata apart
 /// from nebula:history and nebula:version (the file UUID is not compared: OpenVDB writes a
 /// new one every time). .exr: the same size, channels (beauty, layers, single channels) as
-/// bits, and attributes apart from nebula:history and nebula:version. Anything else: the same
-/// bytes. Prints "same" or the first difference; exit 0 if the same, 1 if not, 2 on bad use.
+/// bits, and attributes apart from nebula:history and nebula:version; an attribute holding
+/// JSON is compared as JSON, numbers to 6 significant digits (older files wrote them with 6).
+/// Anything else: the same bytes. Prints "same" or the first difference; exit 0 if the same, 1 if not, 2 on bad use.
 
 #include "nebula/core/error.h"
 #include "nebula/io/grid_io.h"
 #include "nebula/io/image.h"
 
+#include <nlohmann/json.hpp>
 #include <openvdb/openvdb.h>
 
+#include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <fstream>
@@ -97,6 +101,37 @@ std::string compareVdb(const std::string& pa, const std::string& pb)
     return "";
 }
 
+/// Whether JSON values @p a and @p b are equal, numbers to 6 significant digits.
+bool sameJson(const nlohmann::json& a, const nlohmann::json& b)
+{
+    if (a.is_number() && b.is_number()) {
+        const double x = a.get<double>(), y = b.get<double>();
+        return std::abs(x - y) <= 5e-6 * std::max(std::abs(x), std::abs(y));
+    }
+    if (a.type() != b.type() || a.size() != b.size()) return false;
+    if (a.is_array()) {
+        for (std::size_t i = 0; i < a.size(); ++i) {
+            if (!sameJson(a[i], b[i])) return false;
+        }
+        return true;
+    }
+    if (a.is_object()) {
+        for (auto it = a.begin(); it != a.end(); ++it) {
+            if (!b.contains(it.key()) || !sameJson(it.value(), b.at(it.key()))) return false;
+        }
+        return true;
+    }
+    return a == b;
+}
+
+bool sameAttribute(const std::string& a, const std::string& b)
+{
+    if (a == b) return true;
+    const auto ja = nlohmann::json::parse(a, nullptr, false);
+    const auto jb = nlohmann::json::parse(b, nullptr, false);
+    return !ja.is_discarded() && !jb.is_discarded() && sameJson(ja, jb);
+}
+
 std::string compareExr(const std::string& pa, const std::string& pb)
 {
     std::map<std::string, std::string> ma, mb;
@@ -106,7 +141,15 @@ std::string compareExr(const std::string& pa, const std::string& pb)
         mb.erase(key);
     }
     if (a.width != b.width || a.height != b.height) return "sizes differ";
-    if (ma != mb) return "attributes differ";
+    for (const auto& [key, value] : ma) {
+        if (!mb.count(key)) return "attribute " + key + " missing in " + pb;
+        if (!sameAttribute(value, mb.at(key))) {
+            return "attribute " + key + " differs: " + value + " | " + mb.at(key);
+        }
+    }
+    for (const auto& [key, value] : mb) {
+        if (!ma.count(key)) return "attribute " + key + " missing in " + pa;
+    }
     if (!sameBits(a.rgba.data(), b.rgba.data(), a.rgba.size())) return "R,G,B,A differ";
     if (a.layers.size() != b.layers.size()) return "numbers of layers differ";
     for (std::size_t i = 0; i < a.layers.size(); ++i) {

@@ -100,15 +100,6 @@ nebula::DustParams loadDust(const nebula::Run& run, const std::string& input,
     return dust;
 }
 
-nebula::ScatteringMedium mediumOf(const nebula::DustParams& dust)
-{
-    nebula::ScatteringMedium m;
-    m.albedo = dust.albedo;
-    m.g = dust.g;
-    m.phase = dust.phase;
-    return m;
-}
-
 /// Wall-clock time since @p start, "12.34 s".
 std::string secondsSince(std::chrono::steady_clock::time_point start)
 {
@@ -162,7 +153,7 @@ void tableMode(const nebula::Run& run, const nebula::CommonOptions& common,
     {
         nebula::Progress bar(run, "nebphase", std::uint64_t(spec.tCount));
         int shown = 0;
-        table = nebula::buildPhaseTable(mediumOf(dust), spec, [&](int rows) {
+        table = nebula::buildPhaseTable(dust, spec, [&](int rows) {
             bar.add(std::uint64_t(rows - shown));
             shown = rows;
         });
@@ -240,7 +231,7 @@ void slabMode(const nebula::Run& run, const nebula::CommonOptions& common,
     set.estimator = opts.estimator == "analog" ? nebula::McEstimator::Analog
                                                : nebula::McEstimator::NextEvent;
     const auto dust = loadDust(run, common.input, dustOpts);
-    const auto medium = mediumOf(dust);
+    const nebula::ScatteringMedium& medium = dust;  // the dust's scattering
 
     const auto start = std::chrono::steady_clock::now();
     nebula::McTally tally;

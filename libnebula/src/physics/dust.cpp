@@ -221,6 +221,21 @@ double ccmExtinction(double lambda_nm, double R_V)
     return a + b / R_V;
 }
 
+void ScatteringMedium::validate() const
+{
+    if (!(albedo >= 0.0 && albedo <= 1.0)) {
+        throw UsageError("albedo must be in [0, 1], got " + numberText(albedo));
+    }
+    if (!(std::abs(g) < 1.0)) {
+        throw UsageError("g must satisfy |g| < 1, got " + numberText(g));
+    }
+}
+
+double ScatteringMedium::phaseFunction(double mu) const
+{
+    return nebula::phaseFunction(phase, mu, g);
+}
+
 void DustParams::validate() const
 {
     if (!(kappa_V > 0.0) || !std::isfinite(kappa_V)) {

@@ -341,21 +341,6 @@ Estimate estimate(double sum, double sumSq, std::uint64_t n)
 
 } // namespace
 
-void ScatteringMedium::validate() const
-{
-    if (!(albedo >= 0.0 && albedo <= 1.0)) {
-        throw UsageError("albedo must be in [0, 1], got " + numberText(albedo));
-    }
-    if (!(std::abs(g) < 1.0)) {
-        throw UsageError("g must satisfy |g| < 1, got " + numberText(g));
-    }
-}
-
-double ScatteringMedium::phaseFunction(double mu) const
-{
-    return nebula::phaseFunction(phase, mu, g);
-}
-
 void McSettings::validate() const
 {
     if (photons == 0) throw UsageError("the photon count must be > 0");

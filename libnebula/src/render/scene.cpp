@@ -57,11 +57,8 @@ RenderScene buildScene(const GridSet& grids, const RenderOptions& opts, const Du
         scene.starColor.push_back({c[0] * s.luminosity, c[1] * s.luminosity,
                                    c[2] * s.luminosity});
     }
+    static_cast<DustParams&>(scene.dust) = dust;
     for (int c = 0; c < 3; ++c) scene.dust.r[c] = extinctionRatio(dust, opts.wavelengths[c]);
-    scene.dust.kappa_V = dust.kappa_V;
-    scene.dust.albedo = dust.albedo;
-    scene.dust.g = dust.g;
-    scene.dust.phase = dust.phase;
 
     if (const auto& table = opts.phaseTable) {
         const auto& m = table->medium;

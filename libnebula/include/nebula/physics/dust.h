@@ -78,19 +78,32 @@ struct DustParams;
 /// A(lambda)/A_V of @p dust's extinction curve at @p lambda_nm [nm] (see DustParams::curve).
 double extinctionRatio(const DustParams& dust, double lambda_nm);
 
-/// Dust parameters shared by every stage (DESIGN §2-3).
-struct DustParams
+/// What one scattering event does: single-scattering albedo and phase function.
+struct ScatteringMedium
+{
+    double albedo = 0.6;
+    double g = 0.6;  ///< Henyey-Greenstein asymmetry (used by PhaseModel::HenyeyGreenstein)
+    PhaseModel phase = PhaseModel::HenyeyGreenstein;
+
+    /// Throws UsageError unless albedo is in [0, 1] and |g| < 1.
+    void validate() const;
+    /// p(mu) [1/sr] of this medium (DESIGN §3).
+    double phaseFunction(double mu) const;
+};
+
+/// The dust of every stage (DESIGN §2-3): its scattering (the Monte Carlo medium, albedo a,
+/// asymmetry g, phase model) plus its extinction: kappa_V and the curve A(lambda)/A_V. The
+/// renderers extend it with their channels' extinction ratios (render/scene.h ChannelDust).
+struct DustParams : ScatteringMedium
 {
     double kappa_V = 1.5e-3;  ///< V-band extinction per n_H per length [pc^-1 cm^3]
-    double albedo = 0.6;      ///< single-scattering albedo a [0, 1]
-    double g = 0.6;           ///< Henyey-Greenstein asymmetry (-1, 1)
-    PhaseModel phase = PhaseModel::HenyeyGreenstein;
     /// Extinction curve: "CCM89" (Cardelli, Clayton & Mathis 1989 with R_V) or "grey"
     /// (A(lambda) = A_V at every wavelength: large grains; also for tests).
     std::string curve = "CCM89";
     double R_V = 3.1;         ///< total-to-selective extinction A_V / E(B-V)
 
-    /// Throws UsageError naming the offending parameter if any value is out of range.
+    /// Throws UsageError naming the offending parameter ("dust parameter albedo ...") if any
+    /// value is out of range.
     void validate() const;
     /// JSON object {"kappa_V", "albedo", "g", "phase", "curve", "R_V"}.
     std::string toJson() const;

@@ -22,18 +22,6 @@
 
 namespace nebula {
 
-/// What one scattering event does: single-scattering albedo and phase function.
-struct ScatteringMedium
-{
-    double albedo = 0.6;
-    double g = 0.6;  ///< Henyey-Greenstein asymmetry (used by PhaseModel::HenyeyGreenstein)
-    PhaseModel phase = PhaseModel::HenyeyGreenstein;
-
-    /// Throws UsageError unless albedo is in [0, 1] and |g| < 1.
-    void validate() const;
-    /// p(mu) [1/sr] of this medium (DESIGN §3).
-    double phaseFunction(double mu) const;
-};
 
 /// How scattered light is counted.
 enum class McEstimator {

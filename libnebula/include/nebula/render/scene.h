@@ -27,14 +27,11 @@ struct RenderLevel
     DenseVolume fields;
 };
 
-/// The per-channel dust numbers the kernel uses.
-struct ChannelDust
+/// The dust as the integrators use it: the dust itself plus the extinction ratio of each
+/// RGB channel.
+struct ChannelDust : DustParams
 {
-    std::array<double, 3> r{1, 1, 1};  ///< A(lambda_c)/A_V (CCM)
-    double kappa_V = 1.5e-3;
-    double albedo = 0.6;
-    double g = 0.6;
-    PhaseModel phase = PhaseModel::HenyeyGreenstein;
+    std::array<double, 3> r{1, 1, 1};  ///< A(lambda_c)/A_V of channel c (DustParams::curve)
 };
 
 /// What the kernel renders: compact fields plus the stars and dust.
