@@ -1,220 +1,302 @@
+/// @file fast.cpp
+/// The fast integrator (DESIGN §3-5): a ray marched front to back through the dense fields;
+/// at every step the gas emits, every star's light scatters towards the eye (single
+/// scattering, or the effective phase function and the pyramid levels' terms), and the
+/// segment attenuates what lies behind it. One pixel is renderPixel(); one step is
+/// FastIntegrator::step(); the physics of a step is in the small functions it calls.
+
 #include "nebula/render/fast.h"
 
+#include "frame.h"
 
 #include "nebula/core/error.h"
 #include "nebula/core/units.h"
 #include "nebula/render/sprites.h"
-
 #include "nebula/volume/block_walk.h"
 
-#include <tbb/blocked_range2d.h>
-#include <tbb/parallel_for.h>
-
 #include <algorithm>
-#include <atomic>
 #include <cmath>
+#include <limits>
 #include <optional>
+#include <vector>
 
 namespace nebula {
+
+namespace {
+
+/// Pyramid level k as the integrator looks it up: world -> index map and voxel size [pc].
+struct LevelMap
+{
+    Affine w2i;
+    double voxelWorld;
+};
+
+/// What one band of rows needs of its own (reused from pixel to pixel).
+struct Scratch
+{
+    std::vector<float> f, fk;       ///< field samples at level 0 and at a pyramid level
+    std::vector<double> starL;      ///< per star and channel: the pixel's scattered light
+    /// Per level, star and channel: the level's term (phase-factor change times the star's
+    /// irradiance factor at that level), resampled every half level-k voxel along the ray
+    /// (the level's own resolution) and held between.
+    std::vector<double> held;
+    std::vector<double> nextT;      ///< per level: ray distance of its next resample [pc]
+    RenderStats stats;
+};
+
+/// The state of one ray: transmittance T and radiance L per channel.
+struct RayState
+{
+    Vec3 dW;  ///< world direction
+    double T[3] = {1, 1, 1};
+    double L[3] = {0, 0, 0};
+};
+
+class FastIntegrator
+{
+public:
+    FastIntegrator(const RenderScene& scene, const RenderOptions& opts)
+        : mScene(scene), mOpts(opts), mDust(scene.dust), mCam(opts.camera),
+          mLevel0(scene.fields, scene.blocks, scene.occupied, mCam.eye()),
+          mTable(opts.phaseTable.get())
+    {
+        for (const auto& lv : scene.levels) {
+            mLevels.push_back({lv.fields.indexToWorld.inverse(), voxelSize(lv.fields.indexToWorld)});
+        }
+        mRmin2 = std::pow(opts.minStarDistance * mLevel0.voxelWorld, 2);
+        for (const auto& s : scene.stars) {
+            mStarPos.emplace_back(s.position[0], s.position[1], s.position[2]);
+        }
+        // Effective phase function (DESIGN §4): log t_c = log n + log(kappa_V r_c * voxel
+        // size). Replace: the table's Phi; Gain: a p(mu) times Phi / Phi_1 (PhaseUse).
+        if (mTable && opts.phaseUse == PhaseUse::Gain) {
+            mGainTable = *mTable;
+            mGainTable->phi = mTable->gain();
+        }
+        if (mTable) mLookup.emplace(mGainTable ? *mGainTable : *mTable);
+        mGain = mGainTable.has_value();
+        mLogTMax = mTable ? std::log(mTable->tMax) : 0.0;
+        for (int c = 0; c < 3; ++c) mOff0[c] = mTable ? logTOffset(mLevel0.voxelWorld, c) : 0.0;
+        mOffLevel.resize(mLevels.size());
+        for (std::size_t k = 0; k < mLevels.size(); ++k)
+            for (int c = 0; c < 3; ++c) mOffLevel[k][c] = logTOffset(mLevels[k].voxelWorld, c);
+    }
+
+    Scratch scratch() const
+    {
+        const auto C = std::size_t(mScene.fields.channels());
+        const std::size_t S = mScene.stars.size();
+        Scratch s;
+        s.f.resize(C);
+        s.fk.resize(C);
+        s.starL.resize(S * 3);
+        s.held.resize(mLevels.size() * S * 3);
+        s.nextT.resize(mLevels.size());
+        return s;
+    }
+
+    /// Renders pixel (px, py) into @p img.
+    void renderPixel(int px, int py, Scratch& sc, Image& img) const
+    {
+        const std::size_t S = mScene.stars.size();
+        RayState ray;
+        ray.dW = mCam.direction(px + 0.5, py + 0.5);
+        std::fill(sc.starL.begin(), sc.starL.end(), 0.0);
+        std::fill(sc.nextT.begin(), sc.nextT.end(), -std::numeric_limits<double>::infinity());
+        sc.stats.rays += mLevel0.march(ray.dW, mOpts.step, [&](const Vec3& pI, double tm, double seg) {
+            return step(pI, tm, seg, ray, sc);
+        });
+        const std::size_t pix = std::size_t(py) * img.width + px;
+        ImageLayer& transLayer = img.layers[S];
+        for (int c = 0; c < 3; ++c) {
+            img.rgba[pix * 4 + c] = float(ray.L[c]);
+            transLayer.rgb[pix * 3 + c] = float(ray.T[c]);
+            for (std::size_t s = 0; s < S; ++s) {
+                img.layers[s].rgb[pix * 3 + c] = float(sc.starL[s * 3 + c]);
+            }
+        }
+        img.rgba[pix * 4 + 3] = float(1.0 - ray.T[1]);
+    }
+
+private:
+    /// log(kappa_V r_c * voxel): added to log n it gives log t_c, the voxel's optical
+    /// thickness in channel c.
+    double logTOffset(double voxel, int c) const
+    {
+        return std::log(mDust.kappa_V * mDust.r[c] * voxel);
+    }
+
+    /// mu: cosine between the light's travel direction (star -> xW) and the direction to the
+    /// eye (-dW); also the squared distance @p r2 [pc^2] to star s.
+    double cosToStar(const Vec3& xW, const Vec3& dW, std::size_t s, double& r2) const
+    {
+        const Vec3 v = xW - mStarPos[s];
+        r2 = v.dot(v);
+        return r2 > 0.0 ? -v.dot(dW) / std::sqrt(r2) : 1.0;
+    }
+
+    /// Phase factor per channel at cosine @p mu: a p(mu) without a table; with one, Phi at
+    /// the voxel thickness tPos (Replace) or a p(mu) times the gain (Gain), minus its value at
+    /// tPrev if given (a level's change as the voxel doubles).
+    void phaseFactors(double mu, const PhaseLookup::Pos* tPos, const PhaseLookup::Pos* tPrev,
+                      double out[3]) const
+    {
+        const double ap = mDust.albedo * phaseFunction(mDust.phase, mu, mDust.g);
+        if (!mTable) {
+            out[0] = out[1] = out[2] = ap;
+            return;
+        }
+        const auto muPos = mLookup->locateMu(mu);
+        for (int c = 0; c < 3; ++c) {
+            double v = mLookup->lookup(tPos[c], muPos);
+            if (tPrev) v -= mLookup->lookup(tPrev[c], muPos);
+            out[c] = mGain ? ap * v : v;
+        }
+    }
+
+    /// Emission of a segment of length @p seg [pc] with gas @p em and optical depths @p x
+    /// (per channel): the fraction (1 - e^-x)/x of it reaches the segment's front, dimmed by
+    /// the transmittance in front of it.
+    void emit(double em, const double* x, const double* oneMinus, double seg, RayState& ray) const
+    {
+        for (int c = 0; c < 3; ++c) {
+            const double emitLen = x[c] > 1e-7 ? oneMinus[c] / x[c] * seg : seg;
+            ray.L[c] += ray.T[c] * em * mOpts.emissionScale * mOpts.emissionColor[c] * emitLen;
+        }
+    }
+
+    /// Resamples the pyramid levels' terms near xW at ray distance @p tm (DESIGN §5): level
+    /// k's density sets its voxel thickness t_k; its term is the change of the phase factor
+    /// as a voxel of that density doubles, from t_k / 2 to t_k, times the star's irradiance
+    /// through level k's optical depth.
+    void resampleLevels(const Vec3& xW, double tm, const Vec3& dW, Scratch& sc) const
+    {
+        const std::size_t S = mScene.stars.size();
+        for (std::size_t k = 0; k < mLevels.size(); ++k) {
+            if (tm < sc.nextT[k]) continue;
+            const LevelMap& lv = mLevels[k];
+            sc.nextT[k] = tm + mOpts.step * lv.voxelWorld;
+            mScene.levels[k].fields.sample(lv.w2i.apply(xW), sc.fk.data());
+            ++sc.stats.samples;
+            double* h = &sc.held[k * S * 3];
+            if (!(sc.fk[0] > 0.0f)) {
+                std::fill(h, h + S * 3, 0.0);
+                continue;
+            }
+            PhaseLookup::Pos tk[3], tHalf[3];
+            const double logNk = std::log(double(sc.fk[0]));
+            for (int c = 0; c < 3; ++c) {
+                const double lt = logNk + mOffLevel[k][c];
+                tk[c] = mLookup->locateLogT(lt);
+                tHalf[c] = mLookup->locateLogT(lt - std::log(2.0));
+                sc.stats.phaseClamped += lt > mLogTMax;
+            }
+            for (std::size_t st = 0; st < S; ++st) {
+                double r2, phi[3];
+                phaseFactors(cosToStar(xW, dW, st, r2), tk, tHalf, phi);
+                for (int c = 0; c < 3; ++c) {
+                    h[st * 3 + c] = phi[c] * std::exp(-mDust.r[c] * sc.fk[2 + st]);
+                }
+            }
+        }
+    }
+
+    /// Every star's light scattered towards the eye at xW (level-0 optical depths @p tauV):
+    /// the phase factors at level 0 times the star's irradiance, plus the held level terms,
+    /// times the geometric 1/(4 pi r^2) and the segment's 1 - e^-x.
+    void scatterStars(const Vec3& xW, const float* tauV, const double* oneMinus,
+                      const PhaseLookup::Pos* tPos, RayState& ray, Scratch& sc) const
+    {
+        const std::size_t S = mScene.stars.size();
+        for (std::size_t s = 0; s < S; ++s) {
+            double r2;
+            const double mu = cosToStar(xW, ray.dW, s, r2);
+            double phi[3], src[3];
+            phaseFactors(mu, tPos, nullptr, phi);
+            for (int c = 0; c < 3; ++c) src[c] = phi[c] * std::exp(-mDust.r[c] * tauV[s]);
+            for (std::size_t k = 0; k < mLevels.size(); ++k) {
+                for (int c = 0; c < 3; ++c) src[c] += sc.held[(k * S + s) * 3 + c];
+            }
+            const double geom = 1.0 / (4.0 * PI * std::max(r2, mRmin2));
+            for (int c = 0; c < 3; ++c) {
+                const double add = ray.T[c] * mScene.starColor[s][c] * geom * src[c] * oneMinus[c];
+                ray.L[c] += add;
+                sc.starL[s * 3 + c] += add;
+            }
+        }
+    }
+
+    /// One ray step: the sample at index point @p pI, ray distance @p tm, length @p seg [pc].
+    /// Returns false once the ray is opaque in every channel.
+    bool step(const Vec3& pI, double tm, double seg, RayState& ray, Scratch& sc) const
+    {
+        mScene.fields.sample(pI, sc.f.data());
+        ++sc.stats.samples;
+        const double n = sc.f[0], em = sc.f[1];
+        if (n <= 0.0 && em <= 0.0) return true;
+        // Exact attenuation of a segment of constant k_c: the fraction 1 - e^-x of its source
+        // function reaches the segment's front.
+        double x[3], oneMinus[3];
+        for (int c = 0; c < 3; ++c) {
+            x[c] = mDust.kappa_V * mDust.r[c] * n * seg;
+            oneMinus[c] = -std::expm1(-x[c]);
+        }
+        emit(em, x, oneMinus, seg, ray);
+        if (n > 0.0) {
+            PhaseLookup::Pos tPos[3];
+            const Vec3 xW = mCam.eye() + ray.dW * tm;
+            if (mTable) {
+                const double logN = std::log(n);
+                for (int c = 0; c < 3; ++c) {
+                    tPos[c] = mLookup->locateLogT(logN + mOff0[c]);
+                    sc.stats.phaseClamped += logN + mOff0[c] > mLogTMax;
+                }
+                resampleLevels(xW, tm, ray.dW, sc);
+            }
+            scatterStars(xW, &sc.f[2], oneMinus, tPos, ray, sc);
+        }
+        for (int c = 0; c < 3; ++c) ray.T[c] *= 1.0 - oneMinus[c];
+        return !(ray.T[0] < mOpts.minTransmittance && ray.T[1] < mOpts.minTransmittance &&
+                 ray.T[2] < mOpts.minTransmittance);
+    }
+
+    const RenderScene& mScene;
+    const RenderOptions& mOpts;
+    const ChannelDust& mDust;
+    const PinholeProjection mCam;
+    const Marcher mLevel0;
+    std::vector<LevelMap> mLevels;
+    double mRmin2 = 0.0;
+    std::vector<Vec3> mStarPos;
+    const PhaseTable* mTable;
+    std::optional<PhaseTable> mGainTable;
+    std::optional<PhaseLookup> mLookup;
+    bool mGain = false;
+    double mLogTMax = 0.0;
+    double mOff0[3] = {0, 0, 0};
+    std::vector<std::array<double, 3>> mOffLevel;
+};
+
+} // namespace
 
 Image renderFrame(const RenderScene& scene, const RenderOptions& opts, const Run* run,
                   RenderStats* stats)
 {
-    std::atomic<std::uint64_t> rayCount{0}, sampleCount{0}, clampedCount{0};
     const Camera& view = opts.camera;
     if (view.width <= 0 || view.height <= 0) throw UsageError("--res must be WxH with W, H > 0");
     if (!(opts.step > 0.0)) throw UsageError("--step must be > 0 voxels");
-    const PinholeProjection cam(view);
-    const int W = view.width, H = view.height;
-    const std::size_t S = scene.stars.size();
-    Image img(W, H);
-    for (const auto& s : scene.stars) {
-        img.layers.push_back({"star." + s.name, std::vector<float>(std::size_t(W) * H * 3, 0.0f)});
-    }
-    img.layers.push_back({"transmittance", std::vector<float>(std::size_t(W) * H * 3, 1.0f)});
-    ImageLayer& transLayer = img.layers.back();
-
-    const auto& dust = scene.dust;
-    const Marcher level0(scene.fields, scene.blocks, scene.occupied, cam.eye());
-    // Pyramid levels: world -> index map and voxel size of each.
-    struct LevelMap
-    {
-        Affine w2i;
-        double voxelWorld;
-    };
-    std::vector<LevelMap> levels;
-    for (const auto& lv : scene.levels) {
-        levels.push_back({lv.fields.indexToWorld.inverse(), voxelSize(lv.fields.indexToWorld)});
-    }
-    const double rmin2 = std::pow(opts.minStarDistance * level0.voxelWorld, 2);
-    const int C = scene.fields.channels();
-    std::vector<Vec3> starPos;
-    for (const auto& s : scene.stars) starPos.emplace_back(s.position[0], s.position[1], s.position[2]);
-
-    // Effective phase function (DESIGN §4): log t_c = log n + log(kappa_V r_c * voxel size).
-    // Replace: the table's Phi; Gain: a p(mu) times Phi / Phi_1 (PhaseUse).
-    const PhaseTable* table = opts.phaseTable.get();
-    std::optional<PhaseTable> gainTable;
-    if (table && opts.phaseUse == PhaseUse::Gain) {
-        gainTable = *table;
-        gainTable->phi = table->gain();
-    }
-    std::optional<PhaseLookup> lookup;
-    if (table) lookup.emplace(gainTable ? *gainTable : *table);
-    const bool gain = gainTable.has_value();
-    const double logTMax = table ? std::log(table->tMax) : 0.0;
-    auto logTOffset = [&](double voxel, int c) { return std::log(dust.kappa_V * dust.r[c] * voxel); };
-
-    Progress bar(run, "nebrender", std::uint64_t(H));
-    tbb::parallel_for(tbb::blocked_range<int>(0, H, 4), [&](const tbb::blocked_range<int>& rows) {
-        std::vector<float> f(static_cast<std::size_t>(C)), fk(static_cast<std::size_t>(C));
-        std::vector<double> starL(S * 3);
-        // Per level, star and channel: the level's term (phase-factor change times the
-        // star's irradiance factor at that level), resampled every half level-k voxel along
-        // the ray (the level's own resolution) and held between.
-        std::vector<double> held(levels.size() * S * 3), nextT(levels.size());
-        std::uint64_t rays = 0, samples = 0, clamped = 0;
-        double off0[3];
-        for (int c = 0; c < 3; ++c) off0[c] = table ? logTOffset(level0.voxelWorld, c) : 0.0;
-        std::vector<std::array<double, 3>> offLevel(levels.size());
-        for (std::size_t k = 0; k < levels.size(); ++k)
-            for (int c = 0; c < 3; ++c) offLevel[k][c] = logTOffset(levels[k].voxelWorld, c);
-
-        // Scattering source of star s per channel at a sample: phase factor per channel.
-        auto phaseFactors = [&](double mu, const PhaseLookup::Pos* tPos,
-                                const PhaseLookup::Pos* tPrev, double out[3]) {
-            const double ap = dust.albedo * phaseFunction(dust.phase, mu, dust.g);
-            if (!table) {
-                out[0] = out[1] = out[2] = ap;
-                return;
-            }
-            const auto muPos = lookup->locateMu(mu);
-            for (int c = 0; c < 3; ++c) {
-                double v = lookup->lookup(tPos[c], muPos);
-                if (tPrev) v -= lookup->lookup(tPrev[c], muPos);
-                out[c] = gain ? ap * v : v;
-            }
-        };
-
-        for (int py = rows.begin(); py != rows.end(); ++py) {
-            for (int px = 0; px < W; ++px) {
-                const Vec3 dW = cam.direction(px + 0.5, py + 0.5);
-                double T[3] = {1, 1, 1}, L[3] = {0, 0, 0};
-                std::fill(starL.begin(), starL.end(), 0.0);
-                // Adds every star's scattered light at world point xW (level-0 density n):
-                // for each star the phase factors at level 0 (t_0) times its irradiance from
-                // level 0's tau, plus per pyramid level k the change of the factor from
-                // t_k / 2 to t_k times the irradiance from level k's tau (DESIGN §5).
-                std::fill(nextT.begin(), nextT.end(), -std::numeric_limits<double>::infinity());
-                auto cosToStar = [&](const Vec3& xW, std::size_t s, double& r2) {
-                    const Vec3 v = xW - starPos[s];
-                    r2 = v.dot(v);
-                    return r2 > 0.0 ? -v.dot(dW) / std::sqrt(r2) : 1.0;
-                };
-                auto scatter = [&](const Vec3& xW, const float* tauV, const double* oneMinus,
-                                   const double* Tv, const PhaseLookup::Pos* tPos) {
-                    for (std::size_t s = 0; s < S; ++s) {
-                        double r2;
-                        const double mu = cosToStar(xW, s, r2);
-                        double phi[3], src[3];
-                        phaseFactors(mu, tPos, nullptr, phi);
-                        for (int c = 0; c < 3; ++c) src[c] = phi[c] * std::exp(-dust.r[c] * tauV[s]);
-                        for (std::size_t k = 0; k < levels.size(); ++k) {
-                            for (int c = 0; c < 3; ++c) src[c] += held[(k * S + s) * 3 + c];
-                        }
-                        const double geom = 1.0 / (4.0 * PI * std::max(r2, rmin2));
-                        for (int c = 0; c < 3; ++c) {
-                            const double add = Tv[c] * scene.starColor[s][c] * geom * src[c] * oneMinus[c];
-                            L[c] += add;
-                            starL[s * 3 + c] += add;
-                        }
-                    }
-                };
-
-                // Level 0: emission and scattering with the full detail.
-                rays += level0.march(dW, opts.step, [&](const Vec3& pI, double tm, double seg) {
-                    scene.fields.sample(pI, f.data());
-                    ++samples;
-                    const double n = f[0], em = f[1];
-                    if (n <= 0.0 && em <= 0.0) return true;
-                    // Exact attenuation of a segment of constant k_c: the fraction 1 - e^-x
-                    // of its source function reaches the segment's front.
-                    double x[3], oneMinus[3];
-                    for (int c = 0; c < 3; ++c) {
-                        x[c] = dust.kappa_V * dust.r[c] * n * seg;
-                        oneMinus[c] = -std::expm1(-x[c]);
-                        const double emitLen = x[c] > 1e-7 ? oneMinus[c] / x[c] * seg : seg;
-                        L[c] += T[c] * em * opts.emissionScale * opts.emissionColor[c] * emitLen;
-                    }
-                    if (n > 0.0) {
-                        PhaseLookup::Pos tPos[3];
-                        const Vec3 xW = cam.eye() + dW * tm;
-                        if (table) {
-                            const double logN = std::log(n);
-                            for (int c = 0; c < 3; ++c) {
-                                tPos[c] = lookup->locateLogT(logN + off0[c]);
-                                clamped += logN + off0[c] > logTMax;
-                            }
-                            // The coarse levels near this point: level k's density sets its
-                            // voxel thickness t_k; its term is the change of the phase factor as
-                            // a voxel of that density doubles, from t_k / 2 to t_k, times the
-                            // star's irradiance through level k's optical depth.
-                            for (std::size_t k = 0; k < levels.size(); ++k) {
-                                if (tm < nextT[k]) continue;
-                                const LevelMap& lv = levels[k];
-                                nextT[k] = tm + opts.step * lv.voxelWorld;
-                                scene.levels[k].fields.sample(lv.w2i.apply(xW), fk.data());
-                                ++samples;
-                                double* h = &held[k * S * 3];
-                                if (!(fk[0] > 0.0f)) {
-                                    std::fill(h, h + S * 3, 0.0);
-                                    continue;
-                                }
-                                PhaseLookup::Pos tk[3], tHalf[3];
-                                const double logNk = std::log(double(fk[0]));
-                                for (int c = 0; c < 3; ++c) {
-                                    const double lt = logNk + offLevel[k][c];
-                                    tk[c] = lookup->locateLogT(lt);
-                                    tHalf[c] = lookup->locateLogT(lt - std::log(2.0));
-                                    clamped += lt > logTMax;
-                                }
-                                for (std::size_t st = 0; st < S; ++st) {
-                                    double r2, phi[3];
-                                    phaseFactors(cosToStar(xW, st, r2), tk, tHalf, phi);
-                                    for (int c = 0; c < 3; ++c) {
-                                        h[st * 3 + c] = phi[c] * std::exp(-dust.r[c] * fk[2 + st]);
-                                    }
-                                }
-                            }
-                        }
-                        scatter(xW, &f[2], oneMinus, T, tPos);
-                    }
-                    for (int c = 0; c < 3; ++c) T[c] *= 1.0 - oneMinus[c];
-                    return !(T[0] < opts.minTransmittance && T[1] < opts.minTransmittance &&
-                             T[2] < opts.minTransmittance);
-                });
-
-                const std::size_t pix = std::size_t(py) * W + px;
-                for (int c = 0; c < 3; ++c) {
-                    img.rgba[pix * 4 + c] = float(L[c]);
-                    transLayer.rgb[pix * 3 + c] = float(T[c]);
-                    for (std::size_t s = 0; s < S; ++s) {
-                        img.layers[s].rgb[pix * 3 + c] = float(starL[s * 3 + c]);
-                    }
-                }
-                img.rgba[pix * 4 + 3] = float(1.0 - T[1]);
-            }
-        }
-        bar.add(std::uint64_t(rows.size()));
-        rayCount += rays;
-        sampleCount += samples;
-        clampedCount += clamped;
-    });
-    if (stats) {
-        stats->rays = rayCount;
-        stats->samples = sampleCount;
-        stats->phaseClamped = clampedCount;
-    }
+    Image img = detail::frameImage(scene, view.width, view.height);
+    const FastIntegrator integrator(scene, opts);
+    detail::forEachRowBand(view.height, 4, run, "nebrender", stats,
+                           [&](int y0, int y1, RenderStats& bandStats) {
+                               Scratch sc = integrator.scratch();
+                               for (int py = y0; py < y1; ++py) {
+                                   for (int px = 0; px < view.width; ++px) {
+                                       integrator.renderPixel(px, py, sc, img);
+                                   }
+                               }
+                               bandStats = sc.stats;
+                           });
     if (opts.drawStars) drawStarSprites(img, scene, opts);
     return img;
 }

@@ -4,17 +4,16 @@
 
 #include "nebula/render/path_tracer.h"
 
+#include "frame.h"
+
 #include "nebula/core/units.h"
 #include "nebula/render/sprites.h"
 
 #include "nebula/core/error.h"
 #include "nebula/core/rng.h"
 
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_for.h>
 
 #include <algorithm>
-#include <atomic>
 #include <cmath>
 #include <limits>
 
@@ -266,24 +265,16 @@ Image renderPathTraced(const RenderScene& scene, const RenderOptions& opts, cons
     const std::size_t S = scene.stars.size();
     const PathScene ps = buildPathScene(scene, opts);
 
-    Image img(W, H);
-    for (const auto& s : scene.stars) {
-        img.layers.push_back({"star." + s.name, std::vector<float>(std::size_t(W) * H * 3, 0.0f)});
-    }
-    img.layers.push_back({"transmittance", std::vector<float>(std::size_t(W) * H * 3, 1.0f)});
-    img.layers.push_back({"variance", std::vector<float>(std::size_t(W) * H * 3, 0.0f)});
+    Image img = detail::frameImage(scene, W, H, {"variance"});
     ImageLayer& transLayer = img.layers[S];
     ImageLayer& varLayer = img.layers[S + 1];
 
     // Grey dust (equal extinction ratios): one walk serves all three channels.
     const auto& r = scene.dust.r;
     const bool grey = std::abs(r[0] - r[1]) <= 1e-12 * r[1] && std::abs(r[2] - r[1]) <= 1e-12 * r[1];
-    std::atomic<std::uint64_t> pathCount{0}, collisionCount{0};
-    Progress bar(run, "nebrender path", std::uint64_t(H));
-    tbb::parallel_for(tbb::blocked_range<int>(0, H, 1), [&](const tbb::blocked_range<int>& rows) {
+    detail::forEachRowBand(H, 1, run, "nebrender path", stats, [&](int y0, int y1, RenderStats& band) {
         std::vector<double> Ls(S * 3), starSum(S * 3);
-        std::uint64_t collisions = 0, paths = 0;
-        for (int py = rows.begin(); py != rows.end(); ++py) {
+        for (int py = y0; py < y1; ++py) {
             for (int px = 0; px < W; ++px) {
                 const std::size_t pix = std::size_t(py) * W + px;
                 const Vec3 d = cam.direction(px + 0.5, py + 0.5);
@@ -296,12 +287,12 @@ Image renderPathTraced(const RenderScene& scene, const RenderOptions& opts, cons
                     double L[3] = {0, 0, 0}, T[3] = {1, 1, 1};
                     std::fill(Ls.begin(), Ls.end(), 0.0);
                     if (grey) {
-                        walk(ps, 0, 3, cam.eye(), d, rng, L, Ls.data(), T, collisions);
-                        ++paths;
+                        walk(ps, 0, 3, cam.eye(), d, rng, L, Ls.data(), T, band.collisions);
+                        ++band.paths;
                     } else {
                         for (int c = 0; c < 3; ++c) {
-                            walk(ps, c, c + 1, cam.eye(), d, rng, L, Ls.data(), T, collisions);
-                            ++paths;
+                            walk(ps, c, c + 1, cam.eye(), d, rng, L, Ls.data(), T, band.collisions);
+                            ++band.paths;
                         }
                     }
                     for (int c = 0; c < 3; ++c) {
@@ -324,16 +315,9 @@ Image renderPathTraced(const RenderScene& scene, const RenderOptions& opts, cons
                 }
                 img.rgba[pix * 4 + 3] = float(1.0 - trans[1] / n);
             }
-            bar.add(1);
         }
-        pathCount += paths;
-        collisionCount += collisions;
     });
-    if (stats) {
-        stats->paths = pathCount;
-        stats->collisions = collisionCount;
-        stats->rays = std::uint64_t(W) * H;
-    }
+    if (stats) stats->rays += std::uint64_t(W) * H;
     if (opts.drawStars) drawStarSprites(img, scene, opts);
     return img;
 }

@@ -17,6 +17,8 @@
 
 #include "nebula/render/spectral.h"
 
+#include "frame.h"
+
 #include "nebula/physics/colour.h"
 #include "nebula/core/error.h"
 #include "nebula/io/grid_names.h"
@@ -29,10 +31,8 @@
 #include "nebula/volume/block_walk.h"
 
 #include <openvdb/tools/ValueTransformer.h>
-#include <tbb/parallel_for.h>
 
 #include <algorithm>
-#include <atomic>
 #include <cmath>
 #include <cstdio>
 #include <limits>
@@ -319,12 +319,8 @@ Image renderSpectral(const SpectralScene& scene, const RenderOptions& opts, cons
         }
     }
 
-    Image img(W, H);
-    for (const auto& s : rs.stars) {
-        img.layers.push_back({"star." + s.name, std::vector<float>(std::size_t(W) * H * 3, 0.0f)});
-    }
-    img.layers.push_back({"transmittance", std::vector<float>(std::size_t(W) * H * 3, 1.0f)});
-    ImageLayer& transLayer = img.layers.back();
+    Image img = detail::frameImage(rs, W, H);
+    ImageLayer& transLayer = img.layers[S];
     for (int b = 0; b < NL; ++b) {
         img.channels.push_back({bandName(SPECTRAL_MIN_NM + (b + 0.5) * layerWidth),
                                 std::vector<float>(std::size_t(W) * H, 0.0f)});
@@ -345,16 +341,13 @@ Image renderSpectral(const SpectralScene& scene, const RenderOptions& opts, cons
     std::array<double, 3> rChannel;
     for (int c = 0; c < 3; ++c) rChannel[std::size_t(c)] = extinctionRatio(dust, opts.wavelengths[std::size_t(c)]);
 
-    std::atomic<std::uint64_t> rayCount{0}, sampleCount{0}, pieceCount{0}, specPieces{0},
-        mergedPieces{0}, maxPieces{0};
-    Progress bar(run, "nebrender", std::uint64_t(H));
-    tbb::parallel_for(tbb::blocked_range<int>(0, H, 4), [&](const tbb::blocked_range<int>& rows) {
+    detail::forEachRowBand(H, 4, run, "nebrender", stats, [&](int y0, int y1, RenderStats& band) {
         std::vector<float> f(static_cast<std::size_t>(C));
         std::vector<double> Cstar(S * J), Cgas(J), Ctotal(J), A(J),
             layerAcc(static_cast<std::size_t>(NL));
         std::vector<Piece> rayPieces;
         std::uint64_t rays = 0, samples = 0, pieces = 0, sp = 0, mp = 0, mx = 0;
-        for (int py = rows.begin(); py != rows.end(); ++py) {
+        for (int py = y0; py < y1; ++py) {
             for (int px = 0; px < W; ++px) {
                 const Vec3 dW = cam.direction(px + 0.5, py + 0.5);
                 const Vec3 dI = level0.w2i.applyLinear(dW);
@@ -522,24 +515,13 @@ Image renderSpectral(const SpectralScene& scene, const RenderOptions& opts, cons
                 pieces += bandsMode ? 0 : J - 1;
             }
         }
-        bar.add(std::uint64_t(rows.size()));
-        rayCount += rays;
-        sampleCount += samples;
-        pieceCount += pieces;
-        specPieces += sp;
-        mergedPieces += mp;
-        std::uint64_t prev = maxPieces.load();
-        while (mx > prev && !maxPieces.compare_exchange_weak(prev, mx)) {
-        }
+        band.rays = rays;
+        band.samples = samples;
+        band.pieces = pieces;
+        band.spectrumPieces = sp;
+        band.mergedPieces = mp;
+        band.maxSpectrumPieces = mx;
     });
-    if (stats) {
-        stats->rays = rayCount;
-        stats->samples = sampleCount;
-        stats->pieces = pieceCount;
-        stats->spectrumPieces = specPieces;
-        stats->mergedPieces = mergedPieces;
-        stats->maxSpectrumPieces = maxPieces;
-    }
     if (opts.drawStars) {
         // Each star's attenuated spectrum, for its sprite's colour and spectral channels.
         std::vector<double> att(S * J);

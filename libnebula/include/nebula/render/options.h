@@ -96,6 +96,22 @@ struct RenderStats
     std::uint64_t spectrumPieces = 0;  ///< spectral, countPieces: pieces of the rays' spectra
     std::uint64_t mergedPieces = 0;    ///< the same after merge(mergeTolerance)
     std::uint64_t maxSpectrumPieces = 0;  ///< the largest ray spectrum
+
+    /// Adds @p o's counts (the largest spectrum: the larger of the two).
+    RenderStats& operator+=(const RenderStats& o)
+    {
+        rays += o.rays;
+        samples += o.samples;
+        phaseClamped += o.phaseClamped;
+        paths += o.paths;
+        collisions += o.collisions;
+        pieces += o.pieces;
+        spectrumPieces += o.spectrumPieces;
+        mergedPieces += o.mergedPieces;
+        maxSpectrumPieces = maxSpectrumPieces > o.maxSpectrumPieces ? maxSpectrumPieces
+                                                                    : o.maxSpectrumPieces;
+        return *this;
+    }
 };
 
 } // namespace nebula
