@@ -1,0 +1,58 @@
+#pragma once
+/// @file frame.h
+/// Internal to render/: what every integrator's pixel loop shares. The image with the
+/// standard layers, and the parallel loop over bands of rows that owns the threads, the
+/// progress bar and the statistics, so an integrator only says what one band of rows does.
+
+#include "nebula/core/run.h"
+#include "nebula/io/image.h"
+#include "nebula/render/options.h"
+#include "nebula/render/scene.h"
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include <cstdint>
+#include <mutex>
+#include <string>
+#include <vector>
+
+namespace nebula::detail {
+
+/// The standard layers, in this order: "star.<name>" per star (0), "transmittance" (1),
+/// then each of @p extra (0); after the beauty R,G,B,A (0).
+inline Image frameImage(const RenderScene& scene, int width, int height,
+                        const std::vector<std::string>& extra = {})
+{
+    Image img(width, height);
+    const std::size_t n = std::size_t(width) * height * 3;
+    for (const auto& s : scene.stars) img.layers.push_back({"star." + s.name, std::vector<float>(n, 0.0f)});
+    img.layers.push_back({"transmittance", std::vector<float>(n, 1.0f)});
+    for (const auto& name : extra) img.layers.push_back({name, std::vector<float>(n, 0.0f)});
+    return img;
+}
+
+/// Runs @p band(y0, y1, stats) for bands of rows [y0, y1) of an image @p height rows high,
+/// in parallel (bands of at least @p grain rows), with a progress bar labelled @p label
+/// (drawn only if @p run shows progress), and adds every band's statistics to @p stats (if
+/// not null). Every pixel is computed by one band alone, so the image does not depend on how
+/// the rows are split or on the thread count; the statistics are integer sums.
+template <class Band>
+void forEachRowBand(int height, int grain, const Run* run, const std::string& label,
+                    RenderStats* stats, Band&& band)
+{
+    Progress bar(run, label, std::uint64_t(height));
+    std::mutex mutex;
+    RenderStats total;
+    tbb::parallel_for(tbb::blocked_range<int>(0, height, grain),
+                      [&](const tbb::blocked_range<int>& rows) {
+                          RenderStats local;
+                          band(rows.begin(), rows.end(), local);
+                          bar.add(std::uint64_t(rows.size()));
+                          const std::lock_guard<std::mutex> lock(mutex);
+                          total += local;
+                      });
+    if (stats) *stats += total;
+}
+
+} // namespace nebula::detail
