@@ -245,302 +245,434 @@ SpectralScene buildSpectralScene(const GridSet& grids,
     return scene;
 }
 
-Image renderSpectral(const SpectralScene& scene, const RenderOptions& opts, const Run* run,
-                     RenderStats* stats)
+namespace {
+
+/// The wavelengths on which the continuum is kept, and their colour weights.
+struct ContinuumNodes
 {
-    const SpectralOptions& so = opts.spectral;
-    const RenderScene& rs = scene.base;
-    const Camera& view = opts.camera;
-    if (view.width <= 0 || view.height <= 0) throw UsageError("--res must be WxH with W, H > 0");
-    if (!(opts.step > 0.0)) throw UsageError("--step must be > 0 voxels");
-    const PinholeProjection cam(view);
-    const int W = view.width, H = view.height;
-    const std::size_t S = rs.stars.size();
-    const auto& dust = scene.dust;
-    const ExtinctionTable Lambda(dust);
+    bool bandsMode = false;
+    double bandWidth = 0.0;      ///< fixed-band mode: the width of a band [nm]
+    std::vector<double> lam;     ///< node wavelengths [nm]
+    std::vector<double> lamExt;  ///< A(lambda)/A_V at each node
+    std::vector<XYZ> weight;     ///< XYZ of a unit value at each node (hat or box function)
+    double LambdaMin = 0.0;      ///< the smallest A(lambda)/A_V: the last light to be absorbed
 
-    // Continuum wavelengths and their colour weights (XYZ of a unit value there).
-    const bool bandsMode = so.bands > 0;
-    std::vector<double> lam, lamExt;
-    std::vector<XYZ> weight;
-    double bandWidth = 0.0;
-    if (bandsMode) {
-        bandWidth = (SPECTRAL_MAX_NM - SPECTRAL_MIN_NM) / so.bands;
-        for (int j = 0; j < so.bands; ++j) {
-            lam.push_back(SPECTRAL_MIN_NM + (j + 0.5) * bandWidth);
-            XYZ w = cmfAt(lam.back());
-            for (auto& c : w) c *= bandWidth;
-            weight.push_back(w);
-        }
-    } else {
-        const int n = int(std::ceil((SPECTRAL_MAX_NM - SPECTRAL_MIN_NM) / so.continuumStep - 1e-9)) + 1;
-        const double step = (SPECTRAL_MAX_NM - SPECTRAL_MIN_NM) / (n - 1);
-        for (int j = 0; j < n; ++j) lam.push_back(SPECTRAL_MIN_NM + j * step);
-        weight = hatWeights(SPECTRAL_MIN_NM, step, n);
-    }
-    const std::size_t J = lam.size();
-    for (double l : lam) lamExt.push_back(Lambda(l));
-    const double LambdaMin = *std::min_element(lamExt.begin(), lamExt.end());
-
-    // Star spectra at the continuum wavelengths, normalised so that each star's Y is L_s in
-    // this representation (the RGB mode's convention, DESIGN §3).
-    std::vector<double> starSpec(S * J);
-    for (std::size_t s = 0; s < S; ++s) {
-        double Y = 0.0;
-        for (std::size_t j = 0; j < J; ++j) {
-            starSpec[s * J + j] = planckPerNmUnchecked(lam[j], rs.stars[s].temperature);
-            Y += starSpec[s * J + j] * weight[j][1];
-        }
-        if (!(Y > 0.0)) {
-            throw Error("star \"" + rs.stars[s].name + "\" at " +
-                        std::to_string(rs.stars[s].temperature) +
-                        " K emits no light between 360 and 830 nm to render");
-        }
-        for (std::size_t j = 0; j < J; ++j) starSpec[s * J + j] *= rs.stars[s].luminosity / Y;
-    }
-
-    // Spectral layers: equal bands over 360-830 nm; the continuum's share of each.
-    const int NL = so.layers;
-    const double layerWidth = NL > 0 ? (SPECTRAL_MAX_NM - SPECTRAL_MIN_NM) / NL : 0.0;
-    std::vector<double> layerOfNode(std::size_t(NL) * J, 0.0);  // [b][j]
-    for (int b = 0; b < NL; ++b) {
-        const double a = SPECTRAL_MIN_NM + b * layerWidth, e = a + layerWidth;
-        for (std::size_t j = 0; j < J; ++j) {
-            double v = 0.0;
-            if (bandsMode) {
-                const double lo = std::max(a, lam[j] - 0.5 * bandWidth);
-                const double hi = std::min(e, lam[j] + 0.5 * bandWidth);
-                v = std::max(0.0, hi - lo);
-            } else {  // the hat function of node j
-                if (j > 0) v += pieceIntegral(pieceThrough(lam[j - 1], 0.0, lam[j], 1.0), a, e);
-                if (j + 1 < J) v += pieceIntegral(pieceThrough(lam[j], 1.0, lam[j + 1], 0.0), a, e);
+    ContinuumNodes(const SpectralOptions& so, const ExtinctionTable& Lambda)
+        : bandsMode(so.bands > 0)
+    {
+        if (bandsMode) {
+            bandWidth = (SPECTRAL_MAX_NM - SPECTRAL_MIN_NM) / so.bands;
+            for (int j = 0; j < so.bands; ++j) {
+                lam.push_back(SPECTRAL_MIN_NM + (j + 0.5) * bandWidth);
+                XYZ w = cmfAt(lam.back());
+                for (auto& c : w) c *= bandWidth;
+                weight.push_back(w);
             }
-            layerOfNode[std::size_t(b) * J + j] = v / layerWidth;
+        } else {
+            const int n =
+                int(std::ceil((SPECTRAL_MAX_NM - SPECTRAL_MIN_NM) / so.continuumStep - 1e-9)) + 1;
+            const double step = (SPECTRAL_MAX_NM - SPECTRAL_MIN_NM) / (n - 1);
+            for (int j = 0; j < n; ++j) lam.push_back(SPECTRAL_MIN_NM + j * step);
+            weight = hatWeights(SPECTRAL_MIN_NM, step, n);
+        }
+        for (double l : lam) lamExt.push_back(Lambda(l));
+        LambdaMin = *std::min_element(lamExt.begin(), lamExt.end());
+    }
+    std::size_t size() const { return lam.size(); }
+};
+
+/// What one band of rows keeps (reused from pixel to pixel).
+struct SpectralScratch
+{
+    std::vector<float> f;          ///< field sample
+    std::vector<double> Cstar;     ///< per star and node: scattered starlight
+    std::vector<double> Cgas;      ///< per node: black-body and (fixed bands) line emission
+    std::vector<double> Ctotal;    ///< per node: the whole continuum
+    std::vector<double> A;         ///< per node: 1 - e^-x Lambda of the current segment
+    std::vector<double> layerAcc;  ///< per spectral layer: the lines' share
+    std::vector<Piece> rayPieces;  ///< with countPieces: the ray's pieces
+    RenderStats stats;
+};
+
+/// One ray: direction, V optical depth from the eye, the lines' colour, and the Doppler
+/// factor at the end of the previous segment (shared with the next).
+struct SpectralRay
+{
+    Vec3 dW, dI;
+    double tau = 0.0;
+    XYZ lineXYZ{0, 0, 0};
+    double lastEndT = -1.0, lastEndD = 1.0;
+};
+
+class SpectralIntegrator
+{
+public:
+    SpectralIntegrator(const SpectralScene& scene, const RenderOptions& opts)
+        : mScene(scene), mRs(scene.base), mOpts(opts), mSo(opts.spectral), mDust(scene.dust),
+          mLambda(mDust), mNodes(mSo, mLambda), mCam(opts.camera),
+          mLevel0(mRs.fields, mRs.blocks, mRs.occupied, mCam.eye())
+    {
+        starSpectra();
+        layerWeights();
+        mRmin2 = std::pow(opts.minStarDistance * mLevel0.voxelWorld, 2);
+        for (const auto& s : mRs.stars) {
+            mStarPos.emplace_back(s.position[0], s.position[1], s.position[2]);
+        }
+        mBbFactor = mSo.blackbodyScale * (1.0 - mDust.albedo) * WM2_TO_LSUN_PC2;
+        // Every velocity is exaggerated alike, the thermal and turbulent line width included,
+        // so that a spectrum keeps its shape and is only stretched.
+        mLineWidth = mSo.lineWidth * mSo.exaggerateVelocity;
+        for (int c = 0; c < 3; ++c) {
+            mRChannel[std::size_t(c)] = extinctionRatio(mDust, opts.wavelengths[std::size_t(c)]);
         }
     }
 
-    Image img = detail::frameImage(rs, W, H);
-    ImageLayer& transLayer = img.layers[S];
-    for (int b = 0; b < NL; ++b) {
-        img.channels.push_back({bandName(SPECTRAL_MIN_NM + (b + 0.5) * layerWidth),
-                                std::vector<float>(std::size_t(W) * H, 0.0f)});
+    int layers() const { return mSo.layers; }
+    double layerWidth() const { return mLayerWidth; }
+
+    SpectralScratch scratch() const
+    {
+        const std::size_t S = mRs.stars.size(), J = mNodes.size();
+        SpectralScratch sc;
+        sc.f.resize(std::size_t(mRs.fields.channels()));
+        sc.Cstar.resize(S * J);
+        sc.Cgas.resize(J);
+        sc.Ctotal.resize(J);
+        sc.A.resize(J);
+        sc.layerAcc.resize(std::size_t(mSo.layers));
+        return sc;
     }
 
-    const Marcher level0(rs.fields, rs.blocks, rs.occupied, cam.eye());
-    const double rmin2 = std::pow(opts.minStarDistance * level0.voxelWorld, 2);
-    const int C = rs.fields.channels();
-    std::vector<Vec3> starPos;
-    for (const auto& s : rs.stars) starPos.emplace_back(s.position[0], s.position[1], s.position[2]);
-    const double kappa = dust.kappa_V, albedo = dust.albedo;
-    const double bbFactor = so.blackbodyScale * (1.0 - albedo) * WM2_TO_LSUN_PC2;
-    const double vScale = so.exaggerateVelocity;
-    // Every velocity is exaggerated alike, the thermal and turbulent line width included, so
-    // that a spectrum keeps its shape and is only stretched.
-    const double lineWidth = so.lineWidth * vScale;
-    const int velCh = scene.velocityChannel, tempCh = scene.temperatureChannel;
-    std::array<double, 3> rChannel;
-    for (int c = 0; c < 3; ++c) rChannel[std::size_t(c)] = extinctionRatio(dust, opts.wavelengths[std::size_t(c)]);
+    /// Renders pixel (px, py) into @p img.
+    void renderPixel(int px, int py, SpectralScratch& sc, Image& img) const
+    {
+        SpectralRay ray;
+        ray.dW = mCam.direction(px + 0.5, py + 0.5);
+        ray.dI = mLevel0.w2i.applyLinear(ray.dW);
+        std::fill(sc.Cstar.begin(), sc.Cstar.end(), 0.0);
+        std::fill(sc.Cgas.begin(), sc.Cgas.end(), 0.0);
+        std::fill(sc.layerAcc.begin(), sc.layerAcc.end(), 0.0);
+        sc.rayPieces.clear();
+        sc.stats.rays += mLevel0.march(ray.dW, mOpts.step, [&](const Vec3& pI, double tm, double seg) {
+            return step(pI, tm, seg, ray, sc);
+        });
+        writePixel(std::size_t(py) * img.width + px, ray, sc, img);
+    }
 
-    detail::forEachRowBand(H, 4, run, "nebrender", stats, [&](int y0, int y1, RenderStats& band) {
-        std::vector<float> f(static_cast<std::size_t>(C));
-        std::vector<double> Cstar(S * J), Cgas(J), Ctotal(J), A(J),
-            layerAcc(static_cast<std::size_t>(NL));
-        std::vector<Piece> rayPieces;
-        std::uint64_t rays = 0, samples = 0, pieces = 0, sp = 0, mp = 0, mx = 0;
-        for (int py = y0; py < y1; ++py) {
-            for (int px = 0; px < W; ++px) {
-                const Vec3 dW = cam.direction(px + 0.5, py + 0.5);
-                const Vec3 dI = level0.w2i.applyLinear(dW);
-                std::fill(Cstar.begin(), Cstar.end(), 0.0);
-                std::fill(Cgas.begin(), Cgas.end(), 0.0);
-                std::fill(layerAcc.begin(), layerAcc.end(), 0.0);
-                rayPieces.clear();
-                XYZ lineXYZ{0, 0, 0};
-                double tau = 0.0;
-                // Doppler factor at the end of the previous segment (shared with the next).
-                double lastEndT = -1.0, lastEndD = 1.0;
-                // Doppler factor lambda_observed / lambda_emitted of the gas at pI.
-                auto dopplerAt = [&](const Vec3& pI) {
-                    float v[3];
-                    rs.fields.sampleChannels(pI, velCh, 3, v);
-                    const double vr = vScale * (double(v[0]) * dW.x + double(v[1]) * dW.y + double(v[2]) * dW.z);
-                    if (!so.relativistic) return dopplerFactor(vr);
-                    const double v2 = vScale * vScale *
-                                      (double(v[0]) * v[0] + double(v[1]) * v[1] + double(v[2]) * v[2]);
-                    return relativisticDopplerFactor(vr, v2);
-                };
-                // Adds the linear piece through (a, ya), (b, yb) of the line emission.
-                auto addLinePiece = [&](double a, double ya, double b, double yb) {
-                    if (!(b > a)) return;
-                    const Piece p = pieceThrough(a, ya, b, yb);
-                    const XYZ xyz = pieceToXYZ(p);
-                    for (int c = 0; c < 3; ++c) lineXYZ[std::size_t(c)] += xyz[std::size_t(c)];
-                    for (int k = 0; k < NL; ++k) {
-                        const double lo = SPECTRAL_MIN_NM + k * layerWidth;
-                        layerAcc[std::size_t(k)] += pieceIntegral(p, lo, lo + layerWidth) / layerWidth;
-                    }
-                    if (so.countPieces) rayPieces.push_back(p);
-                    ++pieces;
-                };
-
-                rays += level0.march(dW, opts.step, [&](const Vec3& pI, double tm, double seg) {
-                    rs.fields.sample(pI, f.data());
-                    ++samples;
-                    const double n = std::max(0.0f, f[0]), em = f[1];
-                    if (n <= 0.0 && em <= 0.0) return true;
-                    const double x = kappa * n * seg;  // the segment's V optical depth
-                    if (n > 0.0) {
-                        // The fraction of the segment's source function that leaves it
-                        // (1 - e^-x Lambda); the eye's attenuation e^-tau Lambda is folded into
-                        // each star's (one exponential per node for both).
-                        for (std::size_t j = 0; j < J; ++j) A[j] = -std::expm1(-x * lamExt[j]);
-                        const Vec3 xW = cam.eye() + dW * tm;
-                        for (std::size_t s = 0; s < S; ++s) {
-                            const Vec3 v = xW - starPos[s];
-                            const double r2 = v.dot(v);
-                            const double mu = r2 > 0.0 ? -v.dot(dW) / std::sqrt(r2) : 1.0;
-                            const double w = albedo * phaseFunction(dust.phase, mu, dust.g) /
-                                             (4.0 * PI * std::max(r2, rmin2));
-                            const double tauS = tau + std::max(0.0f, f[2 + s]);
-                            const double* spec = &starSpec[s * J];
-                            double* acc = &Cstar[s * J];
-                            for (std::size_t j = 0; j < J; ++j) {
-                                acc[j] += w * spec[j] * std::exp(-tauS * lamExt[j]) * A[j];
-                            }
-                        }
-                        if (tempCh >= 0 && f[std::size_t(tempCh)] > 0.0f && bbFactor > 0.0) {
-                            // Kirchhoff: j = (1 - a) k(lambda_e) B(lambda_e, T), emitted at
-                            // lambda_e = lambda / (1 + v_r/c) and stretched by 1 + v_r/c.
-                            const double T = so.temperatureScale * f[std::size_t(tempCh)];
-                            const double D = velCh >= 0 ? dopplerAt(pI) : 1.0;
-                            for (std::size_t j = 0; j < J; ++j) {
-                                const double le = lam[j] / D;
-                                const double ratio = D == 1.0 ? 1.0 : Lambda(le) / lamExt[j];
-                                Cgas[j] += bbFactor * ratio * planckPerNmUnchecked(le, T) / D * A[j] *
-                                           std::exp(-tau * lamExt[j]);
-                            }
-                        }
-                    }
-                    if (em > 0.0) {
-                        double dA = 1.0, dB = 1.0;  // Doppler factors at the segment's ends
-                        if (velCh >= 0) {
-                            const double tA = tm - 0.5 * seg, tB = tm + 0.5 * seg;
-                            dA = std::abs(tA - lastEndT) <= 1e-9 * seg ? lastEndD
-                                                                         : dopplerAt(pI - dI * (0.5 * seg));
-                            dB = dopplerAt(pI + dI * (0.5 * seg));
-                            lastEndT = tB;
-                            lastEndD = dB;
-                        }
-                        // The segment's transmittance factor at wavelength lambda: e^-tau L
-                        // (1 - e^-x L) / (x L) times its length.
-                        auto factor = [&](double ext) {
-                            return seg * std::exp(-tau * ext) * escapeFraction(x * ext);
-                        };
-                        for (const auto& e : scene.emitters) {
-                            const double value = f[std::size_t(e.channel)];
-                            if (!(value > 0.0)) continue;
-                            for (const auto& line : e.lines) {
-                                const LineTrapezoid t = lineTrapezoidFactors(
-                                    line.wavelength, dA, dB, lineWidth,
-                                    value * e.unit * line.strength);
-                                if (t.x[3] <= SPECTRAL_MIN_NM || t.x[0] >= SPECTRAL_MAX_NM) continue;
-                                if (bandsMode) {
-                                    const int j0 = std::max(0, int(std::ceil((t.x[0] - SPECTRAL_MIN_NM) / bandWidth - 0.5)));
-                                    const int j1 = std::min(int(J) - 1, int(std::floor((t.x[3] - SPECTRAL_MIN_NM) / bandWidth - 0.5)));
-                                    for (int j = j0; j <= j1; ++j) {
-                                        const double v = t.at(lam[std::size_t(j)]);
-                                        if (v > 0.0) Cgas[std::size_t(j)] += v * factor(lamExt[std::size_t(j)]);
-                                    }
-                                } else {
-                                    double y[4];
-                                    for (int i = 0; i < 4; ++i) {
-                                        const double h = (i == 0 || i == 3) ? 0.0 : t.height;
-                                        y[i] = h * factor(Lambda(t.x[i]));
-                                    }
-                                    addLinePiece(t.x[0], y[0], t.x[1], y[1]);
-                                    addLinePiece(t.x[1], y[1], t.x[2], y[2]);
-                                    addLinePiece(t.x[2], y[2], t.x[3], y[3]);
-                                }
-                            }
-                        }
-                    }
-                    tau += x;
-                    return std::exp(-tau * LambdaMin) >= opts.minTransmittance;
-                });
-
-                // Colour: continuum (per star, gas) plus the lines.
-                const std::size_t pix = std::size_t(py) * W + px;
-                XYZ total = lineXYZ;
-                for (std::size_t s = 0; s < S; ++s) {
-                    const XYZ xyz = nodesToXYZ(&Cstar[s * J], weight);
-                    const auto rgb = xyzToLinearSRGB(xyz);
-                    for (int c = 0; c < 3; ++c) {
-                        total[std::size_t(c)] += xyz[std::size_t(c)];
-                        img.layers[s].rgb[pix * 3 + std::size_t(c)] = float(rgb[std::size_t(c)]);
-                    }
-                }
-                const XYZ gas = nodesToXYZ(Cgas.data(), weight);
-                for (int c = 0; c < 3; ++c) total[std::size_t(c)] += gas[std::size_t(c)];
-                const auto rgb = xyzToLinearSRGB(total);
-                for (int c = 0; c < 3; ++c) {
-                    img.rgba[pix * 4 + std::size_t(c)] = float(rgb[std::size_t(c)]);
-                    transLayer.rgb[pix * 3 + std::size_t(c)] = float(std::exp(-tau * rChannel[std::size_t(c)]));
-                }
-                img.rgba[pix * 4 + 3] = float(1.0 - std::exp(-tau * rChannel[1]));
-                if (NL > 0 || so.countPieces) {
-                    // The whole continuum at the nodes (stars and gas).
-                    for (std::size_t j = 0; j < J; ++j) {
-                        Ctotal[j] = Cgas[j];
-                        for (std::size_t s = 0; s < S; ++s) Ctotal[j] += Cstar[s * J + j];
-                    }
-                }
-                for (int b = 0; b < NL; ++b) {
-                    double v = layerAcc[std::size_t(b)];
-                    for (std::size_t j = 0; j < J; ++j) v += layerOfNode[std::size_t(b) * J + j] * Ctotal[j];
-                    img.channels[std::size_t(b)].values[pix] = float(v);
-                }
-                if (so.countPieces && !bandsMode) {
-                    // The ray's whole spectrum: continuum pieces between nodes plus the lines.
-                    for (std::size_t j = 0; j + 1 < J; ++j) {
-                        if (Ctotal[j] != 0.0 || Ctotal[j + 1] != 0.0) {
-                            rayPieces.push_back(pieceThrough(lam[j], Ctotal[j], lam[j + 1], Ctotal[j + 1]));
-                        }
-                    }
-                    Spectrum spec = Spectrum::sum(rayPieces);
-                    sp += spec.size();
-                    mx = std::max<std::uint64_t>(mx, spec.size());
-                    if (so.mergeTolerance > 0.0) spec.merge(so.mergeTolerance);
-                    mp += spec.size();
-                }
-                pieces += bandsMode ? 0 : J - 1;
-            }
-        }
-        band.rays = rays;
-        band.samples = samples;
-        band.pieces = pieces;
-        band.spectrumPieces = sp;
-        band.mergedPieces = mp;
-        band.maxSpectrumPieces = mx;
-    });
-    if (opts.drawStars) {
-        // Each star's attenuated spectrum, for its sprite's colour and spectral channels.
+    /// Adds each star's sprite: its attenuated spectrum's colour, and its share of every
+    /// spectral layer.
+    void drawSprites(Image& img) const
+    {
+        const std::size_t S = mRs.stars.size(), J = mNodes.size();
+        const int NL = mSo.layers;
         std::vector<double> att(S * J);
         drawStarSprites(
-            img, rs, opts,
+            img, mRs, mOpts,
             [&](std::size_t s, double tauV) {
                 for (std::size_t j = 0; j < J; ++j) {
-                    att[s * J + j] = starSpec[s * J + j] * std::exp(-tauV * lamExt[j]);
+                    att[s * J + j] = mStarSpec[s * J + j] * std::exp(-tauV * mNodes.lamExt[j]);
                 }
-                return xyzToLinearSRGB(nodesToXYZ(&att[s * J], weight));
+                return xyzToLinearSRGB(nodesToXYZ(&att[s * J], mNodes.weight));
             },
             [&](std::size_t s, std::size_t pix, double factor) {
                 for (int b = 0; b < NL; ++b) {
                     double v = 0.0;
-                    for (std::size_t j = 0; j < J; ++j) v += layerOfNode[std::size_t(b) * J + j] * att[s * J + j];
+                    for (std::size_t j = 0; j < J; ++j) {
+                        v += mLayerOfNode[std::size_t(b) * J + j] * att[s * J + j];
+                    }
                     img.channels[std::size_t(b)].values[pix] += float(v * factor);
                 }
             });
     }
+
+private:
+    /// Star spectra at the continuum nodes, normalised so that each star's Y is L_s in this
+    /// representation (the RGB mode's convention, DESIGN §3).
+    void starSpectra()
+    {
+        const std::size_t S = mRs.stars.size(), J = mNodes.size();
+        mStarSpec.resize(S * J);
+        for (std::size_t s = 0; s < S; ++s) {
+            double Y = 0.0;
+            for (std::size_t j = 0; j < J; ++j) {
+                mStarSpec[s * J + j] = planckPerNmUnchecked(mNodes.lam[j], mRs.stars[s].temperature);
+                Y += mStarSpec[s * J + j] * mNodes.weight[j][1];
+            }
+            if (!(Y > 0.0)) {
+                throw Error("star \"" + mRs.stars[s].name + "\" at " +
+                            std::to_string(mRs.stars[s].temperature) +
+                            " K emits no light between 360 and 830 nm to render");
+            }
+            for (std::size_t j = 0; j < J; ++j) mStarSpec[s * J + j] *= mRs.stars[s].luminosity / Y;
+        }
+    }
+
+    /// Spectral layers: equal bands over 360-830 nm; the continuum's share of each.
+    void layerWeights()
+    {
+        const int NL = mSo.layers;
+        const std::size_t J = mNodes.size();
+        const auto& lam = mNodes.lam;
+        mLayerWidth = NL > 0 ? (SPECTRAL_MAX_NM - SPECTRAL_MIN_NM) / NL : 0.0;
+        mLayerOfNode.assign(std::size_t(NL) * J, 0.0);  // [b][j]
+        for (int b = 0; b < NL; ++b) {
+            const double a = SPECTRAL_MIN_NM + b * mLayerWidth, e = a + mLayerWidth;
+            for (std::size_t j = 0; j < J; ++j) {
+                double v = 0.0;
+                if (mNodes.bandsMode) {
+                    const double lo = std::max(a, lam[j] - 0.5 * mNodes.bandWidth);
+                    const double hi = std::min(e, lam[j] + 0.5 * mNodes.bandWidth);
+                    v = std::max(0.0, hi - lo);
+                } else {  // the hat function of node j
+                    if (j > 0) v += pieceIntegral(pieceThrough(lam[j - 1], 0.0, lam[j], 1.0), a, e);
+                    if (j + 1 < J) v += pieceIntegral(pieceThrough(lam[j], 1.0, lam[j + 1], 0.0), a, e);
+                }
+                mLayerOfNode[std::size_t(b) * J + j] = v / mLayerWidth;
+            }
+        }
+    }
+
+    /// Doppler factor lambda_observed / lambda_emitted of the gas at index point @p pI.
+    double dopplerAt(const Vec3& pI, const Vec3& dW) const
+    {
+        const double vScale = mSo.exaggerateVelocity;
+        float v[3];
+        mRs.fields.sampleChannels(pI, mScene.velocityChannel, 3, v);
+        const double vr = vScale * (double(v[0]) * dW.x + double(v[1]) * dW.y + double(v[2]) * dW.z);
+        if (!mSo.relativistic) return dopplerFactor(vr);
+        const double v2 =
+            vScale * vScale * (double(v[0]) * v[0] + double(v[1]) * v[1] + double(v[2]) * v[2]);
+        return relativisticDopplerFactor(vr, v2);
+    }
+
+    /// Adds the linear piece through (a, ya), (b, yb) of the line emission: its colour, its
+    /// share of each spectral layer, and (countPieces) the piece itself.
+    void addLinePiece(double a, double ya, double b, double yb, SpectralRay& ray,
+                      SpectralScratch& sc) const
+    {
+        if (!(b > a)) return;
+        const Piece p = pieceThrough(a, ya, b, yb);
+        const XYZ xyz = pieceToXYZ(p);
+        for (int c = 0; c < 3; ++c) ray.lineXYZ[std::size_t(c)] += xyz[std::size_t(c)];
+        for (int k = 0; k < mSo.layers; ++k) {
+            const double lo = SPECTRAL_MIN_NM + k * mLayerWidth;
+            sc.layerAcc[std::size_t(k)] += pieceIntegral(p, lo, lo + mLayerWidth) / mLayerWidth;
+        }
+        if (mSo.countPieces) sc.rayPieces.push_back(p);
+        ++sc.stats.pieces;
+    }
+
+    /// Every star's light scattered at world point xW towards the eye, at each node: the
+    /// phase function and 1/(4 pi r^2) times the star's spectrum attenuated from the star and
+    /// to the eye (one exponential per node for both), times 1 - e^-x Lambda (sc.A).
+    void scatterStarlight(const Vec3& xW, const SpectralRay& ray, SpectralScratch& sc) const
+    {
+        const std::size_t S = mRs.stars.size(), J = mNodes.size();
+        for (std::size_t s = 0; s < S; ++s) {
+            const Vec3 v = xW - mStarPos[s];
+            const double r2 = v.dot(v);
+            const double mu = r2 > 0.0 ? -v.dot(ray.dW) / std::sqrt(r2) : 1.0;
+            const double w = mDust.albedo * phaseFunction(mDust.phase, mu, mDust.g) /
+                             (4.0 * PI * std::max(r2, mRmin2));
+            const double tauS = ray.tau + std::max(0.0f, sc.f[2 + s]);
+            const double* spec = &mStarSpec[s * J];
+            double* acc = &sc.Cstar[s * J];
+            for (std::size_t j = 0; j < J; ++j) {
+                acc[j] += w * spec[j] * std::exp(-tauS * mNodes.lamExt[j]) * sc.A[j];
+            }
+        }
+    }
+
+    /// Kirchhoff: j = (1 - a) k(lambda_e) B(lambda_e, T), emitted at lambda_e = lambda /
+    /// (1 + v_r/c) and stretched by 1 + v_r/c, at each node.
+    void blackbodyEmission(const Vec3& pI, const SpectralRay& ray, SpectralScratch& sc) const
+    {
+        const int tempCh = mScene.temperatureChannel;
+        if (!(tempCh >= 0 && sc.f[std::size_t(tempCh)] > 0.0f && mBbFactor > 0.0)) return;
+        const double T = mSo.temperatureScale * sc.f[std::size_t(tempCh)];
+        const double D = mScene.velocityChannel >= 0 ? dopplerAt(pI, ray.dW) : 1.0;
+        for (std::size_t j = 0; j < mNodes.size(); ++j) {
+            const double le = mNodes.lam[j] / D;
+            const double ratio = D == 1.0 ? 1.0 : mLambda(le) / mNodes.lamExt[j];
+            sc.Cgas[j] += mBbFactor * ratio * planckPerNmUnchecked(le, T) / D * sc.A[j] *
+                          std::exp(-ray.tau * mNodes.lamExt[j]);
+        }
+    }
+
+    /// Line emission of the segment [tm - seg/2, tm + seg/2] (V optical depth @p x): each
+    /// line of each emitter as an exact Doppler trapezoid (DESIGN §7.2), attenuated at its
+    /// breakpoints (piecewise-linear mode) or at the band centres (fixed bands).
+    void lineEmission(const Vec3& pI, double tm, double seg, double x, SpectralRay& ray,
+                      SpectralScratch& sc) const
+    {
+        double dA = 1.0, dB = 1.0;  // Doppler factors at the segment's ends
+        if (mScene.velocityChannel >= 0) {
+            const double tA = tm - 0.5 * seg, tB = tm + 0.5 * seg;
+            dA = std::abs(tA - ray.lastEndT) <= 1e-9 * seg ? ray.lastEndD
+                                                            : dopplerAt(pI - ray.dI * (0.5 * seg), ray.dW);
+            dB = dopplerAt(pI + ray.dI * (0.5 * seg), ray.dW);
+            ray.lastEndT = tB;
+            ray.lastEndD = dB;
+        }
+        // The segment's transmittance factor at wavelength lambda: e^-tau L (1 - e^-x L) /
+        // (x L) times its length.
+        const auto factor = [&](double ext) {
+            return seg * std::exp(-ray.tau * ext) * escapeFraction(x * ext);
+        };
+        const std::size_t J = mNodes.size();
+        for (const auto& e : mScene.emitters) {
+            const double value = sc.f[std::size_t(e.channel)];
+            if (!(value > 0.0)) continue;
+            for (const auto& line : e.lines) {
+                const LineTrapezoid t = lineTrapezoidFactors(line.wavelength, dA, dB, mLineWidth,
+                                                             value * e.unit * line.strength);
+                if (t.x[3] <= SPECTRAL_MIN_NM || t.x[0] >= SPECTRAL_MAX_NM) continue;
+                if (mNodes.bandsMode) {
+                    const double bw = mNodes.bandWidth;
+                    const int j0 = std::max(0, int(std::ceil((t.x[0] - SPECTRAL_MIN_NM) / bw - 0.5)));
+                    const int j1 =
+                        std::min(int(J) - 1, int(std::floor((t.x[3] - SPECTRAL_MIN_NM) / bw - 0.5)));
+                    for (int j = j0; j <= j1; ++j) {
+                        const double v = t.at(mNodes.lam[std::size_t(j)]);
+                        if (v > 0.0) sc.Cgas[std::size_t(j)] += v * factor(mNodes.lamExt[std::size_t(j)]);
+                    }
+                } else {
+                    double y[4];
+                    for (int i = 0; i < 4; ++i) {
+                        const double h = (i == 0 || i == 3) ? 0.0 : t.height;
+                        y[i] = h * factor(mLambda(t.x[i]));
+                    }
+                    addLinePiece(t.x[0], y[0], t.x[1], y[1], ray, sc);
+                    addLinePiece(t.x[1], y[1], t.x[2], y[2], ray, sc);
+                    addLinePiece(t.x[2], y[2], t.x[3], y[3], ray, sc);
+                }
+            }
+        }
+    }
+
+    /// One ray step at index point @p pI, ray distance @p tm, length @p seg [pc]. Returns
+    /// false once the least absorbed wavelength is dimmer than minTransmittance.
+    bool step(const Vec3& pI, double tm, double seg, SpectralRay& ray, SpectralScratch& sc) const
+    {
+        mRs.fields.sample(pI, sc.f.data());
+        ++sc.stats.samples;
+        const double n = std::max(0.0f, sc.f[0]), em = sc.f[1];
+        if (n <= 0.0 && em <= 0.0) return true;
+        const double x = mDust.kappa_V * n * seg;  // the segment's V optical depth
+        if (n > 0.0) {
+            // The fraction of the segment's source function that leaves it (1 - e^-x Lambda);
+            // the eye's attenuation e^-tau Lambda is folded into each source's.
+            for (std::size_t j = 0; j < mNodes.size(); ++j) sc.A[j] = -std::expm1(-x * mNodes.lamExt[j]);
+            scatterStarlight(mCam.eye() + ray.dW * tm, ray, sc);
+            blackbodyEmission(pI, ray, sc);
+        }
+        if (em > 0.0) lineEmission(pI, tm, seg, x, ray, sc);
+        ray.tau += x;
+        return std::exp(-ray.tau * mNodes.LambdaMin) >= mOpts.minTransmittance;
+    }
+
+    /// The pixel's colour (continuum per star and gas, plus the lines), transmittance,
+    /// spectral layers and (countPieces) its spectrum's piece count.
+    void writePixel(std::size_t pix, const SpectralRay& ray, SpectralScratch& sc, Image& img) const
+    {
+        const std::size_t S = mRs.stars.size(), J = mNodes.size();
+        const int NL = mSo.layers;
+        XYZ total = ray.lineXYZ;
+        for (std::size_t s = 0; s < S; ++s) {
+            const XYZ xyz = nodesToXYZ(&sc.Cstar[s * J], mNodes.weight);
+            const auto rgb = xyzToLinearSRGB(xyz);
+            for (int c = 0; c < 3; ++c) {
+                total[std::size_t(c)] += xyz[std::size_t(c)];
+                img.layers[s].rgb[pix * 3 + std::size_t(c)] = float(rgb[std::size_t(c)]);
+            }
+        }
+        const XYZ gas = nodesToXYZ(sc.Cgas.data(), mNodes.weight);
+        for (int c = 0; c < 3; ++c) total[std::size_t(c)] += gas[std::size_t(c)];
+        const auto rgb = xyzToLinearSRGB(total);
+        ImageLayer& transLayer = img.layers[S];
+        for (int c = 0; c < 3; ++c) {
+            img.rgba[pix * 4 + std::size_t(c)] = float(rgb[std::size_t(c)]);
+            transLayer.rgb[pix * 3 + std::size_t(c)] =
+                float(std::exp(-ray.tau * mRChannel[std::size_t(c)]));
+        }
+        img.rgba[pix * 4 + 3] = float(1.0 - std::exp(-ray.tau * mRChannel[1]));
+        if (NL > 0 || mSo.countPieces) {
+            // The whole continuum at the nodes (stars and gas).
+            for (std::size_t j = 0; j < J; ++j) {
+                sc.Ctotal[j] = sc.Cgas[j];
+                for (std::size_t s = 0; s < S; ++s) sc.Ctotal[j] += sc.Cstar[s * J + j];
+            }
+        }
+        for (int b = 0; b < NL; ++b) {
+            double v = sc.layerAcc[std::size_t(b)];
+            for (std::size_t j = 0; j < J; ++j) v += mLayerOfNode[std::size_t(b) * J + j] * sc.Ctotal[j];
+            img.channels[std::size_t(b)].values[pix] = float(v);
+        }
+        if (mSo.countPieces && !mNodes.bandsMode) countPieces(sc);
+        sc.stats.pieces += mNodes.bandsMode ? 0 : J - 1;
+    }
+
+    /// The ray's whole spectrum (continuum pieces between nodes plus the lines), assembled
+    /// to count its pieces before and after merging.
+    void countPieces(SpectralScratch& sc) const
+    {
+        const auto& lam = mNodes.lam;
+        for (std::size_t j = 0; j + 1 < mNodes.size(); ++j) {
+            if (sc.Ctotal[j] != 0.0 || sc.Ctotal[j + 1] != 0.0) {
+                sc.rayPieces.push_back(pieceThrough(lam[j], sc.Ctotal[j], lam[j + 1], sc.Ctotal[j + 1]));
+            }
+        }
+        Spectrum spec = Spectrum::sum(sc.rayPieces);
+        sc.stats.spectrumPieces += spec.size();
+        sc.stats.maxSpectrumPieces = std::max<std::uint64_t>(sc.stats.maxSpectrumPieces, spec.size());
+        if (mSo.mergeTolerance > 0.0) spec.merge(mSo.mergeTolerance);
+        sc.stats.mergedPieces += spec.size();
+    }
+
+    const SpectralScene& mScene;
+    const RenderScene& mRs;
+    const RenderOptions& mOpts;
+    const SpectralOptions& mSo;
+    const DustParams& mDust;
+    const ExtinctionTable mLambda;
+    const ContinuumNodes mNodes;
+    const PinholeProjection mCam;
+    const Marcher mLevel0;
+    std::vector<double> mStarSpec;     ///< [s][j]
+    double mLayerWidth = 0.0;          ///< [nm]
+    std::vector<double> mLayerOfNode;  ///< [b][j]
+    double mRmin2 = 0.0;
+    std::vector<Vec3> mStarPos;
+    double mBbFactor = 0.0;
+    double mLineWidth = 0.0;
+    std::array<double, 3> mRChannel{};
+};
+
+} // namespace
+
+Image renderSpectral(const SpectralScene& scene, const RenderOptions& opts, const Run* run,
+                     RenderStats* stats)
+{
+    const Camera& view = opts.camera;
+    if (view.width <= 0 || view.height <= 0) throw UsageError("--res must be WxH with W, H > 0");
+    if (!(opts.step > 0.0)) throw UsageError("--step must be > 0 voxels");
+    const SpectralIntegrator integrator(scene, opts);
+    Image img = detail::frameImage(scene.base, view.width, view.height);
+    for (int b = 0; b < integrator.layers(); ++b) {
+        img.channels.push_back({bandName(SPECTRAL_MIN_NM + (b + 0.5) * integrator.layerWidth()),
+                                std::vector<float>(std::size_t(view.width) * view.height, 0.0f)});
+    }
+    detail::forEachRowBand(view.height, 4, run, "nebrender", stats,
+                           [&](int y0, int y1, RenderStats& band) {
+                               SpectralScratch sc = integrator.scratch();
+                               for (int py = y0; py < y1; ++py) {
+                                   for (int px = 0; px < view.width; ++px) {
+                                       integrator.renderPixel(px, py, sc, img);
+                                   }
+                               }
+                               band = sc.stats;
+                           });
+    if (opts.drawStars) integrator.drawSprites(img);
     return img;
 }
 
