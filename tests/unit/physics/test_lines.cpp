@@ -1,21 +1,23 @@
 /// @file test_lines.cpp
-/// Spectral inputs: the emission-line catalogue, line lists and their metadata, the
-/// temperature grid's check, and nebgen's dust temperature (radiative equilibrium).
+/// Spectral inputs: the emission-line catalogue, line lists, the Doppler factors, and the
+/// Doppler-broadened line profiles (trapezoids) drawn along a ray segment. (The grid
+/// metadata and temperature checks are in io/test_spectral_grids.cpp; nebgen's dust
+/// temperature in stages/test_generate.cpp.)
 
 #include "nebula/physics/lines.h"
 
 #include "nebula/core/error.h"
-#include "nebula/io/spectral_grids.h"
-#include "nebula/stages/generate.h"
+#include "nebula/physics/spectrum.h"
 
 #include "test_util.h"
-
-#include <openvdb/openvdb.h>
 
 #include <gtest/gtest.h>
 
 #include <cmath>
-#include <limits>
+#include <random>
+#include <string>
+#include <utility>
+#include <vector>
 
 using nebula::test::contains;
 using nebula::test::errorMessage;
@@ -139,86 +141,126 @@ TEST(LineList, EachErrorNamesSourceAndItem)
     EXPECT_TRUE(contains(msg, "rest wavelength in nm")) << msg;
 }
 
-// ---- grid metadata ---------------------------------------------------------------------
+} // namespace
 
-TEST(GridLines, MetadataOrFallback)
+namespace nebula {
+namespace {
+
+// ---- Doppler factors and line profiles ---------------------------------------------------
+
+TEST(SpectralLine, DopplerFactors)
 {
-    auto grid = openvdb::FloatGrid::create(0.0f);
-    grid->setName("emission");
-    const std::vector<nebula::SpectralLine> fallback = {{"H-alpha", 656.28, 1.0}};
-    EXPECT_EQ(nebula::gridLines(*grid, "a.vdb", fallback), fallback);
-
-    grid->insertMeta(nebula::META_LINES, openvdb::StringMetadata("[N II]6583:0.3,H-alpha"));
-    const auto lines = nebula::gridLines(*grid, "a.vdb", fallback);
-    ASSERT_EQ(lines.size(), 2u);
-    EXPECT_EQ(lines[0].name, "[N II]6583");
-    EXPECT_DOUBLE_EQ(lines[0].strength, 0.3);
-
-    grid->removeMeta(nebula::META_LINES);
-    grid->insertMeta(nebula::META_LINES, openvdb::StringMetadata("H-alpha:-2"));
-    std::string msg = errorMessage([&] { nebula::gridLines(*grid, "a.vdb", fallback); });
-    EXPECT_EQ(msg.rfind("a.vdb: grid \"emission\" metadata nebula:lines \"H-alpha:-2\": ", 0), 0u)
-        << msg;
-    EXPECT_TRUE(contains(msg, "strength must be a finite number > 0")) << msg;
-
-    grid->removeMeta(nebula::META_LINES);
-    grid->insertMeta(nebula::META_LINES, openvdb::FloatMetadata(1.0f));
-    msg = errorMessage([&] { nebula::gridLines(*grid, "a.vdb", fallback); });
-    EXPECT_TRUE(contains(msg, "a.vdb: grid \"emission\" metadata nebula:lines is a float, "
-                              "expected a string"))
-        << msg;
+    // First order: lambda'/lambda = 1 + v_r/c; receding (v_r > 0) is redder.
+    EXPECT_EQ(dopplerFactor(0.0), 1.0);
+    EXPECT_DOUBLE_EQ(dopplerFactor(SPEED_OF_LIGHT_KMS * 0.01), 1.01);
+    EXPECT_DOUBLE_EQ(dopplerFactor(-299.792458), 0.999);
+    // Relativistic: gamma (1 + v_r/c). Purely radial motion (v^2 = v_r^2) gives the
+    // longitudinal factor sqrt((1 + b)/(1 - b)); purely transverse motion (v_r = 0) gamma.
+    for (double b : {-0.6, -0.1, 0.0, 0.3, 0.8}) {
+        const double vr = b * SPEED_OF_LIGHT_KMS;
+        EXPECT_NEAR(relativisticDopplerFactor(vr, vr * vr), std::sqrt((1 + b) / (1 - b)), 1e-12)
+            << b;
+        EXPECT_NEAR(relativisticDopplerFactor(0.0, vr * vr), 1.0 / std::sqrt(1 - b * b), 1e-12)
+            << b;
+    }
+    // Slow gas: the two agree to second order in v/c.
+    EXPECT_NEAR(relativisticDopplerFactor(30.0, 900.0), dopplerFactor(30.0), 1e-8);
+    // Moved from the spectral render test: approaching at 0.6 c.
+    EXPECT_NEAR(relativisticDopplerFactor(-0.6 * SPEED_OF_LIGHT_KMS,
+                                          0.36 * SPEED_OF_LIGHT_KMS * SPEED_OF_LIGHT_KMS),
+                0.5, 1e-12);  // approaching at 0.6 c: sqrt((1 - b)/(1 + b)) = 0.5
 }
 
-// ---- temperature -----------------------------------------------------------------------
-
-TEST(TemperatureGrid, RejectsNegativeNanAndInfinite)
+/// Integral and centroid of a trapezoid from its pieces, via Spectrum::sum.
+void moments(const LineTrapezoid& t, double& integral, double& centroid)
 {
-    auto grid = openvdb::FloatGrid::create(0.0f);
-    grid->setName("temperature");
-    grid->tree().setValue(openvdb::Coord(1, 2, 3), 20.0f);
-    grid->tree().setValue(openvdb::Coord(0, 0, 0), 0.0f);  // active 0 K is allowed
-    EXPECT_NO_THROW(nebula::requireValidTemperature(*grid, "t.vdb"));
+    std::vector<Piece> p;
+    for (int i = 0; i < 3; ++i) {
+        const double ya = (i == 0) ? 0.0 : t.height, yb = (i == 2) ? 0.0 : t.height;
+        if (t.x[i + 1] > t.x[i]) p.push_back(pieceThrough(t.x[i], ya, t.x[i + 1], yb));
+    }
+    const Spectrum s = Spectrum::sum(p);
+    integral = s.integral();
+    Spectrum x;
+    x.add(Piece{t.x[0] - 1.0, t.x[3] + 1.0, 1.0, 0.0});  // the identity, x
+    centroid = s.integral(x) / integral;
+}
 
-    const std::pair<float, const char*> bad[] = {
-        {-1.0f, "a negative temperature -1"},
-        {std::numeric_limits<float>::quiet_NaN(), "a NaN temperature"},
-        {std::numeric_limits<float>::infinity(), "an infinite temperature"},
-    };
-    for (const auto& [value, mention] : bad) {
-        auto g = grid->deepCopy();
-        g->tree().setValue(openvdb::Coord(4, 5, 6), value);
-        const std::string msg = errorMessage([&] { nebula::requireValidTemperature(*g, "t.vdb"); });
-        EXPECT_EQ(msg.rfind("t.vdb: grid \"temperature\" has ", 0), 0u) << msg;
-        EXPECT_TRUE(contains(msg, mention)) << msg;
-        EXPECT_TRUE(contains(msg, "at voxel (4, 5, 6)")) << msg;
-        EXPECT_TRUE(contains(msg, "expected finite temperatures >= 0 [K]")) << msg;
+TEST(SpectralLine, EnergyAndCentroidExactUnderLinearVelocity)
+{
+    std::mt19937_64 rng(5);
+    std::uniform_real_distribution<double> v(-3000.0, 3000.0), w(1.0, 60.0), e(0.1, 10.0);
+    for (int i = 0; i < 200; ++i) {
+        const double vA = v(rng), vB = i % 7 == 0 ? vA : v(rng), width = w(rng), E = e(rng);
+        const auto t = lineTrapezoid(656.28, vA, vB, width, E);
+        double I, c;
+        moments(t, I, c);
+        // Energy: exact up to rounding (the paper's unnormalised trapezoid grows with the
+        // spread; this one does not). Rounding: the pieces' m x + b form loses
+        // log10(lambda / width) ~ 4 digits for a 0.04 nm box at 656 nm.
+        EXPECT_NEAR(I, E, 1e-10 * E) << vA << " " << vB;
+        EXPECT_NEAR(c, 656.28 * (1.0 + 0.5 * (vA + vB) / SPEED_OF_LIGHT_KMS), 1e-9 * 656.28);
+        EXPECT_LE(t.x[0], t.x[1]);
+        EXPECT_LE(t.x[1], t.x[2]);
+        EXPECT_LE(t.x[2], t.x[3]);
     }
 }
 
-TEST(DustTemperature, RadiativeEquilibriumWithTheStars)
+TEST(SpectralLine, UniformVelocityShiftsByLambdaVOverC)
 {
-    // U of a 1 L_sun star at 1 pc, by hand: L_sun / (4 pi pc^2 c u_ISRF) =
-    // 3.828e33 / (4 pi (3.0857e18)^2 * 2.9979e10 * 8.64e-13) = 1.2351e-3.
-    nebula::Star sun;
-    sun.position = {1.0, 2.0, 3.0};
-    sun.luminosity = 1.0;
-    EXPECT_NEAR(nebula::radiationFieldU({2.0, 2.0, 3.0}, {sun}, 0.01), 1.2351e-3, 1e-6);
-    // Inverse square, linear in L, summed over stars, clamped at rMin.
-    nebula::Star big = sun;
-    big.luminosity = 8000.0;
-    const double U1 = nebula::radiationFieldU({1.0, 2.0, 5.0}, {big}, 0.01);
-    EXPECT_NEAR(U1, 8000.0 * 1.2351e-3 / 4.0, 1e-3 * U1);
-    EXPECT_NEAR(nebula::radiationFieldU({1.0, 2.0, 5.0}, {big, sun}, 0.01),
-                U1 + nebula::radiationFieldU({1.0, 2.0, 5.0}, {sun}, 0.01), 1e-12 * U1);
-    EXPECT_DOUBLE_EQ(nebula::radiationFieldU(sun.position, {sun}, 0.5),
-                     nebula::radiationFieldU({1.5, 2.0, 3.0}, {sun}, 0.5));
-    EXPECT_EQ(nebula::radiationFieldU({0, 0, 0}, {}, 0.5), 0.0);
+    const double lambda0 = 500.68, v = -123.4, width = 10.0;
+    const auto t = lineTrapezoid(lambda0, v, v, width, 2.0);
+    const double eps = lambda0 * width / SPEED_OF_LIGHT_KMS;
+    const double centre = lambda0 + lambda0 * v / SPEED_OF_LIGHT_KMS;
+    EXPECT_NEAR(t.x[0], centre - eps, 1e-12 * lambda0);
+    EXPECT_NEAR(t.x[3], centre + eps, 1e-12 * lambda0);
+    EXPECT_NEAR(t.height, 2.0 / (2.0 * eps), 1e-9 * t.height);
+    // Approaching gas (v < 0) is bluer.
+    EXPECT_LT(0.5 * (t.x[0] + t.x[3]), lambda0);
+    const auto r = lineTrapezoid(lambda0, -v, -v, width, 2.0);
+    EXPECT_GT(0.5 * (r.x[0] + r.x[3]), lambda0);
+}
 
-    // T = 16.4 K (1 + U)^(1/6): the interstellar field alone gives 16.4 K * 2^(1/6).
-    EXPECT_DOUBLE_EQ(nebula::dustTemperature(0.0), 16.4);
-    EXPECT_NEAR(nebula::dustTemperature(1.0), 18.408, 1e-3);
-    EXPECT_NEAR(nebula::dustTemperature(63.0), 32.8, 1e-9);      // 64^(1/6) = 2
-    EXPECT_NEAR(nebula::dustTemperature(4095.0), 65.6, 1e-9);    // 4096^(1/6) = 4
+TEST(SpectralLine, GradientMakesATrapezoidWithBoxWideRamps)
+{
+    // Centres spread over 2 nm, box half-width 0.1 nm: ramps 0.2 nm wide, top 1.8 nm.
+    const double lambda0 = 600.0;
+    const double vB = 2.0 / lambda0 * SPEED_OF_LIGHT_KMS;
+    const double width = 0.1 / lambda0 * SPEED_OF_LIGHT_KMS;
+    const auto t = lineTrapezoid(lambda0, 0.0, vB, width, 1.0);
+    EXPECT_NEAR(t.x[1] - t.x[0], 0.2, 1e-9);
+    EXPECT_NEAR(t.x[2] - t.x[1], 1.8, 1e-9);
+    EXPECT_NEAR(t.x[3] - t.x[2], 0.2, 1e-9);
+    EXPECT_NEAR(t.height, 1.0 / 2.0, 1e-9);
+    // Reversed order of the end velocities: the same profile.
+    const auto u = lineTrapezoid(lambda0, vB, 0.0, width, 1.0);
+    for (int i = 0; i < 4; ++i) EXPECT_DOUBLE_EQ(t.x[i], u.x[i]);
+}
+
+TEST(SpectralLine, TrapezoidValueAndTheFactorsForm)
+{
+    // at(): 0 outside [x0, x3], the height on the top, linear on the ramps.
+    const double lambda0 = 600.0;
+    const double vB = 2.0 / lambda0 * SPEED_OF_LIGHT_KMS;
+    const double width = 0.1 / lambda0 * SPEED_OF_LIGHT_KMS;
+    const auto t = lineTrapezoid(lambda0, 0.0, vB, width, 1.0);
+    EXPECT_EQ(t.at(t.x[0] - 1e-6), 0.0);
+    EXPECT_EQ(t.at(t.x[3] + 1e-6), 0.0);
+    EXPECT_NEAR(t.at(0.5 * (t.x[1] + t.x[2])), t.height, 1e-12);
+    EXPECT_NEAR(t.at(0.5 * (t.x[0] + t.x[1])), 0.5 * t.height, 1e-9 * t.height);
+    EXPECT_NEAR(t.at(t.x[2] + 0.25 * (t.x[3] - t.x[2])), 0.75 * t.height, 1e-9 * t.height);
+
+    // lineTrapezoidFactors() with the first-order factors is lineTrapezoid().
+    std::mt19937_64 rng(11);
+    std::uniform_real_distribution<double> v(-2000.0, 2000.0);
+    for (int i = 0; i < 50; ++i) {
+        const double a = v(rng), b = v(rng);
+        const auto p = lineTrapezoid(486.13, a, b, 12.0, 3.0);
+        const auto q = lineTrapezoidFactors(486.13, dopplerFactor(a), dopplerFactor(b), 12.0, 3.0);
+        for (int k = 0; k < 4; ++k) EXPECT_NEAR(p.x[k], q.x[k], 1e-12 * 486.13) << a << " " << b;
+        EXPECT_NEAR(p.height, q.height, 1e-9 * p.height) << a << " " << b;
+    }
 }
 
 } // namespace
+} // namespace nebula

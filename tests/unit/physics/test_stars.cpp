@@ -1,9 +1,7 @@
 /// @file test_stars.cpp
-/// The stars JSON (parsing, every error, round trip), spectral classes, Planck's law against
-/// Wien's and Stefan-Boltzmann's laws, and black-body colours.
+/// The stars JSON (parsing, every error, round trip) and spectral classes. (Planck's law is
+/// in test_blackbody.cpp, black-body colours in test_colour.cpp.)
 
-#include "nebula/physics/blackbody.h"
-#include "nebula/physics/colour.h"
 #include "nebula/physics/stars.h"
 
 #include "nebula/core/error.h"
@@ -228,124 +226,6 @@ TEST(SpectralClass, RejectsAnythingElse)
             errorMessage([&] { nebula::spectralClassTemperature(bad); });
         EXPECT_EQ(message.rfind(std::string("spectral class \"") + bad + "\"", 0), 0u)
             << bad << ": " << message;
-    }
-}
-
-// ---------------------------------------------------------------------------------------------
-// Planck's law
-
-/// Maximiser of f on [a, b] by golden-section search.
-double argMax(const std::function<double(double)>& f, double a, double b)
-{
-    const double r = 0.5 * (std::sqrt(5.0) - 1.0);
-    double c = b - r * (b - a);
-    double d = a + r * (b - a);
-    for (int i = 0; i < 200; ++i) {
-        if (f(c) > f(d)) {
-            b = d;
-        } else {
-            a = c;
-        }
-        c = b - r * (b - a);
-        d = a + r * (b - a);
-    }
-    return 0.5 * (a + b);
-}
-
-TEST(Planck, WienDisplacement)
-{
-    // Wien's displacement constant b = 2.897771955e-3 m K (CODATA 2018).
-    for (double T : {3000.0, 5772.0, 30000.0}) {
-        const double peak = argMax([&](double l) { return nebula::planck(l, T); }, 1e-8, 1e-5);
-        EXPECT_NEAR(peak / (2.897771955e-3 / T), 1.0, 1e-4) << T;
-    }
-}
-
-TEST(Planck, StefanBoltzmann)
-{
-    // int_0^inf B_lambda dlambda = sigma T^4 / pi, sigma = 5.670374419e-8 W m^-2 K^-4
-    // (CODATA 2018). Simpson's rule in ln(lambda) over 1e-2 ... 1e3 times the peak; the
-    // tails beyond hold less than 1e-8 of the total.
-    for (double T : {3000.0, 5772.0, 30000.0}) {
-        const double peak = 2.897771955e-3 / T;
-        const double a = std::log(1e-2 * peak);
-        const double b = std::log(1e3 * peak);
-        const int n = 20000;
-        const double h = (b - a) / n;
-        double sum = 0.0;
-        for (int i = 0; i <= n; ++i) {
-            const double lambda = std::exp(a + i * h);
-            const double w = (i == 0 || i == n) ? 1.0 : (i % 2 == 1 ? 4.0 : 2.0);
-            sum += w * nebula::planck(lambda, T) * lambda;
-        }
-        const double integral = sum * h / 3.0;
-        const double expected = 5.670374419e-8 * std::pow(T, 4) / 3.14159265358979323846;
-        EXPECT_NEAR(integral / expected, 1.0, 1e-4) << T;
-    }
-}
-
-TEST(Planck, RejectsNonPositiveInput)
-{
-    EXPECT_THROW(nebula::planck(0.0, 5000.0), nebula::Error);
-    EXPECT_THROW(nebula::planck(5e-7, 0.0), nebula::Error);
-    EXPECT_THROW(nebula::planck(5e-7, NAN), nebula::Error);
-    EXPECT_THROW(nebula::blackbodyLinearSRGB(-1.0), nebula::Error);
-}
-
-// ---------------------------------------------------------------------------------------------
-// Black-body colours
-
-double luminance(const std::array<double, 3>& rgb)
-{
-    return 0.2126 * rgb[0] + 0.7152 * rgb[1] + 0.0722 * rgb[2];
-}
-
-TEST(BlackbodyColour, UnitLuminance)
-{
-    // Y = 1 up to the rounding of the 4-digit IEC 61966-2-1 matrix.
-    for (double T : {1000.0, 1500.0, 3000.0, 5772.0, 10000.0, 42000.0, 1e6}) {
-        const auto rgb = nebula::blackbodyLinearSRGB(T);
-        EXPECT_NEAR(luminance(rgb), 1.0, 1e-4) << T;
-        for (double c : rgb) {
-            EXPECT_GE(c, 0.0) << T;
-        }
-    }
-}
-
-TEST(BlackbodyColour, HotIsBlueCoolIsRed)
-{
-    const auto hot = nebula::blackbodyLinearSRGB(30000.0);
-    EXPECT_GT(hot[2], hot[0]);
-    const auto cool = nebula::blackbodyLinearSRGB(3000.0);
-    EXPECT_GT(cool[0], cool[2]);
-}
-
-TEST(BlackbodyColour, NearWhiteAt6500K)
-{
-    const auto rgb = nebula::blackbodyLinearSRGB(6500.0);
-    const double hi = std::max({rgb[0], rgb[1], rgb[2]});
-    const double lo = std::min({rgb[0], rgb[1], rgb[2]});
-    EXPECT_LT(hi / lo, 1.10);
-}
-
-TEST(BlackbodyColour, MatchesCieIntegratedRatios)
-{
-    // shared/notes/physics-sources.md 4.1, "CIE-1931-integrated linear sRGB", normalised so
-    // that the largest channel is 1.
-    struct Case
-    {
-        double T;
-        std::array<double, 3> rgb;
-    };
-    for (const Case& c : {Case{42000, {0.34, 0.48, 1.00}}, Case{30000, {0.36, 0.50, 1.00}},
-                          Case{9600, {0.63, 0.71, 1.00}}, Case{7300, {0.86, 0.86, 1.00}},
-                          Case{5778, {1.00, 0.88, 0.82}}, Case{5200, {1.00, 0.82, 0.68}},
-                          Case{3800, {1.00, 0.63, 0.33}}}) {
-        const auto rgb = nebula::blackbodyLinearSRGB(c.T);
-        const double max = std::max({rgb[0], rgb[1], rgb[2]});
-        for (int k = 0; k < 3; ++k) {
-            EXPECT_NEAR(rgb[k] / max, c.rgb[k], 0.03) << "T = " << c.T << ", channel " << k;
-        }
     }
 }
 

@@ -7,10 +7,8 @@
 #include "nebula/physics/colour.h"
 
 #include "nebula/core/error.h"
-#include "nebula/physics/spectrum.h"
 #include "nebula/physics/blackbody.h"
-#include "nebula/physics/colour.h"
-#include "nebula/physics/stars.h"
+#include "nebula/physics/spectrum.h"
 
 #include "test_util.h"
 
@@ -347,10 +345,6 @@ TEST(ColourBlackbody, NoOverflowOrUnderflow)
     EXPECT_THROW(nebula::blackbodyXYZ(-5.0), nebula::Error);
     EXPECT_THROW(nebula::blackbodyXYZ(NAN), nebula::Error);
     EXPECT_THROW(nebula::blackbodyXYZ(INFINITY), nebula::Error);
-    EXPECT_THROW(nebula::planckPerNm(0.0, 5000.0), nebula::Error);
-    EXPECT_THROW(nebula::planckPerNm(500.0, 0.0), nebula::Error);
-    EXPECT_NEAR(nebula::planckPerNm(500.0, 5772.0), nebula::planck(500e-9, 5772.0) * 1e-9,
-                1e-15 * nebula::planck(500e-9, 5772.0) * 1e-9);
 }
 
 TEST(ColourBlackbody, IlluminantA)
@@ -592,7 +586,7 @@ TEST(ColourDeltaE2000, SharmaWuDalalTestData)
 }
 
 // ---------------------------------------------------------------------------------------------
-// Black-body colours (stars.h, through this module)
+// Black-body colours (blackbodyLinearSRGB())
 
 TEST(ColourStars, BlackbodySRGB)
 {
@@ -635,6 +629,72 @@ TEST(ColourStars, BlackbodySRGB)
     for (int k = 0; k < 3; ++k) {
         EXPECT_NEAR(viaStars[k], rgb[k], 1e-12) << k;
     }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Black-body colours (moved from test_stars.cpp)
+
+double luminance(const std::array<double, 3>& rgb)
+{
+    return 0.2126 * rgb[0] + 0.7152 * rgb[1] + 0.0722 * rgb[2];
+}
+
+TEST(BlackbodyColour, UnitLuminance)
+{
+    // Y = 1 up to the rounding of the 4-digit IEC 61966-2-1 matrix.
+    for (double T : {1000.0, 1500.0, 3000.0, 5772.0, 10000.0, 42000.0, 1e6}) {
+        const auto rgb = nebula::blackbodyLinearSRGB(T);
+        EXPECT_NEAR(luminance(rgb), 1.0, 1e-4) << T;
+        for (double c : rgb) {
+            EXPECT_GE(c, 0.0) << T;
+        }
+    }
+}
+
+TEST(BlackbodyColour, HotIsBlueCoolIsRed)
+{
+    const auto hot = nebula::blackbodyLinearSRGB(30000.0);
+    EXPECT_GT(hot[2], hot[0]);
+    const auto cool = nebula::blackbodyLinearSRGB(3000.0);
+    EXPECT_GT(cool[0], cool[2]);
+}
+
+TEST(BlackbodyColour, NearWhiteAt6500K)
+{
+    const auto rgb = nebula::blackbodyLinearSRGB(6500.0);
+    const double hi = std::max({rgb[0], rgb[1], rgb[2]});
+    const double lo = std::min({rgb[0], rgb[1], rgb[2]});
+    EXPECT_LT(hi / lo, 1.10);
+}
+
+TEST(BlackbodyColour, MatchesCieIntegratedRatios)
+{
+    // shared/notes/physics-sources.md 4.1, "CIE-1931-integrated linear sRGB", normalised so
+    // that the largest channel is 1.
+    struct Case
+    {
+        double T;
+        std::array<double, 3> rgb;
+    };
+    for (const Case& c : {Case{42000, {0.34, 0.48, 1.00}}, Case{30000, {0.36, 0.50, 1.00}},
+                          Case{9600, {0.63, 0.71, 1.00}}, Case{7300, {0.86, 0.86, 1.00}},
+                          Case{5778, {1.00, 0.88, 0.82}}, Case{5200, {1.00, 0.82, 0.68}},
+                          Case{3800, {1.00, 0.63, 0.33}}}) {
+        const auto rgb = nebula::blackbodyLinearSRGB(c.T);
+        const double max = std::max({rgb[0], rgb[1], rgb[2]});
+        for (int k = 0; k < 3; ++k) {
+            EXPECT_NEAR(rgb[k] / max, c.rgb[k], 0.03) << "T = " << c.T << ", channel " << k;
+        }
+    }
+}
+
+TEST(BlackbodyColour, RejectsNonPositiveTemperature)
+{
+    // Moved from Planck.RejectsNonPositiveInput (test_stars.cpp).
+    EXPECT_THROW(nebula::blackbodyLinearSRGB(-1.0), nebula::Error);
+    EXPECT_THROW(nebula::blackbodyLinearSRGB(0.0), nebula::Error);
+    EXPECT_THROW(nebula::blackbodyLinearSRGB(NAN), nebula::Error);
+    EXPECT_THROW(nebula::blackbodyLinearSRGB(INFINITY), nebula::Error);
 }
 
 } // namespace

@@ -1,23 +1,21 @@
 /// @file test_motion.cpp
-/// Gas motion: analytic noise gradients, curl noise, the expansion, rotation and turbulence
-/// models of MotionField, and the velocity-grid check.
+/// Gas motion: the expansion, rotation and turbulence models of MotionField and their
+/// parameter checks. (The noise gradients and curl noise it builds on are in
+/// test_noise.cpp; the velocity-grid check in io/test_spectral_grids.cpp.)
 
 #include "nebula/physics/motion.h"
 
 #include "nebula/core/error.h"
-#include "nebula/io/spectral_grids.h"
-#include "nebula/physics/noise.h"
 
 #include "test_util.h"
-
-#include <openvdb/openvdb.h>
 
 #include <tbb/parallel_for.h>
 
 #include <gtest/gtest.h>
 
+#include <array>
 #include <cmath>
-#include <limits>
+#include <functional>
 #include <random>
 #include <vector>
 
@@ -65,67 +63,6 @@ std::vector<Vec> randomPoints(int n, double halfSize, unsigned seed)
     std::vector<Vec> pts(n);
     for (auto& p : pts) p = {u(rng), u(rng), u(rng)};
     return pts;
-}
-
-// ---- noise gradients and curl noise ----------------------------------------------------
-
-TEST(NoiseGradient, MatchesPerlinNoiseAndCentralDifferences)
-{
-    const double h = 1e-6;
-    for (const auto& p : randomPoints(2000, 300.0, 7)) {
-        const auto g = nebula::perlinNoiseGradient(p[0], p[1], p[2]);
-        EXPECT_EQ(g.value, nebula::perlinNoise(p[0], p[1], p[2]));
-        for (int a = 0; a < 3; ++a) {
-            Vec pp = p, pm = p;
-            pp[a] += h;
-            pm[a] -= h;
-            const double fd = (nebula::perlinNoise(pp[0], pp[1], pp[2]) -
-                               nebula::perlinNoise(pm[0], pm[1], pm[2])) /
-                              (2.0 * h);
-            // Central differences: O(h^2) truncation plus 1e-16/h rounding.
-            ASSERT_NEAR(g.gradient[a], fd, 1e-7) << "axis " << a << " at " << p[0] << ","
-                                                 << p[1] << "," << p[2];
-        }
-    }
-    EXPECT_TRUE(std::isnan(nebula::perlinNoiseGradient(NAN, 0, 0).gradient[1]));
-}
-
-TEST(NoiseGradient, FbmGradientMatchesFbm)
-{
-    const nebula::FbmParams params{5, 2.0, 0.5};
-    const double h = 1e-6;
-    for (const auto& p : randomPoints(300, 3.0, 8)) {
-        const auto g = nebula::fbmGradient(p[0], p[1], p[2], params, 42);
-        EXPECT_EQ(g.value, nebula::fbm(p[0], p[1], p[2], params, 42));
-        for (int a = 0; a < 3; ++a) {
-            Vec pp = p, pm = p;
-            pp[a] += h;
-            pm[a] -= h;
-            const double fd = (nebula::fbm(pp[0], pp[1], pp[2], params, 42) -
-                               nebula::fbm(pm[0], pm[1], pm[2], params, 42)) /
-                              (2.0 * h);
-            ASSERT_NEAR(g.gradient[a], fd, 1e-6);
-        }
-    }
-    EXPECT_THROW(nebula::fbmGradient(0, 0, 0, {0, 2.0, 0.5}, 1), nebula::UsageError);
-}
-
-TEST(CurlNoise, DivergenceFreeAndDeterministic)
-{
-    const nebula::FbmParams params{4, 2.0, 0.4};
-    const auto v = [&](const Vec& x) { return nebula::curlNoise(x[0], x[1], x[2], params, 3); };
-    double maxRatio = 0.0;
-    for (const auto& p : randomPoints(500, 5.0, 9)) {
-        const auto J = jacobian(v, p, 1e-5);
-        const double div = J[0][0] + J[1][1] + J[2][2];
-        maxRatio = std::max(maxRatio, std::fabs(div) / frobenius(J));
-        EXPECT_EQ(v(p), v(p));
-    }
-    // Analytic curl: div v = 0 up to the finite-difference check's own error (~1e-9 here).
-    EXPECT_LT(maxRatio, 1e-6);
-    // Different seeds, different fields.
-    EXPECT_NE(nebula::curlNoise(0.3, 0.2, 0.1, params, 3),
-              nebula::curlNoise(0.3, 0.2, 0.1, params, 4));
 }
 
 // ---- motion models ---------------------------------------------------------------------
@@ -287,64 +224,6 @@ TEST(MotionField, BadParametersNameTheOption)
     EXPECT_TRUE(contains(message([](auto& p) { p.centre[1] = INFINITY; }), "--motion-centre"));
     nebula::MotionParams p;
     EXPECT_THROW(nebula::MotionField(p, 0.0), nebula::UsageError);
-}
-
-// ---- velocity grids --------------------------------------------------------------------
-
-nebula::GridSet velocitySet(openvdb::Vec3f value)
-{
-    auto g = openvdb::Vec3fGrid::create(openvdb::Vec3f(0.0f));
-    g->setName("velocity");
-    g->setTransform(openvdb::math::Transform::createLinearTransform(0.5));
-    g->tree().setValue(openvdb::Coord(1, 2, 3), openvdb::Vec3f(1, 2, 3));
-    g->tree().setValue(openvdb::Coord(2, 2, 3), value);
-    nebula::GridSet set;
-    set.source = "v.vdb";
-    set.grids.push_back(g);
-    return set;
-}
-
-TEST(VelocityGrid, ReturnsAValidGridAndRejectsTheRest)
-{
-    openvdb::initialize();
-    auto set = velocitySet(openvdb::Vec3f(-4, 0, 2));
-    const auto v = nebula::velocityGrid(set, "velocity", "--velocity-grid");
-    ASSERT_TRUE(v);
-    EXPECT_EQ(v->activeVoxelCount(), 2);
-
-    std::string msg = errorMessage([&] { nebula::velocityGrid(set, "vel", "--velocity-grid"); });
-    EXPECT_TRUE(contains(msg, "v.vdb: no grid \"vel\" (--velocity-grid)")) << msg;
-    EXPECT_TRUE(contains(msg, "grids: velocity")) << msg;
-
-    auto f = openvdb::FloatGrid::create(0.0f);
-    f->setName("temperature");
-    set.grids.push_back(f);
-    msg = errorMessage([&] { nebula::velocityGrid(set, "temperature", "--velocity-grid"); });
-    EXPECT_TRUE(contains(msg, "v.vdb: grid \"temperature\" (--velocity-grid) is a FloatGrid "
-                              "(Tree_float_5_4_3), expected a Vec3fGrid of velocities [km/s]"))
-        << msg;
-
-    auto d = openvdb::Vec3dGrid::create();
-    d->setName("vd");
-    set.grids.push_back(d);
-    msg = errorMessage([&] { nebula::velocityGrid(set, "vd", ""); });
-    EXPECT_TRUE(contains(msg, "is a Vec3dGrid")) << msg;
-
-    const float nan = std::numeric_limits<float>::quiet_NaN();
-    auto bad = velocitySet(openvdb::Vec3f(0, nan, 0));
-    msg = errorMessage([&] { nebula::velocityGrid(bad, "velocity", ""); });
-    EXPECT_TRUE(contains(msg, "v.vdb: grid \"velocity\" has a non-finite velocity")) << msg;
-    EXPECT_TRUE(contains(msg, "at voxel (2, 2, 3)")) << msg;
-
-    auto inf = velocitySet(openvdb::Vec3f(std::numeric_limits<float>::infinity(), 0, 0));
-    EXPECT_THROW(nebula::velocityGrid(inf, "velocity", ""), nebula::Error);
-
-    auto frustum = velocitySet(openvdb::Vec3f(0, 0, 0));
-    const openvdb::BBoxd box(openvdb::Vec3d(0), openvdb::Vec3d(10));
-    frustum.grids[0]->setTransform(
-        openvdb::math::Transform::createFrustumTransform(box, 0.5, 10.0, 1.0));
-    msg = errorMessage([&] { nebula::velocityGrid(frustum, "velocity", ""); });
-    EXPECT_TRUE(contains(msg, "non-affine")) << msg;
 }
 
 } // namespace

@@ -1,0 +1,308 @@
+/// @file test_cli.cpp
+/// cli/cli.h: the options every tool shares (addCommon), cli::run's exit codes (0 ok, 1 an
+/// error, 2 a usage error) and its "tool: error: " messages, the version line, and the
+/// option parsers parseVec3, parseResolution and requireMode.
+
+#include "nebula/cli/cli.h"
+
+#include "nebula/core/error.h"
+
+#include "test_util.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <array>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <initializer_list>
+#include <iostream>
+#include <random>
+#include <sstream>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include <unistd.h>
+
+namespace fs = std::filesystem;
+
+using nebula::test::contains;
+using nebula::test::errorMessage;
+
+namespace {
+
+/// Captures std::cout and std::cerr (rdbuf swap) for its lifetime.
+class Capture
+{
+public:
+    Capture()
+        : mOut(std::cout.rdbuf(mOutBuf.rdbuf())), mErr(std::cerr.rdbuf(mErrBuf.rdbuf()))
+    {
+    }
+    ~Capture()
+    {
+        std::cout.rdbuf(mOut);
+        std::cerr.rdbuf(mErr);
+    }
+    Capture(const Capture&) = delete;
+    Capture& operator=(const Capture&) = delete;
+    std::string out() const { return mOutBuf.str(); }
+    std::string err() const { return mErrBuf.str(); }
+
+private:
+    std::ostringstream mOutBuf, mErrBuf;
+    std::streambuf* mOut;
+    std::streambuf* mErr;
+};
+
+/// What one cli::run() call did.
+struct Outcome
+{
+    int code = -1;
+    bool bodyRan = false;
+    std::string out, err;
+    std::string tool, command;
+    nebula::Verbosity verbosity;
+    nebula::CommonOptions opts;
+};
+
+/// Runs cli::run() for tool "nebtest" with common options @p flags on the arguments @p args
+/// (argv[0] is "nebtest"), calling @p body inside.
+Outcome runTool(unsigned flags, std::initializer_list<std::string> args,
+                const std::function<void(nebula::Run&)>& body = {})
+{
+    CLI::App app("test tool", "nebtest");
+    Outcome o;
+    nebula::cli::addCommon(app, o.opts, flags);
+    std::vector<std::string> storage = {"nebtest"};
+    storage.insert(storage.end(), args.begin(), args.end());
+    std::vector<char*> argv;
+    for (auto& s : storage) argv.push_back(s.data());
+    argv.push_back(nullptr);
+    Capture cap;
+    o.code = nebula::cli::run(app, "nebtest", o.opts, int(storage.size()), argv.data(),
+                              [&](nebula::Run& run) {
+                                  o.bodyRan = true;
+                                  o.tool = run.tool();
+                                  o.command = run.command();
+                                  o.verbosity = run.verbosity();
+                                  if (body) body(run);
+                              });
+    o.out = cap.out();
+    o.err = cap.err();
+    return o;
+}
+
+constexpr unsigned ALL = nebula::cli::INPUT | nebula::cli::OUTPUT | nebula::cli::PASS_THROUGH |
+                         nebula::cli::DENSITY_GRID;
+
+// ---- cli::run --------------------------------------------------------------------------------
+
+TEST(CliRun, SuccessIsZeroAndTheBodySeesTheRun)
+{
+    const Outcome o = runTool(ALL, {"-i", "in.vdb", "-o", "out.vdb", "--only-new",
+                                    "--density-grid", "dust", "--threads", "2", "-v", "-v"});
+    EXPECT_EQ(o.code, 0) << o.err;
+    EXPECT_TRUE(o.bodyRan);
+    EXPECT_EQ(o.err, "");
+    EXPECT_EQ(o.opts.input, "in.vdb");
+    EXPECT_EQ(o.opts.output, "out.vdb");
+    EXPECT_TRUE(o.opts.onlyNew);
+    EXPECT_EQ(o.opts.densityGrid, "dust");
+    EXPECT_EQ(o.opts.threads, 2);
+    EXPECT_EQ(o.tool, "nebtest");
+    EXPECT_FALSE(o.verbosity.quiet);
+    EXPECT_EQ(o.verbosity.verbose, 2);  // -v counts
+    // The command line, for provenance: every argument, in order.
+    EXPECT_EQ(o.command,
+              "nebtest -i in.vdb -o out.vdb --only-new --density-grid dust --threads 2 -v -v");
+}
+
+TEST(CliRun, DefaultsAndQuiet)
+{
+    const Outcome o = runTool(ALL, {"-i", "a", "-o", "b", "-q"});
+    EXPECT_EQ(o.code, 0) << o.err;
+    EXPECT_EQ(o.opts.densityGrid, "density");
+    EXPECT_EQ(o.opts.threads, 0);
+    EXPECT_FALSE(o.opts.onlyNew);
+    EXPECT_TRUE(o.verbosity.quiet);
+    EXPECT_EQ(o.verbosity.verbose, 0);
+}
+
+TEST(CliRun, CommandQuotesArgumentsAShellWouldSplit)
+{
+    const Outcome o = runTool(ALL, {"-i", "my cloud.vdb", "-o", "it's.vdb"});
+    EXPECT_EQ(o.code, 0) << o.err;
+    EXPECT_EQ(o.opts.input, "my cloud.vdb");
+    EXPECT_TRUE(contains(o.command, "'my cloud.vdb'")) << o.command;
+    EXPECT_TRUE(contains(o.command, "'it'\\''s.vdb'")) << o.command;
+}
+
+TEST(CliRun, UsageErrorsAreTwo)
+{
+    const auto check = [](const Outcome& o, const std::string& what) {
+        EXPECT_EQ(o.code, 2) << what << ": " << o.err;
+        EXPECT_FALSE(o.bodyRan) << what;
+        EXPECT_EQ(o.err.rfind("nebtest: error: ", 0), 0u) << what << ": " << o.err;
+        EXPECT_TRUE(contains(o.err, "nebtest --help")) << what << ": " << o.err;
+    };
+    check(runTool(ALL, {"-i", "a", "-o", "b", "--no-such-option"}), "unknown option");
+    check(runTool(ALL, {"-o", "b"}), "missing required -i");
+    check(runTool(ALL, {"-i", "a"}), "missing required -o");
+    check(runTool(ALL, {"-i", "a", "-o", "b", "--threads", "-1"}), "negative --threads");
+    check(runTool(ALL, {"-i", "a", "-o", "b", "--threads", "many"}), "non-numeric --threads");
+    check(runTool(ALL, {"-i", "a", "-o", "b", "stray"}), "positional argument");
+    // Options a tool did not ask for do not exist.
+    check(runTool(0, {"-i", "a"}), "-i without INPUT");
+    check(runTool(nebula::cli::INPUT, {"-i", "a", "--density-grid", "d"}),
+          "--density-grid without DENSITY_GRID");
+    check(runTool(nebula::cli::INPUT, {"-i", "a", "--only-new"}), "--only-new without PASS_THROUGH");
+    // The message names the offending option.
+    const Outcome o = runTool(ALL, {"-i", "a", "-o", "b", "--frobnicate"});
+    EXPECT_TRUE(contains(o.err, "--frobnicate")) << o.err;
+}
+
+TEST(CliRun, ErrorsThrownByTheBody)
+{
+    // nebula::Error: 1, "tool: error: message".
+    Outcome o = runTool(ALL, {"-i", "a", "-o", "b"},
+                        [](nebula::Run&) { throw nebula::Error("cloud.vdb: no grid \"x\""); });
+    EXPECT_TRUE(o.bodyRan);
+    EXPECT_EQ(o.code, 1);
+    EXPECT_EQ(o.err, "nebtest: error: cloud.vdb: no grid \"x\"\n");
+
+    // nebula::UsageError: 2.
+    o = runTool(ALL, {"-i", "a", "-o", "b"},
+                [](nebula::Run&) { throw nebula::UsageError("--res must be in [2, 2048]"); });
+    EXPECT_EQ(o.code, 2);
+    EXPECT_EQ(o.err, "nebtest: error: --res must be in [2, 2048]\n");
+
+    // Any other exception: 1.
+    o = runTool(ALL, {"-i", "a", "-o", "b"},
+                [](nebula::Run&) { throw std::runtime_error("out of luck"); });
+    EXPECT_EQ(o.code, 1);
+    EXPECT_EQ(o.err, "nebtest: error: out of luck\n");
+}
+
+TEST(CliRun, HelpAndVersionAreZeroOnStdout)
+{
+    Outcome o = runTool(ALL, {"--version"});
+    EXPECT_EQ(o.code, 0);
+    EXPECT_FALSE(o.bodyRan);
+    EXPECT_TRUE(contains(o.out, nebula::cli::versionString("nebtest"))) << o.out;
+    EXPECT_EQ(o.err, "");
+
+    o = runTool(ALL, {"--help"});
+    EXPECT_EQ(o.code, 0);
+    EXPECT_FALSE(o.bodyRan);
+    for (const char* option : {"--input", "--output", "--only-new", "--density-grid", "--threads",
+                               "--quiet", "--verbose", "--version", "--config"}) {
+        EXPECT_TRUE(contains(o.out, option)) << option << "\n" << o.out;
+    }
+}
+
+TEST(CliRun, ConfigFile)
+{
+    std::random_device rd;
+    const fs::path dir = fs::temp_directory_path() /
+                         ("nebula_cli_" + std::to_string(::getpid()) + "_" + std::to_string(rd()));
+    fs::create_directories(dir);
+    const std::string good = (dir / "good.toml").string(), bad = (dir / "bad.toml").string();
+    std::ofstream(good) << "threads = 3\ndensity-grid = \"n_H\"\n";
+    std::ofstream(bad) << "threads = 3\nthreadz = 4\n";
+
+    Outcome o = runTool(ALL, {"-i", "a", "-o", "b", "--config", good});
+    EXPECT_EQ(o.code, 0) << o.err;
+    EXPECT_EQ(o.opts.threads, 3);
+    EXPECT_EQ(o.opts.densityGrid, "n_H");
+
+    // A misspelt key is an error, as a misspelt option is, and says where it came from.
+    o = runTool(ALL, {"-i", "a", "-o", "b", "--config", bad});
+    EXPECT_EQ(o.code, 2) << o.err;
+    EXPECT_FALSE(o.bodyRan);
+    EXPECT_EQ(o.err.rfind("nebtest: error: --config: ", 0), 0u) << o.err;
+    EXPECT_TRUE(contains(o.err, "threadz")) << o.err;
+
+    std::error_code ec;
+    fs::remove_all(dir, ec);
+}
+
+TEST(Cli, VersionString)
+{
+    const std::string v = nebula::cli::versionString("nebrender");
+    EXPECT_EQ(v.rfind(std::string("nebrender ") + NEBULA_VERSION_STRING + " (OpenVDB ", 0), 0u) << v;
+    EXPECT_EQ(v.back(), ')');
+}
+
+// ---- option parsers --------------------------------------------------------------------------
+
+TEST(Cli, ParseVec3)
+{
+    EXPECT_EQ(nebula::cli::parseVec3("1,2,3", "--eye"), (std::array<double, 3>{1, 2, 3}));
+    EXPECT_EQ(nebula::cli::parseVec3("-0.5,1e3,+2.25", "--eye"),
+              (std::array<double, 3>{-0.5, 1000.0, 2.25}));
+    for (const char* bad : {"", "1,2", "1,2,3,4", "1,2,", ",1,2", "1,,3", "a,b,c", "1,2,3x",
+                            "1;2;3", "1,2,nan", "1,2,inf", "1,2,1e999", "1 2 3"}) {
+        const std::string msg = errorMessage([&] { nebula::cli::parseVec3(bad, "--look-at"); });
+        EXPECT_EQ(msg, "--look-at \"" + std::string(bad) + "\": expected X,Y,Z (three numbers)")
+            << bad;
+        EXPECT_THROW(nebula::cli::parseVec3(bad, "--look-at"), nebula::UsageError) << bad;
+    }
+}
+
+TEST(Cli, ParseResolution)
+{
+    int w = 0, h = 0;
+    nebula::cli::parseResolution("640x480", w, h);
+    EXPECT_EQ(w, 640);
+    EXPECT_EQ(h, 480);
+    nebula::cli::parseResolution("1x1", w, h);
+    EXPECT_EQ(w, 1);
+    EXPECT_EQ(h, 1);
+    for (const char* bad : {"", "640", "640x", "x480", "0x10", "10x0", "-5x5", "5x-5", "1.5x2",
+                            "10x10x", "10X10", "axb", "99999999999x1"}) {
+        w = h = 7;
+        const std::string msg = errorMessage([&] { nebula::cli::parseResolution(bad, w, h); });
+        EXPECT_EQ(msg.rfind("--res \"" + std::string(bad) + "\": ", 0), 0u) << bad << ": " << msg;
+        EXPECT_THROW(nebula::cli::parseResolution(bad, w, h), nebula::UsageError) << bad;
+        EXPECT_EQ(w, 7) << bad;  // untouched on error
+        EXPECT_EQ(h, 7) << bad;
+    }
+}
+
+TEST(Cli, RequireMode)
+{
+    CLI::App app("t", "t");
+    int bands = 0;
+    double step = 0;
+    bool spectral = false;
+    auto* b = app.add_option("--bands", bands);
+    auto* s = app.add_option("--continuum-step", step);
+    app.add_flag("--spectral", spectral);
+    const auto parse = [&](std::vector<std::string> args) {
+        spectral = false;  // CLI11 writes only the options given
+        app.clear();
+        std::reverse(args.begin(), args.end());  // CLI11 takes a reversed vector
+        app.parse(args);
+    };
+
+    // Neither given: fine in either mode.
+    parse({});
+    EXPECT_NO_THROW(nebula::cli::requireMode({b, s}, false, "--spectral"));
+    // Given in the mode: fine.
+    parse({"--spectral", "--bands", "8"});
+    EXPECT_NO_THROW(nebula::cli::requireMode({b, s}, spectral, "--spectral"));
+    // Given without the mode: a usage error naming the first such option and the mode.
+    parse({"--continuum-step", "5", "--bands", "8"});
+    EXPECT_FALSE(spectral);
+    EXPECT_EQ(errorMessage([&] { nebula::cli::requireMode({b, s}, spectral, "--spectral"); }),
+              "--bands needs --spectral");
+    EXPECT_THROW(nebula::cli::requireMode({b, s}, spectral, "--spectral"), nebula::UsageError);
+    parse({"--continuum-step", "5"});
+    EXPECT_EQ(errorMessage([&] { nebula::cli::requireMode({b, s}, false, "--spectral"); }),
+              "--continuum-step needs --spectral");
+}
+
+} // namespace

@@ -1,0 +1,257 @@
+/// @file test_volume.cpp
+/// volume/volume.h: Vec3, the affine maps (apply, inverse) and DenseVolume (lattice
+/// indexing, interleaved channels, trilinear sampling: exact for fields that are linear in
+/// each coordinate, zero outside the lattice).
+
+#include "nebula/volume/volume.h"
+
+#include "nebula/core/error.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+#include <vector>
+
+using nebula::Affine;
+using nebula::DenseVolume;
+using nebula::Vec3;
+
+namespace {
+
+Affine randomAffine(std::mt19937_64& rng)
+{
+    std::uniform_real_distribution<double> u(-2.0, 2.0);
+    Affine a;
+    for (;;) {
+        for (auto& m : a.m) m = u(rng);
+        const auto& m = a.m;
+        const double det = m[0] * (m[4] * m[8] - m[5] * m[7]) - m[1] * (m[3] * m[8] - m[5] * m[6]) +
+                           m[2] * (m[3] * m[7] - m[4] * m[6]);
+        if (std::abs(det) > 0.2) break;  // well conditioned
+    }
+    a.t = Vec3(u(rng) * 5, u(rng) * 5, u(rng) * 5);
+    return a;
+}
+
+void expectNear(const Vec3& a, const Vec3& b, double tol)
+{
+    EXPECT_NEAR(a.x, b.x, tol);
+    EXPECT_NEAR(a.y, b.y, tol);
+    EXPECT_NEAR(a.z, b.z, tol);
+}
+
+// ---- Vec3 ---------------------------------------------------------------------------------
+
+TEST(Vec3, Arithmetic)
+{
+    const Vec3 a(1, 2, 3), b(-4, 0.5, 2);
+    const Vec3 s = a + b, d = a - b, m = a * 2.0, n = -a;
+    EXPECT_EQ(s.x, -3.0);
+    EXPECT_EQ(s.y, 2.5);
+    EXPECT_EQ(s.z, 5.0);
+    EXPECT_EQ(d.x, 5.0);
+    EXPECT_EQ(m.z, 6.0);
+    EXPECT_EQ(n.y, -2.0);
+    EXPECT_EQ(a.dot(b), -4.0 + 1.0 + 6.0);
+    EXPECT_EQ(a[0], 1.0);
+    EXPECT_EQ(a[1], 2.0);
+    EXPECT_EQ(a[2], 3.0);
+    Vec3 c = a;
+    c[1] = 7.0;
+    EXPECT_EQ(c.y, 7.0);
+    EXPECT_DOUBLE_EQ(Vec3(3, 4, 12).length(), 13.0);
+    expectNear(Vec3(0, 3, 4).normalized(), Vec3(0, 0.6, 0.8), 1e-15);
+    EXPECT_EQ(Vec3().length(), 0.0);
+}
+
+TEST(Vec3, CrossIsRightHandedAndPerpendicular)
+{
+    const Vec3 x(1, 0, 0), y(0, 1, 0), z(0, 0, 1);
+    expectNear(x.cross(y), z, 0.0);
+    expectNear(y.cross(z), x, 0.0);
+    expectNear(z.cross(x), y, 0.0);
+    expectNear(y.cross(x), -z, 0.0);
+    std::mt19937_64 rng(1);
+    std::uniform_real_distribution<double> u(-3, 3);
+    for (int i = 0; i < 100; ++i) {
+        const Vec3 a(u(rng), u(rng), u(rng)), b(u(rng), u(rng), u(rng));
+        const Vec3 c = a.cross(b);
+        EXPECT_NEAR(c.dot(a), 0.0, 1e-12);
+        EXPECT_NEAR(c.dot(b), 0.0, 1e-12);
+        // |a x b|^2 = |a|^2 |b|^2 - (a.b)^2 (Lagrange).
+        EXPECT_NEAR(c.dot(c), a.dot(a) * b.dot(b) - a.dot(b) * a.dot(b), 1e-10);
+    }
+}
+
+// ---- Affine -------------------------------------------------------------------------------
+
+TEST(Affine, ApplyIsMatrixTimesPointPlusTranslation)
+{
+    Affine a;
+    a.m = {1, 2, 3, 4, 5, 6, 7, 8, 10};  // row-major
+    a.t = Vec3(-1, 0.5, 2);
+    expectNear(a.applyLinear(Vec3(1, 0, 0)), Vec3(1, 4, 7), 0.0);  // first column
+    expectNear(a.applyLinear(Vec3(0, 0, 1)), Vec3(3, 6, 10), 0.0);
+    expectNear(a.apply(Vec3(1, 1, 1)), Vec3(6 - 1, 15 + 0.5, 25 + 2), 0.0);
+    // The default is the identity.
+    const Affine id;
+    expectNear(id.apply(Vec3(3, -2, 9)), Vec3(3, -2, 9), 0.0);
+}
+
+TEST(Affine, InverseUndoesApply)
+{
+    std::mt19937_64 rng(2);
+    std::uniform_real_distribution<double> u(-50, 50);
+    for (int i = 0; i < 200; ++i) {
+        const Affine a = randomAffine(rng);
+        const Affine inv = a.inverse();
+        for (int k = 0; k < 5; ++k) {
+            const Vec3 p(u(rng), u(rng), u(rng));
+            expectNear(inv.apply(a.apply(p)), p, 1e-9 * (1 + p.length()));
+            expectNear(a.apply(inv.apply(p)), p, 1e-9 * (1 + p.length()));
+            expectNear(inv.applyLinear(a.applyLinear(p)), p, 1e-9 * (1 + p.length()));
+        }
+    }
+    // A scale-and-shift map has the obvious inverse.
+    Affine s;
+    s.m = {0.5, 0, 0, 0, 0.25, 0, 0, 0, 2};
+    s.t = Vec3(1, 2, 3);
+    const Affine si = s.inverse();
+    EXPECT_DOUBLE_EQ(si.m[0], 2.0);
+    EXPECT_DOUBLE_EQ(si.m[4], 4.0);
+    EXPECT_DOUBLE_EQ(si.m[8], 0.5);
+    expectNear(si.t, Vec3(-2, -8, -1.5), 1e-15);
+}
+
+TEST(Affine, SingularMapHasNoInverse)
+{
+    Affine flat;
+    flat.m = {1, 0, 0, 0, 1, 0, 0, 0, 0};
+    EXPECT_THROW(flat.inverse(), nebula::Error);
+    Affine rank1;
+    rank1.m = {1, 2, 3, 2, 4, 6, 3, 6, 9};
+    EXPECT_THROW(rank1.inverse(), nebula::Error);
+    Affine notANumber;
+    notANumber.m[0] = NAN;
+    EXPECT_THROW(notANumber.inverse(), nebula::Error);
+}
+
+// ---- DenseVolume --------------------------------------------------------------------------
+
+TEST(DenseVolume, LatticeIndexingAndChannels)
+{
+    const DenseVolume empty;
+    EXPECT_EQ(empty.voxelCount(), 0u);
+    EXPECT_EQ(empty.channels(), 0);
+
+    DenseVolume v({-2, 3, 10}, {4, 5, 6}, 3);
+    EXPECT_EQ(v.voxelCount(), 120u);
+    EXPECT_EQ(v.channels(), 3);
+    EXPECT_EQ(v.data().size(), 360u);
+    for (float f : v.data()) EXPECT_EQ(f, 0.0f);  // zero-initialised
+    // x fastest, then y, then z, in absolute index coordinates.
+    EXPECT_EQ(v.index(-2, 3, 10), 0u);
+    EXPECT_EQ(v.index(-1, 3, 10), 1u);
+    EXPECT_EQ(v.index(-2, 4, 10), 4u);
+    EXPECT_EQ(v.index(-2, 3, 11), 20u);
+    EXPECT_EQ(v.index(1, 7, 15), 119u);
+    // contains(): exactly the lattice [lo, lo + dims - 1].
+    EXPECT_TRUE(v.contains(-2, 3, 10));
+    EXPECT_TRUE(v.contains(1, 7, 15));
+    EXPECT_FALSE(v.contains(-3, 3, 10));
+    EXPECT_FALSE(v.contains(2, 3, 10));
+    EXPECT_FALSE(v.contains(0, 8, 12));
+    EXPECT_FALSE(v.contains(0, 5, 9));
+    EXPECT_FALSE(v.contains(0, 5, 16));
+    // A voxel's channels are adjacent.
+    float* q = v.voxel(v.index(0, 5, 12));
+    q[0] = 1.0f;
+    q[1] = 2.0f;
+    q[2] = 3.0f;
+    const std::size_t at = v.index(0, 5, 12) * 3;
+    EXPECT_EQ(v.data()[at], 1.0f);
+    EXPECT_EQ(v.data()[at + 1], 2.0f);
+    EXPECT_EQ(v.data()[at + 2], 3.0f);
+    const DenseVolume& cv = v;
+    EXPECT_EQ(cv.voxel(v.index(0, 5, 12))[2], 3.0f);
+
+    EXPECT_THROW(DenseVolume({0, 0, 0}, {0, 4, 4}, 1), nebula::Error);
+    EXPECT_THROW(DenseVolume({0, 0, 0}, {4, 4, 4}, 0), nebula::Error);
+    EXPECT_THROW(DenseVolume({0, 0, 0}, {4, -1, 4}, 1), nebula::Error);
+}
+
+TEST(DenseVolume, TrilinearSampleIsExactForMultilinearFields)
+{
+    // f = a + b x + c y + d z + e x y + g x y z (linear in each coordinate), two channels.
+    const auto f0 = [](const Vec3& p) { return 2.0 + 0.5 * p.x - 0.25 * p.y + 0.125 * p.z; };
+    const auto f1 = [](const Vec3& p) {
+        return -1.0 + 0.1 * p.x * p.y + 0.01 * p.x * p.y * p.z + 0.3 * p.z;
+    };
+    DenseVolume v({-3, 2, -1}, {7, 6, 8}, 2);
+    for (int k = -1; k < 7; ++k)
+        for (int j = 2; j < 8; ++j)
+            for (int i = -3; i < 4; ++i) {
+                float* q = v.voxel(v.index(i, j, k));
+                q[0] = float(f0(Vec3(i, j, k)));
+                q[1] = float(f1(Vec3(i, j, k)));
+            }
+    std::mt19937_64 rng(3);
+    std::uniform_real_distribution<double> ux(-3.0, 3.0 - 1e-9), uy(2.0, 7.0 - 1e-9),
+        uz(-1.0, 6.0 - 1e-9);
+    for (int n = 0; n < 2000; ++n) {
+        const Vec3 p(ux(rng), uy(rng), uz(rng));
+        float out[2];
+        v.sample(p, out);
+        EXPECT_NEAR(out[0], f0(p), 2e-5 * (1 + std::abs(f0(p)))) << p.x << " " << p.y << " " << p.z;
+        EXPECT_NEAR(out[1], f1(p), 2e-5 * (1 + std::abs(f1(p)))) << p.x << " " << p.y << " " << p.z;
+        EXPECT_EQ(v.sample0(p), out[0]);
+        float one;
+        v.sampleChannels(p, 1, 1, &one);
+        EXPECT_EQ(one, out[1]);
+    }
+    // At an interior lattice point: the voxel's value itself.
+    float out[2];
+    v.sample(Vec3(0, 4, 3), out);
+    EXPECT_EQ(out[0], v.voxel(v.index(0, 4, 3))[0]);
+    EXPECT_EQ(out[1], v.voxel(v.index(0, 4, 3))[1]);
+}
+
+TEST(DenseVolume, ZeroOutsideTheLattice)
+{
+    DenseVolume v({0, 0, 0}, {4, 4, 4}, 3);
+    for (float& f : v.data()) f = 5.0f;
+    for (const Vec3& p : {Vec3(-0.5, 1, 1), Vec3(1, -1e-9, 1), Vec3(1, 1, 3.5), Vec3(4, 1, 1),
+                          Vec3(100, 100, 100), Vec3(-1e9, 0, 0)}) {
+        float out[3] = {1, 1, 1};
+        v.sample(p, out);
+        EXPECT_EQ(out[0], 0.0f) << p.x << " " << p.y << " " << p.z;
+        EXPECT_EQ(out[1], 0.0f);
+        EXPECT_EQ(out[2], 0.0f);
+        EXPECT_EQ(v.sample0(p), 0.0f);
+    }
+    // Inside, a constant field samples to the constant.
+    float out[3];
+    v.sample(Vec3(1.3, 2.7, 0.1), out);
+    EXPECT_EQ(out[0], 5.0f);
+    EXPECT_EQ(out[2], 5.0f);
+}
+
+TEST(DenseVolume, SampleZeroWithManyChannels)
+{
+    // More than 16 channels takes sample0()'s other path; same answer.
+    DenseVolume v({0, 0, 0}, {3, 3, 3}, 20);
+    for (std::size_t i = 0; i < v.voxelCount(); ++i) {
+        for (int c = 0; c < 20; ++c) v.voxel(i)[c] = float(i) + 100.0f * float(c);
+    }
+    const Vec3 p(0.25, 1.5, 0.75);
+    std::vector<float> all(20);
+    v.sample(p, all.data());
+    EXPECT_EQ(v.sample0(p), all[0]);
+    for (int c = 1; c < 20; ++c) EXPECT_NEAR(all[std::size_t(c)], all[0] + 100.0f * c, 1e-3);
+    float some[3];
+    v.sampleChannels(p, 17, 3, some);
+    for (int c = 0; c < 3; ++c) EXPECT_EQ(some[c], all[std::size_t(17 + c)]);
+}
+
+} // namespace
