@@ -64,6 +64,9 @@ DenseVolume denseFromGrids(const std::vector<openvdb::FloatGrid::ConstPtr>& grid
             openvdb::CoordBBox tile;
             it.getBoundingBox(tile);
             tile.intersect(bounds);
+            // A tile outside the bounds leaves an empty box, which OpenVDB's box iterator
+            // does not notice in x and y: skip it rather than write out of the lattice.
+            if (tile.empty()) continue;
             for (auto p = tile.beginXYZ(); p; ++p) {
                 vol.voxel(vol.index((*p).x(), (*p).y(), (*p).z()))[c] = *it;
             }

@@ -124,6 +124,27 @@ TEST(VolumeVdb, DenseHoldsActiveValuesAndZeroElsewhere)
             }
 }
 
+// A tile wholly outside the bounds (beside them in x, or in y) adds nothing: no voxel of the
+// lattice changes, and nothing is written past it (ASan checks the latter).
+TEST(VolumeVdb, DenseIgnoresTilesOutsideTheBounds)
+{
+    for (const openvdb::Coord origin : {openvdb::Coord(8, 0, 0), openvdb::Coord(0, 8, 0),
+                                        openvdb::Coord(-8, 0, 0), openvdb::Coord(0, 0, 8)}) {
+        auto g = openvdb::FloatGrid::create(0.0f);
+        g->tree().setValue(openvdb::Coord(3, 3, 3), 1.0f);
+        g->tree().addTile(1, origin, 7.0f, true);
+        const openvdb::CoordBBox bounds(openvdb::Coord(0), openvdb::Coord(7));
+        const nebula::DenseVolume d = nebula::denseFromGrids({g}, bounds, "cloud.vdb");
+        for (int k = 0; k < 8; ++k)
+            for (int j = 0; j < 8; ++j)
+                for (int i = 0; i < 8; ++i) {
+                    const float want = (i == 3 && j == 3 && k == 3) ? 1.0f : 0.0f;
+                    ASSERT_EQ(d.voxel(d.index(i, j, k))[0], want)
+                        << "tile at " << origin << ", voxel " << i << "," << j << "," << k;
+                }
+    }
+}
+
 TEST(VolumeVdb, DenseRefusesGridsOnOtherVoxels)
 {
     auto a = openvdb::FloatGrid::create(0.0f);
