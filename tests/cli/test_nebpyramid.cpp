@@ -246,7 +246,7 @@ TEST_F(NebPyramid, BadGridsAndFiles)
     vec->tree().setValue(openvdb::Coord(1, 1, 1), openvdb::Vec3f(1.0f));
     writeVdb(path("vec.vdb"), {vec}, starMeta());
     expectFailure("nebpyramid -i vec.vdb -o out.vdb", 1,
-                  "vec.vdb: grid \"density\" is a Tree_vec3s_5_4_3, expected a FloatGrid");
+                  "vec.vdb: grid \"density\" (--density-grid) is a Vec3fGrid (Tree_vec3s_5_4_3), expected a FloatGrid");
     auto none = openvdb::FloatGrid::create(0.0f);
     none->setName("density");
     writeVdb(path("empty.vdb"), {none}, starMeta());

@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <fstream>
+#include <fmt/format.h>
 #include <nlohmann/json.hpp>
 #include <sstream>
 
@@ -23,6 +24,51 @@ DustParams DustOptions::apply(DustParams d) const
 
 namespace cli {
 
+namespace {
+
+/// @p text split at every @p sep, empty fields (also a trailing one) kept.
+std::vector<std::string> split(const std::string& text, char sep)
+{
+    std::vector<std::string> parts(1);
+    for (char c : text) {
+        if (c == sep) {
+            parts.emplace_back();
+        } else {
+            parts.back() += c;
+        }
+    }
+    return parts;
+}
+
+/// The whole of @p text as a finite double; UsageError @p expected otherwise.
+double finiteNumber(const std::string& text, const std::string& expected)
+{
+    try {
+        std::size_t used = 0;
+        const double v = std::stod(text, &used);
+        if (used == text.size() && std::isfinite(v)) return v;
+    } catch (const std::exception&) {  // invalid_argument, or out_of_range ("1e999")
+    }
+    throw UsageError(expected);
+}
+
+/// A CLI11 check: a number in the open interval (lo, hi).
+CLI::Validator openRange(double lo, double hi)
+{
+    return CLI::Validator(
+        [lo, hi](std::string& text) -> std::string {
+            double v = 0.0;
+            if (!CLI::detail::lexical_cast(text, v) || !(v > lo && v < hi)) {
+                return "value " + text + " not in the open interval (" + fmt::format("{}", lo) +
+                       ", " + fmt::format("{}", hi) + ")";
+            }
+            return "";
+        },
+        "(" + fmt::format("{}", lo) + ", " + fmt::format("{}", hi) + ")");
+}
+
+} // namespace
+
 void addStars(CLI::App& app, StarOptions& opts)
 {
     app.add_option("--star", opts.star,
@@ -38,42 +84,25 @@ Star parseStarOption(const std::string& text)
 {
     const std::string expected =
         "--star \"" + text + "\": expected NAME:X,Y,Z:LUMINOSITY:CLASS (e.g. alpha:0,0,0:1000:B2V)";
-    std::vector<std::string> parts;
-    std::istringstream in(text);
-    for (std::string item; std::getline(in, item, ':');) parts.push_back(item);
+    const std::vector<std::string> parts = split(text, ':');
     if (parts.size() != 4) throw UsageError(expected);
     // Build the JSON form so that every check lives in parseStars().
     nlohmann::json j;
     j["name"] = parts[0];
     std::vector<double> pos;
-    {
-        std::istringstream p(parts[1]);
-        for (std::string c; std::getline(p, c, ',');) {
-            try {
-                std::size_t used = 0;
-                pos.push_back(std::stod(c, &used));
-                if (used != c.size()) throw UsageError(expected);
-            } catch (const std::exception&) {
-                throw UsageError(expected);
-            }
-        }
-    }
-    if (pos.size() != 3) throw UsageError(expected);
+    const std::string badPosition = expected + ": \"position\" must be three finite numbers X,Y,Z [pc]";
+    for (const auto& c : split(parts[1], ',')) pos.push_back(finiteNumber(c, badPosition));
+    if (pos.size() != 3) throw UsageError(badPosition);
     j["position"] = pos;
-    try {
-        std::size_t used = 0;
-        j["luminosity"] = std::stod(parts[2], &used);
-        if (used != parts[2].size()) throw UsageError(expected);
-    } catch (const std::exception&) {
-        throw UsageError(expected);
-    }
-    try {
-        std::size_t used = 0;
-        const double T = std::stod(parts[3], &used);
-        if (used != parts[3].size()) throw std::invalid_argument(parts[3]);
-        j["temperature"] = T;
-    } catch (const std::invalid_argument&) {
-        j["class"] = parts[3];
+    j["luminosity"] =
+        finiteNumber(parts[2], expected + ": \"luminosity\" must be a finite number [L_sun]");
+    // A number is a temperature [K]; anything else a spectral class.
+    const auto& last = parts[3];
+    const bool numeric = !last.empty() && last.find_first_not_of("0123456789.eE+-") == std::string::npos;
+    if (numeric) {
+        j["temperature"] = finiteNumber(last, expected + ": the temperature [K] must be a finite number");
+    } else {
+        j["class"] = last;
     }
     try {
         return parseStars(nlohmann::json::array({j}).dump(), "--star").front();
@@ -110,15 +139,27 @@ void addDust(CLI::App& app, DustOptions& opts, bool withKappa)
         "Dust", "Dust model, carried as nebula:dust (nebillum, nebrender: default the input's)");
     if (withKappa) {
         grp->add_option("--kappa-v", opts.kappa_V,
-                        "V-band extinction per n_H per pc [pc^-1 cm^3] (default " +
-                            std::to_string(d.kappa_V) + ")");
+                        "V-band extinction per n_H per pc [pc^-1 cm^3]")
+            ->check(CLI::PositiveNumber)
+            ->default_str(fmt::format("{}", d.kappa_V));
     }
-    grp->add_option("--albedo", opts.albedo, "Single-scattering albedo in [0,1] (default 0.6)");
-    grp->add_option("--g", opts.g, "Henyey-Greenstein asymmetry in (-1,1) (default 0.6)");
-    grp->add_option("--phase-function", opts.phase, "Phase function: hg, rayleigh, hazy, murky (default hg)");
-    grp->add_option("--rv", opts.R_V, "Extinction curve R_V = A_V/E(B-V) (default 3.1)");
+    grp->add_option("--albedo", opts.albedo, "Single-scattering albedo")
+        ->check(CLI::Range(0.0, 1.0))
+        ->default_str(fmt::format("{}", d.albedo));
+    grp->add_option("--g", opts.g, "Henyey-Greenstein asymmetry")
+        ->check(openRange(-1.0, 1.0))
+        ->default_str(fmt::format("{}", d.g));
+    grp->add_option("--phase-function", opts.phase, "Phase function")
+        ->check(CLI::IsMember({"hg", "rayleigh", "hazy", "murky"}))
+        ->default_str(toString(d.phase));
+    grp->add_option("--rv", opts.R_V, "Extinction curve R_V = A_V/E(B-V)")
+        ->check(CLI::PositiveNumber)
+        ->default_str(fmt::format("{}", d.R_V));
     grp->add_option("--extinction-curve", opts.curve,
-                    "Extinction curve: CCM89 (default) or grey (the same at every wavelength)");
+                    "Extinction curve: CCM89 (Cardelli, Clayton & Mathis 1989) or grey (the same "
+                    "at every wavelength)")
+        ->check(CLI::IsMember({"CCM89", "grey"}))
+        ->default_str(d.curve);
 }
 
 } // namespace cli

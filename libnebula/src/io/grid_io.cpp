@@ -34,6 +34,20 @@ void GridSet::replace(openvdb::GridBase::Ptr grid)
     grids.push_back(grid);
 }
 
+std::string gridTypeName(const openvdb::GridBase& g)
+{
+    if (g.isType<openvdb::FloatGrid>()) return "FloatGrid";
+    if (g.isType<openvdb::DoubleGrid>()) return "DoubleGrid";
+    if (g.isType<openvdb::Int32Grid>()) return "Int32Grid";
+    if (g.isType<openvdb::Int64Grid>()) return "Int64Grid";
+    if (g.isType<openvdb::BoolGrid>()) return "BoolGrid";
+    if (g.isType<openvdb::MaskGrid>()) return "MaskGrid";
+    if (g.isType<openvdb::Vec3fGrid>()) return "Vec3fGrid";
+    if (g.isType<openvdb::Vec3dGrid>()) return "Vec3dGrid";
+    if (g.isType<openvdb::Vec3IGrid>()) return "Vec3IGrid";
+    return g.type();
+}
+
 openvdb::FloatGrid::Ptr GridSet::floatGrid(const std::string& name,
                                            const std::string& option) const
 {
@@ -47,8 +61,9 @@ openvdb::FloatGrid::Ptr GridSet::floatGrid(const std::string& name,
     }
     auto grid = openvdb::gridPtrCast<openvdb::FloatGrid>(base);
     if (!grid) {
-        throw Error(source + ": grid \"" + name + "\" is a " + base->type() +
-                    ", expected a FloatGrid (Tree_float_5_4_3)");
+        throw Error(source + ": grid \"" + name + "\"" +
+                    (option.empty() ? "" : " (" + option + ")") + " is a " + gridTypeName(*base) +
+                    " (" + base->type() + "), expected a FloatGrid");
     }
     requireAffine(*grid, source);
     return grid;

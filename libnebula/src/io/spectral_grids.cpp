@@ -11,18 +11,6 @@ namespace {
 
 std::string inQuotes(const std::string& s) { return "\"" + s + "\""; }
 
-std::string gridTypeName(const openvdb::GridBase& g)
-{
-    if (g.isType<openvdb::FloatGrid>()) return "FloatGrid";
-    if (g.isType<openvdb::DoubleGrid>()) return "DoubleGrid";
-    if (g.isType<openvdb::Int32Grid>()) return "Int32Grid";
-    if (g.isType<openvdb::Int64Grid>()) return "Int64Grid";
-    if (g.isType<openvdb::BoolGrid>()) return "BoolGrid";
-    if (g.isType<openvdb::MaskGrid>()) return "MaskGrid";
-    if (g.isType<openvdb::Vec3dGrid>()) return "Vec3dGrid";
-    if (g.isType<openvdb::Vec3IGrid>()) return "Vec3IGrid";
-    return g.type();
-}
 
 } // namespace
 

@@ -1,6 +1,7 @@
 #include "nebula/stages/generate.h"
 
 #include "nebula/core/error.h"
+#include "nebula/core/format.h"
 
 #include <openvdb/tools/Dense.h>
 #include <openvdb/tools/Prune.h>
@@ -14,6 +15,8 @@
 #include <sstream>
 
 namespace nebula {
+
+using detail::numberText;
 
 namespace {
 
@@ -29,13 +32,6 @@ double shape(double f, double threshold, double contrast, double exponent)
 {
     const double v = contrast * (f - threshold);
     return v > 0.0 ? std::pow(v, exponent) : 0.0;
-}
-
-std::string numberText(double v)
-{
-    std::ostringstream s;
-    s << v;
-    return s.str();
 }
 
 using DenseGrid = openvdb::tools::Dense<float, openvdb::tools::LayoutXYZ>;

@@ -104,6 +104,10 @@ TEST(StarOption, BadValuesAreUsageErrorsNamingTheOption)
         {"a.b:0,0,0:10:B2V", "\"name\""},
         {":0,0,0:10:B2V", "\"name\""},
         {"alpha:nan,0,0:10:B2V", "\"position\""},
+        {"alpha:0,0,0,:10:B2V", "\"position\""},       // a trailing comma
+        {"alpha:0,0,0:10:B2V:", "expected NAME:X,Y,Z"},  // a trailing colon
+        {"alpha:0,0,0:inf:B2V", "\"luminosity\""},
+        {"alpha:0,0,0:10:1e999", "temperature [K] must be a finite number"},  // out of range
     };
     for (const auto& [text, mention] : values) {
         const std::string msg = usageMessage([&] { nebula::cli::parseStarOption(text); });

@@ -79,6 +79,9 @@ void writeGrids(const std::string& path, GridSet grids, const std::string& tool,
 /// names the option that gave the path.
 void refuseBinaryToTerminal(const std::string& path, const std::string& option);
 
+/// The grid type as users know it ("FloatGrid", "Vec3fGrid", ...), else OpenVDB's name.
+std::string gridTypeName(const openvdb::GridBase& grid);
+
 /// Throws Error unless @p grid's transform is affine (linear map, any scale/rotation/mirror).
 void requireAffine(const openvdb::GridBase& grid, const std::string& source);
 

@@ -64,7 +64,7 @@ openvdb::FloatGrid::Ptr activeMean(const openvdb::FloatGrid& grid, int level);
 
 /// tau.<star>.L<level> by averaging: activeMean() of @p tau0 (the level-0 tau.<star>), made
 /// active on the voxels where the recomputed one is (@p coarse's active voxels and their 26
-/// neighbours, tauSupport() in illumination.h), so every dusty lattice cell has tau at its 8
+/// neighbours, tauSupport() in stages/illuminate.h), so every dusty lattice cell has tau at its 8
 /// corners. A voxel there whose block holds no level-0 tau (no dust within a voxel of it)
 /// gets the exact tau of the level-0 density at its centre: kappa_V times @p column0 (over
 /// the level-0 dense density) from @p star0 (level-0 index coordinates).
@@ -85,7 +85,7 @@ int maxPyramidLevel(const openvdb::CoordBBox& bounds);
 /// Adds (or replaces) <density>.L<k> and tau.<star>.L<k> for k = 1 .. opts.levels to
 /// @p grids, for every star of the file's nebula:stars, with the dust (kappa_V) of its
 /// nebula:dust. The density is opts.densityGrid. tau.<star>.L<k> by opts.tau: Recompute
-/// runs addOpticalDepths() (illumination.h) on <density>.L<k>; Average is
+/// runs addOpticalDepths() (stages/illuminate.h) on <density>.L<k>; Average is
 /// averageOpticalDepth() of the level-0 tau.<star>; either way active on the coarse
 /// density's active voxels and their 26 neighbours. Each tau grid carries the metadata star,
 /// kappa_V, level, scale and method. With opts.onlyNew the input grids are dropped.
