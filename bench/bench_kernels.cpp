@@ -12,11 +12,11 @@
 
 #include "nebula/cli/cli.h"
 #include "nebula/physics/dust.h"
-#include "nebula/stages/generate.h"
-#include "nebula/stages/illuminate.h"
 #include "nebula/physics/noise.h"
 #include "nebula/physics/optical_depth.h"
 #include "nebula/render/fast.h"
+#include "nebula/stages/generate.h"
+#include "nebula/stages/illuminate.h"
 #include "nebula/volume/volume.h"
 
 #include <benchmark/benchmark.h>
@@ -32,7 +32,7 @@
 namespace {
 
 constexpr std::uint64_t SEED = 20240601;
-constexpr std::size_t POINTS = 4096;  // inputs cycled through (fit in L1/L2 with the volume)
+constexpr std::size_t POINTS = 4096; // inputs cycled through (fit in L1/L2 with the volume)
 
 /// @p count fixed-seed random points, each coordinate uniform in [lo, hi).
 std::vector<nebula::Vec3> randomPoints(std::size_t count, double lo, double hi,
@@ -41,7 +41,8 @@ std::vector<nebula::Vec3> randomPoints(std::size_t count, double lo, double hi,
     std::mt19937_64 rng(seed);
     std::uniform_real_distribution<double> u(lo, hi);
     std::vector<nebula::Vec3> p(count);
-    for (auto& q : p) q = nebula::Vec3(u(rng), u(rng), u(rng));
+    for (auto& q : p)
+        q = nebula::Vec3(u(rng), u(rng), u(rng));
     return p;
 }
 
@@ -51,7 +52,8 @@ nebula::DenseVolume randomVolume(int N, int channels)
     nebula::DenseVolume v({0, 0, 0}, {N, N, N}, channels);
     std::mt19937_64 rng(SEED);
     std::uniform_real_distribution<float> u(0.0f, 1.0f);
-    for (float& x : v.data()) x = u(rng);
+    for (float& x : v.data())
+        x = u(rng);
     return v;
 }
 
@@ -100,7 +102,8 @@ void BM_ColumnIntegrator(benchmark::State& state)
     std::vector<double> cells(POINTS);
     for (std::size_t k = 0; k < POINTS; ++k) {
         double c = 1.0;
-        for (int ax = 0; ax < 3; ++ax) c += std::abs(std::floor(b[k][ax]) - std::floor(a[k][ax]));
+        for (int ax = 0; ax < 3; ++ax)
+            c += std::abs(std::floor(b[k][ax]) - std::floor(a[k][ax]));
         cells[k] = c;
     }
     double crossed = 0.0;
@@ -143,7 +146,8 @@ void BM_PhaseFunction(benchmark::State& state)
     std::mt19937_64 rng(SEED);
     std::uniform_real_distribution<double> u(-1.0, 1.0);
     std::vector<double> mu(POINTS);
-    for (double& m : mu) m = u(rng);
+    for (double& m : mu)
+        m = u(rng);
     std::size_t i = 0;
     for (auto _ : state) {
         benchmark::DoNotOptimize(nebula::phaseFunction(model, mu[i++ & (POINTS - 1)], 0.6));
@@ -161,7 +165,7 @@ const nebula::RenderScene& smallScene()
 {
     static const std::unique_ptr<nebula::RenderScene> scene = [] {
         openvdb::initialize();
-        const nebula::Run run;  // silent: no progress bars
+        const nebula::Run run; // silent: no progress bars
         nebula::NebulaParams params;
         params.res = 64;
         nebula::Star alpha;
@@ -185,7 +189,7 @@ void BM_RenderFrame(benchmark::State& state)
     const nebula::RenderScene& scene = smallScene();
     tbb::global_control threads(tbb::global_control::max_allowed_parallelism,
                                 std::size_t(state.range(0)));
-    const nebula::Run run;  // silent: no progress bars
+    const nebula::Run run; // silent: no progress bars
     nebula::RenderOptions opts;
     opts.camera.width = opts.camera.height = 128;
     nebula::RenderStats stats;
@@ -199,8 +203,12 @@ void BM_RenderFrame(benchmark::State& state)
     state.counters["rays"] = benchmark::Counter(rays, benchmark::Counter::kIsRate);
     state.counters["samples/frame"] = samples / double(state.iterations());
 }
-BENCHMARK(BM_RenderFrame)->Arg(1)->Arg(2)->ArgName("threads")->UseRealTime()->Unit(
-    benchmark::kMillisecond);
+BENCHMARK(BM_RenderFrame)
+    ->Arg(1)
+    ->Arg(2)
+    ->ArgName("threads")
+    ->UseRealTime()
+    ->Unit(benchmark::kMillisecond);
 
 // The same frame on one thread with the effective phase-function table (nebrender --phase),
 // Arg 1, against Arg 0 without it: the cost of the table lookups. The table has the default
@@ -221,7 +229,8 @@ void BM_RenderFramePhaseTable(benchmark::State& state)
         table->photons.assign(std::size_t(spec.tCount), 1);
         for (int j = 0; j < spec.tCount; ++j)
             for (int i = 0; i < spec.muBins; ++i)
-                table->phi.push_back(float(0.6 * nebula::henyeyGreenstein(table->muCentre(i), 0.6)));
+                table->phi.push_back(
+                    float(0.6 * nebula::henyeyGreenstein(table->muCentre(i), 0.6)));
         table->error.assign(table->phi.size(), 0.0f);
         table->single = table->phi;
         opts.phaseTable = table;
@@ -234,7 +243,11 @@ void BM_RenderFramePhaseTable(benchmark::State& state)
     }
     state.SetItemsProcessed(std::int64_t(samples));
 }
-BENCHMARK(BM_RenderFramePhaseTable)->Arg(0)->Arg(1)->ArgName("table")->UseRealTime()->Unit(
-    benchmark::kMillisecond);
+BENCHMARK(BM_RenderFramePhaseTable)
+    ->Arg(0)
+    ->Arg(1)
+    ->ArgName("table")
+    ->UseRealTime()
+    ->Unit(benchmark::kMillisecond);
 
 } // namespace

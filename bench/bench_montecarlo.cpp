@@ -16,7 +16,7 @@ namespace {
 void run(benchmark::State& state, bool cube, nebula::McEstimator estimator, int bins, double tau)
 {
     tbb::global_control threads(tbb::global_control::max_allowed_parallelism, 1);
-    nebula::ScatteringMedium medium;  // a = 0.6, g = 0.6
+    nebula::ScatteringMedium medium; // a = 0.6, g = 0.6
     nebula::McSettings set;
     set.estimator = estimator;
     set.muBins = bins;
@@ -42,6 +42,10 @@ void BM_MonteCarloCubeNextEvent(benchmark::State& state)
 {
     run(state, true, nebula::McEstimator::NextEvent, int(state.range(0)), 1.0);
 }
-BENCHMARK(BM_MonteCarloCubeNextEvent)->Arg(16)->Arg(128)->ArgName("bins")->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_MonteCarloCubeNextEvent)
+    ->Arg(16)
+    ->Arg(128)
+    ->ArgName("bins")
+    ->Unit(benchmark::kMillisecond);
 
 } // namespace

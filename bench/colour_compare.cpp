@@ -11,9 +11,9 @@
 /// Prints one line per test image: mean, 99th percentile and maximum Delta E 2000 over the
 /// pixels counted, and the fraction of them above 1. Exit 1 on unreadable or mismatched images.
 
-#include "nebula/physics/colour.h"
 #include "nebula/core/error.h"
 #include "nebula/io/image.h"
+#include "nebula/physics/colour.h"
 
 #include <algorithm>
 #include <cmath>
@@ -32,14 +32,16 @@ int main(int argc, char** argv)
         std::vector<nebula::XYZ> refXYZ(n);
         std::vector<double> Ys;
         for (std::size_t i = 0; i < n; ++i) {
-            refXYZ[i] = nebula::linearSRGBToXYZ({ref.rgba[i * 4], ref.rgba[i * 4 + 1], ref.rgba[i * 4 + 2]});
+            refXYZ[i] = nebula::linearSRGBToXYZ(
+                {ref.rgba[i * 4], ref.rgba[i * 4 + 1], ref.rgba[i * 4 + 2]});
             if (refXYZ[i][1] > 0.0) Ys.push_back(refXYZ[i][1]);
         }
         if (Ys.empty()) throw nebula::Error(std::string(argv[1]) + ": black image");
         std::sort(Ys.begin(), Ys.end());
         const double Yw = Ys[std::min(Ys.size() - 1, std::size_t(0.995 * double(Ys.size())))];
         const nebula::XYZ white = nebula::linearSRGBToXYZ({Yw, Yw, Yw});
-        std::printf("# white Y %.6g; columns: file mean_dE p99_dE max_dE frac_above_1 pixels\n", Yw);
+        std::printf("# white Y %.6g; columns: file mean_dE p99_dE max_dE frac_above_1 pixels\n",
+                    Yw);
         for (int a = 2; a < argc; ++a) {
             const nebula::Image test = nebula::readExr(argv[a], nullptr);
             if (test.width != ref.width || test.height != ref.height) {
@@ -48,7 +50,8 @@ int main(int argc, char** argv)
             std::vector<double> dE;
             for (std::size_t i = 0; i < n; ++i) {
                 if (!(refXYZ[i][1] > 1e-3 * Yw)) continue;
-                const auto t = nebula::linearSRGBToXYZ({test.rgba[i * 4], test.rgba[i * 4 + 1], test.rgba[i * 4 + 2]});
+                const auto t = nebula::linearSRGBToXYZ(
+                    {test.rgba[i * 4], test.rgba[i * 4 + 1], test.rgba[i * 4 + 2]});
                 dE.push_back(nebula::deltaE2000(nebula::xyzToLab(refXYZ[i], white),
                                                 nebula::xyzToLab(t, white)));
             }
@@ -60,8 +63,8 @@ int main(int argc, char** argv)
             }
             std::sort(dE.begin(), dE.end());
             std::printf("%s %.4f %.4f %.4f %.5f %zu\n", argv[a], mean / double(dE.size()),
-                        dE[std::min(dE.size() - 1, std::size_t(0.99 * double(dE.size())))], dE.back(),
-                        above / double(dE.size()), dE.size());
+                        dE[std::min(dE.size() - 1, std::size_t(0.99 * double(dE.size())))],
+                        dE.back(), above / double(dE.size()), dE.size());
         }
     } catch (const std::exception& e) {
         std::fprintf(stderr, "colour_compare: error: %s\n", e.what());

@@ -28,7 +28,10 @@
 
 namespace {
 
-double luminance(const float* p) { return 0.2126 * p[0] + 0.7152 * p[1] + 0.0722 * p[2]; }
+double luminance(const float* p)
+{
+    return 0.2126 * p[0] + 0.7152 * p[1] + 0.0722 * p[2];
+}
 
 /// Channel value of pixel @p i: c = 0..2 for R, G, B, 3 for luminance.
 double channel(const nebula::Image& img, std::size_t i, int c)
@@ -54,12 +57,15 @@ int main(int argc, char** argv)
         } else if (testPath.empty()) {
             testPath = a;
         } else {
-            std::fprintf(stderr, "usage: exr_compare REF.exr TEST.exr [--ratio-png FILE] [--threshold F]\n");
+            std::fprintf(
+                stderr, "usage: exr_compare REF.exr TEST.exr [--ratio-png FILE] [--threshold F]\n");
             return 2;
         }
     }
     if (testPath.empty() || !(threshold > 0.0 && threshold < 1.0)) {
-        std::fprintf(stderr, "usage: exr_compare REF.exr TEST.exr [--ratio-png FILE] [--threshold F in (0,1)]\n");
+        std::fprintf(
+            stderr,
+            "usage: exr_compare REF.exr TEST.exr [--ratio-png FILE] [--threshold F in (0,1)]\n");
         return 2;
     }
     try {
@@ -76,7 +82,8 @@ int main(int argc, char** argv)
         for (const auto& l : ref.layers) {
             if (l.name == "variance") variance = &l;
         }
-        std::printf("channel  flux_ref      flux_test     flux_error  rms_error  pixels  ref_noise  rms_corrected\n");
+        std::printf("channel  flux_ref      flux_test     flux_error  rms_error  pixels  ref_noise "
+                    " rms_corrected\n");
         for (int c = 0; c < 4; ++c) {
             double sumRef = 0.0, sumTest = 0.0, maxRef = 0.0;
             for (std::size_t i = 0; i < n; ++i) {
@@ -119,19 +126,21 @@ int main(int argc, char** argv)
         }
         if (!ratioPng.empty()) {
             double maxY = 0.0;
-            for (std::size_t i = 0; i < n; ++i) maxY = std::max(maxY, channel(ref, i, 3));
+            for (std::size_t i = 0; i < n; ++i)
+                maxY = std::max(maxY, channel(ref, i, 3));
             nebula::Image map(ref.width, ref.height);
             for (std::size_t i = 0; i < n; ++i) {
                 const double r = channel(ref, i, 3);
                 float* p = &map.rgba[i * 4];
                 p[3] = 1.0f;
-                if (r <= threshold * maxY) continue;  // black
+                if (r <= threshold * maxY) continue; // black
                 const double x = std::clamp(std::log2(channel(test, i, 3) / r), -1.0, 1.0);
                 // Diverging map: white at 0, red (1, 0.1, 0.05) at +1, blue (0.05, 0.2, 1) at -1.
                 const double hi[3] = {1.0, 0.1, 0.05}, lo[3] = {0.05, 0.2, 1.0};
                 const double* end = x > 0 ? hi : lo;
                 const double t = std::abs(x);
-                for (int c = 0; c < 3; ++c) p[c] = float((1.0 - t) * 0.8 + t * end[c]);
+                for (int c = 0; c < 3; ++c)
+                    p[c] = float((1.0 - t) * 0.8 + t * end[c]);
             }
             nebula::writePng(ratioPng, map, nebula::ToneCurve{1.0, 1.0},
                              {{"Comment", "TEST_Y / REF_Y: " + testPath + " / " + refPath}});

@@ -4,10 +4,10 @@
 // (opticalDepthAt over the active voxels and their neighbours, as nebillum runs it) for each
 // star, then integrates the reference for SAMPLES random output voxels (default 20000) and
 // prints the worst transmittance error where tau < 5 (the target: 0.5 %).
+#include "nebula/io/volume_vdb.h"
+#include "nebula/physics/optical_depth.h"
 #include "nebula/stages/generate.h"
 #include "nebula/stages/illuminate.h"
-#include "nebula/physics/optical_depth.h"
-#include "nebula/io/volume_vdb.h"
 
 #include <chrono>
 #include <cmath>

@@ -8,11 +8,11 @@
 // recomputed tau < 5, also split into dusty voxels (coarse density active) and their empty
 // neighbours; then how far each method is from the exact optical depth of the level-0
 // density at the coarse voxel centres (columnDensity through the level-0 lattice).
+#include "nebula/io/volume_vdb.h"
+#include "nebula/physics/optical_depth.h"
 #include "nebula/stages/generate.h"
 #include "nebula/stages/illuminate.h"
-#include "nebula/physics/optical_depth.h"
 #include "nebula/stages/pyramid.h"
-#include "nebula/io/volume_vdb.h"
 
 #include <chrono>
 #include <cmath>
@@ -49,7 +49,7 @@ int main(int argc, char** argv)
     const int levels = argc > 2 ? std::stoi(argv[2]) : 3;
     params.stars = nebula::exampleStars();
 
-    const nebula::Run run;  // silent
+    const nebula::Run run; // silent
 
     auto grids = nebula::generateNebula(params);
     nebula::IllumOptions illum;
@@ -122,8 +122,7 @@ int main(int argc, char** argv)
         std::printf("L%d  %7zu  %8.3f s  %7.3f s   all %.4f, %.4f / dusty %.4f, %.4f / "
                     "empty %.4f, %.4f  (%zu voxels; %zu recomputed without an average)\n",
                     k, std::size_t(coarse->activeVoxelCount()), tRecompute, tAverage, all.max,
-                    all.rms(), dusty.max, dusty.rms(), empty.max, empty.rms(), all.count,
-                    missing);
+                    all.rms(), dusty.max, dusty.rms(), empty.max, empty.rms(), all.count, missing);
         std::printf("          vs the exact tau of the level-0 density at the coarse centres: "
                     "recompute %.4f, %.4f / average %.4f, %.4f (max, RMS)\n",
                     recVsExact.max, recVsExact.rms(), avgVsExact.max, avgVsExact.rms());

@@ -10,7 +10,8 @@
 /// new one every time). .exr: the same size, channels (beauty, layers, single channels) as
 /// bits, and attributes apart from nebula:history and nebula:version; an attribute holding
 /// JSON is compared as JSON, numbers to 6 significant digits (older files wrote them with 6).
-/// Anything else: the same bytes. Prints "same" or the first difference; exit 0 if the same, 1 if not, 2 on bad use.
+/// Anything else: the same bytes. Prints "same" or the first difference; exit 0 if the same, 1 if
+/// not, 2 on bad use.
 
 #include "nebula/core/error.h"
 #include "nebula/io/grid_io.h"
@@ -36,7 +37,8 @@ const std::set<std::string> IGNORED_META = {"nebula:history", "nebula:version"};
 
 bool endsWith(const std::string& s, const std::string& suffix)
 {
-    return s.size() >= suffix.size() && s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
+    return s.size() >= suffix.size() &&
+           s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
 }
 
 bool sameBits(const float* a, const float* b, std::size_t n)
@@ -54,8 +56,7 @@ std::string metaText(const openvdb::MetaMap& meta, bool fileLevel)
     return out.str();
 }
 
-template <typename GridT>
-std::string compareValues(const GridT& a, const GridT& b)
+template <typename GridT> std::string compareValues(const GridT& a, const GridT& b)
 {
     if (a.activeVoxelCount() != b.activeVoxelCount()) return "active voxel counts differ";
     if (!a.tree().hasSameTopology(b.tree())) return "active topologies differ";
@@ -77,7 +78,8 @@ std::string compareVdb(const std::string& pa, const std::string& pb)
 {
     const auto a = nebula::readGrids(pa), b = nebula::readGrids(pb);
     if (metaText(a.meta, true) != metaText(b.meta, true)) {
-        return "file metadata differs:\n" + metaText(a.meta, true) + "---\n" + metaText(b.meta, true);
+        return "file metadata differs:\n" + metaText(a.meta, true) + "---\n" +
+               metaText(b.meta, true);
     }
     if (a.grids.size() != b.grids.size()) return "numbers of grids differ";
     for (std::size_t i = 0; i < a.grids.size(); ++i) {

@@ -26,7 +26,7 @@ inline const std::string TOOLS = NEBULA_TOOLS_DIR;
 struct Result
 {
     int code = -1;
-    std::string err;  ///< stderr
+    std::string err; ///< stderr
 };
 
 class Cli : public ::testing::Test
@@ -69,7 +69,8 @@ protected:
     std::vector<std::string> entries() const
     {
         std::vector<std::string> names;
-        for (const auto& e : fs::directory_iterator(dir)) names.push_back(e.path().filename());
+        for (const auto& e : fs::directory_iterator(dir))
+            names.push_back(e.path().filename());
         std::sort(names.begin(), names.end());
         return names;
     }
@@ -89,8 +90,8 @@ protected:
         const Result r = run(cmd);
         EXPECT_EQ(r.code, code) << cmd << "\n" << r.err;
         EXPECT_NE(r.err.find("error: "), std::string::npos) << r.err;
-        EXPECT_NE(r.err.find(mention), std::string::npos) << "expected \"" << mention
-                                                            << "\" in: " << r.err;
+        EXPECT_NE(r.err.find(mention), std::string::npos)
+            << "expected \"" << mention << "\" in: " << r.err;
         EXPECT_EQ(entries(), before) << "output or temporary left behind by: " << cmd;
     }
 
@@ -107,12 +108,16 @@ protected:
     fs::path dir;
 };
 
-inline nebula::GridSet read(const std::string& p) { return nebula::readGrids(p); }
+inline nebula::GridSet read(const std::string& p)
+{
+    return nebula::readGrids(p);
+}
 
 inline double maxValue(const openvdb::FloatGrid& g)
 {
     double m = -1e300;
-    for (auto it = g.cbeginValueOn(); it; ++it) m = std::max(m, double(*it));
+    for (auto it = g.cbeginValueOn(); it; ++it)
+        m = std::max(m, double(*it));
     return m;
 }
 

@@ -33,8 +33,10 @@ openvdb::FloatGrid::Ptr cubeDensity(float value = 100.0f)
 openvdb::MetaMap starMeta()
 {
     openvdb::MetaMap m;
-    m.insertMeta(nebula::META_STARS,
-                 openvdb::StringMetadata(R"([{"name":"s","position":[0.4,0.4,2.0],"luminosity":10,"temperature":20000}])"));
+    m.insertMeta(
+        nebula::META_STARS,
+        openvdb::StringMetadata(
+            R"([{"name":"s","position":[0.4,0.4,2.0],"luminosity":10,"temperature":20000}])"));
     return m;
 }
 
@@ -48,7 +50,8 @@ TEST_F(Cli, PipelineFilesGridsMetadataAndImages)
     const auto lit = read(path("lit.vdb"));
     // Input grids passed through, one tau grid per star, nothing duplicated.
     std::vector<std::string> names;
-    for (const auto& g : lit.grids) names.push_back(g->getName());
+    for (const auto& g : lit.grids)
+        names.push_back(g->getName());
     EXPECT_EQ(names, (std::vector<std::string>{"density", "emission", "tau.alpha", "tau.beta"}));
     const auto density = lit.floatGrid("density", "");
     EXPECT_EQ(density->getGridClass(), openvdb::GRID_FOG_VOLUME);
@@ -56,7 +59,7 @@ TEST_F(Cli, PipelineFilesGridsMetadataAndImages)
     EXPECT_GT(maxValue(*density), 10.0);
     const auto tau = lit.floatGrid("tau.alpha", "");
     EXPECT_EQ(tau->getGridClass(), openvdb::GRID_UNKNOWN);
-    EXPECT_GE(tau->activeVoxelCount(), density->activeVoxelCount());  // + neighbours
+    EXPECT_GE(tau->activeVoxelCount(), density->activeVoxelCount()); // + neighbours
     EXPECT_GT(maxValue(*tau), 0.0);
     // Provenance and the metadata later stages need.
     EXPECT_EQ(lit.metaString(nebula::META_TOOL), "nebillum");
@@ -74,7 +77,8 @@ TEST_F(Cli, PipelineFilesGridsMetadataAndImages)
     EXPECT_EQ(img.width, 48);
     EXPECT_EQ(img.height, 32);
     std::vector<std::string> layers;
-    for (const auto& l : img.layers) layers.push_back(l.name);
+    for (const auto& l : img.layers)
+        layers.push_back(l.name);
     EXPECT_EQ(layers, (std::vector<std::string>{"star.alpha", "star.beta", "transmittance"}));
     double sum = 0.0, alphaMax = 0.0;
     for (int i = 0; i < 48 * 32; ++i) {
@@ -91,7 +95,8 @@ TEST_F(Cli, PipelineFilesGridsMetadataAndImages)
     EXPECT_NE(attrs["nebula:command"].find("nebrender"), std::string::npos);
     EXPECT_EQ(attrs["nebula:units"], "L_sun pc^-2 sr^-1");
     EXPECT_TRUE(fs::exists(path("frame.png")));
-    EXPECT_EQ(entries(), (std::vector<std::string>{"frame.exr", "frame.png", "lit.vdb", "small.vdb"}));
+    EXPECT_EQ(entries(),
+              (std::vector<std::string>{"frame.exr", "frame.png", "lit.vdb", "small.vdb"}));
 }
 
 TEST_F(Cli, UnixPipeMatchesFiles)
@@ -122,7 +127,8 @@ TEST_F(Cli, SameSeedSameGridsWhateverTheThreadCount)
         const auto g1 = one.floatGrid(name, ""), g2 = two.floatGrid(name, "");
         ASSERT_EQ(g1->activeVoxelCount(), g2->activeVoxelCount());
         auto acc = g2->getConstAccessor();
-        for (auto it = g1->cbeginValueOn(); it; ++it) ASSERT_EQ(*it, acc.getValue(it.getCoord()));
+        for (auto it = g1->cbeginValueOn(); it; ++it)
+            ASSERT_EQ(*it, acc.getValue(it.getCoord()));
     }
     // A different seed gives a different cloud.
     const auto other = read(path("other.vdb")).floatGrid("density", "");
@@ -134,12 +140,12 @@ TEST_F(Cli, OnlyNewAndReplacingGridsOfTheSameName)
 {
     makeLit();
     ASSERT_EQ(run("nebillum -i lit.vdb -o again.vdb").code, 0);
-    EXPECT_EQ(read(path("again.vdb")).grids.size(), 4u);  // tau.* replaced, not appended
+    EXPECT_EQ(read(path("again.vdb")).grids.size(), 4u); // tau.* replaced, not appended
     ASSERT_EQ(run("nebillum -i small.vdb --only-new -o only.vdb").code, 0);
     const auto only = read(path("only.vdb"));
     ASSERT_EQ(only.grids.size(), 2u);
     EXPECT_TRUE(only.find("tau.alpha") && only.find("tau.beta"));
-    EXPECT_EQ(only.stars().size(), 2u);  // metadata still travels
+    EXPECT_EQ(only.stars().size(), 2u); // metadata still travels
     // In-place update through the atomic rename.
     ASSERT_EQ(run("nebillum -i small.vdb -o small.vdb").code, 0);
     EXPECT_EQ(read(path("small.vdb")).grids.size(), 4u);
@@ -195,7 +201,8 @@ TEST_F(Cli, MissingNotVdbAndTruncatedFiles)
         fs::copy_file(path("lit.vdb"), path("cut.vdb"), fs::copy_options::overwrite_existing);
         fs::resize_file(path("cut.vdb"), std::uintmax_t(double(size) * frac));
         expectFailure("nebrender -i cut.vdb -o out.exr", 1, "cut.vdb: not a valid, complete VDB");
-        expectFailure("nebillum -i - -o out.vdb < cut.vdb", 1, "<stdin>: not a valid, complete VDB");
+        expectFailure("nebillum -i - -o out.vdb < cut.vdb", 1,
+                      "<stdin>: not a valid, complete VDB");
     }
 }
 
@@ -206,7 +213,8 @@ TEST_F(Cli, DensityGridMissingOrWrongType)
     vec->tree().setValue(openvdb::Coord(1, 1, 1), openvdb::Vec3f(1.0f));
     writeVdb(path("vec.vdb"), {vec}, starMeta());
     expectFailure("nebillum -i vec.vdb -o out.vdb", 1,
-                  "vec.vdb: grid \"density\" (--density-grid) is a Vec3fGrid (Tree_vec3s_5_4_3), expected a FloatGrid");
+                  "vec.vdb: grid \"density\" (--density-grid) is a Vec3fGrid (Tree_vec3s_5_4_3), "
+                  "expected a FloatGrid");
     auto other = cubeDensity();
     other->setName("smoke");
     writeVdb(path("smoke.vdb"), {other}, starMeta());
@@ -244,7 +252,8 @@ TEST_F(Cli, StarFilesAndOptions)
     expectFailure("nebillum -i cube.vdb --stars zero.json -o out.vdb", 1,
                   "\"luminosity\" must be > 0");
     expectFailure("nebgen --star a:0,0,0:-3:B2V -o out.vdb", 2, "\"luminosity\" must be > 0");
-    expectFailure("nebgen --star a:0,0:5:B2V -o out.vdb", 2, "expected NAME:X,Y,Z:LUMINOSITY:CLASS");
+    expectFailure("nebgen --star a:0,0:5:B2V -o out.vdb", 2,
+                  "expected NAME:X,Y,Z:LUMINOSITY:CLASS");
     expectFailure("nebgen --star a:0,0,0:5:Q7V -o out.vdb", 2, "Q7V");
     // No stars anywhere.
     expectFailure("nebillum -i cube.vdb -o out.vdb", 1, "cube.vdb: no stars");

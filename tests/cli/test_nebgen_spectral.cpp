@@ -2,11 +2,11 @@
 // emission grids' line metadata, [O III] and shells, their options and their errors.
 #include "cli_fixture.h"
 
-#include "nebula/stages/generate.h"
 #include "nebula/io/grid_io.h"
 #include "nebula/io/spectral_grids.h"
 #include "nebula/physics/lines.h"
 #include "nebula/physics/motion.h"
+#include "nebula/stages/generate.h"
 
 #include <openvdb/openvdb.h>
 
@@ -26,15 +26,15 @@ namespace {
 std::vector<std::string> gridNames(const nebula::GridSet& set)
 {
     std::vector<std::string> names;
-    for (const auto& g : set.grids) names.push_back(g->getName());
+    for (const auto& g : set.grids)
+        names.push_back(g->getName());
     return names;
 }
 
 using CoordSet = std::set<std::tuple<int, int, int>>;
 
 /// The active voxels of @p grid (expecting no active tiles).
-template <typename GridT>
-CoordSet activeVoxels(const GridT& grid)
+template <typename GridT> CoordSet activeVoxels(const GridT& grid)
 {
     CoordSet out;
     for (auto it = grid.cbeginValueOn(); it; ++it) {
@@ -46,8 +46,7 @@ CoordSet activeVoxels(const GridT& grid)
 }
 
 /// The active coordinates of @p grid (tiles count by their origin only: none in nebgen's).
-template <typename GridT>
-CoordSet voxelsOf(const GridT& grid)
+template <typename GridT> CoordSet voxelsOf(const GridT& grid)
 {
     CoordSet out;
     for (auto it = grid.cbeginValueOn(); it; ++it) {
@@ -137,7 +136,7 @@ TEST_F(Cli, SpectralWritesTemperatureAndVelocity)
         const double U = nebula::radiationFieldU(worldOf(*T, it.getCoord()), stars, rMin);
         ASSERT_NEAR(*it, 16.4 * std::pow(1.0 + U, 1.0 / 6.0), 1e-5 * *it);
     }
-    EXPECT_GT(maxValue(*T), 25.0);  // next to the B star: U ~ 100 at half a voxel
+    EXPECT_GT(maxValue(*T), 25.0); // next to the B star: U ~ 100 at half a voxel
 
     const auto v = nebula::velocityGrid(set, "velocity", "");
     EXPECT_EQ(v->getVectorType(), openvdb::VEC_CONTRAVARIANT_RELATIVE);
@@ -227,7 +226,8 @@ TEST_F(Cli, SpectralGridsLeaveDensityAndEmissionUnchanged)
     const auto plain = read(path("plain.vdb")), spec = read(path("spec.vdb"));
     EXPECT_EQ(gridNames(plain), (std::vector<std::string>{"density", "emission"}));
     nebula::GridSet sub;
-    for (const std::string name : {"density", "emission"}) sub.grids.push_back(spec.find(name));
+    for (const std::string name : {"density", "emission"})
+        sub.grids.push_back(spec.find(name));
     expectSameGrids(plain, sub);
     EXPECT_EQ(gridMeta(*plain.find("emission"), nebula::META_LINES), "H-alpha:1,H-beta:0.35");
 }
@@ -277,8 +277,8 @@ TEST_F(Cli, ShellEmissionAboutTheMotionCentre)
         ASSERT_LE(std::fabs(d - 3.0), 0.9 + 1e-9);
         // Radial speed 40 km/s x d / 3 pc: about 40 km/s on the shell.
         const auto vel = vAcc.getValue(it.getCoord());
-        const double vr = (vel[0] * (x[0] - c[0]) + vel[1] * (x[1] - c[1]) +
-                           vel[2] * (x[2] - c[2])) / d;
+        const double vr =
+            (vel[0] * (x[0] - c[0]) + vel[1] * (x[1] - c[1]) + vel[2] * (x[2] - c[2])) / d;
         ASSERT_NEAR(vr, 40.0 * d / 3.0, 1e-4 * vr);
     }
 }
@@ -304,9 +304,8 @@ TEST_F(Cli, SpectralGridsPassThroughNebillum)
     const auto lit = read(path("lit.vdb"));
     auto names = gridNames(lit);
     std::sort(names.begin(), names.end());
-    EXPECT_EQ(names, (std::vector<std::string>{"density", "emission", "emission.oiii",
-                                               "tau.alpha", "tau.beta", "temperature",
-                                               "velocity"}));
+    EXPECT_EQ(names, (std::vector<std::string>{"density", "emission", "emission.oiii", "tau.alpha",
+                                               "tau.beta", "temperature", "velocity"}));
     const auto v = nebula::velocityGrid(lit, "velocity", "");
     EXPECT_EQ(v->getVectorType(), openvdb::VEC_CONTRAVARIANT_RELATIVE);
     EXPECT_TRUE(v->isInWorldSpace());
@@ -321,8 +320,7 @@ TEST_F(Cli, SpectralOptionErrors)
     expectFailure("nebgen --res 8 --spectral --lines h-alpha:1 -o x.vdb", 2,
                   "did you mean \"H-alpha\"?");
     expectFailure("nebgen --res 8 --lines 'H-alpha,H-alpha' -o x.vdb", 2, "listed twice");
-    expectFailure("nebgen --res 8 --lines H-alpha:0 -o x.vdb", 2,
-                  "--lines \"H-alpha:0\": item 1");
+    expectFailure("nebgen --res 8 --lines H-alpha:0 -o x.vdb", 2, "--lines \"H-alpha:0\": item 1");
     expectFailure("nebgen --res 8 --expansion 30 -o x.vdb", 2, "--expansion needs --spectral");
     expectFailure("nebgen --res 8 --rotation 3 -o x.vdb", 2, "--rotation needs --spectral");
     expectFailure("nebgen --res 8 --turbulence 3 -o x.vdb", 2, "--turbulence needs --spectral");

@@ -2,9 +2,9 @@
 // limit, determinism, the dust it is made for, slab runs, and bad input.
 #include "cli_fixture.h"
 
-#include "nebula/physics/dust.h"
 #include "nebula/io/grid_io.h"
 #include "nebula/io/phase_table_vdb.h"
+#include "nebula/physics/dust.h"
 
 #include <nlohmann/json.hpp>
 
@@ -35,14 +35,14 @@ protected:
 const std::string SMALL = "nebphase --t-count 4 --mu-bins 16 --photons 2048 --max-photons 8192 ";
 
 /// The values of FloatGrid @p name of @p file at voxels (i, j, 0), row by row.
-std::vector<float> gridValues(const nebula::GridSet& grids, const std::string& name, int ni,
-                              int nj)
+std::vector<float> gridValues(const nebula::GridSet& grids, const std::string& name, int ni, int nj)
 {
     const auto g = grids.floatGrid(name, "");
     const auto acc = g->getConstAccessor();
     std::vector<float> v;
     for (int j = 0; j < nj; ++j)
-        for (int i = 0; i < ni; ++i) v.push_back(acc.getValue(openvdb::Coord(i, j, 0)));
+        for (int i = 0; i < ni; ++i)
+            v.push_back(acc.getValue(openvdb::Coord(i, j, 0)));
     return v;
 }
 
@@ -73,7 +73,8 @@ TEST_F(NebPhase, TableGridsAxesMetadataDustAndJson)
 
     const auto grids = read(path("t.vdb"));
     std::vector<std::string> names;
-    for (const auto& g : grids.grids) names.push_back(g->getName());
+    for (const auto& g : grids.grids)
+        names.push_back(g->getName());
     std::sort(names.begin(), names.end());
     EXPECT_EQ(names, (std::vector<std::string>{"phase", "phase.error", "phase.single"}));
     for (const std::string name : {"phase", "phase.error", "phase.single"}) {
@@ -160,7 +161,8 @@ TEST_F(NebPhase, SameSeedSameTableWhateverTheThreadCount)
         // Another seed: other photons, so (almost) every value differs.
         const auto v2 = gridValues(other, name, 16, 4);
         int differ = 0;
-        for (std::size_t k = 0; k < v1.size(); ++k) differ += v1[k] != v2[k];
+        for (std::size_t k = 0; k < v1.size(); ++k)
+            differ += v1[k] != v2[k];
         EXPECT_GT(differ, int(v1.size()) / 2) << name;
     }
 }
@@ -247,7 +249,8 @@ TEST_F(NebPhase, VerboseReportAndWarningWhenTheErrorTargetIsMissed)
                    "--max-photons 2048 --error 1e-4 -o w.vdb");
     ASSERT_EQ(r.code, 0) << r.err;
     EXPECT_NE(r.err.find("nebphase: worst relative error of Phi (mu > 0, t <= 10): "),
-              std::string::npos) << r.err;
+              std::string::npos)
+        << r.err;
     EXPECT_NE(r.err.find("4096 photons in all"), std::string::npos) << r.err;
     EXPECT_NE(r.err.find("nebphase: warning: worst relative error of Phi is "), std::string::npos)
         << r.err;
@@ -315,8 +318,7 @@ TEST_F(NebPhase, SlabJsonNextEventAndAnalog)
         // Isotropic scattering in a slab of tau 1: grazing light is attenuated, so the power
         // per sr grows from mu = 0 to mu = 1 on both faces (by a factor > 3 in single
         // scattering), which also checks that the reflected bins are mirrored.
-        EXPECT_GT(bins[9]["per_sr"].get<double>(), 2.0 * bins[0]["per_sr"].get<double>())
-            << face;
+        EXPECT_GT(bins[9]["per_sr"].get<double>(), 2.0 * bins[0]["per_sr"].get<double>()) << face;
     }
 
     // The analog (MCML) estimator: balance exact photon by photon, and it agrees with
@@ -364,7 +366,7 @@ TEST_F(NebPhase, BadInputNamesTheOptionAndLeavesNoFile)
     expectFailure(t + "--g -1.5", 2, "--g");
     expectFailure(t + "--phase-function mie", 2, "--phase-function");
     expectFailure(t + "--photons 0", 2, "--photons");
-    expectFailure(t + "--photons -5", 2, "--photons: must be >= 0");  // not wrapped around
+    expectFailure(t + "--photons -5", 2, "--photons: must be >= 0"); // not wrapped around
     expectFailure("nebphase --photons 100 --max-photons 10 -o t.vdb", 2, "--max-photons");
     expectFailure(t + "--t-min 1 --t-max 1", 2, "--t-max");
     expectFailure(t + "--t-min 0", 2, "--t-min");
@@ -395,8 +397,10 @@ TEST_F(NebPhase, BadInputNamesTheOptionAndLeavesNoFile)
     auto g = openvdb::FloatGrid::create(0.0f);
     g->setName("density");
     openvdb::MetaMap meta;
-    meta.insertMeta(nebula::META_DUST, openvdb::StringMetadata(
-        R"({"kappa_V":0.0015,"albedo":2,"g":0.6,"phase":"hg","curve":"CCM89","R_V":3.1})"));
+    meta.insertMeta(
+        nebula::META_DUST,
+        openvdb::StringMetadata(
+            R"({"kappa_V":0.0015,"albedo":2,"g":0.6,"phase":"hg","curve":"CCM89","R_V":3.1})"));
     writeVdb(path("baddust.vdb"), {g}, meta);
     expectFailure(t + "-i baddust.vdb", 1, "baddust.vdb: metadata nebula:dust");
     expectFailure(SMALL + "-o no/such/folder/t.vdb", 1, "no/such/folder/t.vdb");

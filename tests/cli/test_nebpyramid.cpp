@@ -39,9 +39,10 @@ openvdb::FloatGrid::Ptr cube(const std::string& name = "density", float value = 
 openvdb::MetaMap starMeta()
 {
     openvdb::MetaMap m;
-    m.insertMeta(nebula::META_STARS,
-                 openvdb::StringMetadata(
-                     R"([{"name":"s","position":[0.8,0.8,3.0],"luminosity":10,"temperature":20000}])"));
+    m.insertMeta(
+        nebula::META_STARS,
+        openvdb::StringMetadata(
+            R"([{"name":"s","position":[0.8,0.8,3.0],"luminosity":10,"temperature":20000}])"));
     return m;
 }
 
@@ -49,7 +50,8 @@ openvdb::MetaMap starMeta()
 std::vector<std::string> names(const nebula::GridSet& grids)
 {
     std::vector<std::string> n;
-    for (const auto& g : grids.grids) n.push_back(g->getName());
+    for (const auto& g : grids.grids)
+        n.push_back(g->getName());
     std::sort(n.begin(), n.end());
     return n;
 }
@@ -93,10 +95,12 @@ TEST_F(NebPyramid, FileLevelsMassAndMetadata)
 
     // Input grids passed through, and the levels.
     auto expected = names(lit);
-    for (const auto& n : levelNames(3)) expected.push_back(n);
+    for (const auto& n : levelNames(3))
+        expected.push_back(n);
     std::sort(expected.begin(), expected.end());
     EXPECT_EQ(names(pyr), expected);
-    for (const auto& n : names(lit)) expectSameGrid(lit, pyr, n);
+    for (const auto& n : names(lit))
+        expectSameGrid(lit, pyr, n);
 
     const auto density = pyr.floatGrid("density", "");
     const double mass0 = nebula::gridMass(*density);
@@ -116,7 +120,7 @@ TEST_F(NebPyramid, FileLevelsMassAndMetadata)
             EXPECT_EQ(tau->metaValue<openvdb::Int32>("level"), k);
             EXPECT_EQ(tau->metaValue<double>("kappa_V"), lit.dust().kappa_V);
             EXPECT_EQ(tau->transform(), d->transform());
-            EXPECT_GE(tau->activeVoxelCount(), d->activeVoxelCount());  // + neighbours
+            EXPECT_GE(tau->activeVoxelCount(), d->activeVoxelCount()); // + neighbours
             EXPECT_GT(maxValue(*tau), 0.0);
         }
     }
@@ -141,7 +145,8 @@ TEST_F(NebPyramid, UnixPipeMatchesFiles)
     ASSERT_EQ(r.code, 0) << r.err;
     const auto a = read(path("pyr.vdb")), b = read(path("piped.vdb"));
     EXPECT_EQ(names(a), names(b));
-    for (const auto& n : levelNames(2)) expectSameGrid(a, b, n);
+    for (const auto& n : levelNames(2))
+        expectSameGrid(a, b, n);
 }
 
 TEST_F(NebPyramid, OnlyNewReplacingAndAverage)
@@ -150,7 +155,7 @@ TEST_F(NebPyramid, OnlyNewReplacingAndAverage)
     ASSERT_EQ(run("nebpyramid -i lit.vdb --only-new -o only.vdb").code, 0);
     const auto only = read(path("only.vdb"));
     EXPECT_EQ(names(only), levelNames(3));
-    EXPECT_EQ(only.stars().size(), 2u);  // metadata still travels
+    EXPECT_EQ(only.stars().size(), 2u); // metadata still travels
     EXPECT_TRUE(only.hasDust());
 
     // Again on its own output: the levels are replaced, not appended.
@@ -173,7 +178,8 @@ TEST_F(NebPyramid, SameOutputWhateverTheThreadCount)
         ASSERT_EQ(run("nebpyramid -i lit.vdb --tau " + method + " --threads 1 -o one.vdb").code, 0);
         ASSERT_EQ(run("nebpyramid -i lit.vdb --tau " + method + " --threads 2 -o two.vdb").code, 0);
         const auto one = read(path("one.vdb")), two = read(path("two.vdb"));
-        for (const auto& n : levelNames(3)) expectSameGrid(one, two, n);
+        for (const auto& n : levelNames(3))
+            expectSameGrid(one, two, n);
     }
 }
 
@@ -183,12 +189,13 @@ TEST_F(NebPyramid, DensityGridOptionAndLevels)
     const Result r = run("nebpyramid -i smoke.vdb --density-grid smoke --levels 2 -o out.vdb");
     ASSERT_EQ(r.code, 0) << r.err;
     const auto out = read(path("out.vdb"));
-    EXPECT_EQ(names(out), (std::vector<std::string>{"smoke", "smoke.L1", "smoke.L2", "tau.s.L1",
-                                                    "tau.s.L2"}));
+    EXPECT_EQ(names(out),
+              (std::vector<std::string>{"smoke", "smoke.L1", "smoke.L2", "tau.s.L1", "tau.s.L2"}));
     const auto l2 = out.floatGrid("smoke.L2", "");
     EXPECT_EQ(l2->metaValue<std::string>("source_grid"), "smoke");
-    EXPECT_EQ(l2->activeVoxelCount(), 64u);  // the 16^3 cube in 4^3 blocks
-    for (auto it = l2->cbeginValueOn(); it; ++it) EXPECT_FLOAT_EQ(*it, 100.0f);
+    EXPECT_EQ(l2->activeVoxelCount(), 64u); // the 16^3 cube in 4^3 blocks
+    for (auto it = l2->cbeginValueOn(); it; ++it)
+        EXPECT_FLOAT_EQ(*it, 100.0f);
     EXPECT_EQ(out.floatGrid("tau.s.L2", "")->metaValue<std::string>("density_grid"), "smoke.L2");
 }
 
@@ -204,8 +211,8 @@ TEST_F(NebPyramid, HelpStartsWithExamples)
     ASSERT_NE(ex, std::string::npos);
     ASSERT_NE(opts, std::string::npos);
     EXPECT_LT(ex, opts);
-    for (const std::string word : {"Mass", "recompute", "average", "--levels", "--tau",
-                                   "density.L<k>", "tau.<star>.L<k>"}) {
+    for (const std::string word :
+         {"Mass", "recompute", "average", "--levels", "--tau", "density.L<k>", "tau.<star>.L<k>"}) {
         EXPECT_NE(help.find(word), std::string::npos) << word;
     }
     const Result v = run("nebpyramid --version > version.txt");
@@ -246,7 +253,8 @@ TEST_F(NebPyramid, BadGridsAndFiles)
     vec->tree().setValue(openvdb::Coord(1, 1, 1), openvdb::Vec3f(1.0f));
     writeVdb(path("vec.vdb"), {vec}, starMeta());
     expectFailure("nebpyramid -i vec.vdb -o out.vdb", 1,
-                  "vec.vdb: grid \"density\" (--density-grid) is a Vec3fGrid (Tree_vec3s_5_4_3), expected a FloatGrid");
+                  "vec.vdb: grid \"density\" (--density-grid) is a Vec3fGrid (Tree_vec3s_5_4_3), "
+                  "expected a FloatGrid");
     auto none = openvdb::FloatGrid::create(0.0f);
     none->setName("density");
     writeVdb(path("empty.vdb"), {none}, starMeta());

@@ -52,7 +52,7 @@ TEST_F(RenderModes, PathTracerWritesMeanVarianceAndProvenance)
         }
     }
     EXPECT_TRUE(variance);
-    EXPECT_GT(sum, 0.0);  // 4 walks per pixel: noisy
+    EXPECT_GT(sum, 0.0); // 4 walks per pixel: noisy
     EXPECT_NE(attrs["nebula:integrator"].find("path tracing (reference), spp 4, seed 3"),
               std::string::npos)
         << attrs["nebula:integrator"];
@@ -62,14 +62,18 @@ TEST_F(RenderModes, PathTracerWritesMeanVarianceAndProvenance)
                   .code,
               0);
     EXPECT_EQ(nebula::readExr(path("q.exr"), nullptr).rgba, img.rgba);
-    ASSERT_EQ(run("nebrender -i lit.vdb --integrator path --spp 4 --seed 4 --res 16x16 -o s.exr").code, 0);
+    ASSERT_EQ(
+        run("nebrender -i lit.vdb --integrator path --spp 4 --seed 4 --res 16x16 -o s.exr").code,
+        0);
     EXPECT_NE(nebula::readExr(path("s.exr"), nullptr).rgba, img.rgba);
 }
 
 TEST_F(RenderModes, LevelsAddLight)
 {
     makePyramid();
-    ASSERT_EQ(run("nebrender -i pyr.vdb --phase t.vdb --levels 0 --res 24x24 --no-stars -o l0.exr").code, 0);
+    ASSERT_EQ(
+        run("nebrender -i pyr.vdb --phase t.vdb --levels 0 --res 24x24 --no-stars -o l0.exr").code,
+        0);
     const Result r =
         run("nebrender -i pyr.vdb --phase t.vdb --levels 2 --res 24x24 --no-stars -o l2.exr");
     ASSERT_EQ(r.code, 0) << r.err;
@@ -81,9 +85,10 @@ TEST_F(RenderModes, LevelsAddLight)
         s0 += l0.rgba[i + 1];
         s2 += l2.rgba[i + 1];
     }
-    EXPECT_GT(s2, s0);  // coarser voxels scatter more light out (gain > 1)
+    EXPECT_GT(s2, s0); // coarser voxels scatter more light out (gain > 1)
     EXPECT_NE(attrs["nebula:integrator"].find("levels 2"), std::string::npos);
-    ASSERT_EQ(run("nebrender -i pyr.vdb --phase t.vdb --phase-use replace --res 24x24 -o r.exr").code, 0);
+    ASSERT_EQ(
+        run("nebrender -i pyr.vdb --phase t.vdb --phase-use replace --res 24x24 -o r.exr").code, 0);
     // By default, with a table, every level the input has (here 2).
     ASSERT_EQ(run("nebrender -i pyr.vdb --phase t.vdb --res 24x24 --no-stars -o auto.exr").code, 0);
     EXPECT_EQ(nebula::readExr(path("auto.exr"), nullptr).rgba, l2.rgba);
@@ -126,5 +131,7 @@ TEST_F(RenderModes, BadCombinationsAndMissingLevels)
         nebula::writeGrids(path("old.vdb"), t, "test", "test");
     }
     expectFailure("nebrender -i pyr.vdb --phase old.vdb -o x.exr", 1, "no single-scattering part");
-    ASSERT_EQ(run("nebrender -i pyr.vdb --phase old.vdb --phase-use replace --res 8x8 -o ok.exr").code, 0);
+    ASSERT_EQ(
+        run("nebrender -i pyr.vdb --phase old.vdb --phase-use replace --res 8x8 -o ok.exr").code,
+        0);
 }

@@ -2,9 +2,9 @@
 // and its bad inputs (DESIGN §7).
 #include "cli_fixture.h"
 
-#include "nebula/physics/colour.h"
 #include "nebula/io/grid_io.h"
 #include "nebula/io/image.h"
+#include "nebula/physics/colour.h"
 #include "nebula/physics/lines.h"
 
 #include <openvdb/openvdb.h>
@@ -26,7 +26,9 @@ protected:
     void makeSpectral()
     {
         ASSERT_EQ(run("nebgen --res 20 --seed 3 --spectral --rotation 40 --emission-shape shell "
-                      "--oiii 0.5 -o s.vdb").code, 0);
+                      "--oiii 0.5 -o s.vdb")
+                      .code,
+                  0);
         ASSERT_EQ(run("nebillum -i s.vdb -o spec.vdb").code, 0);
     }
 
@@ -43,7 +45,8 @@ double sumY(const nebula::Image& img)
 {
     double s = 0.0;
     for (std::size_t i = 0; i < img.rgba.size() / 4; ++i) {
-        s += nebula::linearSRGBToXYZ({img.rgba[i * 4], img.rgba[i * 4 + 1], img.rgba[i * 4 + 2]})[1];
+        s +=
+            nebula::linearSRGBToXYZ({img.rgba[i * 4], img.rgba[i * 4 + 1], img.rgba[i * 4 + 2]})[1];
     }
     return s;
 }
@@ -69,7 +72,8 @@ TEST_F(RenderSpectral, RendersSpectraWithLayersAndProvenance)
     for (std::size_t b = 0; b < img.channels.size(); ++b) {
         const double centre = 365.0 + 10.0 * double(b);
         double s = 0.0;
-        for (float v : img.channels[b].values) s += v;
+        for (float v : img.channels[b].values)
+            s += v;
         Ylayers += s * 10.0 * nebula::cmfAt(centre)[1];
     }
     const double Y = sumY(img);
@@ -81,9 +85,18 @@ TEST_F(RenderSpectral, RendersSpectraWithLayersAndProvenance)
 TEST_F(RenderSpectral, FixedBandsApproachPiecewiseLinear)
 {
     makeSpectral();
-    ASSERT_EQ(run("nebrender -i spec.vdb --spectral --res 12x12 --exaggerate-velocity 50 --no-png -o pl.exr").code, 0);
-    ASSERT_EQ(run("nebrender -i spec.vdb --bands 20 --res 12x12 --exaggerate-velocity 50 --no-png -o b20.exr").code, 0);
-    ASSERT_EQ(run("nebrender -i spec.vdb --bands 2000 --res 12x12 --exaggerate-velocity 50 --no-png -o b2000.exr").code, 0);
+    ASSERT_EQ(run("nebrender -i spec.vdb --spectral --res 12x12 --exaggerate-velocity 50 --no-png "
+                  "-o pl.exr")
+                  .code,
+              0);
+    ASSERT_EQ(run("nebrender -i spec.vdb --bands 20 --res 12x12 --exaggerate-velocity 50 --no-png "
+                  "-o b20.exr")
+                  .code,
+              0);
+    ASSERT_EQ(run("nebrender -i spec.vdb --bands 2000 --res 12x12 --exaggerate-velocity 50 "
+                  "--no-png -o b2000.exr")
+                  .code,
+              0);
     const double pl = sumY(nebula::readExr(path("pl.exr"), nullptr));
     const double b20 = sumY(nebula::readExr(path("b20.exr"), nullptr));
     const double b2000 = sumY(nebula::readExr(path("b2000.exr"), nullptr));
@@ -131,7 +144,8 @@ TEST_F(RenderSpectral, BadInputIsAClearErrorWithNoOutput)
     // An emission grid whose nebula:lines names an unknown line.
     {
         nebula::GridSet g = read(path("spec.vdb"));
-        g.find("emission")->insertMeta(nebula::META_LINES, openvdb::StringMetadata("H-alpha:1,Foo:2"));
+        g.find("emission")
+            ->insertMeta(nebula::META_LINES, openvdb::StringMetadata("H-alpha:1,Foo:2"));
         writeVdb(path("badL.vdb"), g.grids, g.meta);
         expectFailure("nebrender -i badL.vdb --spectral -o f.exr", 1, "Foo");
     }

@@ -22,7 +22,8 @@ namespace {
 std::vector<std::string> toolsOf(const nlohmann::json& history)
 {
     std::vector<std::string> tools;
-    for (const auto& stage : history) tools.push_back(stage.at("tool").get<std::string>());
+    for (const auto& stage : history)
+        tools.push_back(stage.at("tool").get<std::string>());
     return tools;
 }
 
@@ -47,13 +48,15 @@ int reportLines(const std::string& text, const std::string& tool)
 TEST_F(Cli, HistoryCarriesTheWholePipeline)
 {
     ASSERT_EQ(run("nebgen --res 24 --seed 7 -o - | nebillum -i - -o - | "
-                  "nebpyramid -i - --levels 1 -o pyr.vdb").code, 0);
+                  "nebpyramid -i - --levels 1 -o pyr.vdb")
+                  .code,
+              0);
     const auto pyr = read(path("pyr.vdb"));
     const auto history = pyr.history();
     ASSERT_EQ(toolsOf(history), (std::vector<std::string>{"nebgen", "nebillum", "nebpyramid"}));
     EXPECT_NE(history[0].at("command").get<std::string>().find("--seed 7"), std::string::npos);
     EXPECT_EQ(history[2].at("version").get<std::string>(), NEBULA_VERSION_STRING);
-    EXPECT_EQ(pyr.metaString(nebula::META_TOOL), "nebpyramid");  // the last stage, as before
+    EXPECT_EQ(pyr.metaString(nebula::META_TOOL), "nebpyramid"); // the last stage, as before
 
     const Result r = run("nebrender -i pyr.vdb --levels 0 --res 16x16 -o frame.exr");
     ASSERT_EQ(r.code, 0) << r.err;
@@ -135,7 +138,9 @@ TEST_F(Cli, GiantSpectralClassesAreRefused)
 TEST_F(Cli, LevelsNeedAPhaseTable)
 {
     ASSERT_EQ(run("nebgen --res 24 -o - | nebillum -i - -o - | nebpyramid -i - --levels 2 -o "
-                  "pyr.vdb").code, 0);
+                  "pyr.vdb")
+                  .code,
+              0);
     expectFailure("nebrender -i pyr.vdb --levels 2 --res 16x16 -o f.exr", 2,
                   "--levels needs a phase table (--phase)");
     const Result r = run("nebrender -i pyr.vdb --res 16x16 -o f.exr");

@@ -4,4 +4,7 @@
 #include "nebula/core/error.h"
 #include "nebula/render/camera.h"
 
-int main() { return 0; }
+int main()
+{
+    return 0;
+}

@@ -9,8 +9,8 @@
 
 namespace nebula::test {
 
-inline constexpr double H = 0.1;    // voxel size [pc]
-inline constexpr int N = 41;        // lattice 0..40; dust on 1..39, zero border
+inline constexpr double H = 0.1; // voxel size [pc]
+inline constexpr int N = 41;     // lattice 0..40; dust on 1..39, zero border
 inline constexpr double KAPPA = 1.5e-3;
 
 /// A uniform cube: density n0 and emission e0 on lattice points 1..39, zero on the border, so
@@ -29,7 +29,8 @@ inline RenderScene cube(double n0, double e0, const std::vector<Star>& stars)
                 v[1] = float(e0);
             }
     scene.stars = stars;
-    for (const auto& s : stars) scene.starColor.push_back({s.luminosity, s.luminosity, s.luminosity});
+    for (const auto& s : stars)
+        scene.starColor.push_back({s.luminosity, s.luminosity, s.luminosity});
     scene.dust.kappa_V = KAPPA;
     scene.dust.r = {0.75, 1.0, 1.33};
     scene.buildOccupancy();
@@ -57,10 +58,9 @@ inline Star farStar(const Vec3& dir)
     s.name = "far";
     const Vec3 p = Vec3(2, 2, 2) + dir * 1e5;
     s.position = {p.x, p.y, p.z};
-    s.luminosity = 4.0 * PI * 1e10;  // irradiance 1 L_sun pc^-2 at the cube
+    s.luminosity = 4.0 * PI * 1e10; // irradiance 1 L_sun pc^-2 at the cube
     return s;
 }
-
 
 /// Fills each star's tau channel (2 + s) of @p scene with the exact optical depth from the
 /// star (nebillum's integrator), for scenes whose stars are near enough to integrate from.
@@ -77,8 +77,10 @@ inline void fillStarTau(RenderScene& scene)
     const Affine w2i = v.indexToWorld.inverse();
     for (std::size_t s = 0; s < scene.stars.size(); ++s) {
         const auto& p = scene.stars[s].position;
-        const auto tau = opticalDepthAt(n, w2i.apply(Vec3(p[0], p[1], p[2])), scene.dust.kappa_V, points);
-        for (std::size_t i = 0; i < v.voxelCount(); ++i) scene.fields.voxel(i)[2 + s] = tau[i];
+        const auto tau =
+            opticalDepthAt(n, w2i.apply(Vec3(p[0], p[1], p[2])), scene.dust.kappa_V, points);
+        for (std::size_t i = 0; i < v.voxelCount(); ++i)
+            scene.fields.voxel(i)[2 + s] = tau[i];
     }
 }
 

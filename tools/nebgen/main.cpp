@@ -1,9 +1,9 @@
 // nebgen - procedural reflection nebula: fBm dust density, gas emission, stars, and with
 // --spectral temperature, velocity and [O III] emission.
 #include "nebula/cli/cli.h"
+#include "nebula/cli/options.h"
 #include "nebula/core/error.h"
 #include "nebula/stages/generate.h"
-#include "nebula/cli/options.h"
 
 #include <cstdio>
 #include <string>
@@ -34,7 +34,7 @@ std::string knownLinesHelp()
 int main(int argc, char** argv)
 {
     nebula::CommonOptions common;
-    nebula::NebulaParams params;      // every default lives here
+    nebula::NebulaParams params; // every default lives here
     nebula::StarOptions starOpts;
     nebula::DustOptions dustOpts;
     bool noStars = false;
@@ -79,7 +79,8 @@ int main(int argc, char** argv)
     app.add_option("--res", params.res, "Voxels along each axis")->capture_default_str();
     app.add_option("--size", params.size, "Edge length of the cube [pc]")->capture_default_str();
     app.add_option("--seed", params.seed, "Noise seed")->capture_default_str();
-    app.add_option("--density", params.densityPeak, "Density scale: n_H [cm^-3] where the shaped noise is 1")
+    app.add_option("--density", params.densityPeak,
+                   "Density scale: n_H [cm^-3] where the shaped noise is 1")
         ->capture_default_str();
     app.add_option("--frequency", params.frequency, "Noise features across the cube")
         ->capture_default_str();
@@ -154,10 +155,10 @@ int main(int argc, char** argv)
                        "(positive: counter-clockwise seen from +axis)")
             ->capture_default_str()
             ->group(spectralGroup));
-    spectralOnly.push_back(app.add_option("--rotation-axis", rotationAxis,
-                                          "X,Y,Z: rotation axis (any length)")
-                               ->capture_default_str()
-                               ->group(spectralGroup));
+    spectralOnly.push_back(
+        app.add_option("--rotation-axis", rotationAxis, "X,Y,Z: rotation axis (any length)")
+            ->capture_default_str()
+            ->group(spectralGroup));
     spectralOnly.push_back(
         app.add_option("--turbulence", params.spectral.motion.turbulence,
                        "RMS speed [km/s] of divergence-free curl-noise turbulence "

@@ -1,13 +1,13 @@
 // nebphase - the effective phase function Phi(t, mu) of a dust voxel by Monte Carlo
 // (DESIGN §4), and plane-parallel slab runs of the same Monte Carlo core.
-#include "nebula/core/atomic_file.h"
 #include "nebula/cli/cli.h"
+#include "nebula/cli/options.h"
+#include "nebula/core/atomic_file.h"
 #include "nebula/core/error.h"
 #include "nebula/io/grid_io.h"
-#include "nebula/physics/montecarlo.h"
-#include "nebula/cli/options.h"
-#include "nebula/physics/phase_table.h"
 #include "nebula/io/phase_table_vdb.h"
+#include "nebula/physics/montecarlo.h"
+#include "nebula/physics/phase_table.h"
 
 #include <nlohmann/json.hpp>
 
@@ -28,13 +28,13 @@ namespace {
 struct PhaseOptions
 {
     nebula::PhaseTableSpec table;
-    std::string json;                      ///< --json FILE: the table as JSON too
-    std::optional<std::uint64_t> photons;  ///< per t row at least (table) / in all (slab)
+    std::string json;                     ///< --json FILE: the table as JSON too
+    std::optional<std::uint64_t> photons; ///< per t row at least (table) / in all (slab)
     std::optional<std::uint64_t> maxPhotons;
     bool slab = false;
-    std::optional<double> tau;             ///< slab optical depth
-    double mu0 = 1.0;                      ///< cosine of the incident beam to the slab normal
-    int bins = 20;                         ///< slab: equal-cos bins per hemisphere
+    std::optional<double> tau; ///< slab optical depth
+    double mu0 = 1.0;          ///< cosine of the incident beam to the slab normal
+    int bins = 20;             ///< slab: equal-cos bins per hemisphere
     std::string estimator = "next-event";
     std::uint64_t slabPhotons = 1000000;
 };
@@ -161,19 +161,21 @@ void tableMode(const nebula::Run& run, const nebula::CommonOptions& common,
     const std::string seconds = secondsSince(start);
 
     std::uint64_t photons = 0;
-    for (auto n : table.photons) photons += n;
+    for (auto n : table.photons)
+        photons += n;
     const double worst = table.worstRelativeError(spec.errorTMax);
-    run.info("worst relative error of Phi (mu > 0, t <= " + num(spec.errorTMax) + "): " +
-             approx(worst) + " (target " + num(spec.targetError) + "); " +
+    run.info("worst relative error of Phi (mu > 0, t <= " + num(spec.errorTMax) +
+             "): " + approx(worst) + " (target " + num(spec.targetError) + "); " +
              std::to_string(photons) + " photons in all; " + seconds);
     if (!std::isfinite(worst)) {
         run.warn("some bins with mu > 0 and t <= " + num(spec.errorTMax) +
                  " have Phi = 0 (no scattered light), so their relative error is undefined; "
-                 "each such row used --max-photons " + std::to_string(spec.maxPhotons));
+                 "each such row used --max-photons " +
+                 std::to_string(spec.maxPhotons));
     } else if (worst > spec.targetError) {
-        run.warn("worst relative error of Phi is " + approx(worst) + " (mu > 0, t <= " +
-                 num(spec.errorTMax) + "), above --error " + num(spec.targetError) +
-                 ": --max-photons " + std::to_string(spec.maxPhotons) +
+        run.warn("worst relative error of Phi is " + approx(worst) +
+                 " (mu > 0, t <= " + num(spec.errorTMax) + "), above --error " +
+                 num(spec.targetError) + ": --max-photons " + std::to_string(spec.maxPhotons) +
                  " reached; raise it for a more accurate table");
     }
 
@@ -188,7 +190,7 @@ void tableMode(const nebula::Run& run, const nebula::CommonOptions& common,
         if (!out) throw nebula::Error(opts.json + ": cannot write the JSON table");
     }
 
-    nebula::GridSet grids;  // only the table: the input's grids are not passed through
+    nebula::GridSet grids; // only the table: the input's grids are not passed through
     grids.source = output;
     nebula::addPhaseTable(grids, table);
     grids.setDust(dust);
@@ -220,18 +222,17 @@ void slabMode(const nebula::Run& run, const nebula::CommonOptions& common,
         throw nebula::UsageError("--mu0 must be in (0, 1], got " + num(opts.mu0));
     }
     if (opts.bins < 1 || opts.bins > 100000) {
-        throw nebula::UsageError("--bins must be in [1, 100000], got " +
-                                 std::to_string(opts.bins));
+        throw nebula::UsageError("--bins must be in [1, 100000], got " + std::to_string(opts.bins));
     }
     nebula::McSettings set;
     set.photons = opts.photons.value_or(opts.slabPhotons);
     if (set.photons == 0) throw nebula::UsageError("--photons must be > 0");
     set.seed = opts.table.seed;
     set.muBins = 2 * opts.bins;
-    set.estimator = opts.estimator == "analog" ? nebula::McEstimator::Analog
-                                               : nebula::McEstimator::NextEvent;
+    set.estimator =
+        opts.estimator == "analog" ? nebula::McEstimator::Analog : nebula::McEstimator::NextEvent;
     const auto dust = loadDust(run, common.input, dustOpts);
-    const nebula::ScatteringMedium& medium = dust;  // the dust's scattering
+    const nebula::ScatteringMedium& medium = dust; // the dust's scattering
 
     const auto start = std::chrono::steady_clock::now();
     nebula::McTally tally;
@@ -269,8 +270,8 @@ void slabMode(const nebula::Run& run, const nebula::CommonOptions& common,
     };
     Json reflected = Json::array(), transmitted = Json::array();
     for (int k = half - 1; k >= 0; --k) {
-        reflected.push_back(bin(std::fabs(r.muEdges[k + 1]), std::fabs(r.muEdges[k]),
-                                r.perSteradian[k]));
+        reflected.push_back(
+            bin(std::fabs(r.muEdges[k + 1]), std::fabs(r.muEdges[k]), r.perSteradian[k]));
     }
     for (int k = half; k < 2 * half; ++k) {
         transmitted.push_back(bin(r.muEdges[k], r.muEdges[k + 1], r.perSteradian[k]));
@@ -287,7 +288,7 @@ void slabMode(const nebula::Run& run, const nebula::CommonOptions& common,
 int main(int argc, char** argv)
 {
     nebula::CommonOptions common;
-    PhaseOptions opts;  // every default lives here (and in PhaseTableSpec)
+    PhaseOptions opts; // every default lives here (and in PhaseTableSpec)
     nebula::DustOptions dustOpts;
     const nebula::PhaseTableSpec& spec = opts.table;
 
@@ -332,9 +333,8 @@ int main(int argc, char** argv)
         ->capture_default_str()
         ->check(notNegative);
     app.add_option("--photons", opts.photons,
-                   "Photons: per t at least (table, default " +
-                       std::to_string(spec.minPhotons) + "); in all (--slab, default " +
-                       std::to_string(opts.slabPhotons) + ")")
+                   "Photons: per t at least (table, default " + std::to_string(spec.minPhotons) +
+                       "); in all (--slab, default " + std::to_string(opts.slabPhotons) + ")")
         ->check(notNegative);
     nebula::cli::addDust(app, dustOpts, /*withKappa=*/false);
 
@@ -376,9 +376,9 @@ int main(int argc, char** argv)
         // Options of the other mode are refused rather than silently ignored.
         for (const auto* o : opts.slab ? tableOnly : slabOnly) {
             if (o->count() == 0) continue;
-            throw nebula::UsageError(
-                o->get_name() + (opts.slab ? " is for table mode; --slab prints JSON to stdout"
-                                           : " is for slab mode; add --slab"));
+            throw nebula::UsageError(o->get_name() +
+                                     (opts.slab ? " is for table mode; --slab prints JSON to stdout"
+                                                : " is for slab mode; add --slab"));
         }
         if (opts.slab && !opts.tau) {
             throw nebula::UsageError("--slab needs --tau T, the slab's optical depth");

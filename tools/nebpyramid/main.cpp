@@ -6,7 +6,7 @@
 int main(int argc, char** argv)
 {
     nebula::CommonOptions common;
-    nebula::PyramidOptions opts;  // every default lives here
+    nebula::PyramidOptions opts; // every default lives here
     std::string tau = nebula::toString(opts.tau);
 
     CLI::App app{
@@ -49,8 +49,7 @@ int main(int argc, char** argv)
         nebula::refuseBinaryToTerminal(common.output, "-o");
         opts.tau = nebula::tauMethodFromString(tau);
         if (opts.levels < 1) {
-            throw nebula::UsageError("--levels must be >= 1, got " +
-                                     std::to_string(opts.levels));
+            throw nebula::UsageError("--levels must be >= 1, got " + std::to_string(opts.levels));
         }
         auto grids = nebula::readGrids(common.input, run);
         opts.densityGrid = common.densityGrid;

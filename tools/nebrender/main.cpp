@@ -1,7 +1,7 @@
 // nebrender - single-scattering ray caster: scattered starlight + gas emission to EXR/PNG.
 #include "nebula/cli/cli.h"
-#include "nebula/core/error.h"
 #include "nebula/cli/options.h"
+#include "nebula/core/error.h"
 #include "nebula/io/phase_table_vdb.h"
 #include "nebula/stages/render.h"
 
@@ -10,7 +10,7 @@
 int main(int argc, char** argv)
 {
     nebula::CommonOptions common;
-    nebula::RenderOptions opts;       // every default lives here
+    nebula::RenderOptions opts; // every default lives here
     nebula::RenderOutput out;
     nebula::DustOptions dustOpts;
     std::string eye, lookAt, up, res, wavelengths, emissionColor, phaseFile;
@@ -26,7 +26,8 @@ int main(int argc, char** argv)
         "  nebphase -i lit.vdb -o phase.vdb && nebrender -i lit.vdb --phase phase.vdb -o f.exr\n"
         "  nebrender -i lit.vdb --integrator path --spp 256 -o reference.exr\n"
         "  nebrender -i lit.vdb --spectral -o spectral.exr      # lines, black bodies, Doppler\n"
-        "  nebrender -i shell.vdb --spectral --exaggerate-velocity 50 --spectral-layers 47 -o d.exr\n"
+        "  nebrender -i shell.vdb --spectral --exaggerate-velocity 50 --spectral-layers 47 -o "
+        "d.exr\n"
         "  nebgen -o - | nebillum -i - -o - | nebrender -i - -o frame.exr\n\n"
         "Needs the density grid, the tau.<star> grids from nebillum and nebula:stars;\n"
         "uses the emission grid if present. EXR: linear radiance [L_sun pc^-2 sr^-1], R,G,B,A\n"
@@ -48,25 +49,31 @@ int main(int argc, char** argv)
         std::snprintf(b, sizeof b, "%g,%g,%g", v.x, v.y, v.z);
         return std::string(b);
     };
-    app.add_option("--eye", eye, "Camera position X,Y,Z [pc] (default " + fmt(opts.camera.eye) + ")");
+    app.add_option("--eye", eye,
+                   "Camera position X,Y,Z [pc] (default " + fmt(opts.camera.eye) + ")");
     app.add_option("--look-at", lookAt,
-                   "Point the camera looks at X,Y,Z [pc] (default " + fmt(opts.camera.lookAt) + ")");
+                   "Point the camera looks at X,Y,Z [pc] (default " + fmt(opts.camera.lookAt) +
+                       ")");
     app.add_option("--up", up, "Up direction X,Y,Z (default " + fmt(opts.camera.up) + ")");
     app.add_option("--fov", opts.camera.fovDeg, "Horizontal field of view [degrees]")
         ->capture_default_str()
         ->check(CLI::Range(0.01, 179.0));
     app.add_option("--res", res, "Image size WxH (default 512x512)");
-    app.add_option("--step", opts.step, "Ray step [voxels]")->capture_default_str()
+    app.add_option("--step", opts.step, "Ray step [voxels]")
+        ->capture_default_str()
         ->check(CLI::PositiveNumber);
-    app.add_option("--wavelengths", wavelengths,
-                   "R,G,B channel wavelengths [nm] for the extinction curve (default 700,546.1,435.8)");
-    app.add_option("--emission-grid", opts.emissionGrid, "Gas emission grid")->capture_default_str();
+    app.add_option(
+        "--wavelengths", wavelengths,
+        "R,G,B channel wavelengths [nm] for the extinction curve (default 700,546.1,435.8)");
+    app.add_option("--emission-grid", opts.emissionGrid, "Gas emission grid")
+        ->capture_default_str();
     app.add_option("--emission-scale", opts.emissionScale,
                    "Emission multiplier [L_sun pc^-3 sr^-1 per grid unit]")
         ->capture_default_str()
         ->check(CLI::NonNegativeNumber);
-    app.add_option("--emission-color", emissionColor,
-                   "Emission colour, linear sRGB R,G,B (default 1,0.15,0.2: H-alpha with some H-beta)");
+    app.add_option(
+        "--emission-color", emissionColor,
+        "Emission colour, linear sRGB R,G,B (default 1,0.15,0.2: H-alpha with some H-beta)");
     app.add_flag("--no-stars", noStars, "Do not draw the stars themselves");
     app.add_option("--sprite-radius", opts.spriteRadius, "Star sprite radius [pixels]")
         ->capture_default_str()
@@ -103,55 +110,77 @@ int main(int argc, char** argv)
         ->check(CLI::Range(1, 1 << 30));
     app.add_option("--seed", opts.seed, "Path tracer: random seed (same seed, same image)")
         ->capture_default_str();
-    app.add_flag("--phase-ignore-dust", opts.phaseIgnoreDust,
-                 "Use the --phase table even if its albedo, g or phase model differ from the dust's");
+    app.add_flag(
+        "--phase-ignore-dust", opts.phaseIgnoreDust,
+        "Use the --phase table even if its albedo, g or phase model differ from the dust's");
     auto& sp = opts.spectral;
     auto* spectral = app.add_option_group("Spectral", "Spectral rendering (DESIGN section 7)");
     spectral->add_flag("--spectral", sp.enabled,
                        "Render spectra: piecewise-linear (exact Doppler trapezoids) by default");
-    auto* bandsOpt = spectral->add_option("--bands", sp.bands,
+    auto* bandsOpt =
+        spectral
+            ->add_option("--bands", sp.bands,
                          "Fixed-band mode instead: N bands over 360-830 nm, point-sampled at\n"
                          "their centres (for comparison; implies --spectral)")
-        ->check(CLI::Range(1, 1000000));
+            ->check(CLI::Range(1, 1000000));
     std::vector<CLI::Option*> spectralOnly;
-    spectralOnly.push_back(spectral->add_option("--continuum-step", sp.continuumStep,
-                         "Piecewise-linear mode: continuum node spacing [nm]")
-        ->capture_default_str());
-    spectralOnly.push_back(spectral->add_option("--exaggerate-velocity", sp.exaggerateVelocity,
+    spectralOnly.push_back(spectral
+                               ->add_option("--continuum-step", sp.continuumStep,
+                                            "Piecewise-linear mode: continuum node spacing [nm]")
+                               ->capture_default_str());
+    spectralOnly.push_back(
+        spectral
+            ->add_option("--exaggerate-velocity", sp.exaggerateVelocity,
                          "Multiply every velocity by F before the Doppler shift (visualisation):\n"
                          "the velocity grid and the line width alike")
-        ->capture_default_str());
-    spectralOnly.push_back(spectral->add_flag("--relativistic", sp.relativistic,
-                         "Relativistic Doppler factor gamma (1 + v_r/c): gas moving across the\n"
-                         "line of sight is red-shifted too (default: first order, 1 + v_r/c)"));
-    spectralOnly.push_back(spectral->add_option("--line-width", sp.lineWidth,
+            ->capture_default_str());
+    spectralOnly.push_back(
+        spectral->add_flag("--relativistic", sp.relativistic,
+                           "Relativistic Doppler factor gamma (1 + v_r/c): gas moving across the\n"
+                           "line of sight is red-shifted too (default: first order, 1 + v_r/c)"));
+    spectralOnly.push_back(
+        spectral
+            ->add_option("--line-width", sp.lineWidth,
                          "Half-width of each line's rest-frame box profile [km/s] (thermal and\n"
                          "turbulent broadening)")
-        ->capture_default_str());
-    spectralOnly.push_back(spectral->add_option("--lines", sp.lines,
-                         "Lines of the emission grid, e.g. H-alpha:1,H-beta:0.35,[O III]5007:0.5\n"
-                         "(overrides its nebula:lines; default H-alpha:1,H-beta:0.35)"));
-    spectralOnly.push_back(spectral->add_option("--blackbody-scale", sp.blackbodyScale,
+            ->capture_default_str());
+    spectralOnly.push_back(spectral->add_option(
+        "--lines", sp.lines,
+        "Lines of the emission grid, e.g. H-alpha:1,H-beta:0.35,[O III]5007:0.5\n"
+        "(overrides its nebula:lines; default H-alpha:1,H-beta:0.35)"));
+    spectralOnly.push_back(
+        spectral
+            ->add_option("--blackbody-scale", sp.blackbodyScale,
                          "Multiply the black-body emission (1 = Kirchhoff's law, physical)")
-        ->capture_default_str());
-    spectralOnly.push_back(spectral->add_option("--temperature-scale", sp.temperatureScale,
+            ->capture_default_str());
+    spectralOnly.push_back(
+        spectral
+            ->add_option("--temperature-scale", sp.temperatureScale,
                          "Multiply the temperature grid (visualisation of cold dust)")
-        ->capture_default_str());
-    spectralOnly.push_back(spectral->add_option("--temperature-grid", sp.temperatureGrid,
-                         "Temperature grid [K]")->capture_default_str());
-    spectralOnly.push_back(spectral->add_option("--velocity-grid", sp.velocityGrid,
-                         "Velocity grid (Vec3f, km/s, world axes)")->capture_default_str());
-    spectralOnly.push_back(spectral->add_option("--spectral-layers", sp.layers,
+            ->capture_default_str());
+    spectralOnly.push_back(
+        spectral->add_option("--temperature-grid", sp.temperatureGrid, "Temperature grid [K]")
+            ->capture_default_str());
+    spectralOnly.push_back(spectral
+                               ->add_option("--velocity-grid", sp.velocityGrid,
+                                            "Velocity grid (Vec3f, km/s, world axes)")
+                               ->capture_default_str());
+    spectralOnly.push_back(
+        spectral
+            ->add_option("--spectral-layers", sp.layers,
                          "Also write N spectral EXR channels S0.<centre>nm: mean radiance per nm\n"
                          "in N equal bands over 360-830 nm")
-        ->check(CLI::Range(1, 470)));
-    spectralOnly.push_back(spectral->add_flag("--count-pieces", sp.countPieces,
-                         "Assemble each ray's piecewise-linear spectrum and report its piece count\n"
-                         "with -v (slower; for benchmarks)"));
-    spectralOnly.push_back(spectral->add_option("--merge-tolerance", sp.mergeTolerance,
+            ->check(CLI::Range(1, 470)));
+    spectralOnly.push_back(spectral->add_flag(
+        "--count-pieces", sp.countPieces,
+        "Assemble each ray's piecewise-linear spectrum and report its piece count\n"
+        "with -v (slower; for benchmarks)"));
+    spectralOnly.push_back(
+        spectral
+            ->add_option("--merge-tolerance", sp.mergeTolerance,
                          "With --count-pieces: also count the pieces left after merging\n"
                          "neighbours under this relative tolerance (Spectrum::merge)")
-        ->check(CLI::Range(0.0, 1.0)));
+            ->check(CLI::Range(0.0, 1.0)));
     auto* exp = app.add_option("--exposure", exposure,
                                "PNG: fixed exposure in stops (white = 2^-E); turns off the "
                                "automatic tone curve");
@@ -179,7 +208,8 @@ int main(int argc, char** argv)
         opts.drawStars = !noStars;
         if (bandsOpt->count() > 0) sp.enabled = true;
         nebula::cli::requireMode(spectralOnly, sp.enabled, "--spectral");
-        opts.integrator = integrator == "path" ? nebula::Integrator::Path : nebula::Integrator::Fast;
+        opts.integrator =
+            integrator == "path" ? nebula::Integrator::Path : nebula::Integrator::Fast;
         opts.phaseUse = phaseUse == "replace" ? nebula::PhaseUse::Replace : nebula::PhaseUse::Gain;
         if (noPng) out.png = "none";
         if (exp->count() > 0) {

@@ -53,7 +53,8 @@ std::array<double, 3> parseVec3(const std::string& text, const std::string& opti
     const std::string expected = option + " \"" + text + "\": expected X,Y,Z (three numbers)";
     std::vector<std::string> parts;
     std::istringstream in(text);
-    for (std::string item; std::getline(in, item, ',');) parts.push_back(item);
+    for (std::string item; std::getline(in, item, ',');)
+        parts.push_back(item);
     if (parts.size() != 3 || text.back() == ',') throw UsageError(expected);
     std::array<double, 3> v{};
     for (int i = 0; i < 3; ++i) {
@@ -90,7 +91,8 @@ void parseResolution(const std::string& text, int& width, int& height)
         width = w;
         height = h;
     } catch (const std::exception&) {
-        throw UsageError("--res \"" + text + "\": expected WxH with positive integers, e.g. 512x512");
+        throw UsageError("--res \"" + text +
+                         "\": expected WxH with positive integers, e.g. 512x512");
     }
 }
 
@@ -102,13 +104,14 @@ std::string joinCommand(int argc, char** argv)
     for (int i = 0; i < argc; ++i) {
         if (i) cmd += ' ';
         const std::string arg = argv[i];
-        const bool plain = !arg.empty() &&
-                           arg.find_first_of(" \t\n'\"\\$`*?[]{}()<>|&;#~") == std::string::npos;
+        const bool plain =
+            !arg.empty() && arg.find_first_of(" \t\n'\"\\$`*?[]{}()<>|&;#~") == std::string::npos;
         if (plain) {
             cmd += arg;
         } else {
             cmd += '\'';
-            for (char c : arg) cmd += (c == '\'') ? std::string("'\\''") : std::string(1, c);
+            for (char c : arg)
+                cmd += (c == '\'') ? std::string("'\\''") : std::string(1, c);
             cmd += '\'';
         }
     }
@@ -123,7 +126,7 @@ int run(CLI::App& app, const std::string& tool, CommonOptions& opts, int argc, c
     try {
         app.parse(argc, argv);
     } catch (const CLI::ParseError& e) {
-        if (e.get_exit_code() == 0) return app.exit(e);  // --help, --version: stdout, 0
+        if (e.get_exit_code() == 0) return app.exit(e); // --help, --version: stdout, 0
         std::string message = e.what();
         // CLI11 says "INI was not able to parse KEY" for a key of a --config file that is no
         // option of this tool.

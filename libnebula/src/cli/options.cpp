@@ -3,8 +3,8 @@
 #include "nebula/core/error.h"
 
 #include <cmath>
-#include <fstream>
 #include <fmt/format.h>
+#include <fstream>
 #include <nlohmann/json.hpp>
 #include <sstream>
 
@@ -47,7 +47,7 @@ double finiteNumber(const std::string& text, const std::string& expected)
         std::size_t used = 0;
         const double v = std::stod(text, &used);
         if (used == text.size() && std::isfinite(v)) return v;
-    } catch (const std::exception&) {  // invalid_argument, or out_of_range ("1e999")
+    } catch (const std::exception&) { // invalid_argument, or out_of_range ("1e999")
     }
     throw UsageError(expected);
 }
@@ -90,17 +90,21 @@ Star parseStarOption(const std::string& text)
     nlohmann::json j;
     j["name"] = parts[0];
     std::vector<double> pos;
-    const std::string badPosition = expected + ": \"position\" must be three finite numbers X,Y,Z [pc]";
-    for (const auto& c : split(parts[1], ',')) pos.push_back(finiteNumber(c, badPosition));
+    const std::string badPosition =
+        expected + ": \"position\" must be three finite numbers X,Y,Z [pc]";
+    for (const auto& c : split(parts[1], ','))
+        pos.push_back(finiteNumber(c, badPosition));
     if (pos.size() != 3) throw UsageError(badPosition);
     j["position"] = pos;
     j["luminosity"] =
         finiteNumber(parts[2], expected + ": \"luminosity\" must be a finite number [L_sun]");
     // A number is a temperature [K]; anything else a spectral class.
     const auto& last = parts[3];
-    const bool numeric = !last.empty() && last.find_first_not_of("0123456789.eE+-") == std::string::npos;
+    const bool numeric =
+        !last.empty() && last.find_first_not_of("0123456789.eE+-") == std::string::npos;
     if (numeric) {
-        j["temperature"] = finiteNumber(last, expected + ": the temperature [K] must be a finite number");
+        j["temperature"] =
+            finiteNumber(last, expected + ": the temperature [K] must be a finite number");
     } else {
         j["class"] = last;
     }
@@ -138,8 +142,7 @@ void addDust(CLI::App& app, DustOptions& opts, bool withKappa)
     auto* grp = app.add_option_group(
         "Dust", "Dust model, carried as nebula:dust (nebillum, nebrender: default the input's)");
     if (withKappa) {
-        grp->add_option("--kappa-v", opts.kappa_V,
-                        "V-band extinction per n_H per pc [pc^-1 cm^3]")
+        grp->add_option("--kappa-v", opts.kappa_V, "V-band extinction per n_H per pc [pc^-1 cm^3]")
             ->check(CLI::PositiveNumber)
             ->default_str(fmt::format("{}", d.kappa_V));
     }

@@ -42,8 +42,7 @@ AtomicFile::AtomicFile(const std::string& path) : mPath(path)
     buf.push_back('\0');
     const int fd = ::mkstemp(buf.data());
     if (fd < 0) {
-        throw Error(path + ": cannot create temporary output file (" + std::strerror(errno) +
-                    ")");
+        throw Error(path + ": cannot create temporary output file (" + std::strerror(errno) + ")");
     }
     // mkstemp creates the file 0600; give it the permissions an ordinary open() would.
     const mode_t mask = ::umask(0);
@@ -61,8 +60,8 @@ AtomicFile::~AtomicFile()
 void AtomicFile::commit()
 {
     if (std::rename(mTmpPath.c_str(), mPath.c_str()) != 0) {
-        throw Error(mPath + ": cannot move finished output into place (" +
-                    std::strerror(errno) + ")");
+        throw Error(mPath + ": cannot move finished output into place (" + std::strerror(errno) +
+                    ")");
     }
     mCommitted = true;
 }

@@ -27,8 +27,7 @@ void Run::warn(const std::string& message) const
 Progress::Progress(const Run* run, std::string label, std::uint64_t total)
     : mEnabled(run && run->showProgress() && total > 0), mLabel(std::move(label)), mTotal(total),
       mLast(std::chrono::steady_clock::now())
-{
-}
+{}
 
 Progress::~Progress()
 {

@@ -48,13 +48,13 @@ std::string gridTypeName(const openvdb::GridBase& g)
     return g.type();
 }
 
-openvdb::FloatGrid::Ptr GridSet::floatGrid(const std::string& name,
-                                           const std::string& option) const
+openvdb::FloatGrid::Ptr GridSet::floatGrid(const std::string& name, const std::string& option) const
 {
     const auto base = find(name);
     if (!base) {
         std::string names;
-        for (const auto& g : grids) names += (names.empty() ? "" : ", ") + g->getName();
+        for (const auto& g : grids)
+            names += (names.empty() ? "" : ", ") + g->getName();
         throw Error(source + ": no grid \"" + name + "\"" +
                     (option.empty() ? "" : " (" + option + ")") + "; the file has " +
                     (names.empty() ? std::string("no grids") : "grids: " + names));
@@ -78,7 +78,7 @@ std::string GridSet::metaString(const std::string& key, const std::string& fallb
 
 void GridSet::setMetaString(const std::string& key, const std::string& value)
 {
-    meta.removeMeta(key);  // a key of another type would make insertMeta throw
+    meta.removeMeta(key); // a key of another type would make insertMeta throw
     meta.insertMeta(key, openvdb::StringMetadata(value));
 }
 
@@ -94,7 +94,10 @@ void GridSet::setStars(const std::vector<Star>& stars)
     setMetaString(META_STARS, starsToJson(stars));
 }
 
-bool GridSet::hasDust() const { return bool(meta[META_DUST]); }
+bool GridSet::hasDust() const
+{
+    return bool(meta[META_DUST]);
+}
 
 DustParams GridSet::dust() const
 {
@@ -103,13 +106,17 @@ DustParams GridSet::dust() const
     return DustParams::fromJson(json, source + ": metadata " + META_DUST);
 }
 
-void GridSet::setDust(const DustParams& dust) { setMetaString(META_DUST, dust.toJson()); }
+void GridSet::setDust(const DustParams& dust)
+{
+    setMetaString(META_DUST, dust.toJson());
+}
 
 void requireAffine(const openvdb::GridBase& grid, const std::string& source)
 {
     if (!grid.transform().isLinear()) {
         throw Error(source + ": grid \"" + grid.getName() + "\" has a non-affine transform (" +
-                    grid.transform().mapType() + "); only affine (linear) transforms are supported");
+                    grid.transform().mapType() +
+                    "); only affine (linear) transforms are supported");
     }
 }
 
@@ -122,7 +129,9 @@ std::size_t requireFiniteNonNegative(const openvdb::FloatGrid& grid, const std::
             const auto c = it.getCoord();
             std::ostringstream msg;
             msg << source << ": grid \"" << grid.getName() << "\" has "
-                << (std::isnan(v) ? "a NaN" : std::isinf(v) ? "an infinite" : "a negative")
+                << (std::isnan(v)   ? "a NaN"
+                    : std::isinf(v) ? "an infinite"
+                                    : "a negative")
                 << " value " << v << " at voxel (" << c.x() << ", " << c.y() << ", " << c.z()
                 << "); expected finite values >= 0";
             throw Error(msg.str());
@@ -230,8 +239,8 @@ void refuseBinaryToTerminal(const std::string& path, const std::string& option)
 
 std::string describeGrids(const GridSet& grids)
 {
-    std::string text = std::to_string(grids.grids.size()) +
-                       (grids.grids.size() == 1 ? " grid" : " grids");
+    std::string text =
+        std::to_string(grids.grids.size()) + (grids.grids.size() == 1 ? " grid" : " grids");
     for (std::size_t i = 0; i < grids.grids.size(); ++i) {
         text += (i ? ", " : ": ") + grids.grids[i]->getName();
     }

@@ -74,7 +74,8 @@ void validateImage(const std::string& where, const Image& image, bool withLayers
         }
         if (ch.values.size() != n) {
             throw Error(where + ": channel \"" + ch.name + "\" has " +
-                        std::to_string(ch.values.size()) + " floats, expected " + std::to_string(n));
+                        std::to_string(ch.values.size()) + " floats, expected " +
+                        std::to_string(n));
         }
     }
 }
@@ -85,9 +86,7 @@ void validateImage(const std::string& where, const Image& image, bool withLayers
 class CheckedOStream : public Imf::OStream
 {
 public:
-    CheckedOStream(std::FILE* fp, const std::string& name) : Imf::OStream(name.c_str()), mFp(fp)
-    {
-    }
+    CheckedOStream(std::FILE* fp, const std::string& name) : Imf::OStream(name.c_str()), mFp(fp) {}
 
     void write(const char c[], int n) override
     {
@@ -204,13 +203,13 @@ void writeExr(const std::string& path, const Image& image,
 
     // Attributes OpenEXR defines with other types (or uses to describe the file layout)
     // cannot be replaced by strings; say so instead of failing deep inside OpenEXR.
-    static const char* const reserved[] = {"type", "tiles", "chunkCount", "version",
-                                           "maxSamplesPerPixel", "name"};
+    static const char* const reserved[] = {
+        "type", "tiles", "chunkCount", "version", "maxSamplesPerPixel", "name"};
     for (const auto& [key, value] : attributes) {
         if (key.empty()) throw Error(path + ": EXR attribute with an empty name");
-        const bool isReserved = header.find(key) != header.end() ||
-                                std::find(std::begin(reserved), std::end(reserved), key) !=
-                                    std::end(reserved);
+        const bool isReserved =
+            header.find(key) != header.end() ||
+            std::find(std::begin(reserved), std::end(reserved), key) != std::end(reserved);
         if (isReserved) {
             throw Error(path + ": EXR attribute \"" + key +
                         "\" is reserved by OpenEXR and cannot be set as a string");
@@ -228,15 +227,15 @@ void writeExr(const std::string& path, const Image& image,
         static const char* const rgbaNames[] = {"R", "G", "B", "A"};
         for (int c = 0; c < 4; ++c) {
             header.channels().insert(rgbaNames[c], Imf::Channel(Imf::FLOAT));
-            fb.insert(rgbaNames[c], Imf::Slice(Imf::FLOAT, sliceBase(image.rgba.data() + c),
-                                               rgbaX, rgbaY));
+            fb.insert(rgbaNames[c],
+                      Imf::Slice(Imf::FLOAT, sliceBase(image.rgba.data() + c), rgbaX, rgbaY));
         }
         for (const ImageLayer& layer : image.layers) {
             for (int c = 0; c < 3; ++c) {
                 const std::string name = layer.name + "." + rgbaNames[c];
                 header.channels().insert(name, Imf::Channel(Imf::FLOAT));
-                fb.insert(name, Imf::Slice(Imf::FLOAT, sliceBase(layer.rgb.data() + c), rgbX,
-                                           rgbY));
+                fb.insert(name,
+                          Imf::Slice(Imf::FLOAT, sliceBase(layer.rgb.data() + c), rgbX, rgbY));
             }
         }
         for (const ImageChannel& ch : image.channels) {
@@ -259,7 +258,7 @@ void writeExr(const std::string& path, const Image& image,
             Imf::OutputFile out(os, header);
             out.setFrameBuffer(fb);
             out.writePixels(image.height);
-        }  // the destructor writes the line offset table
+        } // the destructor writes the line offset table
         if (os.error() != 0) {
             throw Error(path + ": cannot write EXR: " + std::strerror(os.error()));
         }
@@ -336,7 +335,8 @@ Image readExr(const std::string& path, std::map<std::string, std::string>* attri
                     inLayer = true;
                 }
             }
-            if (!inLayer) image.channels.push_back({name, std::vector<float>(pixelCount(width, height))});
+            if (!inLayer)
+                image.channels.push_back({name, std::vector<float>(pixelCount(width, height))});
         }
         for (ImageChannel& ch : image.channels) {
             fb.insert(ch.name, Imf::Slice::Make(Imf::FLOAT, ch.values.data(), dw, sizeof(float),
@@ -370,8 +370,7 @@ ToneCurve computeToneCurve(const Image& image, const ToneParams& params)
     if (!params.automatic) {
         if (!std::isfinite(params.exposure)) throw Error("tone curve: exposure must be finite");
         if (!(params.gamma > 0.0) || !std::isfinite(params.gamma)) {
-            throw Error("tone curve: gamma must be positive, got " +
-                        std::to_string(params.gamma));
+            throw Error("tone curve: gamma must be positive, got " + std::to_string(params.gamma));
         }
         curve.white = std::exp2(-params.exposure);
         curve.gamma = params.gamma;
@@ -396,13 +395,12 @@ ToneCurve computeToneCurve(const Image& image, const ToneParams& params)
         const double L = luminance(p[0], p[1], p[2]);
         if (L > 0.0 && std::isfinite(L)) Y.push_back(L);
     }
-    if (Y.empty()) return curve;  // black frame: white 1, gamma 1
+    if (Y.empty()) return curve; // black frame: white 1, gamma 1
 
     // White point: nearest-rank percentile, the smallest Y with at least p% of Y <= it.
     std::vector<double> sorted = Y;
     const double rank = std::ceil(params.percentile * double(sorted.size()) / 100.0 - 1e-9);
-    const std::size_t k =
-        std::size_t(std::clamp(rank - 1.0, 0.0, double(sorted.size() - 1)));
+    const std::size_t k = std::size_t(std::clamp(rank - 1.0, 0.0, double(sorted.size() - 1)));
     std::nth_element(sorted.begin(), sorted.begin() + std::ptrdiff_t(k), sorted.end());
     const double white = sorted[k];
 
@@ -415,7 +413,7 @@ ToneCurve computeToneCurve(const Image& image, const ToneParams& params)
             ++count;
         }
     }
-    const double L_avg = std::exp(sumLog / double(count));  // count >= 1: white itself
+    const double L_avg = std::exp(sumLog / double(count)); // count >= 1: white itself
 
     // gamma maps the log-mean to the photographic key, linear display 0.18 (sRGB ~0.46):
     // (L_avg / white)^gamma = 0.18; clamped so that dark frames are not flattened.
@@ -429,7 +427,7 @@ ToneCurve computeToneCurve(const Image& image, const ToneParams& params)
 
 double srgbEncode(double linear)
 {
-    if (!(linear > 0.0)) return 0.0;  // also NaN
+    if (!(linear > 0.0)) return 0.0; // also NaN
     if (linear >= 1.0) return 1.0;
     if (linear <= 0.0031308) return 12.92 * linear;
     return 1.055 * std::pow(linear, 1.0 / 2.4) - 0.055;
@@ -464,7 +462,7 @@ void writePng(const std::string& path, const Image& image, const ToneCurve& curv
         double rgb[3];
         for (int c = 0; c < 3; ++c) {
             const double x = double(image.rgba[4 * i + c]) * invWhite;
-            rgb[c] = x > 0.0 ? x : 0.0;  // NaN -> 0
+            rgb[c] = x > 0.0 ? x : 0.0; // NaN -> 0
         }
         const double Y = 0.2126 * rgb[0] + 0.7152 * rgb[1] + 0.0722 * rgb[2];
         const double scale = Y > 0.0 ? std::pow(Y, curve.gamma) / Y : 0.0;
@@ -515,7 +513,7 @@ void writePng(const std::string& path, const Image& image, const ToneCurve& curv
         ok = pngWriteAll(png, info, fp, png_uint_32(image.width), png_uint_32(image.height),
                          rows.data(), chunks.data(), int(chunks.size()));
     }
-    const int writeErrno = errno;  // from a failed fwrite inside libpng, if any
+    const int writeErrno = errno; // from a failed fwrite inside libpng, if any
     if (png) png_destroy_write_struct(&png, info ? &info : nullptr);
 
     const bool streamError = std::ferror(fp) != 0;

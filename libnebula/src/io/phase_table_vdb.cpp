@@ -50,8 +50,10 @@ void addPhaseTable(GridSet& grids, const PhaseTable& table)
     phi->insertMeta("t_count", openvdb::Int32Metadata(table.tCount));
     phi->insertMeta("t_spacing", openvdb::StringMetadata("log"));
     phi->insertMeta("mu_bins", openvdb::Int32Metadata(table.muBins));
-    phi->insertMeta("mu_binning",
-                    openvdb::StringMetadata("equal-cos over [-1, 1], voxel x = bin, centre -1 + (x + 0.5) * 2 / mu_bins"));
+    phi->insertMeta(
+        "mu_binning",
+        openvdb::StringMetadata(
+            "equal-cos over [-1, 1], voxel x = bin, centre -1 + (x + 0.5) * 2 / mu_bins"));
     phi->insertMeta("albedo", openvdb::DoubleMetadata(table.medium.albedo));
     phi->insertMeta("g", openvdb::DoubleMetadata(table.medium.g));
     phi->insertMeta("phase", openvdb::StringMetadata(toString(table.medium.phase)));
@@ -72,12 +74,14 @@ void addPhaseTable(GridSet& grids, const PhaseTable& table)
 
     if (!table.single.empty()) {
         auto single = tableGrid(table, table.single, PHASE_SINGLE_GRID);
-        single->insertMeta("units", openvdb::StringMetadata(
-                                        "single-scattering part of phase, 1/sr per unit optical depth"));
+        single->insertMeta("units",
+                           openvdb::StringMetadata(
+                               "single-scattering part of phase, 1/sr per unit optical depth"));
         grids.replace(single);
     }
     auto err = tableGrid(table, table.error, PHASE_ERROR_GRID);
-    err->insertMeta("units", openvdb::StringMetadata("standard error of phase, 1/sr per unit optical depth"));
+    err->insertMeta(
+        "units", openvdb::StringMetadata("standard error of phase, 1/sr per unit optical depth"));
     grids.replace(err);
 }
 
@@ -91,15 +95,18 @@ PhaseTable readPhaseTable(const GridSet& grids)
     const auto phi = openvdb::GridBase::grid<openvdb::FloatGrid>(base);
     const auto kind = base->getMetadata<openvdb::StringMetadata>("table");
     if (!phi || !kind || kind->value() != PHASE_TABLE_KIND) {
-        throw Error(src + ": grid \"phase\" is not a phase table written by nebphase (expected a "
-                          "FloatGrid with metadata table = \"" + std::string(PHASE_TABLE_KIND) + "\")");
+        throw Error(src +
+                    ": grid \"phase\" is not a phase table written by nebphase (expected a "
+                    "FloatGrid with metadata table = \"" +
+                    std::string(PHASE_TABLE_KIND) + "\")");
     }
     PhaseTable t;
     t.tMin = required<openvdb::DoubleMetadata, double>(*phi, "t_min", src, "double");
     t.tMax = required<openvdb::DoubleMetadata, double>(*phi, "t_max", src, "double");
     t.tCount = required<openvdb::Int32Metadata, int>(*phi, "t_count", src, "int32");
     t.muBins = required<openvdb::Int32Metadata, int>(*phi, "mu_bins", src, "int32");
-    const auto spacing = required<openvdb::StringMetadata, std::string>(*phi, "t_spacing", src, "string");
+    const auto spacing =
+        required<openvdb::StringMetadata, std::string>(*phi, "t_spacing", src, "string");
     if (spacing != "log") {
         throw Error(src + ": phase table: t_spacing is \"" + spacing + "\", expected \"log\"");
     }
@@ -107,39 +114,47 @@ PhaseTable readPhaseTable(const GridSet& grids)
     t.medium.g = required<openvdb::DoubleMetadata, double>(*phi, "g", src, "double");
     t.medium.phase = phaseModelFromString(
         required<openvdb::StringMetadata, std::string>(*phi, "phase", src, "string"));
-    t.seed = std::uint64_t(required<openvdb::Int64Metadata, openvdb::Int64>(*phi, "seed", src, "int64"));
+    t.seed =
+        std::uint64_t(required<openvdb::Int64Metadata, openvdb::Int64>(*phi, "seed", src, "int64"));
     t.targetError = required<openvdb::DoubleMetadata, double>(*phi, "target_error", src, "double");
     t.errorTMax = required<openvdb::DoubleMetadata, double>(*phi, "error_t_max", src, "double");
-    const auto least = required<openvdb::Int64Metadata, openvdb::Int64>(*phi, "photons_min", src, "int64");
+    const auto least =
+        required<openvdb::Int64Metadata, openvdb::Int64>(*phi, "photons_min", src, "int64");
     if (least <= 0) {
         throw Error(src + ": phase table: photons_min is " + std::to_string(least) +
                     "; a table needs photons > 0 in every row");
     }
-    const auto perRow = required<openvdb::StringMetadata, std::string>(*phi, "photons", src, "string");
+    const auto perRow =
+        required<openvdb::StringMetadata, std::string>(*phi, "photons", src, "string");
     for (std::size_t pos = 0; pos <= perRow.size();) {
         const auto comma = std::min(perRow.find(',', pos), perRow.size());
         try {
             t.photons.push_back(std::stoull(perRow.substr(pos, comma - pos)));
         } catch (const std::exception&) {
-            throw Error(src + ": phase table: metadata \"photons\" is not a comma-separated list of counts");
+            throw Error(
+                src +
+                ": phase table: metadata \"photons\" is not a comma-separated list of counts");
         }
         pos = comma + 1;
     }
     if (t.tCount < 2 || t.muBins < 2 || t.muBins % 2 != 0) {
-        throw Error(src + ": phase table: needs t_count >= 2 and an even mu_bins >= 2, got t_count = " +
+        throw Error(src +
+                    ": phase table: needs t_count >= 2 and an even mu_bins >= 2, got t_count = " +
                     std::to_string(t.tCount) + ", mu_bins = " + std::to_string(t.muBins));
     }
     if (t.photons.size() != std::size_t(t.tCount)) {
-        throw Error(src + ": phase table: metadata \"photons\" has " + std::to_string(t.photons.size()) +
+        throw Error(src + ": phase table: metadata \"photons\" has " +
+                    std::to_string(t.photons.size()) +
                     " entries for t_count = " + std::to_string(t.tCount));
     }
-    const openvdb::CoordBBox axes(openvdb::Coord(0, 0, 0), openvdb::Coord(t.muBins - 1, t.tCount - 1, 0));
+    const openvdb::CoordBBox axes(openvdb::Coord(0, 0, 0),
+                                  openvdb::Coord(t.muBins - 1, t.tCount - 1, 0));
     const auto readValues = [&](const openvdb::FloatGrid& grid, std::vector<float>& out) {
         const auto box = grid.evalActiveVoxelBoundingBox();
         if (box != axes || grid.activeVoxelCount() != axes.volume()) {
-            throw Error(src + ": grid \"" + grid.getName() + "\" does not match its axes: expected " +
-                        std::to_string(t.muBins) + " x " + std::to_string(t.tCount) +
-                        " x 1 active voxels (mu bins x t values)");
+            throw Error(src + ": grid \"" + grid.getName() +
+                        "\" does not match its axes: expected " + std::to_string(t.muBins) + " x " +
+                        std::to_string(t.tCount) + " x 1 active voxels (mu bins x t values)");
         }
         out.resize(std::size_t(t.tCount) * t.muBins);
         const auto acc = grid.getConstAccessor();

@@ -9,8 +9,10 @@ namespace nebula {
 
 namespace {
 
-std::string inQuotes(const std::string& s) { return "\"" + s + "\""; }
-
+std::string inQuotes(const std::string& s)
+{
+    return "\"" + s + "\"";
+}
 
 } // namespace
 
@@ -34,7 +36,9 @@ void requireValidTemperature(const openvdb::FloatGrid& grid, const std::string& 
         const auto c = it.getCoord();
         std::ostringstream msg;
         msg << source << ": grid " << inQuotes(grid.getName()) << " has "
-            << (std::isnan(T) ? "a NaN" : std::isinf(T) ? "an infinite" : "a negative")
+            << (std::isnan(T)   ? "a NaN"
+                : std::isinf(T) ? "an infinite"
+                                : "a negative")
             << " temperature " << T << " at voxel (" << c.x() << ", " << c.y() << ", " << c.z()
             << "); expected finite temperatures >= 0 [K]";
         throw Error(msg.str());
@@ -48,7 +52,8 @@ openvdb::Vec3fGrid::Ptr velocityGrid(const GridSet& grids, const std::string& na
     const auto base = grids.find(name);
     if (!base) {
         std::string names;
-        for (const auto& g : grids.grids) names += (names.empty() ? "" : ", ") + g->getName();
+        for (const auto& g : grids.grids)
+            names += (names.empty() ? "" : ", ") + g->getName();
         throw Error(grids.source + ": no grid \"" + name + "\"" + opt +
                     " for the gas velocity; the file has " +
                     (names.empty() ? std::string("no grids") : "grids: " + names));
@@ -64,7 +69,8 @@ openvdb::Vec3fGrid::Ptr velocityGrid(const GridSet& grids, const std::string& na
         return !(std::isfinite(v[0]) && std::isfinite(v[1]) && std::isfinite(v[2]));
     };
     if (bad(grid->background())) {
-        throw Error(grids.source + ": grid \"" + name + "\" has a non-finite background value; "
+        throw Error(grids.source + ": grid \"" + name +
+                    "\" has a non-finite background value; "
                     "expected finite velocities [km/s]");
     }
     for (auto it = grid->cbeginValueOn(); it; ++it) {

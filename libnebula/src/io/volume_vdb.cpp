@@ -17,7 +17,8 @@ Affine affineFromTransform(const openvdb::math::Transform& transform)
         openvdb::Vec3d e(0, 0, 0);
         e[i] = 1.0;
         const auto col = transform.indexToWorld(e) - o;
-        for (int r = 0; r < 3; ++r) a.m[std::size_t(r * 3 + i)] = col[r];
+        for (int r = 0; r < 3; ++r)
+            a.m[std::size_t(r * 3 + i)] = col[r];
     }
     a.t = Vec3(o[0], o[1], o[2]);
     return a;
@@ -50,7 +51,7 @@ DenseVolume denseFromGrids(const std::vector<openvdb::FloatGrid::ConstPtr>& grid
         }
         // Leaves in parallel (each writes its own voxels), then tiles serially.
         openvdb::tree::LeafManager<const openvdb::FloatTree> leaves(grid.tree());
-        leaves.foreach([&](const openvdb::FloatTree::LeafNodeType& leaf, std::size_t) {
+        leaves.foreach ([&](const openvdb::FloatTree::LeafNodeType& leaf, std::size_t) {
             for (auto it = leaf.cbeginValueOn(); it; ++it) {
                 const auto& p = it.getCoord();
                 if (vol.contains(p.x(), p.y(), p.z())) {
@@ -59,7 +60,7 @@ DenseVolume denseFromGrids(const std::vector<openvdb::FloatGrid::ConstPtr>& grid
             }
         });
         auto it = grid.tree().cbeginValueOn();
-        it.setMaxDepth(openvdb::FloatTree::ValueOnCIter::LEAF_DEPTH - 1);  // tiles only
+        it.setMaxDepth(openvdb::FloatTree::ValueOnCIter::LEAF_DEPTH - 1); // tiles only
         for (; it; ++it) {
             openvdb::CoordBBox tile;
             it.getBoundingBox(tile);
@@ -83,7 +84,7 @@ openvdb::FloatGrid::Ptr gridFromField(const DenseVolume& lattice, const std::vec
     grid->tree().topologyUnion(topology.tree());
     grid->tree().voxelizeActiveTiles();
     openvdb::tree::LeafManager<openvdb::FloatTree> leaves(grid->tree());
-    leaves.foreach([&](openvdb::FloatTree::LeafNodeType& leaf, std::size_t) {
+    leaves.foreach ([&](openvdb::FloatTree::LeafNodeType& leaf, std::size_t) {
         for (auto it = leaf.beginValueOn(); it; ++it) {
             const auto& p = it.getCoord();
             it.setValue(lattice.contains(p.x(), p.y(), p.z())

@@ -19,8 +19,7 @@ double planck(double lambda_m, double T)
     // B_lambda = 2 h c^2 / lambda^5 / (exp(h c / (lambda k T)) - 1).
     const double x = PLANCK_H * SPEED_OF_LIGHT / (lambda_m * BOLTZMANN_K * T);
     const double l2 = lambda_m * lambda_m;
-    return 2.0 * PLANCK_H * SPEED_OF_LIGHT * SPEED_OF_LIGHT / (l2 * l2 * lambda_m) /
-           std::expm1(x);
+    return 2.0 * PLANCK_H * SPEED_OF_LIGHT * SPEED_OF_LIGHT / (l2 * l2 * lambda_m) / std::expm1(x);
 }
 
 double planckPerNm(double lambda_nm, double T)

@@ -8,8 +8,8 @@
 #include "nebula/core/format.h"
 
 #include "nebula/core/error.h"
-#include "nebula/physics/blackbody.h"
 #include "nebula/core/units.h"
+#include "nebula/physics/blackbody.h"
 
 // Generated at configure time from libnebula/data/cie1931_2deg_1nm.csv (libnebula/CMakeLists).
 #include "nebula_cie1931_table.h"
@@ -382,8 +382,8 @@ XYZ blackbodyXYZScaled(double T, double& logScale)
         for (int g = 0; g < NG; ++g) {
             const double lambda_m = (CMF_LAMBDA_MIN + j + nodes[g]) * 1e-9;
             const double x = c2OverT / lambda_m;
-            const double logDenominator = x < 1.0 ? std::log(std::expm1(x))
-                                                  : x + std::log1p(-std::exp(-x));
+            const double logDenominator =
+                x < 1.0 ? std::log(std::expm1(x)) : x + std::log1p(-std::exp(-x));
             const double value = log2hc2 - 5.0 * std::log(lambda_m) - logDenominator + logPerNm;
             logB[static_cast<std::size_t>(j * NG + g)] = value;
             logMax = std::max(logMax, value);
@@ -433,11 +433,9 @@ std::array<double, 3> xyzToLab(const XYZ& xyz, const XYZ& white)
         }
     }
     // CIE 15: f(t) = t^(1/3) above (6/29)^3, else t (29/6)^2 / 3 + 4/29.
-    constexpr double EPSILON = 216.0 / 24389.0;  // (6/29)^3
-    constexpr double SLOPE = 841.0 / 108.0;      // (29/6)^2 / 3
-    const auto f = [&](double t) {
-        return t > EPSILON ? std::cbrt(t) : SLOPE * t + 4.0 / 29.0;
-    };
+    constexpr double EPSILON = 216.0 / 24389.0; // (6/29)^3
+    constexpr double SLOPE = 841.0 / 108.0;     // (29/6)^2 / 3
+    const auto f = [&](double t) { return t > EPSILON ? std::cbrt(t) : SLOPE * t + 4.0 / 29.0; };
     const double fx = f(xyz[0] / white[0]);
     const double fy = f(xyz[1] / white[1]);
     const double fz = f(xyz[2] / white[2]);

@@ -38,7 +38,7 @@ double mieMurky(double mu)
 {
     double h = 0.5 * (1.0 + mu);
     for (int i = 0; i < 5; ++i) {
-        h *= h;  // h^(2^5) = h^32
+        h *= h; // h^(2^5) = h^32
     }
     return INV_FOUR_PI * (0.5 + 16.5 * h);
 }
@@ -196,15 +196,14 @@ double ccmExtinction(double lambda_nm, double R_V)
     } else if (x < 3.3) {
         // Optical / near infrared: 7th-degree polynomials in y = x - 1.82 (Horner form).
         const double y = x - 1.82;
-        a = 1.0 +
-            y * (0.17699 +
-                 y * (-0.50447 +
-                      y * (-0.02427 + y * (0.72085 + y * (0.01979 + y * (-0.77530 +
-                                                                         y * 0.32999))))));
-        b = y * (1.41338 +
-                 y * (2.28305 +
-                      y * (1.07233 + y * (-5.38434 + y * (-0.62251 + y * (5.30260 +
-                                                                          y * -2.09002))))));
+        a = 1.0 + y * (0.17699 +
+                       y * (-0.50447 +
+                            y * (-0.02427 +
+                                 y * (0.72085 + y * (0.01979 + y * (-0.77530 + y * 0.32999))))));
+        b = y *
+            (1.41338 +
+             y * (2.28305 +
+                  y * (1.07233 + y * (-5.38434 + y * (-0.62251 + y * (5.30260 + y * -2.09002))))));
     } else {
         // Ultraviolet: the 2175 A bump as a Drude-like term, plus the far-UV rise Fa, Fb
         // for x >= 5.9.
@@ -249,8 +248,7 @@ void DustParams::validate() const
         throw UsageError("dust parameter g must be in (-1, 1), got " + numberText(g));
     }
     if (!(R_V > 0.0) || !std::isfinite(R_V)) {
-        throw UsageError("dust parameter R_V must be a finite number > 0, got " +
-                         numberText(R_V));
+        throw UsageError("dust parameter R_V must be a finite number > 0, got " + numberText(R_V));
     }
     if (curve != "CCM89" && curve != "grey") {
         throw UsageError("dust parameter curve must be \"CCM89\" or \"grey\", got \"" + curve +
@@ -266,9 +264,8 @@ void DustParams::validate() const
 std::string DustParams::toJson() const
 {
     // nlohmann::json writes doubles with the fewest digits that read back exactly.
-    const nlohmann::json j = {{"kappa_V", kappa_V}, {"albedo", albedo},
-                              {"g", g},             {"phase", toString(phase)},
-                              {"curve", curve},     {"R_V", R_V}};
+    const nlohmann::json j = {{"kappa_V", kappa_V},       {"albedo", albedo}, {"g", g},
+                              {"phase", toString(phase)}, {"curve", curve},   {"R_V", R_V}};
     return j.dump();
 }
 

@@ -11,8 +11,8 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
-#include <stdexcept>
 #include <sstream>
+#include <stdexcept>
 
 namespace nebula {
 
@@ -21,7 +21,7 @@ namespace {
 struct CatalogueLine
 {
     const char* name;
-    double wavelength;  ///< rest wavelength in air [nm]
+    double wavelength; ///< rest wavelength in air [nm]
 };
 
 /// Rest wavelengths in air [nm], rounded to 0.01 nm: NIST Atomic Spectra Database (Kramida,
@@ -29,17 +29,17 @@ struct CatalogueLine
 /// of Gaseous Nebulae and Active Galactic Nuclei" (2nd ed.) use. Forbidden lines keep their
 /// conventional Angstrom labels.
 constexpr CatalogueLine CATALOGUE[] = {
-    {"H-alpha", 656.28},      // Balmer 3-2, 6562.80 A
-    {"H-beta", 486.13},       // Balmer 4-2, 4861.33 A
-    {"H-gamma", 434.05},      // Balmer 5-2, 4340.47 A
-    {"H-delta", 410.17},      // Balmer 6-2, 4101.74 A
-    {"[O III]5007", 500.68},  // 5006.84 A
-    {"[O III]4959", 495.89},  // 4958.91 A
-    {"[N II]6583", 658.35},   // 6583.45 A
-    {"[N II]6548", 654.80},   // 6548.05 A
-    {"[S II]6716", 671.64},   // 6716.44 A
-    {"[S II]6731", 673.08},   // 6730.82 A
-    {"He I 5876", 587.56},    // 5875.62 A
+    {"H-alpha", 656.28},     // Balmer 3-2, 6562.80 A
+    {"H-beta", 486.13},      // Balmer 4-2, 4861.33 A
+    {"H-gamma", 434.05},     // Balmer 5-2, 4340.47 A
+    {"H-delta", 410.17},     // Balmer 6-2, 4101.74 A
+    {"[O III]5007", 500.68}, // 5006.84 A
+    {"[O III]4959", 495.89}, // 4958.91 A
+    {"[N II]6583", 658.35},  // 6583.45 A
+    {"[N II]6548", 654.80},  // 6548.05 A
+    {"[S II]6716", 671.64},  // 6716.44 A
+    {"[S II]6731", 673.08},  // 6730.82 A
+    {"He I 5876", 587.56},   // 5875.62 A
 };
 
 /// Lower-case letters and digits only: "[O III]5007" -> "oiii5007", "H-alpha" -> "halpha".
@@ -52,12 +52,16 @@ std::string normalised(const std::string& s)
     return out;
 }
 
-std::string inQuotes(const std::string& s) { return "\"" + s + "\""; }
+std::string inQuotes(const std::string& s)
+{
+    return "\"" + s + "\"";
+}
 
 std::string knownList()
 {
     std::string out;
-    for (const auto& l : CATALOGUE) out += (out.empty() ? "" : ", ") + inQuotes(l.name);
+    for (const auto& l : CATALOGUE)
+        out += (out.empty() ? "" : ", ") + inQuotes(l.name);
     return out;
 }
 
@@ -112,7 +116,7 @@ bool parseNumber(const std::string& text, double& value)
         value = std::stod(text, &used);
         return used == text.size();
     } catch (const std::out_of_range&) {
-        value = HUGE_VAL;  // "1e999": a number, but not a finite one
+        value = HUGE_VAL; // "1e999": a number, but not a finite one
         return true;
     } catch (const std::exception&) {
         return false;
@@ -139,7 +143,8 @@ double lineWavelength(const std::string& name)
 std::vector<std::string> knownLines()
 {
     std::vector<std::string> names;
-    for (const auto& l : CATALOGUE) names.emplace_back(l.name);
+    for (const auto& l : CATALOGUE)
+        names.emplace_back(l.name);
     return names;
 }
 

@@ -22,7 +22,7 @@ namespace {
 using detail::numberText;
 
 constexpr double INF = std::numeric_limits<double>::infinity();
-constexpr std::uint64_t GRAIN = 1024;  ///< photons per leaf of the deterministic reduction
+constexpr std::uint64_t GRAIN = 1024; ///< photons per leaf of the deterministic reduction
 
 /// Slab z in [0, tau], infinite in x and y; beam along (sqrt(1 - mu0^2), 0, mu0).
 struct SlabGeometry
@@ -77,10 +77,8 @@ struct PhotonScratch
 {
     double totals[McTally::TOTALS] = {};
     std::vector<double> bins, single, points;
-    PhotonScratch(int muBins, std::size_t muPoints)
-        : bins(muBins), single(muBins), points(muPoints)
-    {
-    }
+    PhotonScratch(int muBins, std::size_t muPoints) : bins(muBins), single(muBins), points(muPoints)
+    {}
     void clear()
     {
         std::fill(std::begin(totals), std::end(totals), 0.0);
@@ -97,8 +95,7 @@ struct Phase
     bool hg;
     explicit Phase(const ScatteringMedium& m)
         : medium(m), hg(m.phase == PhaseModel::HenyeyGreenstein)
-    {
-    }
+    {}
     double operator()(double mu) const
     {
         return hg ? henyeyGreenstein(mu, medium.g) : phaseFunction(medium.phase, mu, medium.g);
@@ -112,7 +109,8 @@ struct Phase
         sampleDirection(mu, phi, in, d);
         // Keep the direction unit length over many scatterings.
         const double n = 1.0 / std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
-        for (int a = 0; a < 3; ++a) d[a] *= n;
+        for (int a = 0; a < 3; ++a)
+            d[a] *= n;
         return mu;
     }
 };
@@ -165,7 +163,8 @@ std::uint64_t photonAnalog(const Geometry& geo, const Phase& phase, const McSett
             }
             break;
         }
-        for (int i = 0; i < 3; ++i) p[i] += s * d[i];
+        for (int i = 0; i < 3; ++i)
+            p[i] += s * d[i];
         ++events;
         ph.totals[McTally::ABSORBED] += w * (1.0 - a);
         w *= a;
@@ -247,7 +246,7 @@ std::uint64_t photonNextEvent(const Geometry& geo, const Phase& phase, const McS
     const double a = phase.medium.albedo;
     double w = 1.0;
     double wr = 0.0;
-    double pfScattered = 0.0;  // p(mu) of the last scattering
+    double pfScattered = 0.0; // p(mu) of the last scattering
     std::uint64_t events = 0;
     for (;;) {
         // Force the next interaction inside: the packet keeps the fraction that interacts.
@@ -257,7 +256,8 @@ std::uint64_t photonNextEvent(const Geometry& geo, const Phase& phase, const McS
             ph.totals[McTally::DIRECT] += w * (1.0 - pInteract);
         } else {
             // The phase-sampled strategy of nextEvent(): escape along the scattered direction.
-            const double c = w * (1.0 - pInteract) * pfScattered / (dirs.invSolidAngle + pfScattered);
+            const double c =
+                w * (1.0 - pInteract) * pfScattered / (dirs.invSolidAngle + pfScattered);
             ph.bins[binOf(d[2], set.muBins)] += c;
             if (events == 1) ph.single[binOf(d[2], set.muBins)] += c;
             ph.totals[d[2] < 0.0 ? McTally::REFLECTED : McTally::TRANSMITTED] += c;
@@ -268,7 +268,8 @@ std::uint64_t photonNextEvent(const Geometry& geo, const Phase& phase, const McS
         }
         if (!(w > 0.0) || !roulette(w, wr, rng, ph)) break;
         const double s = std::min(-std::log1p(-rng.uniformDouble() * pInteract), sExit);
-        for (int i = 0; i < 3; ++i) p[i] += s * d[i];
+        for (int i = 0; i < 3; ++i)
+            p[i] += s * d[i];
         ++events;
         ph.totals[McTally::ABSORBED] += w * (1.0 - a);
         w *= a;
@@ -364,10 +365,9 @@ void McSettings::validate() const
 
 McTally::McTally(int muBins, std::size_t muPoints)
     : sum(TOTALS, 0.0), sumSq(TOTALS, 0.0), binSum(muBins, 0.0), binSumSq(muBins, 0.0),
-      singleSum(muBins, 0.0), singleSumSq(muBins, 0.0),
-      pointSum(muPoints, 0.0), pointSumSq(muPoints, 0.0)
-{
-}
+      singleSum(muBins, 0.0), singleSumSq(muBins, 0.0), pointSum(muPoints, 0.0),
+      pointSumSq(muPoints, 0.0)
+{}
 
 void McTally::merge(const McTally& o)
 {
@@ -405,7 +405,8 @@ McResult summarize(const McTally& t, int muBins)
     r.roulette = estimate(t.sum[McTally::ROULETTE], t.sumSq[McTally::ROULETTE], n);
     r.balance = estimate(t.sum[McTally::BALANCE], t.sumSq[McTally::BALANCE], n);
     const double dOmega = 2.0 * PI * 2.0 / muBins;
-    for (int k = 0; k <= muBins; ++k) r.muEdges.push_back(-1.0 + 2.0 * k / muBins);
+    for (int k = 0; k <= muBins; ++k)
+        r.muEdges.push_back(-1.0 + 2.0 * k / muBins);
     for (int k = 0; k < muBins; ++k) {
         Estimate e = estimate(t.binSum[k], t.binSumSq[k], n);
         e.mean /= dOmega;
@@ -446,8 +447,7 @@ McTally simulateCube(const ScatteringMedium& medium, double t, const McSettings&
     return simulate(CubeGeometry{t}, medium, settings, first, count, progress);
 }
 
-McResult runSlab(const ScatteringMedium& medium, double tau, double mu0,
-                 const McSettings& settings)
+McResult runSlab(const ScatteringMedium& medium, double tau, double mu0, const McSettings& settings)
 {
     return summarize(simulateSlab(medium, tau, mu0, settings, 0, settings.photons),
                      settings.muBins);

@@ -16,7 +16,7 @@ namespace {
 /// Turbulence potential: 4 octaves, gain 2^(-4/3). Each octave doubles the frequency, and
 /// the curl multiplies the amplitude by the frequency, so the velocity's octaves fall as
 /// 2^(-1/3) per halving of scale: Kolmogorov's v_l ~ l^(1/3).
-const FbmParams TURBULENCE_FBM{4, 2.0, 0.39685026299204984};  // 2^(-4/3)
+const FbmParams TURBULENCE_FBM{4, 2.0, 0.39685026299204984}; // 2^(-4/3)
 
 /// Cells per axis of the lattice the turbulence RMS is measured on.
 constexpr int RMS_CELLS = 32;
@@ -44,7 +44,8 @@ void MotionParams::validate() const
 {
     requireFinite(expansion, "--expansion", "km/s");
     requireFinite(rotation, "--rotation", "km/s");
-    for (double a : axis) requireFinite(a, "--rotation-axis", "any unit");
+    for (double a : axis)
+        requireFinite(a, "--rotation-axis", "any unit");
     if (axis[0] == 0.0 && axis[1] == 0.0 && axis[2] == 0.0) {
         throw UsageError("--rotation-axis must not be the zero vector");
     }
@@ -56,7 +57,8 @@ void MotionParams::validate() const
         throw UsageError("--turbulence-frequency must be a finite number > 0, got " +
                          numberText(turbulenceFrequency));
     }
-    for (double c : centre) requireFinite(c, "--motion-centre", "pc");
+    for (double c : centre)
+        requireFinite(c, "--motion-centre", "pc");
     if (!(radius > 0.0) || !std::isfinite(radius)) {
         throw UsageError("--motion-radius must be a finite number > 0 [pc], got " +
                          numberText(radius));
@@ -71,10 +73,10 @@ MotionField::MotionField(const MotionParams& params, double cubeSize)
         throw UsageError("motion field: the cube size must be a finite number > 0 [pc], got " +
                          numberText(cubeSize));
     }
-    const double len = std::sqrt(params.axis[0] * params.axis[0] +
-                                 params.axis[1] * params.axis[1] +
+    const double len = std::sqrt(params.axis[0] * params.axis[0] + params.axis[1] * params.axis[1] +
                                  params.axis[2] * params.axis[2]);
-    for (int a = 0; a < 3; ++a) mAxis[a] = params.axis[a] / len;
+    for (int a = 0; a < 3; ++a)
+        mAxis[a] = params.axis[a] / len;
 
     if (params.turbulence > 0.0) {
         // RMS of the raw curl noise over the cube, summed in a fixed order.
@@ -110,19 +112,22 @@ std::array<double, 3> MotionField::operator()(const std::array<double, 3>& x) co
     std::array<double, 3> v{0, 0, 0};
     // Homologous expansion: v = expansion (x - centre) / radius.
     if (p.expansion != 0.0) {
-        for (int a = 0; a < 3; ++a) v[a] += p.expansion * d[a] / p.radius;
+        for (int a = 0; a < 3; ++a)
+            v[a] += p.expansion * d[a] / p.radius;
     }
     // Solid-body rotation: v = rotation (axis x (x - centre)) / radius.
     if (p.rotation != 0.0) {
         const auto& n = mAxis;
         const std::array<double, 3> c = {n[1] * d[2] - n[2] * d[1], n[2] * d[0] - n[0] * d[2],
                                          n[0] * d[1] - n[1] * d[0]};
-        for (int a = 0; a < 3; ++a) v[a] += p.rotation * c[a] / p.radius;
+        for (int a = 0; a < 3; ++a)
+            v[a] += p.rotation * c[a] / p.radius;
     }
     // Divergence-free turbulence, RMS `turbulence` over the cube.
     if (mTurbulenceScale > 0.0) {
         const auto t = turbulent(x);
-        for (int a = 0; a < 3; ++a) v[a] += mTurbulenceScale * t[a];
+        for (int a = 0; a < 3; ++a)
+            v[a] += mTurbulenceScale * t[a];
     }
     return v;
 }

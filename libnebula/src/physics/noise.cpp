@@ -17,21 +17,20 @@ namespace {
 /// Perlin's permutation of 0..255 from his reference implementation, stored twice so that
 /// p[i + 1] and p[p[i] + j] never need wrapping.
 constexpr std::array<int, 256> PERMUTATION = {
-    151, 160, 137, 91,  90,  15,  131, 13,  201, 95,  96,  53,  194, 233, 7,   225, 140, 36,
-    103, 30,  69,  142, 8,   99,  37,  240, 21,  10,  23,  190, 6,   148, 247, 120, 234, 75,
-    0,   26,  197, 62,  94,  252, 219, 203, 117, 35,  11,  32,  57,  177, 33,  88,  237, 149,
-    56,  87,  174, 20,  125, 136, 171, 168, 68,  175, 74,  165, 71,  134, 139, 48,  27,  166,
-    77,  146, 158, 231, 83,  111, 229, 122, 60,  211, 133, 230, 220, 105, 92,  41,  55,  46,
-    245, 40,  244, 102, 143, 54,  65,  25,  63,  161, 1,   216, 80,  73,  209, 76,  132, 187,
-    208, 89,  18,  169, 200, 196, 135, 130, 116, 188, 159, 86,  164, 100, 109, 198, 173, 186,
-    3,   64,  52,  217, 226, 250, 124, 123, 5,   202, 38,  147, 118, 126, 255, 82,  85,  212,
-    207, 206, 59,  227, 47,  16,  58,  17,  182, 189, 28,  42,  223, 183, 170, 213, 119, 248,
-    152, 2,   44,  154, 163, 70,  221, 153, 101, 155, 167, 43,  172, 9,   129, 22,  39,  253,
-    19,  98,  108, 110, 79,  113, 224, 232, 178, 185, 112, 104, 218, 246, 97,  228, 251, 34,
-    242, 193, 238, 210, 144, 12,  191, 179, 162, 241, 81,  51,  145, 235, 249, 14,  239, 107,
-    49,  192, 214, 31,  181, 199, 106, 157, 184, 84,  204, 176, 115, 121, 50,  45,  127, 4,
-    150, 254, 138, 236, 205, 93,  222, 114, 67,  29,  24,  72,  243, 141, 128, 195, 78,  66,
-    215, 61,  156, 180};
+    151, 160, 137, 91,  90,  15,  131, 13,  201, 95,  96,  53,  194, 233, 7,   225, 140, 36,  103,
+    30,  69,  142, 8,   99,  37,  240, 21,  10,  23,  190, 6,   148, 247, 120, 234, 75,  0,   26,
+    197, 62,  94,  252, 219, 203, 117, 35,  11,  32,  57,  177, 33,  88,  237, 149, 56,  87,  174,
+    20,  125, 136, 171, 168, 68,  175, 74,  165, 71,  134, 139, 48,  27,  166, 77,  146, 158, 231,
+    83,  111, 229, 122, 60,  211, 133, 230, 220, 105, 92,  41,  55,  46,  245, 40,  244, 102, 143,
+    54,  65,  25,  63,  161, 1,   216, 80,  73,  209, 76,  132, 187, 208, 89,  18,  169, 200, 196,
+    135, 130, 116, 188, 159, 86,  164, 100, 109, 198, 173, 186, 3,   64,  52,  217, 226, 250, 124,
+    123, 5,   202, 38,  147, 118, 126, 255, 82,  85,  212, 207, 206, 59,  227, 47,  16,  58,  17,
+    182, 189, 28,  42,  223, 183, 170, 213, 119, 248, 152, 2,   44,  154, 163, 70,  221, 153, 101,
+    155, 167, 43,  172, 9,   129, 22,  39,  253, 19,  98,  108, 110, 79,  113, 224, 232, 178, 185,
+    112, 104, 218, 246, 97,  228, 251, 34,  242, 193, 238, 210, 144, 12,  191, 179, 162, 241, 81,
+    51,  145, 235, 249, 14,  239, 107, 49,  192, 214, 31,  181, 199, 106, 157, 184, 84,  204, 176,
+    115, 121, 50,  45,  127, 4,   150, 254, 138, 236, 205, 93,  222, 114, 67,  29,  24,  72,  243,
+    141, 128, 195, 78,  66,  215, 61,  156, 180};
 
 struct PermutationTable
 {
@@ -91,8 +90,7 @@ constexpr double OFFSET_RANGE = 4096.0;
 void validateFbm(const FbmParams& params)
 {
     if (params.octaves < 1 || params.octaves > 16) {
-        throw UsageError("fbm: octaves must be in [1, 16], got " +
-                         std::to_string(params.octaves));
+        throw UsageError("fbm: octaves must be in [1, 16], got " + std::to_string(params.octaves));
     }
     if (!(params.lacunarity > 0.0) || !std::isfinite(params.lacunarity)) {
         throw UsageError("fbm: lacunarity must be a finite number > 0, got " +
@@ -181,19 +179,19 @@ double perlinNoise(double x, double y, double z)
     const double w = fade(z);
 
     // Trilinear blend of the corner gradients.
-    return lerp(w,
-                lerp(v, lerp(u, grad(p[AA], x, y, z), grad(p[BA], x - 1, y, z)),
-                     lerp(u, grad(p[AB], x, y - 1, z), grad(p[BB], x - 1, y - 1, z))),
-                lerp(v, lerp(u, grad(p[AA + 1], x, y, z - 1), grad(p[BA + 1], x - 1, y, z - 1)),
-                     lerp(u, grad(p[AB + 1], x, y - 1, z - 1),
-                          grad(p[BB + 1], x - 1, y - 1, z - 1))));
+    return lerp(
+        w,
+        lerp(v, lerp(u, grad(p[AA], x, y, z), grad(p[BA], x - 1, y, z)),
+             lerp(u, grad(p[AB], x, y - 1, z), grad(p[BB], x - 1, y - 1, z))),
+        lerp(v, lerp(u, grad(p[AA + 1], x, y, z - 1), grad(p[BA + 1], x - 1, y, z - 1)),
+             lerp(u, grad(p[AB + 1], x, y - 1, z - 1), grad(p[BB + 1], x - 1, y - 1, z - 1))));
 }
 
 double fbm(double x, double y, double z, const FbmParams& params, std::uint64_t seed)
 {
     double sum = 0.0;
-    const double amplitudeSum =
-        forEachOctave(x, y, z, params, seed, [&](double amplitude, double, double px, double py, double pz) {
+    const double amplitudeSum = forEachOctave(
+        x, y, z, params, seed, [&](double amplitude, double, double px, double py, double pz) {
             sum += amplitude * perlinNoise(px, py, pz);
         });
     return sum / amplitudeSum;
@@ -238,8 +236,7 @@ NoiseGradient perlinNoiseGradient(double x, double y, double z)
     const double k5 = g[0] - g[2] - g[4] + g[6];
     const double k6 = g[0] - g[1] - g[4] + g[5];
     const double k7 = -g[0] + g[1] + g[2] - g[3] + g[4] - g[5] - g[6] + g[7];
-    const double dBlend[3] = {k1 + k4 * v + k6 * w + k7 * v * w,
-                              k2 + k4 * u + k5 * w + k7 * u * w,
+    const double dBlend[3] = {k1 + k4 * v + k6 * w + k7 * v * w, k2 + k4 * u + k5 * w + k7 * u * w,
                               k3 + k5 * v + k6 * u + k7 * u * v};
     const double dFade[3] = {fadeDerivative(x), fadeDerivative(y), fadeDerivative(z)};
     for (int a = 0; a < 3; ++a) {
@@ -254,19 +251,21 @@ NoiseGradient perlinNoiseGradient(double x, double y, double z)
     return out;
 }
 
-NoiseGradient fbmGradient(double x, double y, double z, const FbmParams& params,
-                          std::uint64_t seed)
+NoiseGradient fbmGradient(double x, double y, double z, const FbmParams& params, std::uint64_t seed)
 {
     // The same sum as fbm(), with the chain rule's factor `frequency` on each gradient.
     NoiseGradient sum;
-    const double amplitudeSum = forEachOctave(
-        x, y, z, params, seed, [&](double amplitude, double frequency, double px, double py, double pz) {
-            const NoiseGradient n = perlinNoiseGradient(px, py, pz);
-            sum.value += amplitude * n.value;
-            for (int a = 0; a < 3; ++a) sum.gradient[a] += amplitude * frequency * n.gradient[a];
-        });
+    const double amplitudeSum =
+        forEachOctave(x, y, z, params, seed,
+                      [&](double amplitude, double frequency, double px, double py, double pz) {
+                          const NoiseGradient n = perlinNoiseGradient(px, py, pz);
+                          sum.value += amplitude * n.value;
+                          for (int a = 0; a < 3; ++a)
+                              sum.gradient[a] += amplitude * frequency * n.gradient[a];
+                      });
     sum.value /= amplitudeSum;
-    for (auto& d : sum.gradient) d /= amplitudeSum;
+    for (auto& d : sum.gradient)
+        d /= amplitudeSum;
     return sum;
 }
 

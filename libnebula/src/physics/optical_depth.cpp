@@ -30,7 +30,7 @@ double unitIntegral(const DenseVolume& n, const std::uint8_t* dusty, const Vec3&
             tNext[ax] = tStep[ax] = std::numeric_limits<double>::infinity();
             continue;
         }
-        if (d[ax] < 0 && a[ax] == c) --cell[ax];  // on a plane, moving down: the lower cell
+        if (d[ax] < 0 && a[ax] == c) --cell[ax]; // on a plane, moving down: the lower cell
         const double plane = d[ax] > 0 ? cell[ax] + 1.0 : double(cell[ax]);
         tNext[ax] = (plane - a[ax]) / d[ax];
         tStep[ax] = 1.0 / std::abs(d[ax]);
@@ -39,19 +39,19 @@ double unitIntegral(const DenseVolume& n, const std::uint8_t* dusty, const Vec3&
     double t0 = 0.0, f0 = 0.0, sum = 0.0;
     bool haveF0 = false;
     for (;;) {
-        const int ax = tNext[0] < tNext[1] ? (tNext[0] < tNext[2] ? 0 : 2)
-                                           : (tNext[1] < tNext[2] ? 1 : 2);
+        const int ax =
+            tNext[0] < tNext[1] ? (tNext[0] < tNext[2] ? 0 : 2) : (tNext[1] < tNext[2] ? 1 : 2);
         const double t1 = std::min(tNext[ax], 1.0);
         if (t1 > t0) {
             const int i = cell[0] - lo[0], j = cell[1] - lo[1], k = cell[2] - lo[2];
-            const bool inside = i >= 0 && j >= 0 && k >= 0 && i + 1 < dims[0] &&
-                                j + 1 < dims[1] && k + 1 < dims[2];
-            const std::size_t base = inside ? (std::size_t(k) * sz + std::size_t(j) * sy + std::size_t(i)) : 0;
+            const bool inside =
+                i >= 0 && j >= 0 && k >= 0 && i + 1 < dims[0] && j + 1 < dims[1] && k + 1 < dims[2];
+            const std::size_t base =
+                inside ? (std::size_t(k) * sz + std::size_t(j) * sy + std::size_t(i)) : 0;
             if (inside && dusty[base]) {
                 const float* q = n.data().data() + base;
-                const double c000 = q[0], c100 = q[1], c010 = q[sy], c110 = q[sy + 1],
-                             c001 = q[sz], c101 = q[sz + 1], c011 = q[sz + sy],
-                             c111 = q[sz + sy + 1];
+                const double c000 = q[0], c100 = q[1], c010 = q[sy], c110 = q[sy + 1], c001 = q[sz],
+                             c101 = q[sz + 1], c011 = q[sz + sy], c111 = q[sz + sy + 1];
                 const auto f = [&](double t) {
                     const double u = a.x + d.x * t - cell[0], v = a.y + d.y * t - cell[1],
                                  w = a.z + d.z * t - cell[2];
@@ -65,7 +65,7 @@ double unitIntegral(const DenseVolume& n, const std::uint8_t* dusty, const Vec3&
                 sum += (t1 - t0) * (f0 + 4.0 * f(0.5 * (t0 + t1)) + f1) / 6.0;
                 f0 = f1;
             } else {
-                f0 = 0.0;  // the exit face of an empty cell has only zero corners
+                f0 = 0.0; // the exit face of an empty cell has only zero corners
             }
             haveF0 = true;
             t0 = t1;
@@ -99,9 +99,8 @@ std::vector<std::uint8_t> dustyCells(const DenseVolume& n)
             for (int i = 0; i + 1 < dims[0]; ++i) {
                 const std::size_t b = std::size_t(k) * sz + std::size_t(j) * sy + std::size_t(i);
                 dusty[b] = (v[b] != 0.0f) | (v[b + 1] != 0.0f) | (v[b + sy] != 0.0f) |
-                           (v[b + sy + 1] != 0.0f) | (v[b + sz] != 0.0f) |
-                           (v[b + sz + 1] != 0.0f) | (v[b + sz + sy] != 0.0f) |
-                           (v[b + sz + sy + 1] != 0.0f);
+                           (v[b + sy + 1] != 0.0f) | (v[b + sz] != 0.0f) | (v[b + sz + 1] != 0.0f) |
+                           (v[b + sz + sy] != 0.0f) | (v[b + sz + sy + 1] != 0.0f);
             }
     });
     return dusty;
@@ -153,7 +152,8 @@ double columnDensityReference(const DenseVolume& n, const Vec3& a, const Vec3& b
         if (t1 <= t0) continue;
         sum += (t1 - t0) *
                (n.sample0(a + d * t0) + 4.0 * n.sample0(a + d * (0.5 * (t0 + t1))) +
-                n.sample0(a + d * t1)) / 6.0;
+                n.sample0(a + d * t1)) /
+               6.0;
     }
     return sum * n.indexToWorld.applyLinear(d).length();
 }
@@ -176,15 +176,17 @@ std::vector<float> opticalDepthAt(const DenseVolume& n, const Vec3& starIndex, d
     std::vector<float> tau(n.voxelCount(), 0.0f);
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, points.size(), 1024),
                       [&](const tbb::blocked_range<std::size_t>& r) {
-        for (std::size_t o = r.begin(); o != r.end(); ++o) {
-            const std::size_t idx = points[o];
-            // The column of a non-negative density is >= 0; Simpson's weights can leave a
-            // rounding residue of -1e-33 next to empty cells, which readers rightly reject.
-            tau[idx] = float(std::max(0.0, kappa_V * column(n, dusty.data(), starIndex,
-                                                            latticePoint(n, idx))));
-        }
-        if (progress) progress(r.size());
-    });
+                          for (std::size_t o = r.begin(); o != r.end(); ++o) {
+                              const std::size_t idx = points[o];
+                              // The column of a non-negative density is >= 0; Simpson's weights can
+                              // leave a rounding residue of -1e-33 next to empty cells, which
+                              // readers rightly reject.
+                              tau[idx] =
+                                  float(std::max(0.0, kappa_V * column(n, dusty.data(), starIndex,
+                                                                       latticePoint(n, idx))));
+                          }
+                          if (progress) progress(r.size());
+                      });
     return tau;
 }
 

@@ -74,9 +74,9 @@ void PhaseTable::validate(const std::string& source) const
     const std::size_t n = std::size_t(tCount) * muBins;
     if (phi.size() != n || error.size() != n || photons.size() != std::size_t(tCount) ||
         (!single.empty() && single.size() != n)) {
-        throw Error(where + "expected " + std::to_string(n) + " values (" +
-                    std::to_string(muBins) + " mu bins x " + std::to_string(tCount) +
-                    " t values), got " + std::to_string(phi.size()));
+        throw Error(where + "expected " + std::to_string(n) + " values (" + std::to_string(muBins) +
+                    " mu bins x " + std::to_string(tCount) + " t values), got " +
+                    std::to_string(phi.size()));
     }
     for (std::size_t k = 0; k < n; ++k) {
         if (!(phi[k] >= 0.0f) || !std::isfinite(phi[k])) {
@@ -127,7 +127,8 @@ std::string PhaseTable::toJson() const
     j["target_error"] = targetError;
     j["error_t_max"] = errorTMax;
     std::vector<double> mus;
-    for (int i = 0; i < muBins; ++i) mus.push_back(muCentre(i));
+    for (int i = 0; i < muBins; ++i)
+        mus.push_back(muCentre(i));
     j["mu"] = mus;
     auto rows = nlohmann::ordered_json::array();
     for (int r = 0; r < tCount; ++r) {
@@ -186,7 +187,7 @@ PhaseTable buildPhaseTable(const ScatteringMedium& medium, const PhaseTableSpec&
             if (t <= spec.errorTMax * (1.0 + 1e-12)) {
                 for (int i = spec.muBins / 2; i < spec.muBins; ++i) {
                     const auto& e = r.perSteradian[i];
-                    worst = std::max(worst, e.mean > 0.0   ? e.error / e.mean
+                    worst = std::max(worst, e.mean > 0.0    ? e.error / e.mean
                                             : e.error > 0.0 ? INFINITY
                                                             : 0.0);
                 }
@@ -218,8 +219,7 @@ PhaseTable buildPhaseTable(const ScatteringMedium& medium, const PhaseTableSpec&
 PhaseLookup::PhaseLookup(const PhaseTable& t)
     : table(&t), logTMin(std::log(t.tMin)),
       invDLogT((t.tCount - 1) / (std::log(t.tMax) - std::log(t.tMin)))
-{
-}
+{}
 
 PhaseLookup::Pos PhaseLookup::locateLogT(double logT) const
 {

@@ -134,7 +134,8 @@ Spectrum Spectrum::sum(std::vector<Piece> pieces)
         events.push_back({p.x0, p.m, p.b, 1});
         events.push_back({p.x1, -p.m, -p.b, -1});
     }
-    std::sort(events.begin(), events.end(), [](const Event& a, const Event& b) { return a.x < b.x; });
+    std::sort(events.begin(), events.end(),
+              [](const Event& a, const Event& b) { return a.x < b.x; });
     Spectrum out;
     out.mPieces.reserve(events.size());
     double m = 0.0, b = 0.0;
@@ -150,7 +151,7 @@ Spectrum Spectrum::sum(std::vector<Piece> pieces)
             ++i;
         }
         if (active == 0) {
-            m = b = 0.0;  // drop rounding residue: nothing is active here
+            m = b = 0.0; // drop rounding residue: nothing is active here
             continue;
         }
         if (i < events.size()) out.mPieces.push_back(Piece{x, events[i].x, m, b});

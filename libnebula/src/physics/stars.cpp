@@ -34,27 +34,88 @@ const std::map<double, double>& mainSequenceTable()
 {
     static const std::map<double, double> table = {
         // O
-        {5.0, 41400}, {5.5, 40400}, {6.0, 39800}, {6.5, 38000}, {7.0, 37900}, {7.5, 36100},
-        {8.0, 35100}, {8.5, 34300}, {9.0, 33300}, {9.5, 31900},
+        {5.0, 41400},
+        {5.5, 40400},
+        {6.0, 39800},
+        {6.5, 38000},
+        {7.0, 37900},
+        {7.5, 36100},
+        {8.0, 35100},
+        {8.5, 34300},
+        {9.0, 33300},
+        {9.5, 31900},
         // B
-        {10.0, 31400}, {10.5, 29000}, {11.0, 26000}, {11.5, 24500}, {12.0, 20600},
-        {12.5, 18500}, {13.0, 17000}, {14.0, 16400}, {15.0, 15700}, {16.0, 14500},
-        {17.0, 14000}, {18.0, 12300}, {19.0, 10700}, {19.5, 10400},
+        {10.0, 31400},
+        {10.5, 29000},
+        {11.0, 26000},
+        {11.5, 24500},
+        {12.0, 20600},
+        {12.5, 18500},
+        {13.0, 17000},
+        {14.0, 16400},
+        {15.0, 15700},
+        {16.0, 14500},
+        {17.0, 14000},
+        {18.0, 12300},
+        {19.0, 10700},
+        {19.5, 10400},
         // A
-        {20.0, 9700}, {21.0, 9300}, {22.0, 8840}, {23.0, 8600}, {24.0, 8250}, {25.0, 8100},
-        {26.0, 7910}, {27.0, 7760}, {28.0, 7590}, {29.0, 7400},
+        {20.0, 9700},
+        {21.0, 9300},
+        {22.0, 8840},
+        {23.0, 8600},
+        {24.0, 8250},
+        {25.0, 8100},
+        {26.0, 7910},
+        {27.0, 7760},
+        {28.0, 7590},
+        {29.0, 7400},
         // F
-        {30.0, 7220}, {31.0, 7020}, {32.0, 6820}, {33.0, 6750}, {34.0, 6670}, {35.0, 6550},
-        {36.0, 6350}, {37.0, 6280}, {38.0, 6180}, {39.0, 6050}, {39.5, 5990},
+        {30.0, 7220},
+        {31.0, 7020},
+        {32.0, 6820},
+        {33.0, 6750},
+        {34.0, 6670},
+        {35.0, 6550},
+        {36.0, 6350},
+        {37.0, 6280},
+        {38.0, 6180},
+        {39.0, 6050},
+        {39.5, 5990},
         // G
-        {40.0, 5930}, {41.0, 5860}, {42.0, 5770}, {43.0, 5720}, {44.0, 5680}, {45.0, 5660},
-        {46.0, 5600}, {47.0, 5550}, {48.0, 5480}, {49.0, 5380},
+        {40.0, 5930},
+        {41.0, 5860},
+        {42.0, 5770},
+        {43.0, 5720},
+        {44.0, 5680},
+        {45.0, 5660},
+        {46.0, 5600},
+        {47.0, 5550},
+        {48.0, 5480},
+        {49.0, 5380},
         // K
-        {50.0, 5290}, {51.0, 5170}, {52.0, 5100}, {53.0, 4870}, {54.0, 4600}, {55.0, 4440},
-        {56.0, 4300}, {57.0, 4090}, {58.0, 3990}, {59.0, 3930},
+        {50.0, 5290},
+        {51.0, 5170},
+        {52.0, 5100},
+        {53.0, 4870},
+        {54.0, 4600},
+        {55.0, 4440},
+        {56.0, 4300},
+        {57.0, 4090},
+        {58.0, 3990},
+        {59.0, 3930},
         // M
-        {60.0, 3850}, {60.5, 3770}, {61.0, 3660}, {61.5, 3620}, {62.0, 3560}, {62.5, 3470},
-        {63.0, 3430}, {63.5, 3270}, {64.0, 3210}, {64.5, 3110}, {65.0, 3060},
+        {60.0, 3850},
+        {60.5, 3770},
+        {61.0, 3660},
+        {61.5, 3620},
+        {62.0, 3560},
+        {62.5, 3470},
+        {63.0, 3430},
+        {63.5, 3270},
+        {64.0, 3210},
+        {64.5, 3110},
+        {65.0, 3060},
     };
     return table;
 }
@@ -150,13 +211,14 @@ double spectralClassTemperature(const std::string& spectralClass)
             throw badSpectralClass(spectralClass, "trailing space");
         }
     }
-    static const char* const OTHER_LUMINOSITY_CLASSES[] = {"IV", "III", "II", "I", "Iab", "Ia",
-                                                           "Ib"};
-    if (std::find(std::begin(OTHER_LUMINOSITY_CLASSES), std::end(OTHER_LUMINOSITY_CLASSES),
-                  rest) != std::end(OTHER_LUMINOSITY_CLASSES)) {
-        const std::string kind = rest == "IV" ? "subgiant" : rest == "III" ? "giant"
-                                 : rest == "II"                        ? "bright giant"
-                                                                       : "supergiant";
+    static const char* const OTHER_LUMINOSITY_CLASSES[] = {"IV",  "III", "II", "I",
+                                                           "Iab", "Ia",  "Ib"};
+    if (std::find(std::begin(OTHER_LUMINOSITY_CLASSES), std::end(OTHER_LUMINOSITY_CLASSES), rest) !=
+        std::end(OTHER_LUMINOSITY_CLASSES)) {
+        const std::string kind = rest == "IV"    ? "subgiant"
+                                 : rest == "III" ? "giant"
+                                 : rest == "II"  ? "bright giant"
+                                                 : "supergiant";
         throw badSpectralClass(spectralClass,
                                "luminosity class " + rest + " (" + kind +
                                    ") is not supported: the temperature table is the main "
@@ -196,8 +258,9 @@ std::vector<Star> parseStars(const std::string& json, const std::string& source)
         // Stars are counted from 1 in messages: `star 2 ("beta")` is the second element.
         std::string where = source + ": star " + std::to_string(i + 1);
         if (!item.is_object()) {
-            throw Error(where + ": expected an object {\"name\", \"position\", \"luminosity\", "
-                                "\"temperature\" or \"class\"}, got " +
+            throw Error(where +
+                        ": expected an object {\"name\", \"position\", \"luminosity\", "
+                        "\"temperature\" or \"class\"}, got " +
                         shown(item));
         }
         const auto missing = [&](const char* field) {
@@ -211,8 +274,9 @@ std::vector<Star> parseStars(const std::string& json, const std::string& source)
             throw missing("name");
         }
         if (!name->is_string() || !isValidStarName(name->get<std::string>())) {
-            throw Error(where + ": \"name\" must be a string of letters, digits, '_' and '-', "
-                                "got " +
+            throw Error(where +
+                        ": \"name\" must be a string of letters, digits, '_' and '-', "
+                        "got " +
                         shown(*name));
         }
         star.name = name->get<std::string>();
@@ -247,8 +311,7 @@ std::vector<Star> parseStars(const std::string& json, const std::string& source)
         }
         if (!luminosity->is_number() || !(luminosity->get<double>() > 0.0) ||
             !std::isfinite(luminosity->get<double>())) {
-            throw Error(where + ": \"luminosity\" must be > 0 [L_sun], got " +
-                        shown(*luminosity));
+            throw Error(where + ": \"luminosity\" must be > 0 [L_sun], got " + shown(*luminosity));
         }
         star.luminosity = luminosity->get<double>();
 
@@ -267,8 +330,9 @@ std::vector<Star> parseStars(const std::string& json, const std::string& source)
             star.temperature = temperature->get<double>();
         } else if (spectralClass != item.end()) {
             if (!spectralClass->is_string()) {
-                throw Error(where + ": \"class\" must be a spectral class string such as "
-                                    "\"B3V\", got " +
+                throw Error(where +
+                            ": \"class\" must be a spectral class string such as "
+                            "\"B3V\", got " +
                             shown(*spectralClass));
             }
             try {

@@ -25,7 +25,7 @@ Vec3 PinholeProjection::direction(double px, double py) const
 
 double PinholeProjection::pixelSolidAngle(double px, double py) const
 {
-    const double du = 2.0 * mTanH / mWidth;  // square pixels on the image plane at distance 1
+    const double du = 2.0 * mTanH / mWidth; // square pixels on the image plane at distance 1
     const double sx = (2.0 * px / mWidth - 1.0) * mTanH;
     const double sy = (1.0 - 2.0 * py / mHeight) * mTanH * mHeight / mWidth;
     const double cosTheta = 1.0 / std::sqrt(1.0 + sx * sx + sy * sy);

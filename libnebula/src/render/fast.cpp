@@ -34,20 +34,20 @@ struct LevelMap
 /// What one band of rows needs of its own (reused from pixel to pixel).
 struct Scratch
 {
-    std::vector<float> f, fk;       ///< field samples at level 0 and at a pyramid level
-    std::vector<double> starL;      ///< per star and channel: the pixel's scattered light
+    std::vector<float> f, fk;  ///< field samples at level 0 and at a pyramid level
+    std::vector<double> starL; ///< per star and channel: the pixel's scattered light
     /// Per level, star and channel: the level's term (phase-factor change times the star's
     /// irradiance factor at that level), resampled every half level-k voxel along the ray
     /// (the level's own resolution) and held between.
     std::vector<double> held;
-    std::vector<double> nextT;      ///< per level: ray distance of its next resample [pc]
+    std::vector<double> nextT; ///< per level: ray distance of its next resample [pc]
     RenderStats stats;
 };
 
 /// The state of one ray: transmittance T and radiance L per channel.
 struct RayState
 {
-    Vec3 dW;  ///< world direction
+    Vec3 dW; ///< world direction
     double T[3] = {1, 1, 1};
     double L[3] = {0, 0, 0};
 };
@@ -61,7 +61,8 @@ public:
           mTable(opts.phaseTable.get())
     {
         for (const auto& lv : scene.levels) {
-            mLevels.push_back({lv.fields.indexToWorld.inverse(), voxelSize(lv.fields.indexToWorld)});
+            mLevels.push_back(
+                {lv.fields.indexToWorld.inverse(), voxelSize(lv.fields.indexToWorld)});
         }
         mRmin2 = std::pow(opts.minStarDistance * mLevel0.voxelWorld, 2);
         for (const auto& s : scene.stars) {
@@ -76,10 +77,12 @@ public:
         if (mTable) mLookup.emplace(mGainTable ? *mGainTable : *mTable);
         mGain = mGainTable.has_value();
         mLogTMax = mTable ? std::log(mTable->tMax) : 0.0;
-        for (int c = 0; c < 3; ++c) mOff0[c] = mTable ? logTOffset(mLevel0.voxelWorld, c) : 0.0;
+        for (int c = 0; c < 3; ++c)
+            mOff0[c] = mTable ? logTOffset(mLevel0.voxelWorld, c) : 0.0;
         mOffLevel.resize(mLevels.size());
         for (std::size_t k = 0; k < mLevels.size(); ++k)
-            for (int c = 0; c < 3; ++c) mOffLevel[k][c] = logTOffset(mLevels[k].voxelWorld, c);
+            for (int c = 0; c < 3; ++c)
+                mOffLevel[k][c] = logTOffset(mLevels[k].voxelWorld, c);
     }
 
     Scratch scratch() const
@@ -103,9 +106,10 @@ public:
         ray.dW = mCam.direction(px + 0.5, py + 0.5);
         std::fill(sc.starL.begin(), sc.starL.end(), 0.0);
         std::fill(sc.nextT.begin(), sc.nextT.end(), -std::numeric_limits<double>::infinity());
-        sc.stats.rays += mLevel0.march(ray.dW, mOpts.step, [&](const Vec3& pI, double tm, double seg) {
-            return step(pI, tm, seg, ray, sc);
-        });
+        sc.stats.rays +=
+            mLevel0.march(ray.dW, mOpts.step, [&](const Vec3& pI, double tm, double seg) {
+                return step(pI, tm, seg, ray, sc);
+            });
         const std::size_t pix = std::size_t(py) * img.width + px;
         ImageLayer& transLayer = img.layers[S];
         for (int c = 0; c < 3; ++c) {
@@ -213,9 +217,11 @@ private:
             const double mu = cosToStar(xW, ray.dW, s, r2);
             double phi[3], src[3];
             phaseFactors(mu, tPos, nullptr, phi);
-            for (int c = 0; c < 3; ++c) src[c] = phi[c] * std::exp(-mDust.r[c] * tauV[s]);
+            for (int c = 0; c < 3; ++c)
+                src[c] = phi[c] * std::exp(-mDust.r[c] * tauV[s]);
             for (std::size_t k = 0; k < mLevels.size(); ++k) {
-                for (int c = 0; c < 3; ++c) src[c] += sc.held[(k * S + s) * 3 + c];
+                for (int c = 0; c < 3; ++c)
+                    src[c] += sc.held[(k * S + s) * 3 + c];
             }
             const double geom = 1.0 / (4.0 * PI * std::max(r2, mRmin2));
             for (int c = 0; c < 3; ++c) {
@@ -255,7 +261,8 @@ private:
             }
             scatterStars(xW, &sc.f[2], oneMinus, tPos, ray, sc);
         }
-        for (int c = 0; c < 3; ++c) ray.T[c] *= 1.0 - oneMinus[c];
+        for (int c = 0; c < 3; ++c)
+            ray.T[c] *= 1.0 - oneMinus[c];
         return !(ray.T[0] < mOpts.minTransmittance && ray.T[1] < mOpts.minTransmittance &&
                  ray.T[2] < mOpts.minTransmittance);
     }

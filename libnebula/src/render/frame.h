@@ -26,9 +26,11 @@ inline Image frameImage(const RenderScene& scene, int width, int height,
 {
     Image img(width, height);
     const std::size_t n = std::size_t(width) * height * 3;
-    for (const auto& s : scene.stars) img.layers.push_back({"star." + s.name, std::vector<float>(n, 0.0f)});
+    for (const auto& s : scene.stars)
+        img.layers.push_back({"star." + s.name, std::vector<float>(n, 0.0f)});
     img.layers.push_back({"transmittance", std::vector<float>(n, 1.0f)});
-    for (const auto& name : extra) img.layers.push_back({name, std::vector<float>(n, 0.0f)});
+    for (const auto& name : extra)
+        img.layers.push_back({name, std::vector<float>(n, 0.0f)});
     return img;
 }
 

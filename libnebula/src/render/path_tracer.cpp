@@ -12,7 +12,6 @@
 #include "nebula/core/error.h"
 #include "nebula/core/rng.h"
 
-
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -22,17 +21,17 @@ namespace nebula {
 namespace {
 
 constexpr double INF = std::numeric_limits<double>::infinity();
-constexpr double RATIO_TRACKING_SCALE = 2.0;  ///< majorant multiple for transmittance
+constexpr double RATIO_TRACKING_SCALE = 2.0; ///< majorant multiple for transmittance
 
 /// What a walk needs: density and emission only (2 channels), the majorant per occupancy
 /// block and channel, and the stars.
 struct PathScene
 {
-    DenseVolume fields;  ///< 0 density n_H, 1 emission
+    DenseVolume fields; ///< 0 density n_H, 1 emission
     Affine w2i;
-    Vec3 boxLo, boxHi;   ///< lattice box (index space)
+    Vec3 boxLo, boxHi; ///< lattice box (index space)
     std::array<int, 3> blocks{0, 0, 0};
-    std::vector<std::array<float, 3>> majorant;  ///< per block: per channel [1/pc]
+    std::vector<std::array<float, 3>> majorant; ///< per block: per channel [1/pc]
     std::vector<Vec3> starPos;
     const RenderScene* scene = nullptr;
     double emissionScale = 1.0;
@@ -55,13 +54,14 @@ PathScene buildPathScene(const RenderScene& scene, const RenderOptions& opts)
     }
     ps.w2i = v.indexToWorld.inverse();
     ps.boxLo = Vec3(v.lo()[0], v.lo()[1], v.lo()[2]);
-    ps.boxHi = Vec3(v.lo()[0] + v.dims()[0] - 1, v.lo()[1] + v.dims()[1] - 1,
-                    v.lo()[2] + v.dims()[2] - 1);
+    ps.boxHi =
+        Vec3(v.lo()[0] + v.dims()[0] - 1, v.lo()[1] + v.dims()[1] - 1, v.lo()[2] + v.dims()[2] - 1);
     const double voxelWorld = voxelSize(v.indexToWorld);
     ps.rmin2 = std::pow(opts.minStarDistance * voxelWorld, 2);
     ps.emissionScale = opts.emissionScale;
     ps.emissionColor = opts.emissionColor;
-    for (const auto& s : scene.stars) ps.starPos.emplace_back(s.position[0], s.position[1], s.position[2]);
+    for (const auto& s : scene.stars)
+        ps.starPos.emplace_back(s.position[0], s.position[1], s.position[2]);
 
     // Majorant per block of BLOCK^3 cells from the largest density (emission) at its cells'
     // corners: the trilinear field inside a cell never exceeds its corners.
@@ -89,7 +89,7 @@ struct Tracker
 {
     const PathScene& ps;
     Vec3 oI, dI;
-    double t0 = 0.0, t1 = -1.0;  ///< clipped to the lattice box
+    double t0 = 0.0, t1 = -1.0; ///< clipped to the lattice box
 
     Tracker(const PathScene& s, const Vec3& o, const Vec3& d, double tMax) : ps(s)
     {
@@ -192,12 +192,14 @@ void walk(const PathScene& ps, int c, int c1, const Vec3& eye, const Vec3& d0, P
     const auto& dust = ps.scene->dust;
     const double k0 = dust.kappa_V * dust.r[c];
     double emitC[3];
-    for (int ch = c; ch < c1; ++ch) emitC[ch] = ps.emissionScale * ps.emissionColor[ch];
+    for (int ch = c; ch < c1; ++ch)
+        emitC[ch] = ps.emissionScale * ps.emissionColor[ch];
     Vec3 x = eye, d = d0;
     double beta = 1.0;
     // The primary ray's transmittance (alpha and the transmittance layer), ratio tracked.
     const double T0 = transmittance(ps, c, eye, d0, INF, rng, collisions);
-    for (int ch = c; ch < c1; ++ch) Tprim[ch] = T0;
+    for (int ch = c; ch < c1; ++ch)
+        Tprim[ch] = T0;
     for (int depth = 0;; ++depth) {
         const Tracker tr(ps, x, d, INF);
         bool scattered = false;
@@ -208,7 +210,8 @@ void walk(const PathScene& ps, int c, int c1, const Vec3& eye, const Vec3& d0, P
             const double k = k0 * f[0];
             // Collision estimator of emission: j / majorant at every tentative collision.
             if (f[1] > 0.0f) {
-                for (int ch = c; ch < c1; ++ch) L[ch] += beta * emitC[ch] * f[1] / mu;
+                for (int ch = c; ch < c1; ++ch)
+                    L[ch] += beta * emitC[ch] * f[1] / mu;
             }
             if (rng.uniformDouble() * mu < k) {
                 scattered = true;
@@ -226,10 +229,10 @@ void walk(const PathScene& ps, int c, int c1, const Vec3& eye, const Vec3& d0, P
             const Vec3 v = ps.starPos[s] - x;
             const double r2 = v.dot(v);
             const double r = std::sqrt(r2);
-            const double mu = r > 0.0 ? v.dot(d) / r : 1.0;  // light travel . (-d) = toStar . d
+            const double mu = r > 0.0 ? v.dot(d) / r : 1.0; // light travel . (-d) = toStar . d
             const double p = phaseFunction(dust.phase, mu, dust.g);
-            const double Tr = r > 0.0 ? transmittance(ps, c, x, v * (1.0 / r), r, rng, collisions)
-                                      : 1.0;
+            const double Tr =
+                r > 0.0 ? transmittance(ps, c, x, v * (1.0 / r), r, rng, collisions) : 1.0;
             const double w = beta * p * Tr / (4.0 * PI * std::max(r2, ps.rmin2));
             for (int ch = c; ch < c1; ++ch) {
                 const double add = w * ps.scene->starColor[s][ch];
@@ -271,52 +274,55 @@ Image renderPathTraced(const RenderScene& scene, const RenderOptions& opts, cons
 
     // Grey dust (equal extinction ratios): one walk serves all three channels.
     const auto& r = scene.dust.r;
-    const bool grey = std::abs(r[0] - r[1]) <= 1e-12 * r[1] && std::abs(r[2] - r[1]) <= 1e-12 * r[1];
-    detail::forEachRowBand(H, 1, run, "nebrender path", stats, [&](int y0, int y1, RenderStats& band) {
-        std::vector<double> Ls(S * 3), starSum(S * 3);
-        for (int py = y0; py < y1; ++py) {
-            for (int px = 0; px < W; ++px) {
-                const std::size_t pix = std::size_t(py) * W + px;
-                const Vec3 d = cam.direction(px + 0.5, py + 0.5);
-                double mean[3] = {0, 0, 0}, m2[3] = {0, 0, 0}, trans[3] = {0, 0, 0};
-                std::fill(starSum.begin(), starSum.end(), 0.0);
-                for (int sample = 0; sample < opts.spp; ++sample) {
-                    // One stream per (pixel, sample); the seed picks the family.
-                    Pcg32 rng(pix * 0x9E3779B97F4A7C15ULL + std::uint64_t(sample),
-                              opts.seed);
-                    double L[3] = {0, 0, 0}, T[3] = {1, 1, 1};
-                    std::fill(Ls.begin(), Ls.end(), 0.0);
-                    if (grey) {
-                        walk(ps, 0, 3, cam.eye(), d, rng, L, Ls.data(), T, band.collisions);
-                        ++band.paths;
-                    } else {
-                        for (int c = 0; c < 3; ++c) {
-                            walk(ps, c, c + 1, cam.eye(), d, rng, L, Ls.data(), T, band.collisions);
+    const bool grey =
+        std::abs(r[0] - r[1]) <= 1e-12 * r[1] && std::abs(r[2] - r[1]) <= 1e-12 * r[1];
+    detail::forEachRowBand(
+        H, 1, run, "nebrender path", stats, [&](int y0, int y1, RenderStats& band) {
+            std::vector<double> Ls(S * 3), starSum(S * 3);
+            for (int py = y0; py < y1; ++py) {
+                for (int px = 0; px < W; ++px) {
+                    const std::size_t pix = std::size_t(py) * W + px;
+                    const Vec3 d = cam.direction(px + 0.5, py + 0.5);
+                    double mean[3] = {0, 0, 0}, m2[3] = {0, 0, 0}, trans[3] = {0, 0, 0};
+                    std::fill(starSum.begin(), starSum.end(), 0.0);
+                    for (int sample = 0; sample < opts.spp; ++sample) {
+                        // One stream per (pixel, sample); the seed picks the family.
+                        Pcg32 rng(pix * 0x9E3779B97F4A7C15ULL + std::uint64_t(sample), opts.seed);
+                        double L[3] = {0, 0, 0}, T[3] = {1, 1, 1};
+                        std::fill(Ls.begin(), Ls.end(), 0.0);
+                        if (grey) {
+                            walk(ps, 0, 3, cam.eye(), d, rng, L, Ls.data(), T, band.collisions);
                             ++band.paths;
+                        } else {
+                            for (int c = 0; c < 3; ++c) {
+                                walk(ps, c, c + 1, cam.eye(), d, rng, L, Ls.data(), T,
+                                     band.collisions);
+                                ++band.paths;
+                            }
+                        }
+                        for (int c = 0; c < 3; ++c) {
+                            // Welford's running mean and sum of squared deviations.
+                            const double delta = L[c] - mean[c];
+                            mean[c] += delta / (sample + 1);
+                            m2[c] += delta * (L[c] - mean[c]);
+                            trans[c] += T[c];
+                            for (std::size_t s = 0; s < S; ++s)
+                                starSum[s * 3 + c] += Ls[s * 3 + c];
                         }
                     }
+                    const double n = opts.spp;
                     for (int c = 0; c < 3; ++c) {
-                        // Welford's running mean and sum of squared deviations.
-                        const double delta = L[c] - mean[c];
-                        mean[c] += delta / (sample + 1);
-                        m2[c] += delta * (L[c] - mean[c]);
-                        trans[c] += T[c];
-                        for (std::size_t s = 0; s < S; ++s) starSum[s * 3 + c] += Ls[s * 3 + c];
+                        img.rgba[pix * 4 + c] = float(mean[c]);
+                        transLayer.rgb[pix * 3 + c] = float(trans[c] / n);
+                        varLayer.rgb[pix * 3 + c] = n > 1 ? float(m2[c] / (n - 1) / n) : 0.0f;
+                        for (std::size_t s = 0; s < S; ++s) {
+                            img.layers[s].rgb[pix * 3 + c] = float(starSum[s * 3 + c] / n);
+                        }
                     }
+                    img.rgba[pix * 4 + 3] = float(1.0 - trans[1] / n);
                 }
-                const double n = opts.spp;
-                for (int c = 0; c < 3; ++c) {
-                    img.rgba[pix * 4 + c] = float(mean[c]);
-                    transLayer.rgb[pix * 3 + c] = float(trans[c] / n);
-                    varLayer.rgb[pix * 3 + c] = n > 1 ? float(m2[c] / (n - 1) / n) : 0.0f;
-                    for (std::size_t s = 0; s < S; ++s) {
-                        img.layers[s].rgb[pix * 3 + c] = float(starSum[s * 3 + c] / n);
-                    }
-                }
-                img.rgba[pix * 4 + 3] = float(1.0 - trans[1] / n);
             }
-        }
-    });
+        });
     if (stats) stats->rays += std::uint64_t(W) * H;
     if (opts.drawStars) drawStarSprites(img, scene, opts);
     return img;

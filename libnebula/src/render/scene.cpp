@@ -30,7 +30,7 @@ RenderScene buildScene(const GridSet& grids, const RenderOptions& opts, const Du
                     " metadata (run nebgen and nebillum, or nebillum --star)");
     }
     if (!emission) {
-        emission = openvdb::FloatGrid::create(0.0f);  // no emission: an empty grid
+        emission = openvdb::FloatGrid::create(0.0f); // no emission: an empty grid
         emission->setTransform(density->transform().copy());
     }
     std::vector<openvdb::FloatGrid::ConstPtr> fields{density, emission};
@@ -43,9 +43,10 @@ RenderScene buildScene(const GridSet& grids, const RenderOptions& opts, const Du
         auto tau = grids.floatGrid(name, "");
         if (const auto k = tau->getMetadata<openvdb::DoubleMetadata>("kappa_V")) {
             if (std::abs(k->value() - dust.kappa_V) > 1e-9 * dust.kappa_V) {
-                throw Error(grids.source + ": grid \"" + name + "\" was computed with kappa_V = " +
-                            std::to_string(k->value()) + " but the dust has kappa_V = " +
-                            std::to_string(dust.kappa_V) + "; rerun nebillum");
+                throw Error(grids.source + ": grid \"" + name +
+                            "\" was computed with kappa_V = " + std::to_string(k->value()) +
+                            " but the dust has kappa_V = " + std::to_string(dust.kappa_V) +
+                            "; rerun nebillum");
             }
         }
         fields.push_back(tau);
@@ -54,11 +55,11 @@ RenderScene buildScene(const GridSet& grids, const RenderOptions& opts, const Du
 
     for (const auto& s : scene.stars) {
         const auto c = blackbodyLinearSRGB(s.temperature);
-        scene.starColor.push_back({c[0] * s.luminosity, c[1] * s.luminosity,
-                                   c[2] * s.luminosity});
+        scene.starColor.push_back({c[0] * s.luminosity, c[1] * s.luminosity, c[2] * s.luminosity});
     }
     static_cast<DustParams&>(scene.dust) = dust;
-    for (int c = 0; c < 3; ++c) scene.dust.r[c] = extinctionRatio(dust, opts.wavelengths[c]);
+    for (int c = 0; c < 3; ++c)
+        scene.dust.r[c] = extinctionRatio(dust, opts.wavelengths[c]);
 
     if (const auto& table = opts.phaseTable) {
         const auto& m = table->medium;
@@ -69,8 +70,7 @@ RenderScene buildScene(const GridSet& grids, const RenderOptions& opts, const Du
                         numberText(m.albedo) + ", g " + numberText(m.g) + ", phase " +
                         toString(m.phase) + " but " + grids.source + "'s dust has albedo " +
                         numberText(dust.albedo) + ", g " + numberText(dust.g) + ", phase " +
-                        toString(dust.phase) +
-                        "; rebuild it (nebphase -i " + grids.source +
+                        toString(dust.phase) + "; rebuild it (nebphase -i " + grids.source +
                         " -o phase.vdb) or pass --phase-ignore-dust");
         }
     }
@@ -78,7 +78,7 @@ RenderScene buildScene(const GridSet& grids, const RenderOptions& opts, const Du
     scene.buildOccupancy();
 
     int levelCount = opts.levels;
-    if (levelCount < 0) {  // auto: every level the input has, when there is a table
+    if (levelCount < 0) { // auto: every level the input has, when there is a table
         levelCount = 0;
         while (opts.phaseTable &&
                grids.find(opts.densityGrid + ".L" + std::to_string(levelCount + 1))) {

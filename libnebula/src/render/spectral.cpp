@@ -19,14 +19,14 @@
 
 #include "frame.h"
 
-#include "nebula/physics/colour.h"
 #include "nebula/core/error.h"
 #include "nebula/io/grid_names.h"
 #include "nebula/io/spectral_grids.h"
-#include "nebula/physics/blackbody.h"
-#include "nebula/render/sprites.h"
-#include "nebula/physics/motion.h"
 #include "nebula/io/volume_vdb.h"
+#include "nebula/physics/blackbody.h"
+#include "nebula/physics/colour.h"
+#include "nebula/physics/motion.h"
+#include "nebula/render/sprites.h"
 
 #include "nebula/volume/block_walk.h"
 
@@ -69,7 +69,10 @@ private:
 };
 
 /// (1 - e^-y) / y, -> 1 as y -> 0.
-inline double escapeFraction(double y) { return y > 1e-7 ? -std::expm1(-y) / y : 1.0 - 0.5 * y; }
+inline double escapeFraction(double y)
+{
+    return y > 1e-7 ? -std::expm1(-y) / y : 1.0 - 0.5 * y;
+}
 
 std::string bandName(double centre)
 {
@@ -77,7 +80,7 @@ std::string bandName(double centre)
     std::snprintf(buf, sizeof buf, "S0.%.2fnm", centre);
     std::string s = buf;
     std::replace(s.begin(), s.end() - 2, '.', ',');
-    s[2] = '.';  // "S0." keeps its dot: the layer separator
+    s[2] = '.'; // "S0." keeps its dot: the layer separator
     return s;
 }
 
@@ -94,14 +97,15 @@ XYZ nodesToXYZ(const double* values, const std::vector<XYZ>& weight)
 {
     XYZ xyz{0, 0, 0};
     for (std::size_t j = 0; j < weight.size(); ++j)
-        for (std::size_t c = 0; c < 3; ++c) xyz[c] += values[j] * weight[j][c];
+        for (std::size_t c = 0; c < 3; ++c)
+            xyz[c] += values[j] * weight[j][c];
     return xyz;
 }
 
 } // namespace
 
-SpectralScene buildSpectralScene(const GridSet& grids,
-                                 const RenderOptions& opts, const DustParams& dust)
+SpectralScene buildSpectralScene(const GridSet& grids, const RenderOptions& opts,
+                                 const DustParams& dust)
 {
     const SpectralOptions& so = opts.spectral;
     if (opts.integrator == Integrator::Path) {
@@ -145,17 +149,17 @@ SpectralScene buildSpectralScene(const GridSet& grids,
     } catch (const UsageError&) {
         throw;
     } catch (const Error& e) {
-        throw UsageError(e.what());  // a bad option value: usage error (exit 2)
+        throw UsageError(e.what()); // a bad option value: usage error (exit 2)
     }
     const double targetY = linearSRGBToXYZ(opts.emissionColor)[1] * opts.emissionScale;
     auto addEmitter = [&](const openvdb::FloatGrid::Ptr& g, bool main) {
         requireFiniteNonNegative(*g, grids.source);
         SpectralEmitter e;
         e.grid = g->getName();
-        e.lines = (main && !so.lines.empty()) ? fallback
-                                              : gridLines(*g, grids.source, fallback);
+        e.lines = (main && !so.lines.empty()) ? fallback : gridLines(*g, grids.source, fallback);
         double Y = 0.0;
-        for (const auto& l : e.lines) Y += l.strength * cmfAt(l.wavelength)[1];
+        for (const auto& l : e.lines)
+            Y += l.strength * cmfAt(l.wavelength)[1];
         if (!(Y > 0.0)) {
             throw Error(grids.source + ": grid \"" + e.grid + "\" emits only lines outside " +
                         "360-830 nm (" + lineListToString(e.lines) + "): nothing to see");
@@ -199,7 +203,8 @@ SpectralScene buildSpectralScene(const GridSet& grids,
         }
         // Gas as fast as light (after exaggeration) has no Doppler factor: refuse it.
         double vmax2 = 0.0;
-        for (auto it = v->cbeginValueOn(); it; ++it) vmax2 = std::max(vmax2, double((*it).lengthSqr()));
+        for (auto it = v->cbeginValueOn(); it; ++it)
+            vmax2 = std::max(vmax2, double((*it).lengthSqr()));
         const double vmax = std::sqrt(vmax2) * std::abs(so.exaggerateVelocity);
         if (vmax >= SPEED_OF_LIGHT_KMS) {
             throw UsageError("--exaggerate-velocity " + std::to_string(so.exaggerateVelocity) +
@@ -212,12 +217,14 @@ SpectralScene buildSpectralScene(const GridSet& grids,
     // One lattice for everything: channels as documented in SpectralScene.
     const auto density = grids.floatGrid(opts.densityGrid, "--density-grid");
     std::vector<openvdb::FloatGrid::ConstPtr> boundsGrids{density};
-    for (const auto& g : emitGrids) boundsGrids.push_back(g);
+    for (const auto& g : emitGrids)
+        boundsGrids.push_back(g);
     std::vector<openvdb::FloatGrid::ConstPtr> fields{density};
     auto empty = openvdb::FloatGrid::create(0.0f);
     empty->setTransform(density->transform().copy());
-    fields.push_back(empty);  // channel 1: filled below with the sum of the emission grids
-    for (const auto& s : scene.base.stars) fields.push_back(grids.floatGrid(tauGridName(s.name), ""));
+    fields.push_back(empty); // channel 1: filled below with the sum of the emission grids
+    for (const auto& s : scene.base.stars)
+        fields.push_back(grids.floatGrid(tauGridName(s.name), ""));
     int ch = int(fields.size());
     for (std::size_t k = 0; k < emitGrids.size(); ++k) {
         scene.emitters[k].channel = ch++;
@@ -230,14 +237,16 @@ SpectralScene buildSpectralScene(const GridSet& grids,
     if (!velocity.empty()) {
         scene.velocityChannel = ch;
         ch += 3;
-        for (const auto& v : velocity) fields.push_back(v);
+        for (const auto& v : velocity)
+            fields.push_back(v);
     }
     DenseVolume vol = denseFromGrids(fields, activeBounds(boundsGrids, 1), grids.source);
     const int C = vol.channels();
     for (std::size_t i = 0; i < vol.voxelCount(); ++i) {
         float* q = vol.data().data() + i * std::size_t(C);
         float sum = 0.0f;
-        for (const auto& e : scene.emitters) sum += q[e.channel];
+        for (const auto& e : scene.emitters)
+            sum += q[e.channel];
         q[1] = sum;
     }
     scene.base.fields = std::move(vol);
@@ -251,11 +260,11 @@ namespace {
 struct ContinuumNodes
 {
     bool bandsMode = false;
-    double bandWidth = 0.0;      ///< fixed-band mode: the width of a band [nm]
-    std::vector<double> lam;     ///< node wavelengths [nm]
-    std::vector<double> lamExt;  ///< A(lambda)/A_V at each node
-    std::vector<XYZ> weight;     ///< XYZ of a unit value at each node (hat or box function)
-    double LambdaMin = 0.0;      ///< the smallest A(lambda)/A_V: the last light to be absorbed
+    double bandWidth = 0.0;     ///< fixed-band mode: the width of a band [nm]
+    std::vector<double> lam;    ///< node wavelengths [nm]
+    std::vector<double> lamExt; ///< A(lambda)/A_V at each node
+    std::vector<XYZ> weight;    ///< XYZ of a unit value at each node (hat or box function)
+    double LambdaMin = 0.0;     ///< the smallest A(lambda)/A_V: the last light to be absorbed
 
     ContinuumNodes(const SpectralOptions& so, const ExtinctionTable& Lambda)
         : bandsMode(so.bands > 0)
@@ -265,17 +274,20 @@ struct ContinuumNodes
             for (int j = 0; j < so.bands; ++j) {
                 lam.push_back(SPECTRAL_MIN_NM + (j + 0.5) * bandWidth);
                 XYZ w = cmfAt(lam.back());
-                for (auto& c : w) c *= bandWidth;
+                for (auto& c : w)
+                    c *= bandWidth;
                 weight.push_back(w);
             }
         } else {
             const int n =
                 int(std::ceil((SPECTRAL_MAX_NM - SPECTRAL_MIN_NM) / so.continuumStep - 1e-9)) + 1;
             const double step = (SPECTRAL_MAX_NM - SPECTRAL_MIN_NM) / (n - 1);
-            for (int j = 0; j < n; ++j) lam.push_back(SPECTRAL_MIN_NM + j * step);
+            for (int j = 0; j < n; ++j)
+                lam.push_back(SPECTRAL_MIN_NM + j * step);
             weight = hatWeights(SPECTRAL_MIN_NM, step, n);
         }
-        for (double l : lam) lamExt.push_back(Lambda(l));
+        for (double l : lam)
+            lamExt.push_back(Lambda(l));
         LambdaMin = *std::min_element(lamExt.begin(), lamExt.end());
     }
     std::size_t size() const { return lam.size(); }
@@ -284,13 +296,13 @@ struct ContinuumNodes
 /// What one band of rows keeps (reused from pixel to pixel).
 struct SpectralScratch
 {
-    std::vector<float> f;          ///< field sample
-    std::vector<double> Cstar;     ///< per star and node: scattered starlight
-    std::vector<double> Cgas;      ///< per node: black-body and (fixed bands) line emission
-    std::vector<double> Ctotal;    ///< per node: the whole continuum
-    std::vector<double> A;         ///< per node: 1 - e^-x Lambda of the current segment
-    std::vector<double> layerAcc;  ///< per spectral layer: the lines' share
-    std::vector<Piece> rayPieces;  ///< with countPieces: the ray's pieces
+    std::vector<float> f;         ///< field sample
+    std::vector<double> Cstar;    ///< per star and node: scattered starlight
+    std::vector<double> Cgas;     ///< per node: black-body and (fixed bands) line emission
+    std::vector<double> Ctotal;   ///< per node: the whole continuum
+    std::vector<double> A;        ///< per node: 1 - e^-x Lambda of the current segment
+    std::vector<double> layerAcc; ///< per spectral layer: the lines' share
+    std::vector<Piece> rayPieces; ///< with countPieces: the ray's pieces
     RenderStats stats;
 };
 
@@ -353,9 +365,10 @@ public:
         std::fill(sc.Cgas.begin(), sc.Cgas.end(), 0.0);
         std::fill(sc.layerAcc.begin(), sc.layerAcc.end(), 0.0);
         sc.rayPieces.clear();
-        sc.stats.rays += mLevel0.march(ray.dW, mOpts.step, [&](const Vec3& pI, double tm, double seg) {
-            return step(pI, tm, seg, ray, sc);
-        });
+        sc.stats.rays +=
+            mLevel0.march(ray.dW, mOpts.step, [&](const Vec3& pI, double tm, double seg) {
+                return step(pI, tm, seg, ray, sc);
+            });
         writePixel(std::size_t(py) * img.width + px, ray, sc, img);
     }
 
@@ -395,7 +408,8 @@ private:
         for (std::size_t s = 0; s < S; ++s) {
             double Y = 0.0;
             for (std::size_t j = 0; j < J; ++j) {
-                mStarSpec[s * J + j] = planckPerNmUnchecked(mNodes.lam[j], mRs.stars[s].temperature);
+                mStarSpec[s * J + j] =
+                    planckPerNmUnchecked(mNodes.lam[j], mRs.stars[s].temperature);
                 Y += mStarSpec[s * J + j] * mNodes.weight[j][1];
             }
             if (!(Y > 0.0)) {
@@ -403,7 +417,8 @@ private:
                             std::to_string(mRs.stars[s].temperature) +
                             " K emits no light between 360 and 830 nm to render");
             }
-            for (std::size_t j = 0; j < J; ++j) mStarSpec[s * J + j] *= mRs.stars[s].luminosity / Y;
+            for (std::size_t j = 0; j < J; ++j)
+                mStarSpec[s * J + j] *= mRs.stars[s].luminosity / Y;
         }
     }
 
@@ -414,7 +429,7 @@ private:
         const std::size_t J = mNodes.size();
         const auto& lam = mNodes.lam;
         mLayerWidth = NL > 0 ? (SPECTRAL_MAX_NM - SPECTRAL_MIN_NM) / NL : 0.0;
-        mLayerOfNode.assign(std::size_t(NL) * J, 0.0);  // [b][j]
+        mLayerOfNode.assign(std::size_t(NL) * J, 0.0); // [b][j]
         for (int b = 0; b < NL; ++b) {
             const double a = SPECTRAL_MIN_NM + b * mLayerWidth, e = a + mLayerWidth;
             for (std::size_t j = 0; j < J; ++j) {
@@ -423,9 +438,10 @@ private:
                     const double lo = std::max(a, lam[j] - 0.5 * mNodes.bandWidth);
                     const double hi = std::min(e, lam[j] + 0.5 * mNodes.bandWidth);
                     v = std::max(0.0, hi - lo);
-                } else {  // the hat function of node j
+                } else { // the hat function of node j
                     if (j > 0) v += pieceIntegral(pieceThrough(lam[j - 1], 0.0, lam[j], 1.0), a, e);
-                    if (j + 1 < J) v += pieceIntegral(pieceThrough(lam[j], 1.0, lam[j + 1], 0.0), a, e);
+                    if (j + 1 < J)
+                        v += pieceIntegral(pieceThrough(lam[j], 1.0, lam[j + 1], 0.0), a, e);
                 }
                 mLayerOfNode[std::size_t(b) * J + j] = v / mLayerWidth;
             }
@@ -438,7 +454,8 @@ private:
         const double vScale = mSo.exaggerateVelocity;
         float v[3];
         mRs.fields.sampleChannels(pI, mScene.velocityChannel, 3, v);
-        const double vr = vScale * (double(v[0]) * dW.x + double(v[1]) * dW.y + double(v[2]) * dW.z);
+        const double vr =
+            vScale * (double(v[0]) * dW.x + double(v[1]) * dW.y + double(v[2]) * dW.z);
         if (!mSo.relativistic) return dopplerFactor(vr);
         const double v2 =
             vScale * vScale * (double(v[0]) * v[0] + double(v[1]) * v[1] + double(v[2]) * v[2]);
@@ -453,7 +470,8 @@ private:
         if (!(b > a)) return;
         const Piece p = pieceThrough(a, ya, b, yb);
         const XYZ xyz = pieceToXYZ(p);
-        for (int c = 0; c < 3; ++c) ray.lineXYZ[std::size_t(c)] += xyz[std::size_t(c)];
+        for (int c = 0; c < 3; ++c)
+            ray.lineXYZ[std::size_t(c)] += xyz[std::size_t(c)];
         for (int k = 0; k < mSo.layers; ++k) {
             const double lo = SPECTRAL_MIN_NM + k * mLayerWidth;
             sc.layerAcc[std::size_t(k)] += pieceIntegral(p, lo, lo + mLayerWidth) / mLayerWidth;
@@ -505,11 +523,12 @@ private:
     void lineEmission(const Vec3& pI, double tm, double seg, double x, SpectralRay& ray,
                       SpectralScratch& sc) const
     {
-        double dA = 1.0, dB = 1.0;  // Doppler factors at the segment's ends
+        double dA = 1.0, dB = 1.0; // Doppler factors at the segment's ends
         if (mScene.velocityChannel >= 0) {
             const double tA = tm - 0.5 * seg, tB = tm + 0.5 * seg;
-            dA = std::abs(tA - ray.lastEndT) <= 1e-9 * seg ? ray.lastEndD
-                                                            : dopplerAt(pI - ray.dI * (0.5 * seg), ray.dW);
+            dA = std::abs(tA - ray.lastEndT) <= 1e-9 * seg
+                     ? ray.lastEndD
+                     : dopplerAt(pI - ray.dI * (0.5 * seg), ray.dW);
             dB = dopplerAt(pI + ray.dI * (0.5 * seg), ray.dW);
             ray.lastEndT = tB;
             ray.lastEndD = dB;
@@ -529,12 +548,14 @@ private:
                 if (t.x[3] <= SPECTRAL_MIN_NM || t.x[0] >= SPECTRAL_MAX_NM) continue;
                 if (mNodes.bandsMode) {
                     const double bw = mNodes.bandWidth;
-                    const int j0 = std::max(0, int(std::ceil((t.x[0] - SPECTRAL_MIN_NM) / bw - 0.5)));
-                    const int j1 =
-                        std::min(int(J) - 1, int(std::floor((t.x[3] - SPECTRAL_MIN_NM) / bw - 0.5)));
+                    const int j0 =
+                        std::max(0, int(std::ceil((t.x[0] - SPECTRAL_MIN_NM) / bw - 0.5)));
+                    const int j1 = std::min(int(J) - 1,
+                                            int(std::floor((t.x[3] - SPECTRAL_MIN_NM) / bw - 0.5)));
                     for (int j = j0; j <= j1; ++j) {
                         const double v = t.at(mNodes.lam[std::size_t(j)]);
-                        if (v > 0.0) sc.Cgas[std::size_t(j)] += v * factor(mNodes.lamExt[std::size_t(j)]);
+                        if (v > 0.0)
+                            sc.Cgas[std::size_t(j)] += v * factor(mNodes.lamExt[std::size_t(j)]);
                     }
                 } else {
                     double y[4];
@@ -558,11 +579,12 @@ private:
         ++sc.stats.samples;
         const double n = std::max(0.0f, sc.f[0]), em = sc.f[1];
         if (n <= 0.0 && em <= 0.0) return true;
-        const double x = mDust.kappa_V * n * seg;  // the segment's V optical depth
+        const double x = mDust.kappa_V * n * seg; // the segment's V optical depth
         if (n > 0.0) {
             // The fraction of the segment's source function that leaves it (1 - e^-x Lambda);
             // the eye's attenuation e^-tau Lambda is folded into each source's.
-            for (std::size_t j = 0; j < mNodes.size(); ++j) sc.A[j] = -std::expm1(-x * mNodes.lamExt[j]);
+            for (std::size_t j = 0; j < mNodes.size(); ++j)
+                sc.A[j] = -std::expm1(-x * mNodes.lamExt[j]);
             scatterStarlight(mCam.eye() + ray.dW * tm, ray, sc);
             blackbodyEmission(pI, ray, sc);
         }
@@ -587,7 +609,8 @@ private:
             }
         }
         const XYZ gas = nodesToXYZ(sc.Cgas.data(), mNodes.weight);
-        for (int c = 0; c < 3; ++c) total[std::size_t(c)] += gas[std::size_t(c)];
+        for (int c = 0; c < 3; ++c)
+            total[std::size_t(c)] += gas[std::size_t(c)];
         const auto rgb = xyzToLinearSRGB(total);
         ImageLayer& transLayer = img.layers[S];
         for (int c = 0; c < 3; ++c) {
@@ -600,12 +623,14 @@ private:
             // The whole continuum at the nodes (stars and gas).
             for (std::size_t j = 0; j < J; ++j) {
                 sc.Ctotal[j] = sc.Cgas[j];
-                for (std::size_t s = 0; s < S; ++s) sc.Ctotal[j] += sc.Cstar[s * J + j];
+                for (std::size_t s = 0; s < S; ++s)
+                    sc.Ctotal[j] += sc.Cstar[s * J + j];
             }
         }
         for (int b = 0; b < NL; ++b) {
             double v = sc.layerAcc[std::size_t(b)];
-            for (std::size_t j = 0; j < J; ++j) v += mLayerOfNode[std::size_t(b) * J + j] * sc.Ctotal[j];
+            for (std::size_t j = 0; j < J; ++j)
+                v += mLayerOfNode[std::size_t(b) * J + j] * sc.Ctotal[j];
             img.channels[std::size_t(b)].values[pix] = float(v);
         }
         if (mSo.countPieces && !mNodes.bandsMode) countPieces(sc);
@@ -619,12 +644,14 @@ private:
         const auto& lam = mNodes.lam;
         for (std::size_t j = 0; j + 1 < mNodes.size(); ++j) {
             if (sc.Ctotal[j] != 0.0 || sc.Ctotal[j + 1] != 0.0) {
-                sc.rayPieces.push_back(pieceThrough(lam[j], sc.Ctotal[j], lam[j + 1], sc.Ctotal[j + 1]));
+                sc.rayPieces.push_back(
+                    pieceThrough(lam[j], sc.Ctotal[j], lam[j + 1], sc.Ctotal[j + 1]));
             }
         }
         Spectrum spec = Spectrum::sum(sc.rayPieces);
         sc.stats.spectrumPieces += spec.size();
-        sc.stats.maxSpectrumPieces = std::max<std::uint64_t>(sc.stats.maxSpectrumPieces, spec.size());
+        sc.stats.maxSpectrumPieces =
+            std::max<std::uint64_t>(sc.stats.maxSpectrumPieces, spec.size());
         if (mSo.mergeTolerance > 0.0) spec.merge(mSo.mergeTolerance);
         sc.stats.mergedPieces += spec.size();
     }
@@ -638,9 +665,9 @@ private:
     const ContinuumNodes mNodes;
     const PinholeProjection mCam;
     const Marcher mLevel0;
-    std::vector<double> mStarSpec;     ///< [s][j]
-    double mLayerWidth = 0.0;          ///< [nm]
-    std::vector<double> mLayerOfNode;  ///< [b][j]
+    std::vector<double> mStarSpec;    ///< [s][j]
+    double mLayerWidth = 0.0;         ///< [nm]
+    std::vector<double> mLayerOfNode; ///< [b][j]
     double mRmin2 = 0.0;
     std::vector<Vec3> mStarPos;
     double mBbFactor = 0.0;

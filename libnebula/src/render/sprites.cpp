@@ -22,7 +22,8 @@ void drawStarSprites(Image& img, const RenderScene& scene, const RenderOptions& 
     const auto& dust = scene.dust;
     const Vec3 eyeI = w2i.apply(cam.eye());
     std::vector<Vec3> starPos;
-    for (const auto& s : scene.stars) starPos.emplace_back(s.position[0], s.position[1], s.position[2]);
+    for (const auto& s : scene.stars)
+        starPos.emplace_back(s.position[0], s.position[1], s.position[2]);
     // Star sprites: the attenuated flux F_c = L_c / (4 pi d^2) e^(-r_c tau) spread over a
     // small Gaussian footprint whose radiance times pixel solid angle sums to F_c.
     if (S > 0) {
@@ -30,7 +31,8 @@ void drawStarSprites(Image& img, const RenderScene& scene, const RenderOptions& 
         // integrator's cell occupancy are built once for all stars.
         DenseVolume density(vol.lo(), vol.dims(), 1);
         density.indexToWorld = i2w;
-        for (std::size_t i = 0; i < vol.voxelCount(); ++i) density.voxel(i)[0] = vol.voxel(i)[0];
+        for (std::size_t i = 0; i < vol.voxelCount(); ++i)
+            density.voxel(i)[0] = vol.voxel(i)[0];
         const ColumnIntegrator column(density);
         for (std::size_t s = 0; s < S; ++s) {
             double sx, sy;
@@ -51,11 +53,13 @@ void drawStarSprites(Image& img, const RenderScene& scene, const RenderOptions& 
                 }
             std::array<double, 3> F;
             for (int c = 0; c < 3; ++c) {
-                F[std::size_t(c)] = scene.starColor[s][c] / (4.0 * PI * d2) * std::exp(-dust.r[c] * tauV);
+                F[std::size_t(c)] =
+                    scene.starColor[s][c] / (4.0 * PI * d2) * std::exp(-dust.r[c] * tauV);
             }
             if (colour) {
                 const auto col = colour(s, tauV);
-                for (int c = 0; c < 3; ++c) F[std::size_t(c)] = col[std::size_t(c)] / (4.0 * PI * d2);
+                for (int c = 0; c < 3; ++c)
+                    F[std::size_t(c)] = col[std::size_t(c)] / (4.0 * PI * d2);
             }
             std::size_t wi = 0;
             for (int y = cy - R; y <= cy + R; ++y)

@@ -53,10 +53,10 @@ openvdb::FloatGrid::Ptr temperatureGrid(const NebulaParams& p, const openvdb::Fl
 {
     auto tree = unionTopology<openvdb::FloatTree>(dGrid, eGrid, 0.0f);
     const auto& xform = dGrid.transform();
-    const double rMin = 0.5 * p.size / p.res;  // r clamped to half a voxel
+    const double rMin = 0.5 * p.size / p.res; // r clamped to half a voxel
     const auto& eTree = eGrid.tree();
     openvdb::tree::LeafManager<openvdb::FloatTree> leaves(*tree);
-    leaves.foreach([&](openvdb::FloatTree::LeafNodeType& leaf, std::size_t) {
+    leaves.foreach ([&](openvdb::FloatTree::LeafNodeType& leaf, std::size_t) {
         const auto* eLeaf = eTree.probeConstLeaf(leaf.origin());
         for (auto it = leaf.beginValueOn(); it; ++it) {
             const openvdb::Coord c = it.getCoord();
@@ -86,7 +86,7 @@ openvdb::Vec3fGrid::Ptr velocityGridOf(const NebulaParams& p, const openvdb::Flo
     auto tree = unionTopology<openvdb::Vec3fTree>(dGrid, eGrid, openvdb::Vec3f(0.0f));
     const auto& xform = dGrid.transform();
     openvdb::tree::LeafManager<openvdb::Vec3fTree> leaves(*tree);
-    leaves.foreach([&](openvdb::Vec3fTree::LeafNodeType& leaf, std::size_t) {
+    leaves.foreach ([&](openvdb::Vec3fTree::LeafNodeType& leaf, std::size_t) {
         for (auto it = leaf.beginValueOn(); it; ++it) {
             const openvdb::Vec3d x = xform.indexToWorld(it.getCoord());
             const auto v = field({x[0], x[1], x[2]});
@@ -121,8 +121,7 @@ MotionParams motionParams(const NebulaParams& params)
     return m;
 }
 
-double radiationFieldU(const std::array<double, 3>& x, const std::vector<Star>& stars,
-                       double rMin)
+double radiationFieldU(const std::array<double, 3>& x, const std::vector<Star>& stars, double rMin)
 {
     double U = 0.0;
     for (const auto& s : stars) {
@@ -239,14 +238,15 @@ GridSet generateNebula(const NebulaParams& p, const std::function<void(std::size
                 }
                 double em = 0.0;
                 // Distance from the motion centre [cube edges] (shell, [O III] zone).
-                const double dc = std::sqrt((x - cx) * (x - cx) + (y - cy) * (y - cy) +
-                                            (z - cz) * (z - cz));
+                const double dc =
+                    std::sqrt((x - cx) * (x - cx) + (y - cy) * (y - cy) + (z - cz) * (z - cz));
                 const double envEm =
                     shell ? 1.0 - smoothstep(0.0, wR, std::abs(dc - R))
                           : 1.0 - smoothstep(0.4 * p.emissionRadius, p.emissionRadius, r);
                 if (envEm > 0.0 && p.emissionPeak > 0.0) {
                     const double e = fbm(qx * f * 1.5, qy * f * 1.5, qz * f * 1.5, p.fbm, seed + 7);
-                    em = p.emissionPeak * envEm * shape(e, p.threshold - 0.1, p.contrast, p.exponent);
+                    em = p.emissionPeak * envEm *
+                         shape(e, p.threshold - 0.1, p.contrast, p.exponent);
                 }
                 density.setValue(c, float(dens));
                 emission.setValue(c, float(em));

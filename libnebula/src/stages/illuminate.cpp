@@ -15,8 +15,7 @@ TauSupport tauSupport(const openvdb::FloatGrid& density, const DenseVolume& n)
 {
     TauSupport support;
     support.grid = density.deepCopy();
-    openvdb::tools::dilateActiveValues(support.grid->tree(), 1,
-                                       openvdb::tools::NN_FACE_EDGE_VERTEX,
+    openvdb::tools::dilateActiveValues(support.grid->tree(), 1, openvdb::tools::NN_FACE_EDGE_VERTEX,
                                        openvdb::tools::EXPAND_TILES);
     support.points.reserve(support.grid->activeVoxelCount());
     for (auto it = support.grid->cbeginValueOn(); it; ++it) {
@@ -33,7 +32,7 @@ void addOpticalDepths(GridSet& products, const openvdb::FloatGrid& density,
                       const std::string& suffix, const Run& run)
 {
     // Dense density with a zero border, so the trilinear field falls to zero at the edge.
-    const openvdb::FloatGrid::ConstPtr source = density.copy();  // shares the tree
+    const openvdb::FloatGrid::ConstPtr source = density.copy(); // shares the tree
     const DenseVolume n = denseFromGrids({source}, activeBounds({source}, 1), products.source);
     const Affine worldToIndex = n.indexToWorld.inverse();
     run.info("density " + std::to_string(n.dims()[0]) + "x" + std::to_string(n.dims()[1]) + "x" +
@@ -42,8 +41,8 @@ void addOpticalDepths(GridSet& products, const openvdb::FloatGrid& density,
     const TauSupport support = tauSupport(density, n);
 
     for (const auto& star : stars) {
-        const Vec3 s = worldToIndex.apply(Vec3(star.position[0], star.position[1],
-                                               star.position[2]));
+        const Vec3 s =
+            worldToIndex.apply(Vec3(star.position[0], star.position[1], star.position[2]));
         std::vector<float> tau;
         {
             Progress bar(run, run.tool() + " " + star.name + suffix, support.points.size());
@@ -77,7 +76,8 @@ void illuminate(GridSet& grids, const IllumOptions& opts, const Run& run)
     addOpticalDepths(products, *density, stars, opts.dust, "", run);
 
     if (opts.onlyNew) grids.grids.clear();
-    for (auto& g : products.grids) grids.replace(g);
+    for (auto& g : products.grids)
+        grids.replace(g);
     grids.setStars(stars);
     grids.setDust(opts.dust);
 }

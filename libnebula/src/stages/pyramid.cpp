@@ -1,9 +1,9 @@
 #include "nebula/stages/pyramid.h"
 
 #include "nebula/core/error.h"
-#include "nebula/stages/illuminate.h"
 #include "nebula/io/grid_names.h"
 #include "nebula/io/volume_vdb.h"
+#include "nebula/stages/illuminate.h"
 
 #include <openvdb/tools/Morphology.h>
 #include <openvdb/tree/LeafManager.h>
@@ -25,7 +25,7 @@ namespace {
 constexpr int MAX_LEVEL = 24;
 
 using FloatLeaf = openvdb::FloatTree::LeafNodeType;
-constexpr int LEAF_DIM = int(FloatLeaf::DIM);  // 8
+constexpr int LEAF_DIM = int(FloatLeaf::DIM); // 8
 
 openvdb::Coord coarseCoord(const openvdb::Coord& c, int level)
 {
@@ -35,8 +35,8 @@ openvdb::Coord coarseCoord(const openvdb::Coord& c, int level)
 /// Sum and count of the active values of @p fine in the block of 2^level voxels a side from
 /// @p lo, in a fixed order (so the same whatever the thread count). Blocks of a leaf or
 /// more are walked leaf by leaf, with a tile standing for its 8^3 voxels.
-void blockSum(const openvdb::FloatGrid::ConstAccessor& fine, const openvdb::Coord& lo,
-              int level, double& sum, double& count)
+void blockSum(const openvdb::FloatGrid::ConstAccessor& fine, const openvdb::Coord& lo, int level,
+              double& sum, double& count)
 {
     const int s = 1 << level;
     sum = 0.0;
@@ -64,7 +64,7 @@ void blockSum(const openvdb::FloatGrid::ConstAccessor& fine, const openvdb::Coor
                     }
                 } else {
                     float v = 0.0f;
-                    if (fine.probeValue(origin, v)) {  // an active tile covers this leaf
+                    if (fine.probeValue(origin, v)) { // an active tile covers this leaf
                         sum += double(v) * double(FloatLeaf::SIZE);
                         count += double(FloatLeaf::SIZE);
                     }
@@ -86,20 +86,20 @@ openvdb::FloatGrid::Ptr reduce(const openvdb::FloatGrid& grid, int level, bool a
     // (fill), then the leaves through an accessor.
     {
         auto it = grid.tree().cbeginValueOn();
-        it.setMaxDepth(openvdb::FloatTree::ValueOnCIter::LEAF_DEPTH - 1);  // tiles only
+        it.setMaxDepth(openvdb::FloatTree::ValueOnCIter::LEAF_DEPTH - 1); // tiles only
         for (; it; ++it) {
             openvdb::CoordBBox tile;
             it.getBoundingBox(tile);
-            coarse->tree().fill(openvdb::CoordBBox(coarseCoord(tile.min(), level),
-                                                   coarseCoord(tile.max(), level)),
-                                0.0f, true);
+            coarse->tree().fill(
+                openvdb::CoordBBox(coarseCoord(tile.min(), level), coarseCoord(tile.max(), level)),
+                0.0f, true);
         }
     }
     {
         auto acc = coarse->getAccessor();
         for (auto leaf = grid.tree().cbeginLeaf(); leaf; ++leaf) {
             if (leaf->isEmpty()) continue;
-            if ((1 << level) >= LEAF_DIM) {  // the whole leaf falls into one coarse voxel
+            if ((1 << level) >= LEAF_DIM) { // the whole leaf falls into one coarse voxel
                 acc.setValueOn(coarseCoord(leaf->origin(), level), 0.0f);
                 continue;
             }
@@ -111,9 +111,9 @@ openvdb::FloatGrid::Ptr reduce(const openvdb::FloatGrid& grid, int level, bool a
     coarse->tree().voxelizeActiveTiles();
 
     // Values: each coarse voxel from its own block, coarse leaves in parallel.
-    const double volume = std::ldexp(1.0, 3 * level);  // 8^level
+    const double volume = std::ldexp(1.0, 3 * level); // 8^level
     openvdb::tree::LeafManager<openvdb::FloatTree> leaves(coarse->tree());
-    leaves.foreach([&](FloatLeaf& leaf, std::size_t) {
+    leaves.foreach ([&](FloatLeaf& leaf, std::size_t) {
         const auto fine = grid.getConstAccessor();
         for (auto it = leaf.beginValueOn(); it; ++it) {
             const openvdb::Coord I = it.getCoord();
@@ -215,7 +215,8 @@ openvdb::FloatGrid::Ptr averageOpticalDepth(const openvdb::FloatGrid& tau0,
                           }
                       });
     auto acc = tau->getAccessor();
-    for (std::size_t q = 0; q < holes.size(); ++q) acc.setValueOn(holes[q], values[q]);
+    for (std::size_t q = 0; q < holes.size(); ++q)
+        acc.setValueOn(holes[q], values[q]);
     return tau;
 }
 
@@ -225,7 +226,8 @@ int maxPyramidLevel(const openvdb::CoordBBox& bounds)
     const auto d = bounds.dim();
     const std::int64_t longest = std::max({d.x(), d.y(), d.z()});
     int level = -1;
-    while (level < MAX_LEVEL && (std::int64_t(2) << (level + 1)) <= longest) ++level;
+    while (level < MAX_LEVEL && (std::int64_t(2) << (level + 1)) <= longest)
+        ++level;
     return level;
 }
 
@@ -250,12 +252,11 @@ void buildPyramid(GridSet& grids, const PyramidOptions& opts, const Run& run)
                     " voxels along the longest axis; level 1 needs at least 4");
     }
     if (opts.levels > maxLevel) {
-        throw UsageError("--levels " + std::to_string(opts.levels) + " is too many for " +
-                         quoted + " of " + grids.source + ": its active bounding box is " +
-                         std::to_string(longest) + " voxels along the longest axis, so level " +
-                         std::to_string(opts.levels) +
-                         " would be fewer than 2 voxels across; at most --levels " +
-                         std::to_string(maxLevel));
+        throw UsageError(
+            "--levels " + std::to_string(opts.levels) + " is too many for " + quoted + " of " +
+            grids.source + ": its active bounding box is " + std::to_string(longest) +
+            " voxels along the longest axis, so level " + std::to_string(opts.levels) +
+            " would be fewer than 2 voxels across; at most --levels " + std::to_string(maxLevel));
     }
 
     const auto stars = grids.stars();
@@ -280,8 +281,11 @@ void buildPyramid(GridSet& grids, const PyramidOptions& opts, const Run& run)
             auto tau = grids.floatGrid(name, "--tau average");
             requireFiniteNonNegative(*tau, grids.source);
             if (tau->transform() != density->transform()) {
-                throw Error(grids.source + ": grid \"" + name + "\" does not share the "
-                            "transform of " + quoted + "; rerun nebillum, or use --tau "
+                throw Error(grids.source + ": grid \"" + name +
+                            "\" does not share the "
+                            "transform of " +
+                            quoted +
+                            "; rerun nebillum, or use --tau "
                             "recompute");
             }
             tau0.push_back(tau);
@@ -299,8 +303,8 @@ void buildPyramid(GridSet& grids, const PyramidOptions& opts, const Run& run)
 
     const double mass0 = gridMass(*density);
     run.info(quoted + ": " + dimsText(bounds) + " active bounding box, " +
-             std::to_string(density->activeVoxelCount()) + " active voxels, mass " +
-             approx(mass0) + " [cm^-3 pc^3]; " + std::to_string(opts.levels) + " levels, tau " +
+             std::to_string(density->activeVoxelCount()) + " active voxels, mass " + approx(mass0) +
+             " [cm^-3 pc^3]; " + std::to_string(opts.levels) + " levels, tau " +
              toString(opts.tau) + ", " + std::to_string(stars.size()) + " stars");
 
     GridSet products;
@@ -323,13 +327,13 @@ void buildPyramid(GridSet& grids, const PyramidOptions& opts, const Run& run)
             const Affine worldToIndex0 = n0->indexToWorld.inverse();
             for (std::size_t s = 0; s < stars.size(); ++s) {
                 const auto& p = stars[s].position;
-                double kappa_V = dust.kappa_V;  // the one the level-0 tau was made with
+                double kappa_V = dust.kappa_V; // the one the level-0 tau was made with
                 if (auto m = tau0[s]->getMetadata<openvdb::DoubleMetadata>("kappa_V")) {
                     kappa_V = m->value();
                 }
-                auto tau = averageOpticalDepth(*tau0[s], *coarse, k, *column0,
-                                               worldToIndex0.apply(Vec3(p[0], p[1], p[2])),
-                                               kappa_V);
+                auto tau =
+                    averageOpticalDepth(*tau0[s], *coarse, k, *column0,
+                                        worldToIndex0.apply(Vec3(p[0], p[1], p[2])), kappa_V);
                 tau->setGridClass(openvdb::GRID_UNKNOWN);
                 tau->insertMeta("star", openvdb::StringMetadata(stars[s].name));
                 tau->insertMeta("kappa_V", openvdb::DoubleMetadata(kappa_V));
@@ -344,12 +348,12 @@ void buildPyramid(GridSet& grids, const PyramidOptions& opts, const Run& run)
             products.replace(g);
         }
         run.info("level " + std::to_string(k) + ": " + std::to_string(taus.grids.size()) +
-                 " tau grids (" + toString(opts.tau) + "), " + approx(secondsSince(start)) +
-                 " s");
+                 " tau grids (" + toString(opts.tau) + "), " + approx(secondsSince(start)) + " s");
     }
 
     if (opts.onlyNew) grids.grids.clear();
-    for (auto& g : products.grids) grids.replace(g);
+    for (auto& g : products.grids)
+        grids.replace(g);
     grids.setStars(stars);
     grids.setDust(dust);
 }

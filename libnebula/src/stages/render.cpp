@@ -17,13 +17,14 @@ namespace {
 
 bool endsWith(const std::string& s, const std::string& suffix)
 {
-    return s.size() >= suffix.size() && s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
+    return s.size() >= suffix.size() &&
+           s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
 }
 
 } // namespace
 
-void renderToFiles(const GridSet& grids, const RenderOptions& opts,
-                   const DustParams& dust, const RenderOutput& out, const Run& run)
+void renderToFiles(const GridSet& grids, const RenderOptions& opts, const DustParams& dust,
+                   const RenderOutput& out, const Run& run)
 {
     if (!endsWith(out.exr, ".exr")) {
         throw UsageError("-o " + out.exr + ": expected an .exr file name");
@@ -48,7 +49,9 @@ void renderToFiles(const GridSet& grids, const RenderOptions& opts,
         grids.find(levelGridName(opts.densityGrid, 1))) {
         run.warn(grids.source + " has pyramid levels (" + levelGridName(opts.densityGrid, 1) +
                  ", ...), which only a phase table uses: this image is single scattering. "
-                 "Pass --phase (nebphase -i " + grids.source + " -o phase.vdb) to use them, or "
+                 "Pass --phase (nebphase -i " +
+                 grids.source +
+                 " -o phase.vdb) to use them, or "
                  "--levels 0 to say you mean it");
     }
     if (path && opts.phaseTable) {
@@ -57,7 +60,7 @@ void renderToFiles(const GridSet& grids, const RenderOptions& opts,
     }
     const bool spectral = opts.spectral.enabled;
     const auto start = std::chrono::steady_clock::now();
-    SpectralScene sscene;  // the spectral scene, or just its RGB base
+    SpectralScene sscene; // the spectral scene, or just its RGB base
     if (spectral) {
         sscene = buildSpectralScene(grids, opts, dust);
     } else {
@@ -79,13 +82,14 @@ void renderToFiles(const GridSet& grids, const RenderOptions& opts,
                  " ns wall per walk");
     }
     if (spectral) {
-        run.info(std::string("spectral: ") +
-                 (opts.spectral.bands > 0 ? std::to_string(opts.spectral.bands) + " fixed bands"
-                                          : "piecewise-linear") +
-                 ", " + std::to_string(sscene.emitters.size()) + " emission grid(s), " +
-                 std::to_string(stats.pieces) + " linear pieces projected (" +
-                 std::to_string(double(stats.pieces) / double(std::max<std::uint64_t>(stats.rays, 1))) +
-                 " per ray)");
+        run.info(
+            std::string("spectral: ") +
+            (opts.spectral.bands > 0 ? std::to_string(opts.spectral.bands) + " fixed bands"
+                                     : "piecewise-linear") +
+            ", " + std::to_string(sscene.emitters.size()) + " emission grid(s), " +
+            std::to_string(stats.pieces) + " linear pieces projected (" +
+            std::to_string(double(stats.pieces) / double(std::max<std::uint64_t>(stats.rays, 1))) +
+            " per ray)");
         if (opts.spectral.countPieces && opts.spectral.bands == 0) {
             const double rays = double(std::max<std::uint64_t>(stats.rays, 1));
             run.info("spectral: the rays' spectra have " +
@@ -95,14 +99,15 @@ void renderToFiles(const GridSet& grids, const RenderOptions& opts,
                      " after merging at tolerance " + std::to_string(opts.spectral.mergeTolerance));
         }
     }
-    run.info("scene " + std::to_string(tBuild) + " s, render " + std::to_string(tRender) +
-             " s, " + std::to_string(stats.rays) + " rays, " + std::to_string(stats.samples) +
-             " samples (" + std::to_string(1e9 * tRender / double(std::max<std::uint64_t>(stats.samples, 1))) +
+    run.info("scene " + std::to_string(tBuild) + " s, render " + std::to_string(tRender) + " s, " +
+             std::to_string(stats.rays) + " rays, " + std::to_string(stats.samples) + " samples (" +
+             std::to_string(1e9 * tRender / double(std::max<std::uint64_t>(stats.samples, 1))) +
              " ns wall per sample)");
 
     if (stats.phaseClamped > 0) {
         run.warn("in " + std::to_string(stats.phaseClamped) + " of " +
-                 std::to_string(3 * stats.samples) + " channel samples the voxel optical "
+                 std::to_string(3 * stats.samples) +
+                 " channel samples the voxel optical "
                  "thickness exceeded the phase table's t_max = " +
                  std::to_string(opts.phaseTable->tMax) + "; its last row was used");
     }
@@ -116,9 +121,11 @@ void renderToFiles(const GridSet& grids, const RenderOptions& opts,
                                 {"fov_deg", opts.camera.fovDeg},
                                 {"projection", "perspective"}};
     std::map<std::string, std::string> attrs{
-        {"comments", path ? "nebula reference path-traced render (DESIGN section 6); linear radiance"
-                     : spectral ? "nebula spectral ray-cast render (DESIGN section 7); linear sRGB of CIE 1931 XYZ"
-                          : "nebula ray-cast render (DESIGN sections 3-4); linear radiance"},
+        {"comments",
+         path ? "nebula reference path-traced render (DESIGN section 6); linear radiance"
+         : spectral
+             ? "nebula spectral ray-cast render (DESIGN section 7); linear sRGB of CIE 1931 XYZ"
+             : "nebula ray-cast render (DESIGN sections 3-4); linear radiance"},
         {"nebula:tool", run.tool()},
         {"nebula:version", NEBULA_VERSION_STRING},
         {"nebula:command", run.command()},
@@ -131,11 +138,10 @@ void renderToFiles(const GridSet& grids, const RenderOptions& opts,
                     : std::string("spectral, piecewise-linear")) +
                    ", exaggerate-velocity " + std::to_string(opts.spectral.exaggerateVelocity) +
                    (opts.spectral.relativistic ? ", relativistic Doppler" : ", first-order Doppler")
-         : opts.phaseTable
-             ? std::string("effective phase function (") +
-                   (opts.phaseUse == PhaseUse::Gain ? "gain" : "replace") + "), levels " +
-                   std::to_string(scene.levels.size())
-             : "single-scattering"},
+         : opts.phaseTable ? std::string("effective phase function (") +
+                                 (opts.phaseUse == PhaseUse::Gain ? "gain" : "replace") +
+                                 "), levels " + std::to_string(scene.levels.size())
+                           : "single-scattering"},
         {"nebula:units", "L_sun pc^-2 sr^-1"},
         {"nebula:dust", dust.toJson()},
         {"nebula:stars", starsToJson(scene.stars)},
@@ -145,12 +151,9 @@ void renderToFiles(const GridSet& grids, const RenderOptions& opts,
     };
     if (opts.phaseTable) {
         const auto& t = *opts.phaseTable;
-        const nlohmann::json table = {{"file", opts.phaseSource},
-                                      {"albedo", t.medium.albedo},
-                                      {"g", t.medium.g},
-                                      {"phase", toString(t.medium.phase)},
-                                      {"t_min", t.tMin},
-                                      {"t_max", t.tMax}};
+        const nlohmann::json table = {
+            {"file", opts.phaseSource},          {"albedo", t.medium.albedo}, {"g", t.medium.g},
+            {"phase", toString(t.medium.phase)}, {"t_min", t.tMin},           {"t_max", t.tMax}};
         attrs["nebula:phase_table"] = table.dump();
     }
     writeExr(out.exr, img, attrs);

@@ -9,7 +9,8 @@ void blockMaxima(const DenseVolume& v, std::array<int, 3>& blocks,
                  std::vector<std::array<float, 2>>& maxima)
 {
     const int B = OCCUPANCY_BLOCK;
-    for (int a = 0; a < 3; ++a) blocks[a] = (v.dims()[a] + B - 1) / B;
+    for (int a = 0; a < 3; ++a)
+        blocks[a] = (v.dims()[a] + B - 1) / B;
     maxima.assign(std::size_t(blocks[0]) * blocks[1] * blocks[2], {0.0f, 0.0f});
     const auto& lo = v.lo();
     for (int k = 0; k < v.dims()[2]; ++k) {
@@ -26,8 +27,9 @@ void blockMaxima(const DenseVolume& v, std::array<int, 3>& blocks,
                                 cj / B >= blocks[1] || ck / B >= blocks[2]) {
                                 continue;
                             }
-                            auto& m = maxima[(std::size_t(ck / B) * blocks[1] + cj / B) *
-                                                 blocks[0] + ci / B];
+                            auto& m =
+                                maxima[(std::size_t(ck / B) * blocks[1] + cj / B) * blocks[0] +
+                                       ci / B];
                             m[0] = std::max(m[0], q[0]);
                             m[1] = std::max(m[1], q[1]);
                         }

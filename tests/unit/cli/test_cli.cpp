@@ -37,10 +37,7 @@ namespace {
 class Capture
 {
 public:
-    Capture()
-        : mOut(std::cout.rdbuf(mOutBuf.rdbuf())), mErr(std::cerr.rdbuf(mErrBuf.rdbuf()))
-    {
-    }
+    Capture() : mOut(std::cout.rdbuf(mOutBuf.rdbuf())), mErr(std::cerr.rdbuf(mErrBuf.rdbuf())) {}
     ~Capture()
     {
         std::cout.rdbuf(mOut);
@@ -79,7 +76,8 @@ Outcome runTool(unsigned flags, std::initializer_list<std::string> args,
     std::vector<std::string> storage = {"nebtest"};
     storage.insert(storage.end(), args.begin(), args.end());
     std::vector<char*> argv;
-    for (auto& s : storage) argv.push_back(s.data());
+    for (auto& s : storage)
+        argv.push_back(s.data());
     argv.push_back(nullptr);
     Capture cap;
     o.code = nebula::cli::run(app, "nebtest", o.opts, int(storage.size()), argv.data(),
@@ -102,8 +100,8 @@ constexpr unsigned ALL = nebula::cli::INPUT | nebula::cli::OUTPUT | nebula::cli:
 
 TEST(CliRun, SuccessIsZeroAndTheBodySeesTheRun)
 {
-    const Outcome o = runTool(ALL, {"-i", "in.vdb", "-o", "out.vdb", "--only-new",
-                                    "--density-grid", "dust", "--threads", "2", "-v", "-v"});
+    const Outcome o = runTool(ALL, {"-i", "in.vdb", "-o", "out.vdb", "--only-new", "--density-grid",
+                                    "dust", "--threads", "2", "-v", "-v"});
     EXPECT_EQ(o.code, 0) << o.err;
     EXPECT_TRUE(o.bodyRan);
     EXPECT_EQ(o.err, "");
@@ -114,7 +112,7 @@ TEST(CliRun, SuccessIsZeroAndTheBodySeesTheRun)
     EXPECT_EQ(o.opts.threads, 2);
     EXPECT_EQ(o.tool, "nebtest");
     EXPECT_FALSE(o.verbosity.quiet);
-    EXPECT_EQ(o.verbosity.verbose, 2);  // -v counts
+    EXPECT_EQ(o.verbosity.verbose, 2); // -v counts
     // The command line, for provenance: every argument, in order.
     EXPECT_EQ(o.command,
               "nebtest -i in.vdb -o out.vdb --only-new --density-grid dust --threads 2 -v -v");
@@ -158,7 +156,8 @@ TEST(CliRun, UsageErrorsAreTwo)
     check(runTool(0, {"-i", "a"}), "-i without INPUT");
     check(runTool(nebula::cli::INPUT, {"-i", "a", "--density-grid", "d"}),
           "--density-grid without DENSITY_GRID");
-    check(runTool(nebula::cli::INPUT, {"-i", "a", "--only-new"}), "--only-new without PASS_THROUGH");
+    check(runTool(nebula::cli::INPUT, {"-i", "a", "--only-new"}),
+          "--only-new without PASS_THROUGH");
     // The message names the offending option.
     const Outcome o = runTool(ALL, {"-i", "a", "-o", "b", "--frobnicate"});
     EXPECT_TRUE(contains(o.err, "--frobnicate")) << o.err;
@@ -232,7 +231,8 @@ TEST(CliRun, ConfigFile)
 TEST(Cli, VersionString)
 {
     const std::string v = nebula::cli::versionString("nebrender");
-    EXPECT_EQ(v.rfind(std::string("nebrender ") + NEBULA_VERSION_STRING + " (OpenVDB ", 0), 0u) << v;
+    EXPECT_EQ(v.rfind(std::string("nebrender ") + NEBULA_VERSION_STRING + " (OpenVDB ", 0), 0u)
+        << v;
     EXPECT_EQ(v.back(), ')');
 }
 
@@ -267,7 +267,7 @@ TEST(Cli, ParseResolution)
         const std::string msg = errorMessage([&] { nebula::cli::parseResolution(bad, w, h); });
         EXPECT_EQ(msg.rfind("--res \"" + std::string(bad) + "\": ", 0), 0u) << bad << ": " << msg;
         EXPECT_THROW(nebula::cli::parseResolution(bad, w, h), nebula::UsageError) << bad;
-        EXPECT_EQ(w, 7) << bad;  // untouched on error
+        EXPECT_EQ(w, 7) << bad; // untouched on error
         EXPECT_EQ(h, 7) << bad;
     }
 }
@@ -282,9 +282,9 @@ TEST(Cli, RequireMode)
     auto* s = app.add_option("--continuum-step", step);
     app.add_flag("--spectral", spectral);
     const auto parse = [&](std::vector<std::string> args) {
-        spectral = false;  // CLI11 writes only the options given
+        spectral = false; // CLI11 writes only the options given
         app.clear();
-        std::reverse(args.begin(), args.end());  // CLI11 takes a reversed vector
+        std::reverse(args.begin(), args.end()); // CLI11 takes a reversed vector
         app.parse(args);
     };
 
@@ -297,11 +297,15 @@ TEST(Cli, RequireMode)
     // Given without the mode: a usage error naming the first such option and the mode.
     parse({"--continuum-step", "5", "--bands", "8"});
     EXPECT_FALSE(spectral);
-    EXPECT_EQ(errorMessage([&] { nebula::cli::requireMode({b, s}, spectral, "--spectral"); }),
+    EXPECT_EQ(errorMessage([&] {
+                  nebula::cli::requireMode({b, s}, spectral, "--spectral");
+              }),
               "--bands needs --spectral");
     EXPECT_THROW(nebula::cli::requireMode({b, s}, spectral, "--spectral"), nebula::UsageError);
     parse({"--continuum-step", "5"});
-    EXPECT_EQ(errorMessage([&] { nebula::cli::requireMode({b, s}, false, "--spectral"); }),
+    EXPECT_EQ(errorMessage([&] {
+                  nebula::cli::requireMode({b, s}, false, "--spectral");
+              }),
               "--continuum-step needs --spectral");
 }
 

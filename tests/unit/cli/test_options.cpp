@@ -45,7 +45,7 @@ std::string usageMessage(const std::function<void()>& f)
 /// Parses @p args (without the program name) into @p app.
 void parse(CLI::App& app, std::vector<std::string> args)
 {
-    std::reverse(args.begin(), args.end());  // CLI11 takes a reversed vector
+    std::reverse(args.begin(), args.end()); // CLI11 takes a reversed vector
     app.parse(args);
 }
 
@@ -73,23 +73,24 @@ TEST(StarOption, ParsesNamePositionLuminosityAndClassOrKelvin)
 TEST(StarOption, BadValuesAreUsageErrorsNamingTheOption)
 {
     const char* syntax[] = {
-        "",                        // nothing
-        "alpha",                   // one part
-        "alpha:0,0,0:1000",        // no class
-        "alpha:0,0,0:1000:B2V:x",  // five parts
-        "alpha:0,0:1000:B2V",      // two coordinates
-        "alpha:0,0,0,0:1000:B2V",  // four coordinates
-        "alpha:0,x,0:1000:B2V",    // not a number
-        "alpha:0,,0:1000:B2V",     // empty coordinate
-        "alpha:0,0,0:bright:B2V",  // luminosity not a number
-        "alpha:0,0,0:10x:B2V",     // trailing characters
-        "alpha:0,0,0:1e999:B2V",   // luminosity out of range
+        "",                       // nothing
+        "alpha",                  // one part
+        "alpha:0,0,0:1000",       // no class
+        "alpha:0,0,0:1000:B2V:x", // five parts
+        "alpha:0,0:1000:B2V",     // two coordinates
+        "alpha:0,0,0,0:1000:B2V", // four coordinates
+        "alpha:0,x,0:1000:B2V",   // not a number
+        "alpha:0,,0:1000:B2V",    // empty coordinate
+        "alpha:0,0,0:bright:B2V", // luminosity not a number
+        "alpha:0,0,0:10x:B2V",    // trailing characters
+        "alpha:0,0,0:1e999:B2V",  // luminosity out of range
     };
     for (const char* text : syntax) {
         const std::string msg = usageMessage([&] { nebula::cli::parseStarOption(text); });
-        EXPECT_EQ(msg.rfind("--star \"" + std::string(text) + "\": expected NAME:X,Y,Z:LUMINOSITY:CLASS",
-                            0),
-                  0u)
+        EXPECT_EQ(
+            msg.rfind("--star \"" + std::string(text) + "\": expected NAME:X,Y,Z:LUMINOSITY:CLASS",
+                      0),
+            0u)
             << text << ": " << msg;
     }
     // Values parseStars() refuses: still usage errors, starting with --star and saying what.
@@ -99,15 +100,15 @@ TEST(StarOption, BadValuesAreUsageErrorsNamingTheOption)
         {"alpha:0,0,0:10:-300", "temperature"},
         {"alpha:0,0,0:10:0", "temperature"},
         {"alpha:0,0,0:10:Q9", "spectral class \"Q9\""},
-        {"alpha:0,0,0:10:K0III", "K0III"},  // a giant: give the temperature
+        {"alpha:0,0,0:10:K0III", "K0III"}, // a giant: give the temperature
         {"bad name:0,0,0:10:B2V", "\"name\""},
         {"a.b:0,0,0:10:B2V", "\"name\""},
         {":0,0,0:10:B2V", "\"name\""},
         {"alpha:nan,0,0:10:B2V", "\"position\""},
-        {"alpha:0,0,0,:10:B2V", "\"position\""},       // a trailing comma
-        {"alpha:0,0,0:10:B2V:", "expected NAME:X,Y,Z"},  // a trailing colon
+        {"alpha:0,0,0,:10:B2V", "\"position\""},        // a trailing comma
+        {"alpha:0,0,0:10:B2V:", "expected NAME:X,Y,Z"}, // a trailing colon
         {"alpha:0,0,0:inf:B2V", "\"luminosity\""},
-        {"alpha:0,0,0:10:1e999", "temperature [K] must be a finite number"},  // out of range
+        {"alpha:0,0,0:10:1e999", "temperature [K] must be a finite number"}, // out of range
     };
     for (const auto& [text, mention] : values) {
         const std::string msg = usageMessage([&] { nebula::cli::parseStarOption(text); });
@@ -139,7 +140,7 @@ protected:
 TEST_F(StarsFileTest, FileThenEachStarOption)
 {
     nebula::StarOptions opts;
-    EXPECT_TRUE(nebula::cli::loadStars(opts).empty());  // neither given
+    EXPECT_TRUE(nebula::cli::loadStars(opts).empty()); // neither given
 
     const std::string file = (dir / "stars.json").string();
     std::ofstream(file) << R"([{"name": "f1", "position": [1, 2, 3], "luminosity": 10,
@@ -241,8 +242,10 @@ TEST(DustOptions, OnlyWhatWasGivenChanges)
     one([](auto& o) { o.albedo = 0.9; }, [](auto& d) { d.albedo = 0.9; });
     one([](auto& o) { o.g = -0.5; }, [](auto& d) { d.g = -0.5; });
     one([](auto& o) { o.R_V = 3.1; }, [](auto& d) { d.R_V = 3.1; });
-    one([](auto& o) { o.phase = "rayleigh"; }, [](auto& d) { d.phase = nebula::PhaseModel::Rayleigh; });
-    one([](auto& o) { o.phase = "murky"; }, [](auto& d) { d.phase = nebula::PhaseModel::MieMurky; });
+    one([](auto& o) { o.phase = "rayleigh"; },
+        [](auto& d) { d.phase = nebula::PhaseModel::Rayleigh; });
+    one([](auto& o) { o.phase = "murky"; },
+        [](auto& d) { d.phase = nebula::PhaseModel::MieMurky; });
     one([](auto& o) { o.curve = "CCM89"; }, [](auto& d) { d.curve = "CCM89"; });
     // Several at once.
     one(

@@ -49,7 +49,8 @@ protected:
     std::vector<std::string> entries() const
     {
         std::vector<std::string> names;
-        for (const auto& e : fs::directory_iterator(dir)) names.push_back(e.path().filename().string());
+        for (const auto& e : fs::directory_iterator(dir))
+            names.push_back(e.path().filename().string());
         std::sort(names.begin(), names.end());
         return names;
     }
@@ -92,7 +93,7 @@ TEST_F(AtomicFileTest, CommitRenamesIntoPlace)
         nebula::AtomicFile file(path);
         tmp = file.tmpPath();
         write(tmp, "finished data");
-        EXPECT_FALSE(fs::exists(path));  // nothing at the target before commit()
+        EXPECT_FALSE(fs::exists(path)); // nothing at the target before commit()
         file.commit();
         EXPECT_TRUE(fs::exists(path));
         EXPECT_FALSE(fs::exists(tmp));
@@ -109,7 +110,7 @@ TEST_F(AtomicFileTest, CommitReplacesAnExistingFile)
     {
         nebula::AtomicFile file(path);
         write(file.tmpPath(), "new");
-        EXPECT_EQ(read(path), "old");  // untouched until commit()
+        EXPECT_EQ(read(path), "old"); // untouched until commit()
         file.commit();
     }
     EXPECT_EQ(read(path), "new");
@@ -138,7 +139,7 @@ TEST_F(AtomicFileTest, UncommittedDoesNotTouchAnExistingFile)
     {
         nebula::AtomicFile file(path);
         write(file.tmpPath(), "a failed run");
-    }  // e.g. an exception before commit()
+    } // e.g. an exception before commit()
     EXPECT_EQ(read(path), "the previous output");
     EXPECT_EQ(fs::last_write_time(path), before);
     EXPECT_EQ(entries(), std::vector<std::string>{"keep.vdb"});
@@ -167,7 +168,9 @@ TEST_F(AtomicFileTest, CommittedFileHasOrdinaryPermissions)
         nebula::AtomicFile file(path);
         file.commit();
     }
-    struct stat st{};
+    struct stat st
+    {
+    };
     ASSERT_EQ(::stat(path.c_str(), &st), 0);
     EXPECT_EQ(st.st_mode & 0777, 0666 & ~mask);
 }
@@ -184,7 +187,7 @@ TEST_F(AtomicFileTest, FailedCommitThrowsNamingThePathAndCleansUp)
         msg = errorMessage([&] { file.commit(); });
     }
     EXPECT_EQ(msg.rfind(target.string() + ": ", 0), 0u) << msg;
-    EXPECT_EQ(entries(), std::vector<std::string>{"occupied"});  // no temporary left
+    EXPECT_EQ(entries(), std::vector<std::string>{"occupied"}); // no temporary left
     EXPECT_TRUE(fs::is_directory(target / "inside"));
 }
 

@@ -60,14 +60,15 @@ TEST(NumberText, ShortestTextThatReadsBackEqual)
     std::uniform_int_distribution<int> exponent(-300, 300);
     for (int i = 0; i < 5000; ++i) {
         double v = mantissa(rng) * std::pow(10.0, exponent(rng));
-        if (i % 3 == 0) v = std::round(v * 1e3) / 1e3;  // short decimals too
-        if (i % 5 == 0) v = double(float(mantissa(rng)));  // float-valued doubles
+        if (i % 3 == 0) v = std::round(v * 1e3) / 1e3;    // short decimals too
+        if (i % 5 == 0) v = double(float(mantissa(rng))); // float-valued doubles
         const std::string text = numberText(v);
         // Reads back as exactly the same double.
         ASSERT_EQ(std::strtod(text.c_str(), nullptr), v) << text;
         // It is %g at some precision p >= 6 ...
         int p = 6;
-        while (p <= 17 && withDigits(v, p) != text) ++p;
+        while (p <= 17 && withDigits(v, p) != text)
+            ++p;
         ASSERT_LE(p, 17) << "not %g text: " << text;
         // ... and no precision in [6, p) reads back: the shortest such text.
         for (int q = 6; q < p; ++q) {

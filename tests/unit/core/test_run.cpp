@@ -166,12 +166,12 @@ TEST(Run, ProgressOnATerminalDrawsAndFinishesWithANewline)
     {
         Fd2Redirect redirect(pty.slave);
         const nebula::Run run("t", "c", nebula::Verbosity{false, 0});
-        ASSERT_TRUE(run.showProgress());  // stderr is a terminal now
+        ASSERT_TRUE(run.showProgress()); // stderr is a terminal now
         {
             nebula::Progress bar(run, "slices", 4);
             bar.add(1);
             bar.add(1);
-        }  // finished at 2 of 4: the final draw says 50%
+        } // finished at 2 of 4: the final draw says 50%
         std::fflush(stderr);
         drawn = drain(pty.master);
     }
@@ -212,10 +212,12 @@ TEST(Run, ProgressOnANullRunDoesNothingAndCounts)
             std::vector<std::thread> threads;
             for (int t = 0; t < 4; ++t) {
                 threads.emplace_back([&] {
-                    for (int i = 0; i < 250; ++i) bar.add(1);
+                    for (int i = 0; i < 250; ++i)
+                        bar.add(1);
                 });
             }
-            for (auto& th : threads) th.join();
+            for (auto& th : threads)
+                th.join();
         }
         // A zero total draws nothing either, whatever the run.
         const nebula::Run run("t", "c", nebula::Verbosity{false, 0});

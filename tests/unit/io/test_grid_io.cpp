@@ -200,7 +200,7 @@ TEST_F(GridIoTest, WriteGridsAppendsToTheHistory)
     EXPECT_EQ(h1[0]["tool"], "nebgen");
     EXPECT_EQ(h1[0]["version"], NEBULA_VERSION_STRING);
     EXPECT_EQ(h1[0]["command"], "nebgen -o a.vdb");
-    EXPECT_EQ(h1[0].size(), 3u);  // exactly {"tool", "version", "command"}
+    EXPECT_EQ(h1[0].size(), 3u); // exactly {"tool", "version", "command"}
 
     // The next stage keeps the chain and adds itself, oldest first.
     nebula::writeGrids(b, first, "nebillum", "nebillum -i a.vdb -o b.vdb");
@@ -258,7 +258,7 @@ TEST(GridSetHistory, MalformedHistoryIsAnErrorNamingTheFile)
 {
     GridSet s;
     s.source = "broken.vdb";
-    s.setMetaString(nebula::META_TOOL, "nebgen");  // not used when nebula:history is there
+    s.setMetaString(nebula::META_TOOL, "nebgen"); // not used when nebula:history is there
     s.setMetaString(nebula::META_HISTORY, "[{\"tool\": \"nebgen\"");
     std::string msg = errorMessage([&] { s.history(); });
     EXPECT_EQ(msg.rfind("broken.vdb: ", 0), 0u) << msg;
@@ -355,11 +355,12 @@ TEST(GridSet, FindAndReplaceNeverDuplicates)
     auto a4 = floatGrid("density", 4.0f);
     s.replace(a4);
     ASSERT_EQ(s.grids.size(), 2u);
-    EXPECT_EQ(s.grids[0], a4);  // same position
+    EXPECT_EQ(s.grids[0], a4); // same position
     EXPECT_EQ(s.find("density"), a4);
     EXPECT_EQ(s.grids[1], b);
     int named = 0;
-    for (const auto& g : s.grids) named += g->getName() == "density";
+    for (const auto& g : s.grids)
+        named += g->getName() == "density";
     EXPECT_EQ(named, 1);
 
     // A grid of another type under the same name replaces too.
@@ -402,7 +403,7 @@ TEST(GridSet, FloatGridErrorsNameSourceGridAndOption)
     msg = errorMessage([&] { s.floatGrid("velocity", "--density-grid"); });
     EXPECT_EQ(msg.rfind("cloud.vdb: ", 0), 0u) << msg;
     EXPECT_TRUE(contains(msg, "\"velocity\"")) << msg;
-    EXPECT_TRUE(contains(msg, v->type())) << msg;  // OpenVDB's name of the type found
+    EXPECT_TRUE(contains(msg, v->type())) << msg; // OpenVDB's name of the type found
     EXPECT_TRUE(contains(msg, "expected a FloatGrid")) << msg;
 
     // A non-affine (frustum) transform.
@@ -423,7 +424,7 @@ TEST(GridSet, MetadataAccessors)
     EXPECT_EQ(s.metaString("nebula:nothing"), "");
     EXPECT_EQ(s.metaString("nebula:nothing", "fallback"), "fallback");
     s.setMetaString("k", "one");
-    s.setMetaString("k", "two");  // replaced
+    s.setMetaString("k", "two"); // replaced
     EXPECT_EQ(s.metaString("k"), "two");
     // A key of another type is replaced by the string.
     s.meta.insertMeta("n", openvdb::Int32Metadata(5));
@@ -470,7 +471,8 @@ TEST_F(GridIoTest, RunOverloadsReportUnderVerbose)
         const nebula::Run verbose("nebillum", "c", nebula::Verbosity{false, 1});
         CerrCapture cap;
         GridSet g = nebula::readGrids(file, verbose);
-        EXPECT_EQ(cap.text(), "nebillum: read " + file + ": 3 grids: density, emission, velocity\n");
+        EXPECT_EQ(cap.text(),
+                  "nebillum: read " + file + ": 3 grids: density, emission, velocity\n");
         return g;
     }();
     EXPECT_EQ(back.metaString(nebula::META_TOOL), "nebgen");
@@ -488,7 +490,7 @@ TEST_F(GridIoTest, RunOverloadsReportUnderVerbose)
 TEST(GridChecks, RequireFiniteNonNegative)
 {
     auto g = floatGrid("density", 1.0f);
-    g->tree().setValue(openvdb::Coord(100, 0, 0), 0.0f);  // active zero is fine
+    g->tree().setValue(openvdb::Coord(100, 0, 0), 0.0f); // active zero is fine
     EXPECT_EQ(nebula::requireFiniteNonNegative(*g, "d.vdb"), std::size_t(21));
     const std::pair<float, const char*> bad[] = {
         {-0.5f, "a negative value"},
@@ -498,7 +500,8 @@ TEST(GridChecks, RequireFiniteNonNegative)
     for (const auto& [value, mention] : bad) {
         auto c = g->deepCopy();
         c->tree().setValue(openvdb::Coord(4, 5, 6), value);
-        const std::string msg = errorMessage([&] { nebula::requireFiniteNonNegative(*c, "d.vdb"); });
+        const std::string msg =
+            errorMessage([&] { nebula::requireFiniteNonNegative(*c, "d.vdb"); });
         EXPECT_EQ(msg.rfind("d.vdb: grid \"density\" has ", 0), 0u) << msg;
         EXPECT_TRUE(contains(msg, mention)) << msg;
         EXPECT_TRUE(contains(msg, "(4, 5, 6)")) << msg;

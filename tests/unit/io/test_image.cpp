@@ -60,8 +60,7 @@ protected:
 };
 
 /// Expects @p fn to throw nebula::Error whose message contains @p needle.
-template <class Fn>
-void expectErrorContaining(Fn&& fn, const std::string& needle)
+template <class Fn> void expectErrorContaining(Fn&& fn, const std::string& needle)
 {
     try {
         fn();
@@ -102,7 +101,7 @@ struct PngReadback
     bool hasSrgb = false;
     int srgbIntent = -1;
     bool hasGama = false;
-    std::vector<unsigned char> rgba;  ///< only filled for 8-bit RGBA
+    std::vector<unsigned char> rgba; ///< only filled for 8-bit RGBA
     std::map<std::string, std::string> text;
 
     int at(int x, int y, int c) const { return rgba[(std::size_t(y) * width + x) * 4 + c]; }
@@ -164,7 +163,8 @@ double lum(double r, double g, double b)
 
 void setGrey(nebula::Image& image, std::size_t pixel, float v)
 {
-    for (int c = 0; c < 3; ++c) image.rgba[4 * pixel + c] = v;
+    for (int c = 0; c < 3; ++c)
+        image.rgba[4 * pixel + c] = v;
     image.rgba[4 * pixel + 3] = 1.0f;
 }
 
@@ -190,7 +190,7 @@ TEST_F(ImageTest, ExrRoundTripIsExact)
     const nebula::Image back = nebula::readExr(path, &readAttrs);
     EXPECT_EQ(back.width, image.width);
     EXPECT_EQ(back.height, image.height);
-    EXPECT_EQ(back.rgba, image.rgba);  // float ==: exact
+    EXPECT_EQ(back.rgba, image.rgba); // float ==: exact
     ASSERT_EQ(back.layers.size(), image.layers.size());
     for (std::size_t i = 0; i < image.layers.size(); ++i) {
         EXPECT_EQ(back.layers[i].name, image.layers[i].name);
@@ -253,8 +253,7 @@ TEST_F(ImageTest, ExrReservedAttributeThrowsAndLeavesNothing)
 {
     const std::string path = file("frame.exr");
     for (const char* key : {"compression", "channels", "dataWindow", "type", ""}) {
-        expectErrorContaining(
-            [&] { nebula::writeExr(path, sampleImage(), {{key, "x"}}); }, path);
+        expectErrorContaining([&] { nebula::writeExr(path, sampleImage(), {{key, "x"}}); }, path);
     }
     EXPECT_TRUE(listing().empty());
 }
@@ -300,11 +299,11 @@ TEST(ToneCurve, AutomaticWhiteIsThePercentile)
     // which the percentile ignores.
     nebula::Image image(40, 30);
     for (std::size_t i = 0; i < 1000; ++i) {
-        const std::size_t pixel = (i * 373) % 1000;  // 373 is coprime to 1000
+        const std::size_t pixel = (i * 373) % 1000; // 373 is coprime to 1000
         setGrey(image, pixel, float(i + 1));
     }
     nebula::ToneParams params;
-    const double y995 = lum(995, 995, 995);  // nearest rank: ceil(0.995 * 1000) = 995th
+    const double y995 = lum(995, 995, 995); // nearest rank: ceil(0.995 * 1000) = 995th
     nebula::ToneCurve curve = nebula::computeToneCurve(image, params);
     EXPECT_NEAR(curve.white, y995, 1e-12 * y995);
     EXPECT_GE(curve.gamma, nebula::TONE_MIN_GAMMA);
@@ -329,24 +328,28 @@ TEST(ToneCurve, AutomaticGammaMapsLogMeanToKey)
     const double k = nebula::TONE_KEY;
     // Half the pixels at 1, half at k^2: log-mean k of white, so gamma 1.
     nebula::Image image(10, 10);
-    for (std::size_t i = 0; i < 100; ++i) setGrey(image, i, i % 2 ? 1.0f : float(k * k));
+    for (std::size_t i = 0; i < 100; ++i)
+        setGrey(image, i, i % 2 ? 1.0f : float(k * k));
     nebula::ToneCurve curve = nebula::computeToneCurve(image, {});
     EXPECT_NEAR(curve.white, lum(1, 1, 1), 1e-15);
     EXPECT_NEAR(curve.gamma, 1.0, 1e-6);
 
     // Half at 1, half at k^4: log-mean k^2, gamma = ln(k) / ln(k^2) = 0.5.
-    for (std::size_t i = 0; i < 100; ++i) setGrey(image, i, i % 2 ? 1.0f : float(std::pow(k, 4)));
+    for (std::size_t i = 0; i < 100; ++i)
+        setGrey(image, i, i % 2 ? 1.0f : float(std::pow(k, 4)));
     curve = nebula::computeToneCurve(image, {});
     EXPECT_NEAR(curve.gamma, 0.5, 1e-6);
     EXPECT_NEAR(std::pow(k * k, curve.gamma), k, 1e-6);
 
     // A very dark mean would ask for gamma 0.15: clamped to TONE_MIN_GAMMA.
-    for (std::size_t i = 0; i < 100; ++i) setGrey(image, i, i % 2 ? 1.0f : 1e-5f);
+    for (std::size_t i = 0; i < 100; ++i)
+        setGrey(image, i, i % 2 ? 1.0f : 1e-5f);
     curve = nebula::computeToneCurve(image, {});
     EXPECT_EQ(curve.gamma, nebula::TONE_MIN_GAMMA);
 
     // A flat image: log-mean equals white, gamma 1.
-    for (std::size_t i = 0; i < 100; ++i) setGrey(image, i, 3.0f);
+    for (std::size_t i = 0; i < 100; ++i)
+        setGrey(image, i, 3.0f);
     curve = nebula::computeToneCurve(image, {});
     EXPECT_NEAR(curve.white, lum(3, 3, 3), 1e-14);
     EXPECT_EQ(curve.gamma, 1.0);
@@ -378,7 +381,7 @@ TEST(ToneCurve, ManualExposure)
     params.exposure = 2.0;
     params.gamma = 0.7;
     nebula::Image image(2, 2);
-    setGrey(image, 0, 100.0f);  // ignored in manual mode
+    setGrey(image, 0, 100.0f); // ignored in manual mode
     nebula::ToneCurve curve = nebula::computeToneCurve(image, params);
     EXPECT_EQ(curve.white, 0.25);
     EXPECT_EQ(curve.gamma, 0.7);
@@ -407,16 +410,17 @@ TEST_F(ImageTest, PngGradient)
     const int W = 64;
     const nebula::ToneCurve curve{2.0, 0.5};
     nebula::Image image(W, 2);
-    for (int x = 0; x < W; ++x) setGrey(image, std::size_t(x), float(2.0 * x / (W - 1)));
+    for (int x = 0; x < W; ++x)
+        setGrey(image, std::size_t(x), float(2.0 * x / (W - 1)));
     setGrey(image, W + 0, 50.0f);
     setGrey(image, W + 1, -1.0f);
     setGrey(image, W + 2, std::numeric_limits<float>::quiet_NaN());
-    image.rgba[4 * (W + 3) + 0] = 0.5f;  // R only, premultiplied alpha 0.3: not divided
+    image.rgba[4 * (W + 3) + 0] = 0.5f; // R only, premultiplied alpha 0.3: not divided
     image.rgba[4 * (W + 3) + 3] = 0.3f;
     const std::map<std::string, std::string> text = {
         {"Software", "nebula 0.1.0"},
         {"Comment", "nebrender -i cloud.vdb -o frame.png"},
-        {"Title", "\xce\xbb-ramp"},  // UTF-8: written as iTXt
+        {"Title", "\xce\xbb-ramp"}, // UTF-8: written as iTXt
     };
     const std::string path = file("frame.png");
     nebula::writePng(path, image, curve, text);
@@ -435,7 +439,7 @@ TEST_F(ImageTest, PngGradient)
     EXPECT_EQ(png.text, text);
 
     EXPECT_EQ(png.at(0, 0, 0), 0);
-    EXPECT_EQ(png.at(W - 1, 0, 0), 255);  // at the white point
+    EXPECT_EQ(png.at(W - 1, 0, 0), 255); // at the white point
     for (int x = 1; x < W; ++x) {
         EXPECT_GT(png.at(x, 0, 0), png.at(x - 1, 0, 0)) << "x = " << x;
     }
@@ -448,15 +452,15 @@ TEST_F(ImageTest, PngGradient)
         const double expected = 255.0 * nebula::srgbEncode(std::pow(c / 2.0, 0.5));
         EXPECT_NEAR(png.at(x, 0, 0), expected, 0.5 + 1e-9);
     }
-    EXPECT_EQ(png.at(0, 1, 0), 255);  // clamped above white
-    EXPECT_EQ(png.at(1, 1, 0), 0);    // negative
-    EXPECT_EQ(png.at(2, 1, 0), 0);    // NaN
+    EXPECT_EQ(png.at(0, 1, 0), 255); // clamped above white
+    EXPECT_EQ(png.at(1, 1, 0), 0);   // negative
+    EXPECT_EQ(png.at(2, 1, 0), 0);   // NaN
     // Pure red: the luminance curve lifts it above display white, so the colour is scaled
     // down as a whole and stays pure red instead of clipping towards white.
     EXPECT_EQ(png.at(3, 1, 0), 255);
     EXPECT_EQ(png.at(3, 1, 1), 0);
     EXPECT_EQ(png.at(3, 1, 2), 0);
-    EXPECT_EQ(png.at(3, 1, 3), 255);  // alpha always opaque
+    EXPECT_EQ(png.at(3, 1, 3), 255); // alpha always opaque
 }
 
 TEST_F(ImageTest, PngKeepsHueAndMapsLuminance)
@@ -492,7 +496,10 @@ TEST_F(ImageTest, PngErrorsThrowAndLeaveNothing)
     const std::string path = file("frame.png");
     expectErrorContaining([&] { nebula::writePng(path, image, curve, {{"", "x"}}); }, path);
     expectErrorContaining(
-        [&] { nebula::writePng(path, image, curve, {{std::string(80, 'k'), "x"}}); }, path);
+        [&] {
+            nebula::writePng(path, image, curve, {{std::string(80, 'k'), "x"}});
+        },
+        path);
     expectErrorContaining([&] { nebula::writePng(path, image, {0.0, 1.0}, {}); }, path);
     expectErrorContaining([&] { nebula::writePng(path, image, {1.0, -1.0}, {}); }, path);
 
@@ -521,7 +528,7 @@ TEST_F(ImageTest, WriteErrorsLeaveNothing)
     nebula::Image noise(64, 64);
     std::uint32_t state = 12345u;
     for (float& v : noise.rgba) {
-        state = state * 1664525u + 1013904223u;  // LCG: incompressible data
+        state = state * 1664525u + 1013904223u; // LCG: incompressible data
         v = float(state >> 8) / float(1u << 24);
     }
     const std::string exr = file("frame.exr");
@@ -559,15 +566,16 @@ TEST_F(ImageTest, ExrSingleChannelsRoundTrip)
     nebula::Image image = sampleImage();
     for (const char* name : {"S0.550,00nm", "S0.365,00nm"}) {
         nebula::ImageChannel ch{name, std::vector<float>(std::size_t(image.width) * image.height)};
-        for (std::size_t i = 0; i < ch.values.size(); ++i) ch.values[i] = float(i) * 0.25f + name[4];
+        for (std::size_t i = 0; i < ch.values.size(); ++i)
+            ch.values[i] = float(i) * 0.25f + name[4];
         image.channels.push_back(ch);
     }
     const std::string path = file("spectral.exr");
     nebula::writeExr(path, image, {});
     const nebula::Image back = nebula::readExr(path, nullptr);
-    ASSERT_EQ(back.layers.size(), image.layers.size());  // layers are not taken for channels
+    ASSERT_EQ(back.layers.size(), image.layers.size()); // layers are not taken for channels
     ASSERT_EQ(back.channels.size(), 2u);
-    EXPECT_EQ(back.channels[0].name, "S0.365,00nm");      // channel-name order
+    EXPECT_EQ(back.channels[0].name, "S0.365,00nm"); // channel-name order
     EXPECT_EQ(back.channels[0].values, image.channels[1].values);
     EXPECT_EQ(back.channels[1].values, image.channels[0].values);
     // A channel of the wrong size, or named twice, is refused before anything is written.

@@ -20,7 +20,7 @@ PhaseTableSpec smallSpec()
     PhaseTableSpec s;
     s.tMin = 1e-3;
     s.tMax = 10.0;
-    s.tCount = 5;  // 1e-3, 1e-2, 0.1, 1, 10
+    s.tCount = 5; // 1e-3, 1e-2, 0.1, 1, 10
     s.muBins = 16;
     s.minPhotons = 2048;
     s.maxPhotons = 65536;
@@ -50,7 +50,7 @@ TEST(PhaseTable, GridRoundTrip)
     const auto phi = openvdb::gridPtrCast<openvdb::FloatGrid>(grids.find("phase"));
     ASSERT_TRUE(phi);
     EXPECT_EQ(phi->activeVoxelCount(), openvdb::Index64(t.tCount * t.muBins));
-    EXPECT_TRUE(phi->transform().isIdentity());  // index space
+    EXPECT_TRUE(phi->transform().isIdentity()); // index space
     EXPECT_EQ(phi->tree().getValue(openvdb::Coord(3, 2, 0)), t.value(2, 3));
     const PhaseTable back = readPhaseTable(grids);
     EXPECT_EQ(back.phi, t.phi);

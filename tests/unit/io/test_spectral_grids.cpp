@@ -60,7 +60,7 @@ TEST(TemperatureGrid, RejectsNegativeNanAndInfinite)
     auto grid = openvdb::FloatGrid::create(0.0f);
     grid->setName("temperature");
     grid->tree().setValue(openvdb::Coord(1, 2, 3), 20.0f);
-    grid->tree().setValue(openvdb::Coord(0, 0, 0), 0.0f);  // active 0 K is allowed
+    grid->tree().setValue(openvdb::Coord(0, 0, 0), 0.0f); // active 0 K is allowed
     EXPECT_NO_THROW(nebula::requireValidTemperature(*grid, "t.vdb"));
 
     const std::pair<float, const char*> bad[] = {

@@ -27,7 +27,7 @@ openvdb::math::Transform::Ptr skewed()
 {
     openvdb::math::Mat4d m = openvdb::math::Mat4d::identity();
     m.setToRotation(openvdb::math::Vec3d(1, -2, 0.5).unit(), 0.8);
-    m.preScale(openvdb::math::Vec3d(0.1, 0.25, -0.2));  // anisotropic, mirrored
+    m.preScale(openvdb::math::Vec3d(0.1, 0.25, -0.2)); // anisotropic, mirrored
     m.postTranslate(openvdb::math::Vec3d(3, -1, 7));
     return openvdb::math::Transform::createLinearTransform(m);
 }
@@ -77,14 +77,16 @@ TEST(VolumeVdb, DenseHoldsActiveValuesAndZeroElsewhere)
     auto a = openvdb::FloatGrid::create(0.0f);
     a->setName("density");
     a->setTransform(skewed());
-    auto b = openvdb::FloatGrid::create(-7.0f);  // background never shows: zero off the active
+    auto b = openvdb::FloatGrid::create(-7.0f); // background never shows: zero off the active
     b->setName("emission");
     b->setTransform(skewed());
     std::mt19937_64 rng(9);
     std::uniform_int_distribution<int> c(-6, 13);
     std::uniform_real_distribution<float> v(0.1f, 5.0f);
-    for (int i = 0; i < 200; ++i) a->tree().setValue(openvdb::Coord(c(rng), c(rng), c(rng)), v(rng));
-    for (int i = 0; i < 50; ++i) b->tree().setValue(openvdb::Coord(c(rng), c(rng), c(rng)), v(rng));
+    for (int i = 0; i < 200; ++i)
+        a->tree().setValue(openvdb::Coord(c(rng), c(rng), c(rng)), v(rng));
+    for (int i = 0; i < 50; ++i)
+        b->tree().setValue(openvdb::Coord(c(rng), c(rng), c(rng)), v(rng));
     // An inactive voxel with a value: not copied.
     b->tree().setValueOff(openvdb::Coord(0, 0, 0), 99.0f);
     // An active tile (a leaf-sized block, 8^3 voxels at 16..23) inside the bounds.
@@ -110,7 +112,7 @@ TEST(VolumeVdb, DenseHoldsActiveValuesAndZeroElsewhere)
                 ASSERT_EQ(got[0], wantA) << i << "," << j << "," << k;
                 ASSERT_EQ(got[1], wantB) << i << "," << j << "," << k;
             }
-    EXPECT_EQ(d.voxel(d.index(20, 18, 23))[0], 2.5f);  // from the tile
+    EXPECT_EQ(d.voxel(d.index(20, 18, 23))[0], 2.5f); // from the tile
 
     // Bounds that cut through a tile: the part inside is filled, nothing else changes.
     const openvdb::CoordBBox cut(openvdb::Coord(12, 12, 12), openvdb::Coord(19, 19, 19));
@@ -153,8 +155,9 @@ TEST(VolumeVdb, DenseRefusesGridsOnOtherVoxels)
     auto b = a->deepCopy();
     b->setName("tau.alpha");
     b->setTransform(openvdb::math::Transform::createLinearTransform(0.5));
-    const std::string msg = errorMessage(
-        [&] { nebula::denseFromGrids({a, b}, nebula::activeBounds({a}, 1), "cloud.vdb"); });
+    const std::string msg = errorMessage([&] {
+        nebula::denseFromGrids({a, b}, nebula::activeBounds({a}, 1), "cloud.vdb");
+    });
     EXPECT_EQ(msg.rfind("cloud.vdb: ", 0), 0u) << msg;
     EXPECT_TRUE(contains(msg, "\"tau.alpha\"")) << msg;
     EXPECT_TRUE(contains(msg, "\"density\"")) << msg;
@@ -166,11 +169,12 @@ TEST(VolumeVdb, GridFromFieldOnAnotherGridsTopology)
     topo->setTransform(skewed());
     topo->tree().setValue(openvdb::Coord(1, 2, 3), 1.0f);
     topo->tree().setValue(openvdb::Coord(4, 4, 4), 1.0f);
-    topo->tree().setValue(openvdb::Coord(40, 0, 0), 1.0f);  // off the lattice below
-    topo->tree().addTile(1, openvdb::Coord(8, 0, 0), 1.0f, true);  // an active tile
+    topo->tree().setValue(openvdb::Coord(40, 0, 0), 1.0f);        // off the lattice below
+    topo->tree().addTile(1, openvdb::Coord(8, 0, 0), 1.0f, true); // an active tile
     const nebula::DenseVolume lattice({0, 0, 0}, {16, 8, 8}, 1);
     std::vector<float> field(lattice.voxelCount());
-    for (std::size_t i = 0; i < field.size(); ++i) field[i] = float(i) + 0.5f;
+    for (std::size_t i = 0; i < field.size(); ++i)
+        field[i] = float(i) + 0.5f;
 
     const auto g = nebula::gridFromField(lattice, field, *topo);
     EXPECT_EQ(g->transform(), topo->transform());

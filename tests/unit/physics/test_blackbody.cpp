@@ -84,8 +84,10 @@ TEST(Planck, PerNmIsPlanckOver1e9)
     for (double T : {300.0, 3000.0, 5772.0, 30000.0}) {
         for (double nm : {200.0, 500.0, 2000.0}) {
             const double perNm = nebula::planckPerNm(nm, T);
-            EXPECT_NEAR(perNm, nebula::planck(nm * 1e-9, T) * 1e-9, 1e-13 * perNm) << nm << " " << T;
-            EXPECT_NEAR(nebula::planckPerNmUnchecked(nm, T), perNm, 1e-13 * perNm) << nm << " " << T;
+            EXPECT_NEAR(perNm, nebula::planck(nm * 1e-9, T) * 1e-9, 1e-13 * perNm)
+                << nm << " " << T;
+            EXPECT_NEAR(nebula::planckPerNmUnchecked(nm, T), perNm, 1e-13 * perNm)
+                << nm << " " << T;
         }
     }
     EXPECT_THROW(nebula::planckPerNm(-500.0, 5000.0), nebula::Error);
@@ -103,7 +105,7 @@ TEST(Planck, ClosedFormAtOnePoint)
     const double expected = 2.0 * h * c * c / std::pow(l, 5) / std::expm1(h * c / (l * k * T));
     EXPECT_NEAR(nebula::planck(l, T), expected, 1e-13 * expected);
     // Rayleigh-Jeans limit (h c << lambda k T): B ~ 2 c k T / lambda^4.
-    const double lr = 1.0;  // 1 m at 1e4 K: h c / (lambda k T) = 1.4e-6
+    const double lr = 1.0; // 1 m at 1e4 K: h c / (lambda k T) = 1.4e-6
     EXPECT_NEAR(nebula::planck(lr, 1e4), 2.0 * c * k * 1e4 / std::pow(lr, 4),
                 1e-5 * 2.0 * c * k * 1e4);
 }

@@ -23,8 +23,8 @@
 
 namespace {
 
-using nebula::PhaseModel;
 using nebula::Pcg32;
+using nebula::PhaseModel;
 
 using nebula::test::simpson;
 
@@ -45,10 +45,9 @@ TEST(PhaseFunction, NormalisedOverTheSphere)
         for (double g : ASYMMETRIES) {
             const double integral =
                 2.0 * nebula::PI *
-                simpson([&](double mu) { return nebula::phaseFunction(model, mu, g); }, -1.0,
-                        1.0, 200000);
-            EXPECT_NEAR(integral, 1.0, 1e-6)
-                << nebula::toString(model) << ", g = " << g;
+                simpson([&](double mu) { return nebula::phaseFunction(model, mu, g); }, -1.0, 1.0,
+                        200000);
+            EXPECT_NEAR(integral, 1.0, 1e-6) << nebula::toString(model) << ", g = " << g;
         }
     }
 }
@@ -137,12 +136,11 @@ TEST(CcmExtinction, ChannelRatios)
     {
         double R_V, redOverGreen, blueOverGreen;
     };
-    for (const Case& c : {Case{3.1, 0.745, 1.331}, Case{4.0, 0.772, 1.256},
-                          Case{5.0, 0.791, 1.204}}) {
+    for (const Case& c :
+         {Case{3.1, 0.745, 1.331}, Case{4.0, 0.772, 1.256}, Case{5.0, 0.791, 1.204}}) {
         const double green = nebula::ccmExtinction(546.1, c.R_V);
         EXPECT_NEAR(nebula::ccmExtinction(700.0, c.R_V) / green, c.redOverGreen, 0.003) << c.R_V;
-        EXPECT_NEAR(nebula::ccmExtinction(435.8, c.R_V) / green, c.blueOverGreen, 0.003)
-            << c.R_V;
+        EXPECT_NEAR(nebula::ccmExtinction(435.8, c.R_V) / green, c.blueOverGreen, 0.003) << c.R_V;
     }
 }
 
@@ -168,8 +166,8 @@ TEST(CcmExtinction, UltravioletBump)
 
 TEST(CcmExtinction, RejectsOutOfRange)
 {
-    EXPECT_NO_THROW(nebula::ccmExtinction(125.0, 3.1));   // x = 8
-    EXPECT_NO_THROW(nebula::ccmExtinction(3333.0, 3.1));  // x ~ 0.3
+    EXPECT_NO_THROW(nebula::ccmExtinction(125.0, 3.1));  // x = 8
+    EXPECT_NO_THROW(nebula::ccmExtinction(3333.0, 3.1)); // x ~ 0.3
     const std::string message = errorMessage([] { nebula::ccmExtinction(100.0, 3.1); });
     EXPECT_TRUE(contains(message, "100 nm")) << message;
     EXPECT_THROW(nebula::ccmExtinction(5000.0, 3.1), nebula::Error);
@@ -303,7 +301,6 @@ TEST(DustParams, JsonErrors)
 // ---------------------------------------------------------------------------------------------
 // Chi-squared machinery
 
-
 /// Regularized upper incomplete gamma function Q(a, x) = Gamma(a, x) / Gamma(a): the series
 /// for P = 1 - Q when x < a + 1, else the continued fraction for Q by the modified Lentz
 /// method (Numerical Recipes, 3rd ed., section 6.2). Relative accuracy ~1e-14.
@@ -352,8 +349,8 @@ double chiSquaredPValue(double chi2, int dof)
 
 struct ChiSquaredResult
 {
-    double statistic = 0.0;  ///< sum (O - E)^2 / E over the merged cells
-    int dof = 0;             ///< merged cells - 1
+    double statistic = 0.0; ///< sum (O - E)^2 / E over the merged cells
+    int dof = 0;            ///< merged cells - 1
     double pValue = 0.0;
 };
 
@@ -397,8 +394,8 @@ ChiSquaredResult chiSquaredTest(const std::vector<double>& observed,
 }
 
 constexpr int CHI2_SAMPLES = 1000000;
-constexpr int CHI2_BINS = 100;          // equal width in mu over [-1, 1]
-constexpr int SIMPSON_STEPS = 200;      // per bin
+constexpr int CHI2_BINS = 100;     // equal width in mu over [-1, 1]
+constexpr int SIMPSON_STEPS = 200; // per bin
 constexpr double CHI2_MIN_P = 0.01;
 constexpr uint64_t SEED = 20240611;
 
@@ -568,8 +565,8 @@ TEST(PhaseSampling, SampleDirectionIsUnitAtCosineMu)
 {
     // Unit length and dot(in, out) = mu to 1e-12, for random directions and the frame's
     // awkward cases (poles, -z where Duff et al.'s sign flips, just off -z, the equator).
-    std::vector<std::array<double, 3>> ins = {{0.0, 0.0, 1.0}, {0.0, 0.0, -1.0},
-                                              {1.0, 0.0, 0.0}, {0.0, -1.0, 0.0}};
+    std::vector<std::array<double, 3>> ins = {
+        {0.0, 0.0, 1.0}, {0.0, 0.0, -1.0}, {1.0, 0.0, 0.0}, {0.0, -1.0, 0.0}};
     const double eps = 1e-9;
     ins.push_back({eps, 0.0, -std::sqrt(1.0 - eps * eps)});
     ins.push_back({0.0, eps, std::sqrt(1.0 - eps * eps)});

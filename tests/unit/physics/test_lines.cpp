@@ -30,24 +30,26 @@ TEST(LineCatalogue, AirWavelengthsOfNistAsd)
 {
     // Air wavelengths [nm] (NIST ASD; Osterbrock & Ferland 2006), to 0.01 nm.
     const std::pair<const char*, double> expected[] = {
-        {"H-alpha", 656.28},     {"H-beta", 486.13},      {"H-gamma", 434.05},
-        {"H-delta", 410.17},     {"[O III]5007", 500.68}, {"[O III]4959", 495.89},
-        {"[N II]6583", 658.35},  {"[N II]6548", 654.80},  {"[S II]6716", 671.64},
-        {"[S II]6731", 673.08},  {"He I 5876", 587.56},
+        {"H-alpha", 656.28},    {"H-beta", 486.13},      {"H-gamma", 434.05},
+        {"H-delta", 410.17},    {"[O III]5007", 500.68}, {"[O III]4959", 495.89},
+        {"[N II]6583", 658.35}, {"[N II]6548", 654.80},  {"[S II]6716", 671.64},
+        {"[S II]6731", 673.08}, {"He I 5876", 587.56},
     };
     for (const auto& [name, nm] : expected) {
         EXPECT_DOUBLE_EQ(nebula::lineWavelength(name), nm) << name;
     }
     const auto names = nebula::knownLines();
     ASSERT_EQ(names.size(), std::size(expected));
-    for (std::size_t i = 0; i < names.size(); ++i) EXPECT_EQ(names[i], expected[i].first);
+    for (std::size_t i = 0; i < names.size(); ++i)
+        EXPECT_EQ(names[i], expected[i].first);
 }
 
 TEST(LineCatalogue, UnknownNamesListTheKnownOnesWithHints)
 {
     std::string msg = errorMessage([] { nebula::lineWavelength("H-epsilon"); });
     EXPECT_TRUE(contains(msg, "unknown emission line \"H-epsilon\"")) << msg;
-    for (const auto& name : nebula::knownLines()) EXPECT_TRUE(contains(msg, name)) << msg;
+    for (const auto& name : nebula::knownLines())
+        EXPECT_TRUE(contains(msg, name)) << msg;
     EXPECT_FALSE(contains(msg, "did you mean")) << msg;
 
     // Case-sensitive, but a case (or punctuation) slip gets a hint.
@@ -93,8 +95,7 @@ TEST(LineList, CustomWavelengthsAndRoundTrip)
     EXPECT_EQ(nebula::parseLineList(nebula::lineListToString(odd), "t"), odd);
     // A custom line written under another name is written as its wavelength.
     EXPECT_EQ(nebula::lineListToString({{"mine", 501.5, 1.0}}), "501.5:1");
-    EXPECT_EQ(nebula::lineListToString(
-                  nebula::parseLineList(nebula::OIII_EMISSION_LINES, "t")),
+    EXPECT_EQ(nebula::lineListToString(nebula::parseLineList(nebula::OIII_EMISSION_LINES, "t")),
               nebula::OIII_EMISSION_LINES);
 }
 
@@ -168,7 +169,7 @@ TEST(SpectralLine, DopplerFactors)
     // Moved from the spectral render test: approaching at 0.6 c.
     EXPECT_NEAR(relativisticDopplerFactor(-0.6 * SPEED_OF_LIGHT_KMS,
                                           0.36 * SPEED_OF_LIGHT_KMS * SPEED_OF_LIGHT_KMS),
-                0.5, 1e-12);  // approaching at 0.6 c: sqrt((1 - b)/(1 + b)) = 0.5
+                0.5, 1e-12); // approaching at 0.6 c: sqrt((1 - b)/(1 + b)) = 0.5
 }
 
 /// Integral and centroid of a trapezoid from its pieces, via Spectrum::sum.
@@ -182,7 +183,7 @@ void moments(const LineTrapezoid& t, double& integral, double& centroid)
     const Spectrum s = Spectrum::sum(p);
     integral = s.integral();
     Spectrum x;
-    x.add(Piece{t.x[0] - 1.0, t.x[3] + 1.0, 1.0, 0.0});  // the identity, x
+    x.add(Piece{t.x[0] - 1.0, t.x[3] + 1.0, 1.0, 0.0}); // the identity, x
     centroid = s.integral(x) / integral;
 }
 
@@ -234,7 +235,8 @@ TEST(SpectralLine, GradientMakesATrapezoidWithBoxWideRamps)
     EXPECT_NEAR(t.height, 1.0 / 2.0, 1e-9);
     // Reversed order of the end velocities: the same profile.
     const auto u = lineTrapezoid(lambda0, vB, 0.0, width, 1.0);
-    for (int i = 0; i < 4; ++i) EXPECT_DOUBLE_EQ(t.x[i], u.x[i]);
+    for (int i = 0; i < 4; ++i)
+        EXPECT_DOUBLE_EQ(t.x[i], u.x[i]);
 }
 
 TEST(SpectralLine, TrapezoidValueAndTheFactorsForm)
@@ -257,7 +259,8 @@ TEST(SpectralLine, TrapezoidValueAndTheFactorsForm)
         const double a = v(rng), b = v(rng);
         const auto p = lineTrapezoid(486.13, a, b, 12.0, 3.0);
         const auto q = lineTrapezoidFactors(486.13, dopplerFactor(a), dopplerFactor(b), 12.0, 3.0);
-        for (int k = 0; k < 4; ++k) EXPECT_NEAR(p.x[k], q.x[k], 1e-12 * 486.13) << a << " " << b;
+        for (int k = 0; k < 4; ++k)
+            EXPECT_NEAR(p.x[k], q.x[k], 1e-12 * 486.13) << a << " " << b;
         EXPECT_NEAR(p.height, q.height, 1e-9 * p.height) << a << " " << b;
     }
 }

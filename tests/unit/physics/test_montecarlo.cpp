@@ -35,9 +35,9 @@ McSettings settings(std::uint64_t photons, McEstimator est, int bins = 2)
 {
     const double tol = k * std::hypot(a.error, b.error);
     if (std::abs(a.mean - b.mean) <= tol) return ::testing::AssertionSuccess();
-    return ::testing::AssertionFailure() << a.mean << " +- " << a.error << " vs " << b.mean
-                                         << " +- " << b.error << " (" << k << " sigma = " << tol
-                                         << ")";
+    return ::testing::AssertionFailure()
+           << a.mean << " +- " << a.error << " vs " << b.mean << " +- " << b.error << " (" << k
+           << " sigma = " << tol << ")";
 }
 
 ::testing::AssertionResult agree(const Estimate& a, double published, double k = 3.0)
@@ -91,8 +91,8 @@ TEST(MonteCarlo, EstimatorsAgreeOnSlabsAndCubes)
     {
         double a, g, tau, mu0;
     };
-    for (const Case& k : {Case{0.6, 0.6, 1.0, 1.0}, Case{0.95, -0.3, 4.0, 0.5},
-                          Case{0.3, 0.9, 0.5, 0.8}}) {
+    for (const Case& k :
+         {Case{0.6, 0.6, 1.0, 1.0}, Case{0.95, -0.3, 4.0, 0.5}, Case{0.3, 0.9, 0.5, 0.8}}) {
         const auto m = medium(k.a, k.g);
         const auto an = runSlab(m, k.tau, k.mu0, settings(300000, McEstimator::Analog, 8));
         const auto ne = runSlab(m, k.tau, k.mu0, settings(30000, McEstimator::NextEvent, 8));
@@ -106,7 +106,8 @@ TEST(MonteCarlo, EstimatorsAgreeOnSlabsAndCubes)
     const auto m = medium(0.6, 0.6);
     const auto an = runCube(m, 2.0, settings(300000, McEstimator::Analog, 8));
     const auto ne = runCube(m, 2.0, settings(30000, McEstimator::NextEvent, 8));
-    for (int b = 0; b < 8; ++b) EXPECT_TRUE(agree(an.perSteradian[b], ne.perSteradian[b])) << b;
+    for (int b = 0; b < 8; ++b)
+        EXPECT_TRUE(agree(an.perSteradian[b], ne.perSteradian[b])) << b;
 }
 
 TEST(MonteCarlo, SameSeedSameResultWhateverTheThreadCount)
@@ -116,7 +117,8 @@ TEST(MonteCarlo, SameSeedSameResultWhateverTheThreadCount)
     McResult one, two;
     tbb::task_arena(1).execute([&] { one = runCube(m, 1.0, s); });
     tbb::task_arena(2).execute([&] { two = runCube(m, 1.0, s); });
-    for (int b = 0; b < 16; ++b) EXPECT_EQ(one.perSteradian[b].mean, two.perSteradian[b].mean);
+    for (int b = 0; b < 16; ++b)
+        EXPECT_EQ(one.perSteradian[b].mean, two.perSteradian[b].mean);
     EXPECT_EQ(one.absorbed.mean, two.absorbed.mean);
     s.seed = 2;
     const auto other = runCube(m, 1.0, s);
@@ -132,7 +134,7 @@ TEST(MonteCarlo, ThinCubeScattersLikeOneEvent)
         const auto m = medium(0.6, g);
         const int bins = 16;
         const auto r = runCube(m, t, settings(20000, McEstimator::NextEvent, bins));
-        const double scattered = -std::expm1(-t);  // fraction that interacts
+        const double scattered = -std::expm1(-t); // fraction that interacts
         for (int b = 0; b < bins; ++b) {
             // Bin average of a p(mu), by Simpson with 64 panels.
             const double lo = r.muEdges[b], hi = r.muEdges[b + 1];
@@ -161,9 +163,9 @@ TEST(MonteCarlo, CubeMatchesIndependentVariantBNumbers)
         double t, escape, meanCos, unscattered;
     };
     const auto m = medium(0.6, 0.6);
-    for (const Row& row : {Row{0.1, 0.056, 0.60, 0.905}, Row{1.0, 0.312, 0.54, 0.370},
-                           Row{2.0, 0.346, 0.46, 0.135}, Row{5.0, 0.229, 0.25, 0.007},
-                           Row{10.0, 0.143, 0.06, 0.000}}) {
+    for (const Row& row :
+         {Row{0.1, 0.056, 0.60, 0.905}, Row{1.0, 0.312, 0.54, 0.370}, Row{2.0, 0.346, 0.46, 0.135},
+          Row{5.0, 0.229, 0.25, 0.007}, Row{10.0, 0.143, 0.06, 0.000}}) {
         const auto r = runCube(m, row.t, settings(20000, McEstimator::NextEvent, 64));
         const double escape = r.reflected.mean + r.transmitted.mean;
         double first = 0.0;
@@ -243,9 +245,12 @@ TEST(MonteCarloSlab, TotalReflectionAndTransmissionMatchPublishedValues)
         EXPECT_NEAR(r.direct.mean, std::exp(-c.b / c.mu0), 3.0 * r.direct.error + 1e-9) << name;
         EXPECT_NEAR(r.balance.mean, 1.0, 1e-12) << name;
         // The same slab with the next-event estimator, as nebphase's table uses it.
-        const auto n = runSlab(medium(c.a, c.g), c.b, c.mu0, settings(40000, McEstimator::NextEvent));
-        EXPECT_NEAR(n.reflected.mean, c.R, 3.0 * n.reflected.error + 1e-6) << name << " (next event)";
-        EXPECT_NEAR(n.transmitted.mean, c.T, 3.0 * n.transmitted.error + 1e-6) << name << " (next event)";
+        const auto n =
+            runSlab(medium(c.a, c.g), c.b, c.mu0, settings(40000, McEstimator::NextEvent));
+        EXPECT_NEAR(n.reflected.mean, c.R, 3.0 * n.reflected.error + 1e-6)
+            << name << " (next event)";
+        EXPECT_NEAR(n.transmitted.mean, c.T, 3.0 * n.transmitted.error + 1e-6)
+            << name << " (next event)";
     }
 }
 
@@ -274,7 +279,7 @@ TEST(MonteCarloSlab, AngularDistributionsMatchPublishedValues)
         auto s = settings(60000, McEstimator::NextEvent);
         std::vector<double> expected;
         for (std::size_t i = 0; i < muR.size(); ++i) {
-            s.muPoints.push_back(-muR[i]);  // leaving through the lit face
+            s.muPoints.push_back(-muR[i]); // leaving through the lit face
             expected.push_back(R[i] * muR[i] / PI);
         }
         for (std::size_t i = 0; i < muT.size(); ++i) {
@@ -290,12 +295,13 @@ TEST(MonteCarloSlab, AngularDistributionsMatchPublishedValues)
         struct Problem
         {
             double b;
-            std::vector<double> up, down;  // at mu = 0.1, 0.5, 1.0
+            std::vector<double> up, down; // at mu = 0.1, 0.5, 1.0
         };
-        for (const Problem& p : {Problem{1.0, {1.51159e-1, 1.01103e-1, 3.95460e-2},
-                                         {2.13750e-1, 2.66648e-1, 3.05855}},
-                                 Problem{8.0, {3.79740e-1, 5.19598e-1, 4.93302e-1},
-                                         {2.36362e-1, 4.22350e-1, 6.69581e-1}}}) {
+        for (const Problem& p :
+             {Problem{1.0, {1.51159e-1, 1.01103e-1, 3.95460e-2}, {2.13750e-1, 2.66648e-1, 3.05855}},
+              Problem{8.0,
+                      {3.79740e-1, 5.19598e-1, 4.93302e-1},
+                      {2.36362e-1, 4.22350e-1, 6.69581e-1}}}) {
             const std::vector<double> mu = {0.1, 0.5, 1.0};
             auto s = settings(60000, McEstimator::NextEvent);
             std::vector<double> expected;

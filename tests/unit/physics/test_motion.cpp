@@ -26,17 +26,25 @@ namespace {
 
 using Vec = std::array<double, 3>;
 
-double dot(const Vec& a, const Vec& b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
-double norm(const Vec& a) { return std::sqrt(dot(a, a)); }
-Vec sub(const Vec& a, const Vec& b) { return {a[0] - b[0], a[1] - b[1], a[2] - b[2]}; }
+double dot(const Vec& a, const Vec& b)
+{
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+}
+double norm(const Vec& a)
+{
+    return std::sqrt(dot(a, a));
+}
+Vec sub(const Vec& a, const Vec& b)
+{
+    return {a[0] - b[0], a[1] - b[1], a[2] - b[2]};
+}
 Vec cross(const Vec& a, const Vec& b)
 {
     return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
 }
 
 /// Jacobian J[i][j] = d v_i / d x_j by central differences of step h.
-template <typename F>
-std::array<Vec, 3> jacobian(const F& v, const Vec& x, double h)
+template <typename F> std::array<Vec, 3> jacobian(const F& v, const Vec& x, double h)
 {
     std::array<Vec, 3> J{};
     for (int j = 0; j < 3; ++j) {
@@ -44,7 +52,8 @@ std::array<Vec, 3> jacobian(const F& v, const Vec& x, double h)
         xp[j] += h;
         xm[j] -= h;
         const Vec vp = v(xp), vm = v(xm);
-        for (int i = 0; i < 3; ++i) J[i][j] = (vp[i] - vm[i]) / (2.0 * h);
+        for (int i = 0; i < 3; ++i)
+            J[i][j] = (vp[i] - vm[i]) / (2.0 * h);
     }
     return J;
 }
@@ -52,7 +61,8 @@ std::array<Vec, 3> jacobian(const F& v, const Vec& x, double h)
 double frobenius(const std::array<Vec, 3>& J)
 {
     double s = 0.0;
-    for (const auto& row : J) s += dot(row, row);
+    for (const auto& row : J)
+        s += dot(row, row);
     return std::sqrt(s);
 }
 
@@ -61,7 +71,8 @@ std::vector<Vec> randomPoints(int n, double halfSize, unsigned seed)
     std::mt19937_64 rng(seed);
     std::uniform_real_distribution<double> u(-halfSize, halfSize);
     std::vector<Vec> pts(n);
-    for (auto& p : pts) p = {u(rng), u(rng), u(rng)};
+    for (auto& p : pts)
+        p = {u(rng), u(rng), u(rng)};
     return pts;
 }
 
@@ -70,7 +81,7 @@ std::vector<Vec> randomPoints(int n, double halfSize, unsigned seed)
 TEST(MotionField, ExpansionIsRadialWithTheRightSpeed)
 {
     nebula::MotionParams p;
-    p.expansion = 30.0;  // km/s at 3 pc
+    p.expansion = 30.0; // km/s at 3 pc
     p.radius = 3.0;
     p.centre = {0.4, 0.3, -0.2};
     const nebula::MotionField field(p, 10.0);
@@ -82,7 +93,7 @@ TEST(MotionField, ExpansionIsRadialWithTheRightSpeed)
         EXPECT_NEAR(dot(v, d), norm(v) * norm(d), 1e-9 * (1.0 + norm(v) * norm(d)));
     }
     EXPECT_EQ(field(p.centre), (Vec{0, 0, 0}));
-    const Vec v = field({3.4, 0.3, -0.2});  // 3 pc along +x: 30 km/s along +x
+    const Vec v = field({3.4, 0.3, -0.2}); // 3 pc along +x: 30 km/s along +x
     EXPECT_NEAR(v[0], 30.0, 1e-12);
     EXPECT_NEAR(v[1], 0.0, 1e-12);
     EXPECT_NEAR(v[2], 0.0, 1e-12);
@@ -93,15 +104,15 @@ TEST(MotionField, RotationIsRightHandedAndPerpendicular)
     nebula::MotionParams p;
     p.rotation = 20.0;
     p.radius = 2.0;
-    p.axis = {0.0, 0.0, 5.0};  // any length
+    p.axis = {0.0, 0.0, 5.0}; // any length
     p.centre = {1.0, -1.0, 0.5};
     const nebula::MotionField field(p, 10.0);
     // Seen from +z, counter-clockwise: at +x from the axis the gas moves along +y.
     Vec v = field({3.0, -1.0, 0.5});
     EXPECT_NEAR(v[0], 0.0, 1e-12);
-    EXPECT_NEAR(v[1], 20.0, 1e-12);  // 2 pc from the axis: speed `rotation`
+    EXPECT_NEAR(v[1], 20.0, 1e-12); // 2 pc from the axis: speed `rotation`
     EXPECT_NEAR(v[2], 0.0, 1e-12);
-    v = field({1.0, 0.0, 7.0});  // +y from the axis, 1 pc: along -x at 10 km/s
+    v = field({1.0, 0.0, 7.0}); // +y from the axis, 1 pc: along -x at 10 km/s
     EXPECT_NEAR(v[0], -10.0, 1e-12);
     EXPECT_NEAR(v[1], 0.0, 1e-12);
 
@@ -131,14 +142,15 @@ TEST(MotionField, ModelsAdd)
     const nebula::MotionField fe(e, 4.0), fr(r, 4.0), fb(both, 4.0);
     for (const auto& x : randomPoints(50, 2.0, 3)) {
         const Vec a = fe(x), b = fr(x), c = fb(x);
-        for (int i = 0; i < 3; ++i) EXPECT_NEAR(c[i], a[i] + b[i], 1e-12);
+        for (int i = 0; i < 3; ++i)
+            EXPECT_NEAR(c[i], a[i] + b[i], 1e-12);
     }
 }
 
 TEST(MotionField, TurbulenceIsDivergenceFreeWithTheRequestedRms)
 {
     nebula::MotionParams p;
-    p.turbulence = 8.0;  // km/s RMS
+    p.turbulence = 8.0; // km/s RMS
     p.seed = 11;
     const double size = 10.0;
     const nebula::MotionField field(p, size);
@@ -157,7 +169,7 @@ TEST(MotionField, TurbulenceIsDivergenceFreeWithTheRequestedRms)
         maxRatio = std::max(maxRatio, std::fabs(div) / frobenius(J));
     }
     EXPECT_LT(maxRatio, 1e-6);
-    EXPECT_GT(meanCurl, 1.0);  // km/s per pc: a real flow, not a zero field
+    EXPECT_GT(meanCurl, 1.0); // km/s per pc: a real flow, not a zero field
 
     // The same check sees the divergence of an expansion (3 E / R), so it is not blind.
     nebula::MotionParams e;
@@ -195,7 +207,8 @@ TEST(MotionField, DeterministicWhateverTheThreadCount)
     EXPECT_EQ(a.turbulenceScale(), b.turbulenceScale());
     const auto pts = randomPoints(2000, 3.0, 5);
     std::vector<Vec> serial(pts.size()), parallel(pts.size());
-    for (std::size_t i = 0; i < pts.size(); ++i) serial[i] = a(pts[i]);
+    for (std::size_t i = 0; i < pts.size(); ++i)
+        serial[i] = a(pts[i]);
     tbb::parallel_for(std::size_t(0), pts.size(), [&](std::size_t i) { parallel[i] = b(pts[i]); });
     EXPECT_EQ(serial, parallel);
     // Another seed, another turbulent field.
@@ -211,7 +224,9 @@ TEST(MotionField, BadParametersNameTheOption)
         set(p);
         return errorMessage([&] { nebula::MotionField(p, 10.0); });
     };
-    EXPECT_TRUE(contains(message([](auto& p) { p.axis = {0, 0, 0}; }),
+    EXPECT_TRUE(contains(message([](auto& p) {
+                             p.axis = {0, 0, 0};
+                         }),
                          "--rotation-axis must not be the zero vector"));
     EXPECT_TRUE(contains(message([](auto& p) { p.turbulence = -1; }),
                          "--turbulence must be a finite RMS speed >= 0 [km/s], got -1"));

@@ -179,11 +179,13 @@ TEST(Fbm, RejectsBadParameters)
 
 using Vec = std::array<double, 3>;
 
-double dot(const Vec& a, const Vec& b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
+double dot(const Vec& a, const Vec& b)
+{
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+}
 
 /// Jacobian J[i][j] = d v_i / d x_j by central differences of step h.
-template <typename F>
-std::array<Vec, 3> jacobian(const F& v, const Vec& x, double h)
+template <typename F> std::array<Vec, 3> jacobian(const F& v, const Vec& x, double h)
 {
     std::array<Vec, 3> J{};
     for (int j = 0; j < 3; ++j) {
@@ -191,7 +193,8 @@ std::array<Vec, 3> jacobian(const F& v, const Vec& x, double h)
         xp[j] += h;
         xm[j] -= h;
         const Vec vp = v(xp), vm = v(xm);
-        for (int i = 0; i < 3; ++i) J[i][j] = (vp[i] - vm[i]) / (2.0 * h);
+        for (int i = 0; i < 3; ++i)
+            J[i][j] = (vp[i] - vm[i]) / (2.0 * h);
     }
     return J;
 }
@@ -199,7 +202,8 @@ std::array<Vec, 3> jacobian(const F& v, const Vec& x, double h)
 double frobenius(const std::array<Vec, 3>& J)
 {
     double s = 0.0;
-    for (const auto& row : J) s += dot(row, row);
+    for (const auto& row : J)
+        s += dot(row, row);
     return std::sqrt(s);
 }
 
@@ -208,7 +212,8 @@ std::vector<Vec> randomPoints(int n, double halfSize, unsigned seed)
     std::mt19937_64 rng(seed);
     std::uniform_real_distribution<double> u(-halfSize, halfSize);
     std::vector<Vec> pts(n);
-    for (auto& p : pts) p = {u(rng), u(rng), u(rng)};
+    for (auto& p : pts)
+        p = {u(rng), u(rng), u(rng)};
     return pts;
 }
 
@@ -228,8 +233,8 @@ TEST(NoiseGradient, MatchesPerlinNoiseAndCentralDifferences)
                                nebula::perlinNoise(pm[0], pm[1], pm[2])) /
                               (2.0 * h);
             // Central differences: O(h^2) truncation plus 1e-16/h rounding.
-            ASSERT_NEAR(g.gradient[a], fd, 1e-7) << "axis " << a << " at " << p[0] << ","
-                                                 << p[1] << "," << p[2];
+            ASSERT_NEAR(g.gradient[a], fd, 1e-7)
+                << "axis " << a << " at " << p[0] << "," << p[1] << "," << p[2];
         }
     }
     EXPECT_TRUE(std::isnan(nebula::perlinNoiseGradient(NAN, 0, 0).gradient[1]));

@@ -14,14 +14,14 @@ namespace {
 constexpr double KAPPA = 1.5e-3;
 
 /// A cube lattice of edge @p n with lower corner @p lo, voxel size @p h [pc], filled by f.
-template <typename F>
-DenseVolume makeVolume(int n, int lo, double h, F f)
+template <typename F> DenseVolume makeVolume(int n, int lo, double h, F f)
 {
     DenseVolume v({lo, lo, lo}, {n, n, n}, 1);
     v.indexToWorld.m = {h, 0, 0, 0, h, 0, 0, 0, h};
     for (int k = lo; k < lo + n; ++k)
         for (int j = lo; j < lo + n; ++j)
-            for (int i = lo; i < lo + n; ++i) v.voxel(v.index(i, j, k))[0] = float(f(i, j, k));
+            for (int i = lo; i < lo + n; ++i)
+                v.voxel(v.index(i, j, k))[0] = float(f(i, j, k));
     return v;
 }
 
@@ -34,7 +34,8 @@ double fieldAt(const DenseVolume& v, const std::vector<float>& field, int i, int
 std::vector<float> productionTau(const DenseVolume& v, const Vec3& star)
 {
     std::vector<std::uint32_t> all(v.voxelCount());
-    for (std::size_t i = 0; i < all.size(); ++i) all[i] = std::uint32_t(i);
+    for (std::size_t i = 0; i < all.size(); ++i)
+        all[i] = std::uint32_t(i);
     return opticalDepthAt(v, star, KAPPA, all);
 }
 
@@ -53,10 +54,9 @@ double chordToSphere(const Vec3& s, const Vec3& u, double R)
 TEST(OpticalDepth, UniformSphereStarAtCentre)
 {
     const int n = 41, lo = -20;
-    const double h = 0.1, R = 15.0, n0 = 1000.0;  // R in voxels
-    const auto vol = makeVolume(n, lo, h, [&](int i, int j, int k) {
-        return i * i + j * j + k * k <= R * R ? n0 : 0.0;
-    });
+    const double h = 0.1, R = 15.0, n0 = 1000.0; // R in voxels
+    const auto vol = makeVolume(
+        n, lo, h, [&](int i, int j, int k) { return i * i + j * j + k * k <= R * R ? n0 : 0.0; });
     const Vec3 star(0, 0, 0);
     const auto ref = productionTau(vol, star);
     int inside = 0, outside = 0;
@@ -103,10 +103,12 @@ TEST(OpticalDepth, SmoothSphereStarOffCentreChords)
         // r^2(l) = |s|^2 + 2 l (s.u) + l^2 for l in [0, min(len, exit)].
         const double lEnd = std::min(len, chordToSphere(star, u, R));
         const double a = star.dot(star), b = star.dot(u);
-        const double integral = lEnd - (a * lEnd + b * lEnd * lEnd + lEnd * lEnd * lEnd / 3) / (R * R);
+        const double integral =
+            lEnd - (a * lEnd + b * lEnd * lEnd + lEnd * lEnd * lEnd / 3) / (R * R);
         const double expected = KAPPA * n0 * integral * h;
         const double tau = fieldAt(vol, ref, int(x.x), int(x.y), int(x.z));
-        EXPECT_NEAR(tau, expected, 2e-3 * expected + 1e-9) << "voxel " << x.x << "," << x.y << "," << x.z;
+        EXPECT_NEAR(tau, expected, 2e-3 * expected + 1e-9)
+            << "voxel " << x.x << "," << x.y << "," << x.z;
         ++checked;
     }
 }
@@ -124,13 +126,14 @@ TEST(OpticalDepth, UniformSlabObliqueRaysAnyAffine)
     DenseVolume vol({0, 0, 0}, {nx, nx, nz}, 1);
     for (int k = k0; k <= k1; ++k)
         for (int j = 0; j < nx; ++j)
-            for (int i = 0; i < nx; ++i) vol.voxel(vol.index(i, j, k))[0] = float(n0);
+            for (int i = 0; i < nx; ++i)
+                vol.voxel(vol.index(i, j, k))[0] = float(n0);
     // World = R * diag(0.2, 0.2, 0.5) * index, with R a rotation about y plus a mirror in x.
     const double c = std::cos(0.7), s = std::sin(0.7);
     const double sx = 0.2, sz = 0.5;
     vol.indexToWorld.m = {-c * sx, 0, s * sz, 0, sx, 0, s * sx, 0, c * sz};
     vol.indexToWorld.t = Vec3(3, -2, 1);
-    const Vec3 star(31.5, 30.2, 2.0);  // index space, below the slab
+    const Vec3 star(31.5, 30.2, 2.0); // index space, below the slab
     const auto ref = productionTau(vol, star);
     const Affine& M = vol.indexToWorld;
     for (int k = 20; k < nz; ++k)
@@ -183,10 +186,10 @@ TEST(OpticalDepth, ProductionMatchesReference)
     std::uniform_real_distribution<double> U(0.0, 1.0);
     const int n = 32;
     const auto vol = makeVolume(n, 0, 0.25, [&](int i, int j, int k) {
-        const double r = std::sqrt((i - 16.0) * (i - 16.0) + (j - 16.0) * (j - 16.0) +
-                                   (k - 16.0) * (k - 16.0));
+        const double r =
+            std::sqrt((i - 16.0) * (i - 16.0) + (j - 16.0) * (j - 16.0) + (k - 16.0) * (k - 16.0));
         const double v = U(rng);
-        return r < 14 && v > 0.4 ? 2000.0 * v : 0.0;  // 40 % of the voxels empty
+        return r < 14 && v > 0.4 ? 2000.0 * v : 0.0; // 40 % of the voxels empty
     });
     for (const Vec3 star : {Vec3(13.3, 17.6, 15.2), Vec3(-15.0, 8.0, 30.0)}) {
         const auto ref = opticalDepthReference(vol, star, KAPPA);
@@ -196,7 +199,7 @@ TEST(OpticalDepth, ProductionMatchesReference)
             maxTau = std::max(maxTau, double(ref[q]));
             ASSERT_NEAR(prod[q], ref[q], 1e-5 * ref[q] + 1e-7) << "lattice point " << q;
         }
-        EXPECT_GT(maxTau, 3.0);  // thick enough to matter
+        EXPECT_GT(maxTau, 3.0); // thick enough to matter
     }
 }
 
@@ -229,6 +232,7 @@ TEST(OpticalDepth, NeverNegative)
     }
     for (const Vec3 star : {Vec3(3.3, 17.1, 9.6), Vec3(-30, 4, 50), Vec3(10, 10, 10)}) {
         const auto tau = opticalDepthAt(n, star, 1.5e-3, points);
-        for (float t : tau) ASSERT_GE(t, 0.0f);
+        for (float t : tau)
+            ASSERT_GE(t, 0.0f);
     }
 }

@@ -15,7 +15,7 @@ PhaseTableSpec smallSpec()
     PhaseTableSpec s;
     s.tMin = 1e-3;
     s.tMax = 10.0;
-    s.tCount = 5;  // 1e-3, 1e-2, 0.1, 1, 10
+    s.tCount = 5; // 1e-3, 1e-2, 0.1, 1, 10
     s.muBins = 16;
     s.minPhotons = 2048;
     s.maxPhotons = 65536;
@@ -68,17 +68,18 @@ TEST(PhaseTable, LookupIsBilinearInLogTAndMu)
     PhaseTable t;
     t.tMin = 1e-2;
     t.tMax = 1e2;
-    t.tCount = 3;  // 0.01, 1, 100
-    t.muBins = 4;  // centres -0.75, -0.25, 0.25, 0.75
+    t.tCount = 3; // 0.01, 1, 100
+    t.muBins = 4; // centres -0.75, -0.25, 0.25, 0.75
     t.photons = {1, 1, 1};
     for (int j = 0; j < 3; ++j)
-        for (int i = 0; i < 4; ++i) t.phi.push_back(float(10 * j + i));
+        for (int i = 0; i < 4; ++i)
+            t.phi.push_back(float(10 * j + i));
     t.error.assign(12, 0.0f);
-    EXPECT_DOUBLE_EQ(t.eval(1.0, 0.25), 12.0);             // a node
-    EXPECT_DOUBLE_EQ(t.eval(0.1, 0.25), 7.0);              // half way in log t
-    EXPECT_NEAR(t.eval(1.0, 0.0), 11.5, 1e-6);              // half way between centres
-    EXPECT_DOUBLE_EQ(t.eval(1.0, 1.0), 13.0);              // clamped to the last centre
+    EXPECT_DOUBLE_EQ(t.eval(1.0, 0.25), 12.0); // a node
+    EXPECT_DOUBLE_EQ(t.eval(0.1, 0.25), 7.0);  // half way in log t
+    EXPECT_NEAR(t.eval(1.0, 0.0), 11.5, 1e-6); // half way between centres
+    EXPECT_DOUBLE_EQ(t.eval(1.0, 1.0), 13.0);  // clamped to the last centre
     EXPECT_DOUBLE_EQ(t.eval(1.0, -1.0), 10.0);
-    EXPECT_DOUBLE_EQ(t.eval(1e-6, 0.75), 3.0);             // below t_min: row 0
-    EXPECT_DOUBLE_EQ(t.eval(1e6, 0.75), 23.0);             // above t_max: last row
+    EXPECT_DOUBLE_EQ(t.eval(1e-6, 0.75), 3.0); // below t_min: row 0
+    EXPECT_DOUBLE_EQ(t.eval(1e6, 0.75), 23.0); // above t_max: last row
 }

@@ -341,8 +341,8 @@ TEST(SpectrumRandom, SumOfPiecesEqualsAddingThemOneByOne)
         EXPECT_NEAR(a.at(a.x1), b.at(b.x1), 1e-9 * scale);
     }
     // Gaps stay gaps; a reversed piece is refused.
-    const Spectrum gap = Spectrum::sum(
-        std::vector<Piece>{nebula::pieceThrough(400, 1, 410, 1), nebula::pieceThrough(420, 2, 430, 2)});
+    const Spectrum gap = Spectrum::sum(std::vector<Piece>{nebula::pieceThrough(400, 1, 410, 1),
+                                                          nebula::pieceThrough(420, 2, 430, 2)});
     ASSERT_EQ(gap.size(), 2u);
     EXPECT_EQ(gap(415.0), 0.0);
     EXPECT_THROW(Spectrum::sum(std::vector<Piece>{Piece{410, 400, 0, 1}}), nebula::UsageError);

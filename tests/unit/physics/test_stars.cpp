@@ -58,7 +58,7 @@ TEST(ParseStars, RoundTrip)
     ASSERT_EQ(back.size(), stars.size());
     for (std::size_t i = 0; i < stars.size(); ++i) {
         EXPECT_EQ(back[i].name, stars[i].name);
-        EXPECT_EQ(back[i].position, stars[i].position);  // exact: shortest round-trip digits
+        EXPECT_EQ(back[i].position, stars[i].position); // exact: shortest round-trip digits
         EXPECT_EQ(back[i].luminosity, stars[i].luminosity);
         EXPECT_EQ(back[i].temperature, stars[i].temperature);
     }
@@ -125,12 +125,10 @@ TEST(ParseStars, ErrorMessages)
     // Spectral class.
     message = parse(R"([{"name": "a", "position": [1, 2, 3], "luminosity": 1,
                          "class": "X5"}])");
-    EXPECT_EQ(message.rfind(R"(stars.json: star 1 ("a"): "class": spectral class "X5")", 0),
-              0u)
+    EXPECT_EQ(message.rfind(R"(stars.json: star 1 ("a"): "class": spectral class "X5")", 0), 0u)
         << message;
     message = parse(R"([{"name": "a", "position": [1, 2, 3], "luminosity": 1, "class": 5}])");
-    EXPECT_TRUE(contains(message, R"(star 1 ("a"): "class" must be a spectral class)"))
-        << message;
+    EXPECT_TRUE(contains(message, R"(star 1 ("a"): "class" must be a spectral class)")) << message;
     message = parse(R"([{"name": "a", "position": [1, 2, 3], "luminosity": 1, "class": "B3V",
                          "temperature": 300}])");
     EXPECT_EQ(message,
@@ -140,8 +138,7 @@ TEST(ParseStars, ErrorMessages)
     message = parse("[" + alpha + ", 3]");
     EXPECT_EQ(message.rfind("stars.json: star 2: expected an object", 0), 0u) << message;
     message = parse(alpha);
-    EXPECT_EQ(message.rfind("stars.json: expected a JSON array of stars, got ", 0), 0u)
-        << message;
+    EXPECT_EQ(message.rfind("stars.json: expected a JSON array of stars, got ", 0), 0u) << message;
     message = parse(R"([{"name": "a",)");
     EXPECT_EQ(message.rfind("stars.json: not valid JSON: ", 0), 0u) << message;
     EXPECT_FALSE(contains(message, "[json.exception")) << message;
@@ -182,8 +179,7 @@ TEST(SpectralClass, RefusesGiantsAndSupergiants)
 {
     for (const char* name : {"K0III", "K0 III", "B3IV", "B3II", "B3I", "B3Ia", "B3Ib", "B3Iab"}) {
         const std::string message = errorMessage([&] { nebula::spectralClassTemperature(name); });
-        EXPECT_EQ(message.rfind(std::string("spectral class \"") + name + "\"", 0), 0u)
-            << message;
+        EXPECT_EQ(message.rfind(std::string("spectral class \"") + name + "\"", 0), 0u) << message;
         EXPECT_NE(message.find("is not supported"), std::string::npos) << message;
         EXPECT_NE(message.find("kelvin"), std::string::npos) << message;
     }
@@ -210,8 +206,7 @@ TEST(SpectralClass, HotterToCooler)
     for (int tenth = 50; tenth <= 650; ++tenth) {
         const int subtype = tenth / 10;
         const std::string name = std::string(1, letters[subtype / 10]) +
-                                 std::to_string(subtype % 10) + "." +
-                                 std::to_string(tenth % 10);
+                                 std::to_string(subtype % 10) + "." + std::to_string(tenth % 10);
         const double T = nebula::spectralClassTemperature(name);
         EXPECT_LT(T, previous) << name;
         previous = T;
@@ -222,8 +217,7 @@ TEST(SpectralClass, RejectsAnythingElse)
 {
     for (const char* bad : {"X5", "", "B12", "O3", "O4V", "M6", "M5.5", "g2v", "G2VV", "G2 ",
                             "G2  V", "B.5", "B1.", "B3VI", "5", " G2", "G2-V"}) {
-        const std::string message =
-            errorMessage([&] { nebula::spectralClassTemperature(bad); });
+        const std::string message = errorMessage([&] { nebula::spectralClassTemperature(bad); });
         EXPECT_EQ(message.rfind(std::string("spectral class \"") + bad + "\"", 0), 0u)
             << bad << ": " << message;
     }

@@ -29,7 +29,8 @@ TEST(Render, CameraProjectionAndSolidAngle)
     EXPECT_FALSE(c.project(c.eye - c.direction(40, 30), px, py));
     double omega = 0.0;
     for (int y = 0; y < 60; ++y)
-        for (int x = 0; x < 80; ++x) omega += c.pixelSolidAngle(x + 0.5, y + 0.5);
+        for (int x = 0; x < 80; ++x)
+            omega += c.pixelSolidAngle(x + 0.5, y + 0.5);
     const double a = std::tan(25 * PI / 180), b = a * 60 / 80;
     const double pyramid = 4 * std::asin(a * b / std::sqrt((1 + a * a) * (1 + b * b)));
     EXPECT_NEAR(omega, pyramid, 1e-3 * pyramid);
@@ -49,7 +50,8 @@ TEST(Camera, PinholeBasisAndFieldOfView)
     c.fovDeg = 60;
     const PinholeProjection p(c);
     EXPECT_EQ(p.eye().z, -10.0);
-    for (const auto& [x, y] : {std::pair{0.5, 0.5}, std::pair{50.0, 25.0}, std::pair{99.5, 12.25}}) {
+    for (const auto& [x, y] :
+         {std::pair{0.5, 0.5}, std::pair{50.0, 25.0}, std::pair{99.5, 12.25}}) {
         const Vec3 a = c.direction(x, y), b = p.direction(x, y);
         EXPECT_NEAR((a - b).length(), 0.0, 1e-15);
         EXPECT_NEAR(a.length(), 1.0, 1e-12);

@@ -18,11 +18,11 @@ using namespace nebula::test;
 // L_c = a p(mu) E_c (1 - exp(-tau_c)), tau_c = kappa_V r_c n0 * 3.9 pc, E_c = 1.
 TEST(Render, SingleScatteringMatchesClosedForm)
 {
-    const double n0 = 150.0;  // tau_V = 0.88 across the cube
+    const double n0 = 150.0; // tau_V = 0.88 across the cube
     for (const Vec3 eye : {Vec3(2, 2, -20), Vec3(-20, 2, 2), Vec3(24, 2, 2)}) {
-        auto scene = cube(n0, 0.0, {farStar(Vec3(-1, 0, 0))});  // light travels along +x
-        for (const PhaseModel model : {PhaseModel::HenyeyGreenstein, PhaseModel::Rayleigh,
-                                       PhaseModel::MieHazy}) {
+        auto scene = cube(n0, 0.0, {farStar(Vec3(-1, 0, 0))}); // light travels along +x
+        for (const PhaseModel model :
+             {PhaseModel::HenyeyGreenstein, PhaseModel::Rayleigh, PhaseModel::MieHazy}) {
             scene.dust.phase = model;
             const Image img = renderFrame(scene, axisCamera(eye, 0.5));
             const Vec3 toEye = (eye - Vec3(2, 2, 2)).normalized();
@@ -45,7 +45,7 @@ TEST(Render, PhaseTableReplacesTheThinLimit)
 {
     const double n0 = 150.0;
     auto scene = cube(n0, 0.0, {farStar(Vec3(-1, 0, 0))});
-    scene.dust.g = 0.0;  // isotropic: a p(mu) = a / (4 pi) for every mu
+    scene.dust.g = 0.0; // isotropic: a p(mu) = a / (4 pi) for every mu
     const Vec3 eye(2, 2, -20);
     const Image thin = renderFrame(scene, axisCamera(eye, 0.5));
 
@@ -69,7 +69,7 @@ TEST(Render, PhaseTableReplacesTheThinLimit)
     EXPECT_NEAR(img.rgba[0] / thin.rgba[0], ratio[0], 1e-6);
     EXPECT_NEAR(img.rgba[1] / thin.rgba[1], ratio[1], 0.03 * ratio[1]);
     EXPECT_NEAR(img.rgba[2] / thin.rgba[2], ratio[2], 0.03 * ratio[2]);
-    EXPECT_LT(img.rgba[2] / thin.rgba[2], ratio[2]);  // the ramps only lower it
+    EXPECT_LT(img.rgba[2] / thin.rgba[2], ratio[2]); // the ramps only lower it
     EXPECT_EQ(stats.phaseClamped, 0u);
     // Transmittance does not depend on the phase function.
     EXPECT_EQ(img.rgba[3], thin.rgba[3]);
@@ -87,7 +87,7 @@ TEST(Render, PhaseTableReplacesTheThinLimit)
     opts.phaseTable = gainTable;
     opts.phaseUse = PhaseUse::Gain;
     const Image g = renderFrame(scene, opts);
-    const double w = std::log(1 / 0.75) / std::log(1.33 / 0.75);  // G's position in log t
+    const double w = std::log(1 / 0.75) / std::log(1.33 / 0.75); // G's position in log t
     EXPECT_NEAR(g.rgba[0] / thin.rgba[0], 2.0, 1e-6);
     EXPECT_NEAR(g.rgba[1] / thin.rgba[1], 2.0 + 2.0 * w, 0.03 * (2.0 + 2.0 * w));
     EXPECT_NEAR(g.rgba[2] / thin.rgba[2], 4.0, 0.03 * 4.0);
@@ -96,16 +96,17 @@ TEST(Render, PhaseTableReplacesTheThinLimit)
 TEST(Render, ForwardScatteringIsBrighter)
 {
     const auto scene = cube(20.0, 0.0, {farStar(Vec3(-1, 0, 0))});
-    const double ahead = renderFrame(scene, axisCamera(Vec3(24, 2, 2), 0.5)).rgba[1];  // mu = 1
+    const double ahead = renderFrame(scene, axisCamera(Vec3(24, 2, 2), 0.5)).rgba[1];   // mu = 1
     const double behind = renderFrame(scene, axisCamera(Vec3(-20, 2, 2), 0.5)).rgba[1]; // mu = -1
-    EXPECT_NEAR(ahead / behind, henyeyGreenstein(1, 0.6) / henyeyGreenstein(-1, 0.6), 1e-3 * ahead / behind);
+    EXPECT_NEAR(ahead / behind, henyeyGreenstein(1, 0.6) / henyeyGreenstein(-1, 0.6),
+                1e-3 * ahead / behind);
 }
 
 // Emission proportional to density: S = e0 c / (kappa r_c n0) is constant, so the result is
 // the same closed form for a step of half a voxel and for steps of 4 and 12 voxels.
 TEST(Render, EmissionExactAttenuationForAnyStep)
 {
-    const double n0 = 600.0, e0 = 2.0;  // tau_V = 3.5 across the cube
+    const double n0 = 600.0, e0 = 2.0; // tau_V = 3.5 across the cube
     const auto scene = cube(n0, e0, {});
     RenderOptions base = axisCamera(Vec3(2, 2, -20), 0.5);
     base.emissionColor = {1.0, 0.5, 0.25};
@@ -128,7 +129,7 @@ TEST(Render, EmissionExactAttenuationForAnyStep)
             EXPECT_GE(T.rgb[c], std::exp(-tau - dTau) * (1 - 1e-6)) << "step " << step;
             EXPECT_LE(T.rgb[c], std::exp(-tau + dTau) * (1 + 1e-6)) << "step " << step;
         }
-        EXPECT_NEAR(img.rgba[3], 1 - T.rgb[1], 1e-6);  // A = 1 - T(green)
+        EXPECT_NEAR(img.rgba[3], 1 - T.rgb[1], 1e-6); // A = 1 - T(green)
     }
 }
 
@@ -165,7 +166,8 @@ TEST(Render, StarSpriteConservesFlux)
     double flux = 0.0;
     for (int y = 0; y < 48; ++y)
         for (int x = 0; x < 64; ++x) {
-            flux += img.rgba[(std::size_t(y) * 64 + x) * 4 + 1] * o.camera.pixelSolidAngle(x + 0.5, y + 0.5);
+            flux += img.rgba[(std::size_t(y) * 64 + x) * 4 + 1] *
+                    o.camera.pixelSolidAngle(x + 0.5, y + 0.5);
         }
     const Vec3 d = Vec3(2.6, 1.7, 2.0) - o.camera.eye;
     EXPECT_NEAR(flux, 100.0 / (4 * PI * d.dot(d)), 1e-3 * flux);
@@ -189,16 +191,17 @@ TEST(Render, PyramidLevelAddsTheGainOfDoubledVoxels)
 
     RenderLevel level;
     level.level = 1;
-    const int M = (N + 1) / 2;  // coarse lattice 0..20 covers fine 0..41
+    const int M = (N + 1) / 2; // coarse lattice 0..20 covers fine 0..41
     level.fields = DenseVolume({0, 0, 0}, {M, M, M}, 3);
     level.fields.indexToWorld.m = {2 * H, 0, 0, 0, 2 * H, 0, 0, 0, 2 * H};
-    level.fields.indexToWorld.t = Vec3(0.5 * H, 0.5 * H, 0.5 * H);  // block centres
+    level.fields.indexToWorld.t = Vec3(0.5 * H, 0.5 * H, 0.5 * H); // block centres
     for (int k = 0; k < M; ++k)
         for (int j = 0; j < M; ++j)
             for (int i = 0; i < M; ++i) {
                 double sum = 0.0;
                 for (int d = 0; d < 8; ++d) {
-                    const int fi = 2 * i + (d & 1), fj = 2 * j + (d >> 1 & 1), fk = 2 * k + (d >> 2);
+                    const int fi = 2 * i + (d & 1), fj = 2 * j + (d >> 1 & 1),
+                              fk = 2 * k + (d >> 2);
                     if (fi < N && fj < N && fk < N) {
                         sum += scene.fields.voxel(scene.fields.index(fi, fj, fk))[0];
                     }
@@ -216,7 +219,7 @@ TEST(Render, PyramidLevelAddsTheGainOfDoubledVoxels)
     table->muBins = 4;
     table->photons = {1, 1};
     table->phi.assign(8, 1.0f);
-    table->single = {1, 1, 1, 1, 0.5f, 0.5f, 0.5f, 0.5f};  // G = 1, then 2
+    table->single = {1, 1, 1, 1, 0.5f, 0.5f, 0.5f, 0.5f}; // G = 1, then 2
     table->error.assign(8, 0.0f);
     RenderOptions opts = axisCamera(eye, 0.5);
     opts.phaseTable = table;

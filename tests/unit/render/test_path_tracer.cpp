@@ -25,7 +25,10 @@ const ImageLayer& layer(const Image& img, const std::string& name)
 }
 
 /// Standard error of channel @p c of pixel 0.
-double sigma(const Image& img, int c) { return std::sqrt(layer(img, "variance").rgb[c]); }
+double sigma(const Image& img, int c)
+{
+    return std::sqrt(layer(img, "variance").rgb[c]);
+}
 
 RenderOptions pathOptions(const RenderOptions& base, int spp)
 {
@@ -42,15 +45,16 @@ RenderOptions pathOptions(const RenderOptions& base, int spp)
 RenderScene slab(double tau, double albedo, double g)
 {
     const double dz = 0.01;
-    const int nz = int(std::lround(tau / dz)) + 1;  // dust on points 1..nz-1: tau in total
+    const int nz = int(std::lround(tau / dz)) + 1; // dust on points 1..nz-1: tau in total
     RenderScene scene;
     scene.fields = DenseVolume({-20, -20, 0}, {41, 41, nz + 1}, 3);
     scene.fields.indexToWorld.m = {1, 0, 0, 0, 1, 0, 0, 0, dz};
-    scene.fields.indexToWorld.t = Vec3(0, 0, -0.5 * dz);  // dust from z = 0.5 dz .. tau + 0.5 dz
+    scene.fields.indexToWorld.t = Vec3(0, 0, -0.5 * dz); // dust from z = 0.5 dz .. tau + 0.5 dz
     const double n0 = 1.0 / KAPPA;
     for (int k = 1; k <= nz - 1; ++k)
         for (int j = -19; j <= 19; ++j)
-            for (int i = -19; i <= 19; ++i) scene.fields.voxel(scene.fields.index(i, j, k))[0] = float(n0);
+            for (int i = -19; i <= 19; ++i)
+                scene.fields.voxel(scene.fields.index(i, j, k))[0] = float(n0);
     Star s;
     s.name = "far";
     s.position = {0, 0, -1e5};
@@ -90,7 +94,7 @@ RenderOptions slabCamera(double mu, bool reflected, double tau)
 // crosses the whole cube: L = a p(1) E tau e^-tau.
 TEST(PathTracer, ThinSingleScatteringMatchesClosedForm)
 {
-    const double n0 = 50.0;  // tau_V = 0.29 across the cube
+    const double n0 = 50.0; // tau_V = 0.29 across the cube
     auto scene = cube(n0, 0.0, {farStar(Vec3(-1, 0, 0))});
     scene.dust.albedo = 0.02;
     for (const bool across : {true, false}) {
@@ -99,8 +103,9 @@ TEST(PathTracer, ThinSingleScatteringMatchesClosedForm)
         for (int c = 0; c < 3; ++c) {
             const double tau = KAPPA * scene.dust.r[c] * n0 * 39 * H;
             const double expected =
-                across ? 0.02 * henyeyGreenstein(0.0, 0.6) * std::exp(-tau / 2) * (1 - std::exp(-tau))
-                       : 0.02 * henyeyGreenstein(1.0, 0.6) * tau * std::exp(-tau);
+                across
+                    ? 0.02 * henyeyGreenstein(0.0, 0.6) * std::exp(-tau / 2) * (1 - std::exp(-tau))
+                    : 0.02 * henyeyGreenstein(1.0, 0.6) * tau * std::exp(-tau);
             EXPECT_NEAR(img.rgba[c], expected, 3 * sigma(img, c) + 0.005 * expected)
                 << (across ? "across" : "along") << " c " << c;
         }
@@ -115,7 +120,7 @@ TEST(PathTracer, AgreesWithTheFastIntegratorWhenThin)
     Star star;
     star.name = "near";
     star.position = {-6.0, 3.1, 2.6};  // 8 pc from the cube's centre, outside it
-    star.luminosity = 4.0 * PI * 64.0;  // irradiance ~1 at the cube
+    star.luminosity = 4.0 * PI * 64.0; // irradiance ~1 at the cube
     auto scene = cube(20.0, 0.0, {star});
     scene.dust.albedo = 0.05;
     fillStarTau(scene);
@@ -140,7 +145,7 @@ TEST(PathTracer, AgreesWithTheFastIntegratorWhenThin)
 // Transmittance through a uniform cube along an axis: exp(-k 3.9 pc); ratio tracking.
 TEST(PathTracer, TransmittanceMatchesClosedForm)
 {
-    const double n0 = 400.0;  // tau_V = 2.3
+    const double n0 = 400.0; // tau_V = 2.3
     const auto scene = cube(n0, 0.0, {});
     const Image img = renderPathTraced(scene, pathOptions(axisCamera(Vec3(2, 2, -20), 0.5), 4000));
     const auto& T = layer(img, "transmittance");
@@ -189,13 +194,14 @@ TEST(PathTracer, WideSlabMatchesPublishedRadiances)
 {
     struct Case
     {
-        double tau, albedo, g, up, down;  // radiance per unit irradiance at mu = 0.5
+        double tau, albedo, g, up, down; // radiance per unit irradiance at mu = 0.5
     };
     for (const Case& k : {Case{2.0, 0.8, 0.0, 0.28616 / PI, 0.14864 / PI},
                           Case{1.0, 1.0, 0.75, 0.101103 / PI, 0.266648 / PI}}) {
         const auto scene = slab(k.tau, k.albedo, k.g);
         const Image up = renderPathTraced(scene, pathOptions(slabCamera(0.5, true, k.tau), 6000));
-        const Image down = renderPathTraced(scene, pathOptions(slabCamera(0.5, false, k.tau), 6000));
+        const Image down =
+            renderPathTraced(scene, pathOptions(slabCamera(0.5, false, k.tau), 6000));
         for (int c = 0; c < 3; ++c) {
             EXPECT_NEAR(up.rgba[c], k.up, 3 * sigma(up, c) + 0.01 * k.up)
                 << "reflected, a " << k.albedo << " g " << k.g << " c " << c;
@@ -237,6 +243,6 @@ TEST(PathTracer, VarianceLayerMatchesTheSpreadAcrossSeeds)
     const double mean = sum / runs;
     const double spread = (sumSq - runs * mean * mean) / (runs - 1);
     const double ratio = spread / (reported / runs);
-    EXPECT_GT(ratio, 0.3);  // chi-squared with 11 degrees of freedom: 99.9 % within [0.25, 2.9]
+    EXPECT_GT(ratio, 0.3); // chi-squared with 11 degrees of freedom: 99.9 % within [0.25, 2.9]
     EXPECT_LT(ratio, 2.9);
 }

@@ -2,9 +2,9 @@
 // fixed-band mode and the RGB mode. (The Doppler line profiles it draws, physics/lines.h,
 // are tested in physics/test_lines.cpp.)
 #include "nebula/physics/colour.h"
+#include "nebula/physics/stars.h"
 #include "nebula/render/fast.h"
 #include "nebula/render/spectral.h"
-#include "nebula/physics/stars.h"
 
 #include <gtest/gtest.h>
 
@@ -14,13 +14,14 @@
 namespace nebula {
 namespace {
 
-constexpr double H = 0.1;   // voxel [pc]
-constexpr int N = 21;       // lattice 0..20, fields on 1..19
+constexpr double H = 0.1; // voxel [pc]
+constexpr int N = 21;     // lattice 0..20, fields on 1..19
 constexpr double KAPPA = 1.5e-3;
 
 /// A spectral test scene: fields on lattice 1..19 (2 pc cube of 0.1 pc voxels), channels
 /// 0 density, 1 emission sum, 2.. tau of each star (0), then the emission grid, then the
-/// velocity (3 channels, on the whole lattice). @p density(i,j,k), @p emission(i,j,k), @p velocity(i,j,k).
+/// velocity (3 channels, on the whole lattice). @p density(i,j,k), @p emission(i,j,k), @p
+/// velocity(i,j,k).
 template <class D, class E, class V>
 SpectralScene makeScene(D density, E emission, V velocity, std::vector<Star> stars,
                         const std::vector<SpectralLine>& lines, const std::string& curve = "CCM89")
@@ -36,7 +37,8 @@ SpectralScene makeScene(D density, E emission, V velocity, std::vector<Star> sta
                 float* q = s.base.fields.voxel(s.base.fields.index(i, j, k));
                 // The velocity everywhere (also on the border, so that it does not ramp to 0).
                 const auto v = velocity(i, j, k);
-                for (int c = 0; c < 3; ++c) q[2 + S + 1 + c] = float(v[c]);
+                for (int c = 0; c < 3; ++c)
+                    q[2 + S + 1 + c] = float(v[c]);
                 if (i == 0 || j == 0 || k == 0 || i == N - 1 || j == N - 1 || k == N - 1) continue;
                 q[0] = float(density(i, j, k));
                 q[1] = q[2 + S] = float(emission(i, j, k));
@@ -44,12 +46,15 @@ SpectralScene makeScene(D density, E emission, V velocity, std::vector<Star> sta
     s.base.stars = stars;
     for (const auto& st : stars) {
         const auto rgb = blackbodyLinearSRGB(st.temperature);
-        s.base.starColor.push_back({rgb[0] * st.luminosity, rgb[1] * st.luminosity, rgb[2] * st.luminosity});
+        s.base.starColor.push_back(
+            {rgb[0] * st.luminosity, rgb[1] * st.luminosity, rgb[2] * st.luminosity});
     }
     s.dust.kappa_V = KAPPA;
     s.dust.curve = curve;
     s.base.dust.kappa_V = KAPPA;
-    for (int c = 0; c < 3; ++c) s.base.dust.r[std::size_t(c)] = extinctionRatio(s.dust, RenderOptions().wavelengths[std::size_t(c)]);
+    for (int c = 0; c < 3; ++c)
+        s.base.dust.r[std::size_t(c)] =
+            extinctionRatio(s.dust, RenderOptions().wavelengths[std::size_t(c)]);
     s.base.buildOccupancy();
     SpectralEmitter e;
     e.grid = "emission";
@@ -75,7 +80,10 @@ RenderOptions zCamera(int W, double fov = 4.0)
     return o;
 }
 
-std::vector<SpectralLine> oneLine(double lambda) { return {SpectralLine{"test", lambda, 1.0}}; }
+std::vector<SpectralLine> oneLine(double lambda)
+{
+    return {SpectralLine{"test", lambda, 1.0}};
+}
 
 /// Centroid [nm] and integral of pixel @p pix's spectral layers.
 void layerMoments(const Image& img, std::size_t pix, double& centroid, double& integral)
@@ -96,7 +104,7 @@ TEST(SpectralRender, UniformVelocityShiftsByExactlyLambdaVOverC)
     // Gas moving uniformly along the ray looks exactly like gas at rest whose line sits at
     // lambda0 (1 + v/c): same XYZ (the boxes' widths differ by the factor 1 + v/c, which
     // changes XYZ by ~(width/10 nm)^2 ~ 1e-5 relative at most).
-    const double lambda0 = 550.0, v = 2000.0;  // km/s along +z (away from the eye)
+    const double lambda0 = 550.0, v = 2000.0; // km/s along +z (away from the eye)
     auto none = [](int, int, int) { return 0.0; };
     auto gas = [](int, int, int) { return 1.0; };
     auto o = zCamera(1, 0.5);
@@ -104,23 +112,31 @@ TEST(SpectralRender, UniformVelocityShiftsByExactlyLambdaVOverC)
         return linearSRGBToXYZ({im.rgba[0], im.rgba[1], im.rgba[2]});
     };
     const auto atRest = [&](double lambda) {
-        return XYZof(renderSpectral(
-            makeScene(none, gas, [](int, int, int) { return std::array<double, 3>{0, 0, 0}; }, {},
-                      oneLine(lambda)),
-            o));
+        return XYZof(renderSpectral(makeScene(
+                                        none, gas,
+                                        [](int, int, int) {
+                                            return std::array<double, 3>{0, 0, 0};
+                                        },
+                                        {}, oneLine(lambda)),
+                                    o));
     };
     const XYZ rest = atRest(lambda0);
     // Energy: the line's Y over its CMF value is the emitted energy, 19 voxels of 0.1 pc
     // (18 + two half ramps), unit 1: float image, 1e-5.
     EXPECT_NEAR(rest[1] / cmfAt(lambda0)[1], 1.9, 1.9e-5);
     for (const double sign : {-1.0, 1.0}) {
-        const XYZ moving = XYZof(renderSpectral(
-            makeScene(none, gas, [&](int, int, int) { return std::array<double, 3>{0, 0, sign * v}; },
-                      {}, oneLine(lambda0)),
-            o));
+        const XYZ moving =
+            XYZof(renderSpectral(makeScene(
+                                     none, gas,
+                                     [&](int, int, int) {
+                                         return std::array<double, 3>{0, 0, sign * v};
+                                     },
+                                     {}, oneLine(lambda0)),
+                                 o));
         const XYZ shifted = atRest(lambda0 * (1.0 + sign * v / SPEED_OF_LIGHT_KMS));
         for (int c = 0; c < 3; ++c) {
-            EXPECT_NEAR(moving[std::size_t(c)], shifted[std::size_t(c)], 2e-5 * rest[1]) << sign << " " << c;
+            EXPECT_NEAR(moving[std::size_t(c)], shifted[std::size_t(c)], 2e-5 * rest[1])
+                << sign << " " << c;
         }
         // Approaching (sign < 0) is bluer: a smaller chromaticity x on this part of the
         // spectral locus; receding is redder.
@@ -146,10 +162,13 @@ TEST(SpectralRender, RelativisticOptionRedshiftsTransverseMotionByGamma)
     auto o = zCamera(1, 0.5);
     const auto render = [&](double lambda, double vx, bool relativistic) {
         o.spectral.relativistic = relativistic;
-        return XYZof(renderSpectral(
-            makeScene(none, gas, [&](int, int, int) { return std::array<double, 3>{vx, 0, 0}; }, {},
-                      oneLine(lambda)),
-            o));
+        return XYZof(renderSpectral(makeScene(
+                                        none, gas,
+                                        [&](int, int, int) {
+                                            return std::array<double, 3>{vx, 0, 0};
+                                        },
+                                        {}, oneLine(lambda)),
+                                    o));
     };
     const double gamma = 1.0 / std::sqrt(1.0 - 0.04);
     const XYZ classic = render(lambda0, v, false), rest = render(lambda0, 0.0, false);
@@ -158,7 +177,7 @@ TEST(SpectralRender, RelativisticOptionRedshiftsTransverseMotionByGamma)
         EXPECT_NEAR(classic[std::size_t(c)], rest[std::size_t(c)], 1e-5 * rest[1]);
         EXPECT_NEAR(rel[std::size_t(c)], shifted[std::size_t(c)], 1e-4 * rest[1]);
     }
-    EXPECT_GT(chromaticity(rel)[0], chromaticity(rest)[0] + 0.01);  // redder
+    EXPECT_GT(chromaticity(rel)[0], chromaticity(rest)[0] + 0.01); // redder
 }
 
 TEST(SpectralRender, BlackBodyEmissionFollowsKirchhoff)
@@ -170,7 +189,7 @@ TEST(SpectralRender, BlackBodyEmissionFollowsKirchhoff)
     // interpolation of B); the trilinear ramps at the faces change nothing (uniform T).
     const double n0 = 2000.0, T = 5000.0;
     SpectralScene s;
-    s.base.fields = DenseVolume({0, 0, 0}, {N, N, N}, 3);  // density, emission sum, T
+    s.base.fields = DenseVolume({0, 0, 0}, {N, N, N}, 3); // density, emission sum, T
     s.base.fields.indexToWorld.m = {H, 0, 0, 0, H, 0, 0, 0, H};
     for (int k = 0; k < N; ++k)
         for (int j = 0; j < N; ++j)
@@ -192,7 +211,8 @@ TEST(SpectralRender, BlackBodyEmissionFollowsKirchhoff)
     const double tau = KAPPA * n0 * 19 * H;
     const XYZ B = blackbodyXYZ(T);
     for (int c = 0; c < 3; ++c) {
-        const double want = (1.0 - s.dust.albedo) * -std::expm1(-tau) * B[std::size_t(c)] * WM2_TO_LSUN_PC2;
+        const double want =
+            (1.0 - s.dust.albedo) * -std::expm1(-tau) * B[std::size_t(c)] * WM2_TO_LSUN_PC2;
         EXPECT_NEAR(got[std::size_t(c)], want, 1e-4 * want) << c;
     }
 }
@@ -205,11 +225,11 @@ TEST(SpectralRender, LineEnergyUnchangedByAVelocityGradient)
     auto shear = [](int, int, int k) { return std::array<double, 3>{0, 0, 300.0 * (k - 10)}; };
     auto o = zCamera(1, 0.5);
     o.spectral.layers = 47;
-    o.spectral.exaggerateVelocity = 5.0;  // +-15000 km/s: +-27 nm across the cube
+    o.spectral.exaggerateVelocity = 5.0; // +-15000 km/s: +-27 nm across the cube
     double c0, I0, c1, I1;
     layerMoments(renderSpectral(makeScene(none, gas, still, {}, oneLine(605.0)), o), 0, c0, I0);
     layerMoments(renderSpectral(makeScene(none, gas, shear, {}, oneLine(605.0)), o), 0, c1, I1);
-    EXPECT_NEAR(I1, I0, 1e-6 * I0);  // energy moved, not made or lost
+    EXPECT_NEAR(I1, I0, 1e-6 * I0); // energy moved, not made or lost
     // The gradient is antisymmetric about the centre: the centroid stays put (to the
     // symmetric sampling's rounding), while the line spreads over many 10 nm layers.
     EXPECT_NEAR(c1, c0, 1e-3);
@@ -257,22 +277,24 @@ SpectralScene dopplerScene(const std::string& curve = "CCM89")
     star.position = {1.0, 1.0, 1.0};
     star.luminosity = 50.0;
     star.temperature = 12000.0;
-    auto dust = [](int i, int j, int k) { return 400.0 * (1.0 + 0.5 * std::sin(0.7 * i + 0.3 * j + 0.5 * k)); };
+    auto dust = [](int i, int j, int k) {
+        return 400.0 * (1.0 + 0.5 * std::sin(0.7 * i + 0.3 * j + 0.5 * k));
+    };
     auto gas = [](int i, int, int k) { return 0.5 + 0.4 * std::cos(0.4 * i - 0.6 * k); };
     auto flow = [](int i, int j, int k) {
         return std::array<double, 3>{40.0 * (i - 10), 40.0 * (j - 10), 40.0 * (k - 10)};
     };
-    return makeScene(dust, gas, flow, {star},
-                     {SpectralLine{"H-alpha", 656.28, 1.0}, SpectralLine{"[O III]5007", 500.68, 0.8}},
-                     curve);
+    return makeScene(
+        dust, gas, flow, {star},
+        {SpectralLine{"H-alpha", 656.28, 1.0}, SpectralLine{"[O III]5007", 500.68, 0.8}}, curve);
 }
 
 TEST(SpectralRender, FixedBandsConvergeToPiecewiseLinear)
 {
     const SpectralScene scene = dopplerScene();
     auto o = zCamera(4, 20.0);
-    o.spectral.exaggerateVelocity = 10.0;  // lines spread over +-5 nm
-    o.spectral.continuumStep = 1.0;        // continuum nodes every 1 nm: its error ~1e-6
+    o.spectral.exaggerateVelocity = 10.0; // lines spread over +-5 nm
+    o.spectral.continuumStep = 1.0;       // continuum nodes every 1 nm: its error ~1e-6
     const Image pl = renderSpectral(scene, o);
     double prev = std::numeric_limits<double>::infinity();
     for (const int bands : {47, 470, 4700, 47000}) {
@@ -281,7 +303,8 @@ TEST(SpectralRender, FixedBandsConvergeToPiecewiseLinear)
         double err = 0.0, ref = 0.0;
         for (std::size_t p = 0; p < 16; ++p)
             for (int c = 0; c < 3; ++c) {
-                err = std::max(err, std::abs(double(fb.rgba[p * 4 + std::size_t(c)]) - pl.rgba[p * 4 + std::size_t(c)]));
+                err = std::max(err, std::abs(double(fb.rgba[p * 4 + std::size_t(c)]) -
+                                             pl.rgba[p * 4 + std::size_t(c)]));
                 ref = std::max(ref, std::abs(double(pl.rgba[p * 4 + std::size_t(c)])));
             }
         const double rel = err / ref;
@@ -307,7 +330,9 @@ TEST(SpectralRender, AgreesWithRgbModeForGreyDustAndABlackBodyStar)
         star.position = {1.0, 1.0, 1.0};
         star.luminosity = 50.0;
         star.temperature = T;
-        auto dust = [](int i, int j, int k) { return 300.0 * (1.0 + 0.5 * std::sin(0.7 * i + 0.3 * j + 0.5 * k)); };
+        auto dust = [](int i, int j, int k) {
+            return 300.0 * (1.0 + 0.5 * std::sin(0.7 * i + 0.3 * j + 0.5 * k));
+        };
         auto none = [](int, int, int) { return 0.0; };
         auto still = [](int, int, int) { return std::array<double, 3>{0, 0, 0}; };
         SpectralScene scene = makeScene(dust, none, still, {star}, oneLine(600.0), "grey");
@@ -318,8 +343,9 @@ TEST(SpectralRender, AgreesWithRgbModeForGreyDustAndABlackBodyStar)
                 for (int j = 0; j < N; ++j)
                     for (int i = 0; i < N; ++i) {
                         float* q = b.fields.voxel(b.fields.index(i, j, k));
-                        const double d = std::sqrt(std::pow(i - 10, 2) + std::pow(j - 10, 2) + std::pow(k - 10, 2));
-                        q[2] = float(KAPPA * 300.0 * d * H);  // a plausible optical depth
+                        const double d = std::sqrt(std::pow(i - 10, 2) + std::pow(j - 10, 2) +
+                                                   std::pow(k - 10, 2));
+                        q[2] = float(KAPPA * 300.0 * d * H); // a plausible optical depth
                     }
         }
         auto o = zCamera(6, 25.0);
@@ -327,13 +353,15 @@ TEST(SpectralRender, AgreesWithRgbModeForGreyDustAndABlackBodyStar)
         const Image spec = renderSpectral(scene, o);
         const Image rgb = renderFrame(scene.base, o);
         for (std::size_t p = 0; p < 36; ++p) {
-            const double Y = linearSRGBToXYZ({rgb.rgba[p * 4], rgb.rgba[p * 4 + 1], rgb.rgba[p * 4 + 2]})[1];
+            const double Y =
+                linearSRGBToXYZ({rgb.rgba[p * 4], rgb.rgba[p * 4 + 1], rgb.rgba[p * 4 + 2]})[1];
             ASSERT_GT(Y, 0.0);
             for (int c = 0; c < 3; ++c) {
                 // 5e-3 of the pixel's luminance: the RGB mode's colour integrates Planck at
                 // 1 nm, the spectral mode at its 10 nm continuum nodes (and clips no channel
                 // for these temperatures).
-                EXPECT_NEAR(spec.rgba[p * 4 + std::size_t(c)], rgb.rgba[p * 4 + std::size_t(c)], 5e-3 * Y)
+                EXPECT_NEAR(spec.rgba[p * 4 + std::size_t(c)], rgb.rgba[p * 4 + std::size_t(c)],
+                            5e-3 * Y)
                     << "T " << T << " pixel " << p << " channel " << c;
             }
         }

@@ -57,7 +57,8 @@ std::map<Coord, float> activeValues(const openvdb::FloatGrid& grid)
         } else {
             openvdb::CoordBBox box;
             it.getBoundingBox(box);
-            for (auto c = box.begin(); c; ++c) out[{(*c).x(), (*c).y(), (*c).z()}] = *it;
+            for (auto c = box.begin(); c; ++c)
+                out[{(*c).x(), (*c).y(), (*c).z()}] = *it;
         }
     }
     return out;
@@ -75,7 +76,10 @@ double distance(const Pc& a, const Pc& b)
                      (a[2] - b[2]) * (a[2] - b[2]));
 }
 
-double norm(const Pc& a) { return distance(a, {0, 0, 0}); }
+double norm(const Pc& a)
+{
+    return distance(a, {0, 0, 0});
+}
 
 // ---- the grids ---------------------------------------------------------------------------------
 
@@ -227,7 +231,7 @@ TEST(GenerateNebula, DustInsideTheInscribedSphereAndOutsideTheCavities)
 {
     NebulaParams p = small(32);
     p.stars = nebula::exampleStars();
-    p.cavity = 2.0;  // dust-free within 1 pc of each star
+    p.cavity = 2.0; // dust-free within 1 pc of each star
     const auto density = floatGridOf(nebula::generateNebula(p), "density");
     for (const auto& [c, v] : activeValues(*density)) {
         const Pc x = worldOf(*density, c);
@@ -251,22 +255,23 @@ TEST(GenerateNebula, DustInsideTheInscribedSphereAndOutsideTheCavities)
 TEST(GenerateNebula, SphereEmissionWithinItsRadius)
 {
     NebulaParams p = small(32);
-    p.emissionRadius = 0.25;  // 2.5 pc
+    p.emissionRadius = 0.25; // 2.5 pc
     const auto emission = floatGridOf(nebula::generateNebula(p), "emission");
     const auto values = activeValues(*emission);
     ASSERT_FALSE(values.empty());
     double farthest = 0.0;
-    for (const auto& [c, v] : values) farthest = std::max(farthest, norm(worldOf(*emission, c)));
+    for (const auto& [c, v] : values)
+        farthest = std::max(farthest, norm(worldOf(*emission, c)));
     EXPECT_LE(farthest, p.emissionRadius * p.size + 1e-9);
-    EXPECT_GT(farthest, 0.4 * p.emissionRadius * p.size);  // fills the ball, not a dot
+    EXPECT_GT(farthest, 0.4 * p.emissionRadius * p.size); // fills the ball, not a dot
 }
 
 TEST(GenerateNebula, ShellEmissionWithinItsWidth)
 {
     NebulaParams p = small(32);
     p.emissionShape = nebula::EmissionShape::Shell;
-    p.emissionRadius = 0.3;  // R = 3 pc
-    p.shellWidth = 0.2;      // |d - R| < 0.6 pc
+    p.emissionRadius = 0.3; // R = 3 pc
+    p.shellWidth = 0.2;     // |d - R| < 0.6 pc
     p.motionCentre = Pc{0.5, -0.5, 0.25};
     const auto emission = floatGridOf(nebula::generateNebula(p), "emission");
     const auto values = activeValues(*emission);
@@ -279,7 +284,7 @@ TEST(GenerateNebula, ShellEmissionWithinItsWidth)
         inner = std::min(inner, d);
         outer = std::max(outer, d);
     }
-    EXPECT_LT(inner, R);  // a shell, both sides of its radius
+    EXPECT_LT(inner, R); // a shell, both sides of its radius
     EXPECT_GT(outer, R);
 }
 
@@ -288,7 +293,7 @@ TEST(GenerateNebula, ShellEmissionWithinItsWidth)
 TEST(GenerateNebula, SpectralGridsOnlyWithSpectralParameters)
 {
     NebulaParams p = small(16);
-    p.spectral.oiii = 0.5;  // ignored unless spectral.enabled
+    p.spectral.oiii = 0.5; // ignored unless spectral.enabled
     GridSet s = nebula::generateNebula(p);
     EXPECT_FALSE(s.find("temperature"));
     EXPECT_FALSE(s.find("velocity"));
@@ -320,14 +325,15 @@ TEST(GenerateNebula, TemperatureIsTheDustEquilibriumOnDensityAndEmission)
     const auto temps = activeValues(*t);
     // Active exactly on the voxels of density or emission.
     auto uni = activeValues(*floatGridOf(s, "density"));
-    for (const auto& [c, v] : activeValues(*floatGridOf(s, "emission"))) uni[c] = v;
+    for (const auto& [c, v] : activeValues(*floatGridOf(s, "emission")))
+        uni[c] = v;
     ASSERT_EQ(temps.size(), uni.size());
     const double rMin = 0.5 * p.size / p.res;
     for (const auto& [c, T] : temps) {
         ASSERT_TRUE(uni.count(c));
         const double U = nebula::radiationFieldU(worldOf(*t, c), p.stars, rMin);
         EXPECT_NEAR(T, nebula::dustTemperature(U), 1e-5 * T);
-        EXPECT_GE(T, 16.4f);  // never below the interstellar field's 16.4 K
+        EXPECT_GE(T, 16.4f); // never below the interstellar field's 16.4 K
     }
 
     // With a gas temperature: that, wherever there is emission; the dust's elsewhere.
@@ -368,7 +374,8 @@ TEST(GenerateNebula, VelocityIsTheMotionFieldInWorldAxes)
         const auto c = it.getCoord();
         const auto expected = field(worldOf(*v, {c.x(), c.y(), c.z()}));
         for (int a = 0; a < 3; ++a) {
-            ASSERT_NEAR((*it)[a], expected[std::size_t(a)], 1e-5 * (1.0 + std::abs(expected[std::size_t(a)])));
+            ASSERT_NEAR((*it)[a], expected[std::size_t(a)],
+                        1e-5 * (1.0 + std::abs(expected[std::size_t(a)])));
         }
     }
     EXPECT_GT(n, 0);
@@ -389,10 +396,10 @@ TEST(GenerateNebula, OxygenZoneInsideTheIonisedRegion)
     const auto em = activeValues(*floatGridOf(s, "emission"));
     ASSERT_FALSE(oiii.empty());
     const double R = p.emissionRadius * p.size;
-    const Pc centre = nebula::motionCentre(p);  // the origin: no stars
+    const Pc centre = nebula::motionCentre(p); // the origin: no stars
     int full = 0;
     for (const auto& [c, o] : oiii) {
-        ASSERT_TRUE(em.count(c));  // only where there is emission
+        ASSERT_TRUE(em.count(c)); // only where there is emission
         const double e = em.at(c);
         const double d = distance(worldOf(*oiiiGrid, c), centre);
         // oiii * emission * s, s falling from 1 at 0.5 R to 0 at 0.8 R.
@@ -440,7 +447,9 @@ TEST(GenerateNebula, BadParametersAreUsageErrorsNamingTheOption)
                              p.emissionRadius = 0;
                          }),
                          "--emission-radius"));
-    EXPECT_TRUE(contains(message([](auto& p) { p.motionCentre = Pc{0, INFINITY, 0}; }),
+    EXPECT_TRUE(contains(message([](auto& p) {
+                             p.motionCentre = Pc{0, INFINITY, 0};
+                         }),
                          "--motion-centre"));
     EXPECT_TRUE(contains(message([](auto& p) { p.lines.clear(); }), "--lines"));
     EXPECT_TRUE(contains(message([](auto& p) {
@@ -477,8 +486,8 @@ TEST(GenerateNebula, MotionCentreAndParams)
 
     p.seed = 99;
     p.spectral.motion.expansion = 12.0;
-    p.spectral.motion.seed = 5;  // replaced by the nebula's
-    p.spectral.motion.radius = 7;  // replaced
+    p.spectral.motion.seed = 5;   // replaced by the nebula's
+    p.spectral.motion.radius = 7; // replaced
     auto m = nebula::motionParams(p);
     EXPECT_EQ(m.centre, (Pc{1, 2, 3}));
     EXPECT_DOUBLE_EQ(m.radius, p.emissionRadius * p.size);
@@ -513,8 +522,8 @@ TEST(DustTemperature, RadiativeEquilibriumWithTheStars)
     // T = 16.4 K (1 + U)^(1/6): the interstellar field alone gives 16.4 K * 2^(1/6).
     EXPECT_DOUBLE_EQ(nebula::dustTemperature(0.0), 16.4);
     EXPECT_NEAR(nebula::dustTemperature(1.0), 18.408, 1e-3);
-    EXPECT_NEAR(nebula::dustTemperature(63.0), 32.8, 1e-9);      // 64^(1/6) = 2
-    EXPECT_NEAR(nebula::dustTemperature(4095.0), 65.6, 1e-9);    // 4096^(1/6) = 4
+    EXPECT_NEAR(nebula::dustTemperature(63.0), 32.8, 1e-9);   // 64^(1/6) = 2
+    EXPECT_NEAR(nebula::dustTemperature(4095.0), 65.6, 1e-9); // 4096^(1/6) = 4
 }
 
 TEST(DustTemperature, SixthRootScaling)
@@ -550,7 +559,7 @@ TEST(RadiationField, FallsAsInverseSquareFromOneStar)
     s.luminosity = 500.0;
     const double rMin = 0.05;
     // U r^2 is the same at every distance beyond rMin, in every direction.
-    const double k = nebula::radiationFieldU({-1.0 + 1.0, 0.5, 2.0}, {s}, rMin);  // r = 1 pc
+    const double k = nebula::radiationFieldU({-1.0 + 1.0, 0.5, 2.0}, {s}, rMin); // r = 1 pc
     EXPECT_GT(k, 0.0);
     // L / (4 pi r^2 c u_ISRF), all in cgs: 500 L_sun at 1 pc.
     const double expected = 500.0 * nebula::L_SUN_CGS /
@@ -560,14 +569,16 @@ TEST(RadiationField, FallsAsInverseSquareFromOneStar)
     const Pc dirs[] = {{1, 0, 0}, {0, -1, 0}, {0.6, 0, 0.8}, {-0.48, 0.6, -0.64}};
     for (double r : {0.06, 0.1, 0.5, 2.0, 7.0, 100.0}) {
         for (const Pc& d : dirs) {
-            const Pc x = {s.position[0] + r * d[0], s.position[1] + r * d[1], s.position[2] + r * d[2]};
+            const Pc x = {s.position[0] + r * d[0], s.position[1] + r * d[1],
+                          s.position[2] + r * d[2]};
             EXPECT_NEAR(nebula::radiationFieldU(x, {s}, rMin) * r * r, k, 1e-9 * k) << r;
         }
     }
     // Inside rMin the field is that at rMin.
     for (double r : {0.0, 0.01, 0.049}) {
         const Pc x = {s.position[0] + r, s.position[1], s.position[2]};
-        EXPECT_NEAR(nebula::radiationFieldU(x, {s}, rMin), k / (rMin * rMin), 1e-9 * k / (rMin * rMin))
+        EXPECT_NEAR(nebula::radiationFieldU(x, {s}, rMin), k / (rMin * rMin),
+                    1e-9 * k / (rMin * rMin))
             << r;
     }
 }

@@ -31,7 +31,7 @@ openvdb::math::Transform::Ptr skewedTransform()
     xform->postScale(openvdb::Vec3d(0.2, 0.3, 0.5));
     xform->postRotate(0.7, openvdb::math::Y_AXIS);
     xform->postRotate(0.3, openvdb::math::X_AXIS);
-    xform->postScale(openvdb::Vec3d(-1.0, 1.0, 1.0));  // mirror
+    xform->postScale(openvdb::Vec3d(-1.0, 1.0, 1.0)); // mirror
     xform->postTranslate(openvdb::Vec3d(3.0, -2.0, 1.0));
     return xform;
 }
@@ -39,7 +39,7 @@ openvdb::math::Transform::Ptr skewedTransform()
 /// Reference box sums: every active voxel (tiles voxelized) added to the coarse voxel
 /// floor(i / 2^level), with std::floor on doubles.
 std::map<openvdb::Coord, std::pair<double, int>> referenceSums(const openvdb::FloatGrid& grid,
-                                                                int level)
+                                                               int level)
 {
     auto copy = grid.deepCopy();
     copy->tree().voxelizeActiveTiles();
@@ -158,8 +158,7 @@ TEST_F(PyramidTest, BoxAverageMatchesReferenceAndConservesMass)
             ASSERT_TRUE(acc.isValueOn(I)) << "level " << level << " " << I;
             EXPECT_NEAR(acc.getValue(I), sum.first / volume, 1e-6 * sum.first / volume)
                 << "level " << level << " " << I;
-            EXPECT_NEAR(meanAcc.getValue(I), sum.first / sum.second,
-                        1e-6 * sum.first / sum.second);
+            EXPECT_NEAR(meanAcc.getValue(I), sum.first / sum.second, 1e-6 * sum.first / sum.second);
         }
         EXPECT_NEAR(gridMass(*coarse), mass0, 1e-6 * mass0) << "level " << level;
         EXPECT_NEAR(coarse->transform().voxelVolume(), volume * g->transform().voxelVolume(),
@@ -183,8 +182,8 @@ TEST_F(PyramidTest, CoarseCentresAreBlockCentres)
             for (int z = 0; z < s; ++z)
                 for (int y = 0; y < s; ++y)
                     for (int x = 0; x < s; ++x) {
-                        mean += fine->indexToWorld(openvdb::Coord(s * I.x() + x, s * I.y() + y,
-                                                                  s * I.z() + z));
+                        mean += fine->indexToWorld(
+                            openvdb::Coord(s * I.x() + x, s * I.y() + y, s * I.z() + z));
                     }
             mean /= double(s * s * s);
             const auto centre = coarse->indexToWorld(I);
@@ -212,10 +211,10 @@ TEST_F(PyramidTest, MaxLevelKeepsTwoVoxelsAcross)
     using openvdb::CoordBBox;
     EXPECT_EQ(maxPyramidLevel(CoordBBox()), -1);
     EXPECT_EQ(maxPyramidLevel(CoordBBox(Coord(0), Coord(0))), -1);
-    EXPECT_EQ(maxPyramidLevel(CoordBBox(Coord(0), Coord(2, 0, 0))), 0);   // 3 across
-    EXPECT_EQ(maxPyramidLevel(CoordBBox(Coord(-2), Coord(1, 0, 0))), 1);  // 4 across
-    EXPECT_EQ(maxPyramidLevel(CoordBBox(Coord(0), Coord(0, 22, 3))), 3);  // 23: 16 <= 23 < 32
-    EXPECT_EQ(maxPyramidLevel(CoordBBox(Coord(0), Coord(31, 0, 0))), 4);  // 32
+    EXPECT_EQ(maxPyramidLevel(CoordBBox(Coord(0), Coord(2, 0, 0))), 0);  // 3 across
+    EXPECT_EQ(maxPyramidLevel(CoordBBox(Coord(-2), Coord(1, 0, 0))), 1); // 4 across
+    EXPECT_EQ(maxPyramidLevel(CoordBBox(Coord(0), Coord(0, 22, 3))), 3); // 23: 16 <= 23 < 32
+    EXPECT_EQ(maxPyramidLevel(CoordBBox(Coord(0), Coord(31, 0, 0))), 4); // 32
 }
 
 namespace {
@@ -239,8 +238,7 @@ GridSet sceneWith(openvdb::FloatGrid::Ptr density, const openvdb::Vec3d& star)
 }
 
 /// A 64^3 density over index -32 .. 31 filled by f(i, j, k) (zero stays inactive).
-template <typename F>
-openvdb::FloatGrid::Ptr sphereGrid(double h, F f)
+template <typename F> openvdb::FloatGrid::Ptr sphereGrid(double h, F f)
 {
     auto g = openvdb::FloatGrid::create(0.0f);
     g->setName("density");
@@ -268,10 +266,9 @@ openvdb::FloatGrid::Ptr sphereGrid(double h, F f)
 // (within one coarse voxel of optical depth).
 TEST_F(PyramidTest, RecomputedTauOfUniformSphereMatchesClosedForm)
 {
-    const double h = 0.1, R = 28.0, n0 = 1000.0;  // R in fine voxels
-    const auto density = sphereGrid(h, [&](int i, int j, int k) {
-        return i * i + j * j + k * k <= R * R ? n0 : 0.0;
-    });
+    const double h = 0.1, R = 28.0, n0 = 1000.0; // R in fine voxels
+    const auto density = sphereGrid(
+        h, [&](int i, int j, int k) { return i * i + j * j + k * k <= R * R ? n0 : 0.0; });
     const auto star = density->indexToWorld(openvdb::Vec3d(0.0));
     auto grids = sceneWith(density, star);
     const nebula::Run run;
@@ -288,7 +285,7 @@ TEST_F(PyramidTest, RecomputedTauOfUniformSphereMatchesClosedForm)
         const double inside = R - std::sqrt(3.0) * (1.5 * (1 << level) - 0.5);
         int nInside = 0, nOutside = 0;
         for (auto it = tau->cbeginValueOn(); it; ++it) {
-            const double r = (tau->indexToWorld(it.getCoord()) - star).length();  // [pc]
+            const double r = (tau->indexToWorld(it.getCoord()) - star).length(); // [pc]
             if (r <= inside * h) {
                 EXPECT_NEAR(*it, KAPPA * n0 * r, 1e-5 * KAPPA * n0 * R * h)
                     << "level " << level << " " << it.getCoord();
@@ -350,8 +347,8 @@ TEST_F(PyramidTest, AverageAgreesWithRecomputeForSmoothField)
             const auto fineIndex = it.getCoord().asVec3d() * H + openvdb::Vec3d(0.5 * (H - 1));
             if ((fineIndex - starIndex).length() < 2 * H) continue;
             if (fineIndex.length() > R - 2 * H) continue;
-            const double dT = std::exp(-double(avgAcc.getValue(it.getCoord()))) -
-                              std::exp(-double(*it));
+            const double dT =
+                std::exp(-double(avgAcc.getValue(it.getCoord()))) - std::exp(-double(*it));
             worst = std::max(worst, std::fabs(dT));
             ++compared;
         }
@@ -373,7 +370,7 @@ TEST_F(PyramidTest, BadInput)
     auto grids = sceneWith(cube(), openvdb::Vec3d(0.0));
     opts.levels = 0;
     EXPECT_THROW(buildPyramid(grids, opts, run), UsageError);
-    opts.levels = 3;  // 8 voxels across: at most 2 levels
+    opts.levels = 3; // 8 voxels across: at most 2 levels
     EXPECT_TRUE(test::contains(test::errorMessage([&] { buildPyramid(grids, opts, run); }),
                                "at most --levels 2"));
     EXPECT_THROW(buildPyramid(grids, opts, run), UsageError);
@@ -385,9 +382,8 @@ TEST_F(PyramidTest, BadInput)
     noStars.source = "nostars.vdb";
     noStars.grids.push_back(cube());
     opts.tau = TauMethod::Recompute;
-    EXPECT_TRUE(test::contains(
-        test::errorMessage([&] { buildPyramid(noStars, opts, run); }),
-        "nostars.vdb: no stars"));
+    EXPECT_TRUE(test::contains(test::errorMessage([&] { buildPyramid(noStars, opts, run); }),
+                               "nostars.vdb: no stars"));
     // Nothing was added by the failures.
     EXPECT_EQ(grids.grids.size(), 1u);
     EXPECT_EQ(noStars.grids.size(), 1u);

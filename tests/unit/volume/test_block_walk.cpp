@@ -26,8 +26,7 @@ constexpr int B = OCCUPANCY_BLOCK;
 
 /// A 2-channel volume with non-negative random values in a random subset of its lattice
 /// points (the rest zero), so that some blocks are empty.
-DenseVolume randomVolume(std::array<int, 3> lo, std::array<int, 3> dims, double fill,
-                         unsigned seed)
+DenseVolume randomVolume(std::array<int, 3> lo, std::array<int, 3> dims, double fill, unsigned seed)
 {
     DenseVolume v(lo, dims, 2);
     std::mt19937_64 rng(seed);
@@ -44,7 +43,8 @@ DenseVolume randomVolume(std::array<int, 3> lo, std::array<int, 3> dims, double 
 /// points b B .. b B + B (clipped to the lattice).
 std::vector<std::array<float, 2>> bruteMaxima(const DenseVolume& v, std::array<int, 3>& blocks)
 {
-    for (int a = 0; a < 3; ++a) blocks[a] = (v.dims()[a] + B - 1) / B;
+    for (int a = 0; a < 3; ++a)
+        blocks[a] = (v.dims()[a] + B - 1) / B;
     std::vector<std::array<float, 2>> m(std::size_t(blocks[0]) * blocks[1] * blocks[2],
                                         {0.0f, 0.0f});
     const auto& lo = v.lo();
@@ -80,8 +80,8 @@ Affine scaledRotated(double s, double angle, const Vec3& t)
     const double c = std::cos(angle), sn = std::sin(angle), k = 1.0 / std::sqrt(3.0);
     const double x = k, y = k, z = k, C = 1 - c;
     Affine a;
-    a.m = {s * (c + x * x * C),     s * (x * y * C - z * sn), s * (x * z * C + y * sn),
-           s * (y * x * C + z * sn), s * (c + y * y * C),     s * (y * z * C - x * sn),
+    a.m = {s * (c + x * x * C),      s * (x * y * C - z * sn), s * (x * z * C + y * sn),
+           s * (y * x * C + z * sn), s * (c + y * y * C),      s * (y * z * C - x * sn),
            s * (z * x * C - y * sn), s * (z * y * C + x * sn), s * (c + z * z * C)};
     a.t = t;
     return a;
@@ -99,9 +99,9 @@ TEST(BlockMaxima, MaxOfCornerValuesPerBlock)
     // Block counts that divide the lattice evenly and not, dims - 1 a multiple of B (a last
     // block of corner points only), one block, sparse and dense.
     const Case cases[] = {
-        {{0, 0, 0}, {19, 12, 26}, 0.02},  {{-5, 7, 100}, {17, 9, 8}, 0.05},
-        {{3, -4, -9}, {8, 8, 8}, 0.3},    {{0, 0, 0}, {33, 5, 16}, 0.005},
-        {{1, 1, 1}, {2, 2, 2}, 1.0},      {{0, 0, 0}, {24, 24, 24}, 0.0005},
+        {{0, 0, 0}, {19, 12, 26}, 0.02}, {{-5, 7, 100}, {17, 9, 8}, 0.05},
+        {{3, -4, -9}, {8, 8, 8}, 0.3},   {{0, 0, 0}, {33, 5, 16}, 0.005},
+        {{1, 1, 1}, {2, 2, 2}, 1.0},     {{0, 0, 0}, {24, 24, 24}, 0.0005},
     };
     unsigned seed = 10;
     for (const Case& c : cases) {
@@ -144,11 +144,11 @@ TEST(VoxelSize, CubeRootOfTheDeterminant)
     Affine a;
     EXPECT_DOUBLE_EQ(nebula::voxelSize(a), 1.0);
     a.m = {0.25, 0, 0, 0, 0.25, 0, 0, 0, 0.25};
-    a.t = Vec3(100, -3, 7);  // the translation does not matter
+    a.t = Vec3(100, -3, 7); // the translation does not matter
     EXPECT_DOUBLE_EQ(nebula::voxelSize(a), 0.25);
-    a.m = {0.1, 0, 0, 0, 0.2, 0, 0, 0, 0.4};  // anisotropic: cbrt(0.008) = 0.2
+    a.m = {0.1, 0, 0, 0, 0.2, 0, 0, 0, 0.4}; // anisotropic: cbrt(0.008) = 0.2
     EXPECT_NEAR(nebula::voxelSize(a), 0.2, 1e-15);
-    a.m = {-0.5, 0, 0, 0, 0.5, 0, 0, 0, 0.5};  // mirrored: negative determinant
+    a.m = {-0.5, 0, 0, 0, 0.5, 0, 0, 0, 0.5}; // mirrored: negative determinant
     EXPECT_NEAR(nebula::voxelSize(a), 0.5, 1e-15);
     // Rotation does not change the volume of a voxel.
     for (double angle : {0.1, 0.7, 2.0, -1.3}) {
@@ -195,7 +195,8 @@ double occupiedChord(const nebula::Marcher& m, const Vec3& dW, int& exits, doubl
         const Vec3 p = m.eyeI + dI * (0.5 * (a + b));
         bool occ = false;
         bool inside = true;
-        for (int k = 0; k < 3; ++k) inside = inside && p[k] >= m.boxLo[k] && p[k] <= m.boxHi[k];
+        for (int k = 0; k < 3; ++k)
+            inside = inside && p[k] >= m.boxLo[k] && p[k] <= m.boxHi[k];
         if (inside) {
             const int bi = int(std::floor(p.x - m.boxLo.x)) / B,
                       bj = int(std::floor(p.y - m.boxLo.y)) / B,
@@ -245,7 +246,7 @@ TEST(Marcher, StepsCoverExactlyTheOccupiedBlocks)
     ASSERT_LT(std::count(occ.begin(), occ.end(), 1), long(occ.size()));
 
     const Vec3 centre = v.indexToWorld.apply(Vec3(-4 + 18, 2 + 14, 7 + 22));
-    std::vector<std::pair<Vec3, Vec3>> rays;  // eye, unit world direction
+    std::vector<std::pair<Vec3, Vec3>> rays; // eye, unit world direction
     std::normal_distribution<double> g(0.0, 1.0);
     for (int n = 0; n < 300; ++n) {
         const Vec3 d = Vec3(g(rng), g(rng), g(rng)).normalized();
@@ -253,7 +254,8 @@ TEST(Marcher, StepsCoverExactlyTheOccupiedBlocks)
         const Vec3 jitter(g(rng), g(rng), g(rng));
         rays.push_back({centre - d * 20.0 + jitter, d});
         // Inside the box.
-        const Vec3 inside = v.indexToWorld.apply(Vec3(-4 + u(rng) * 36, 2 + u(rng) * 28, 7 + u(rng) * 44));
+        const Vec3 inside =
+            v.indexToWorld.apply(Vec3(-4 + u(rng) * 36, 2 + u(rng) * 28, 7 + u(rng) * 44));
         rays.push_back({inside, d});
     }
     // Along the world axes (index direction not axis-aligned) and along index axes (world
@@ -279,7 +281,7 @@ TEST(Marcher, StepsCoverExactlyTheOccupiedBlocks)
             double tFirst = 0.0;
             const double chord = occupiedChord(m, dW, exits, tFirst);
             const Vec3 dI = m.w2i.applyLinear(dW);
-            const double dt = stepVoxels / dI.length();  // a full step [world]
+            const double dt = stepVoxels / dI.length(); // a full step [world]
             double total = 0.0;
             for (std::size_t s = 0; s < steps.size(); ++s) {
                 const Step& st = steps[s];
@@ -324,7 +326,7 @@ TEST(Marcher, StepsCoverExactlyTheOccupiedBlocks)
                 const Vec3 p = m.eyeI + dI * t;
                 bool nearFace = false;
                 for (int k = 0; k < 3; ++k) {
-                    if (p[k] < m.boxLo[k] || p[k] > m.boxHi[k]) nearFace = true;  // outside
+                    if (p[k] < m.boxLo[k] || p[k] > m.boxHi[k]) nearFace = true; // outside
                     const double r = std::fmod(p[k] - m.boxLo[k], double(B));
                     const double margin = 0.5 * stepVoxels + 1e-6;
                     if (r < margin || r > B - margin) nearFace = true;
@@ -337,7 +339,7 @@ TEST(Marcher, StepsCoverExactlyTheOccupiedBlocks)
             }
         }
     }
-    EXPECT_GT(met, 100);  // most rays cross an occupied block
+    EXPECT_GT(met, 100); // most rays cross an occupied block
 }
 
 TEST(Marcher, FullyOccupiedBoxIsTheClippedChord)
@@ -345,7 +347,8 @@ TEST(Marcher, FullyOccupiedBoxIsTheClippedChord)
     // Every block occupied: the steps cover the whole segment of the ray in the box, exactly,
     // in full steps but the last.
     DenseVolume v({0, 0, 0}, {17, 17, 17}, 2);
-    for (std::size_t i = 0; i < v.voxelCount(); ++i) v.voxel(i)[1] = 1.0f;
+    for (std::size_t i = 0; i < v.voxelCount(); ++i)
+        v.voxel(i)[1] = 1.0f;
     v.indexToWorld.m = {0.5, 0, 0, 0, 0.5, 0, 0, 0, 0.5};
     std::array<int, 3> blocks{};
     const auto occ = occupancy(v, blocks);
@@ -373,7 +376,8 @@ TEST(Marcher, FullyOccupiedBoxIsTheClippedChord)
 TEST(Marcher, MissStopAndEmptyVolume)
 {
     DenseVolume v({0, 0, 0}, {17, 17, 17}, 2);
-    for (std::size_t i = 0; i < v.voxelCount(); ++i) v.voxel(i)[0] = 1.0f;
+    for (std::size_t i = 0; i < v.voxelCount(); ++i)
+        v.voxel(i)[0] = 1.0f;
     std::array<int, 3> blocks{};
     const auto occ = occupancy(v, blocks);
     int calls = 0;

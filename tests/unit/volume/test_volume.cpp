@@ -24,11 +24,12 @@ Affine randomAffine(std::mt19937_64& rng)
     std::uniform_real_distribution<double> u(-2.0, 2.0);
     Affine a;
     for (;;) {
-        for (auto& m : a.m) m = u(rng);
+        for (auto& m : a.m)
+            m = u(rng);
         const auto& m = a.m;
         const double det = m[0] * (m[4] * m[8] - m[5] * m[7]) - m[1] * (m[3] * m[8] - m[5] * m[6]) +
                            m[2] * (m[3] * m[7] - m[4] * m[6]);
-        if (std::abs(det) > 0.2) break;  // well conditioned
+        if (std::abs(det) > 0.2) break; // well conditioned
     }
     a.t = Vec3(u(rng) * 5, u(rng) * 5, u(rng) * 5);
     return a;
@@ -89,9 +90,9 @@ TEST(Vec3, CrossIsRightHandedAndPerpendicular)
 TEST(Affine, ApplyIsMatrixTimesPointPlusTranslation)
 {
     Affine a;
-    a.m = {1, 2, 3, 4, 5, 6, 7, 8, 10};  // row-major
+    a.m = {1, 2, 3, 4, 5, 6, 7, 8, 10}; // row-major
     a.t = Vec3(-1, 0.5, 2);
-    expectNear(a.applyLinear(Vec3(1, 0, 0)), Vec3(1, 4, 7), 0.0);  // first column
+    expectNear(a.applyLinear(Vec3(1, 0, 0)), Vec3(1, 4, 7), 0.0); // first column
     expectNear(a.applyLinear(Vec3(0, 0, 1)), Vec3(3, 6, 10), 0.0);
     expectNear(a.apply(Vec3(1, 1, 1)), Vec3(6 - 1, 15 + 0.5, 25 + 2), 0.0);
     // The default is the identity.
@@ -149,7 +150,8 @@ TEST(DenseVolume, LatticeIndexingAndChannels)
     EXPECT_EQ(v.voxelCount(), 120u);
     EXPECT_EQ(v.channels(), 3);
     EXPECT_EQ(v.data().size(), 360u);
-    for (float f : v.data()) EXPECT_EQ(f, 0.0f);  // zero-initialised
+    for (float f : v.data())
+        EXPECT_EQ(f, 0.0f); // zero-initialised
     // x fastest, then y, then z, in absolute index coordinates.
     EXPECT_EQ(v.index(-2, 3, 10), 0u);
     EXPECT_EQ(v.index(-1, 3, 10), 1u);
@@ -220,7 +222,8 @@ TEST(DenseVolume, TrilinearSampleIsExactForMultilinearFields)
 TEST(DenseVolume, ZeroOutsideTheLattice)
 {
     DenseVolume v({0, 0, 0}, {4, 4, 4}, 3);
-    for (float& f : v.data()) f = 5.0f;
+    for (float& f : v.data())
+        f = 5.0f;
     for (const Vec3& p : {Vec3(-0.5, 1, 1), Vec3(1, -1e-9, 1), Vec3(1, 1, 3.5), Vec3(4, 1, 1),
                           Vec3(100, 100, 100), Vec3(-1e9, 0, 0)}) {
         float out[3] = {1, 1, 1};
@@ -242,16 +245,19 @@ TEST(DenseVolume, SampleZeroWithManyChannels)
     // More than 16 channels takes sample0()'s other path; same answer.
     DenseVolume v({0, 0, 0}, {3, 3, 3}, 20);
     for (std::size_t i = 0; i < v.voxelCount(); ++i) {
-        for (int c = 0; c < 20; ++c) v.voxel(i)[c] = float(i) + 100.0f * float(c);
+        for (int c = 0; c < 20; ++c)
+            v.voxel(i)[c] = float(i) + 100.0f * float(c);
     }
     const Vec3 p(0.25, 1.5, 0.75);
     std::vector<float> all(20);
     v.sample(p, all.data());
     EXPECT_EQ(v.sample0(p), all[0]);
-    for (int c = 1; c < 20; ++c) EXPECT_NEAR(all[std::size_t(c)], all[0] + 100.0f * c, 1e-3);
+    for (int c = 1; c < 20; ++c)
+        EXPECT_NEAR(all[std::size_t(c)], all[0] + 100.0f * c, 1e-3);
     float some[3];
     v.sampleChannels(p, 17, 3, some);
-    for (int c = 0; c < 3; ++c) EXPECT_EQ(some[c], all[std::size_t(17 + c)]);
+    for (int c = 0; c < 3; ++c)
+        EXPECT_EQ(some[c], all[std::size_t(17 + c)]);
 }
 
 } // namespace

@@ -20,11 +20,11 @@ namespace nebula {
 /// Options every tool understands; each tool picks the ones it needs via CommonFlags.
 struct CommonOptions
 {
-    std::string input;                 ///< input VDB, "-" = stdin
-    std::string output;                ///< output file, "-" = stdout
-    bool onlyNew = false;              ///< write only this tool's own grids
+    std::string input;    ///< input VDB, "-" = stdin
+    std::string output;   ///< output file, "-" = stdout
+    bool onlyNew = false; ///< write only this tool's own grids
     std::string densityGrid = "density";
-    int threads = 0;                   ///< 0 = all cores
+    int threads = 0; ///< 0 = all cores
     bool quiet = false;
     int verbose = 0;
 };
@@ -32,10 +32,10 @@ struct CommonOptions
 namespace cli {
 
 enum CommonFlags : unsigned {
-    INPUT = 1u << 0,         ///< -i/--input (required)
-    OUTPUT = 1u << 1,        ///< -o/--output (required)
-    PASS_THROUGH = 1u << 2,  ///< --only-new
-    DENSITY_GRID = 1u << 3,  ///< --density-grid
+    INPUT = 1u << 0,        ///< -i/--input (required)
+    OUTPUT = 1u << 1,       ///< -o/--output (required)
+    PASS_THROUGH = 1u << 2, ///< --only-new
+    DENSITY_GRID = 1u << 3, ///< --density-grid
 };
 
 /// Adds the common options selected by @p flags, plus --threads, -q, -v, --version and

@@ -16,8 +16,8 @@ namespace nebula {
 /// Stars given on the command line.
 struct StarOptions
 {
-    std::vector<std::string> star;  ///< "NAME:X,Y,Z:LUMINOSITY:CLASS_OR_KELVIN"
-    std::string starsFile;          ///< JSON file in the nebula:stars format
+    std::vector<std::string> star; ///< "NAME:X,Y,Z:LUMINOSITY:CLASS_OR_KELVIN"
+    std::string starsFile;         ///< JSON file in the nebula:stars format
 };
 
 /// Dust parameters given on the command line; unset ones keep the file's (or the defaults).
@@ -41,7 +41,8 @@ std::vector<Star> loadStars(const StarOptions& opts);
 /// Parses one --star value.
 Star parseStarOption(const std::string& text);
 
-/// --kappa-v, --albedo, --g, --phase-function, --rv, --extinction-curve. @p withKappa false leaves out --kappa-v.
+/// --kappa-v, --albedo, --g, --phase-function, --rv, --extinction-curve. @p withKappa false leaves
+/// out --kappa-v.
 void addDust(CLI::App& app, DustOptions& opts, bool withKappa = true);
 
 } // namespace cli

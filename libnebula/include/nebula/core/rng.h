@@ -32,9 +32,9 @@ inline double unitDoubleFromBits(uint64_t bits)
 class Pcg32
 {
 public:
-    static constexpr uint64_t MULTIPLIER = 6364136223846793005ULL;  ///< 0x5851f42d4c957f2d
-    static constexpr uint64_t DEFAULT_STATE = 0x853c49e6748fea9bULL;   ///< PCG32_INITIALIZER
-    static constexpr uint64_t DEFAULT_STREAM = 0xda3e39cb94b95bdbULL;  ///< PCG32_INITIALIZER
+    static constexpr uint64_t MULTIPLIER = 6364136223846793005ULL;    ///< 0x5851f42d4c957f2d
+    static constexpr uint64_t DEFAULT_STATE = 0x853c49e6748fea9bULL;  ///< PCG32_INITIALIZER
+    static constexpr uint64_t DEFAULT_STREAM = 0xda3e39cb94b95bdbULL; ///< PCG32_INITIALIZER
 
     /// The reference implementation's default generator (PCG32_INITIALIZER).
     Pcg32() : mState(DEFAULT_STATE), mInc(DEFAULT_STREAM) {}
@@ -47,7 +47,7 @@ public:
     void setSequence(uint64_t sequenceIndex, uint64_t seed)
     {
         mState = 0u;
-        mInc = (sequenceIndex << 1u) | 1u;  // the increment must be odd
+        mInc = (sequenceIndex << 1u) | 1u; // the increment must be odd
         uniformUInt32();
         mState += seed;
         uniformUInt32();
@@ -77,8 +77,8 @@ public:
     }
 
 private:
-    uint64_t mState;  ///< LCG state
-    uint64_t mInc;    ///< stream increment (odd)
+    uint64_t mState; ///< LCG state
+    uint64_t mInc;   ///< stream increment (odd)
 };
 
 } // namespace nebula

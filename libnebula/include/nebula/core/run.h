@@ -15,8 +15,8 @@ namespace nebula {
 /// How much a run says on stderr.
 struct Verbosity
 {
-    bool quiet = false;  ///< no progress bar, no warnings
-    int verbose = 0;     ///< > 0: a line per stage (Run::info)
+    bool quiet = false; ///< no progress bar, no warnings
+    int verbose = 0;    ///< > 0: a line per stage (Run::info)
 };
 
 /// A tool's identity and its stderr reporting. A default-constructed Run is silent (library
@@ -54,8 +54,7 @@ public:
     Progress(const Run* run, std::string label, std::uint64_t total);
     Progress(const Run& run, std::string label, std::uint64_t total)
         : Progress(&run, std::move(label), total)
-    {
-    }
+    {}
     ~Progress();
     Progress(const Progress&) = delete;
     Progress& operator=(const Progress&) = delete;

@@ -11,17 +11,17 @@ inline constexpr double PI = 3.14159265358979323846;
 inline constexpr double INV_FOUR_PI = 1.0 / (4.0 * PI);
 
 // Physical constants: CODATA 2018, exact in the 2019 SI.
-inline constexpr double PLANCK_H = 6.62607015e-34;     ///< Planck constant h [J s]
-inline constexpr double SPEED_OF_LIGHT = 299792458.0;  ///< speed of light c [m/s]
-inline constexpr double BOLTZMANN_K = 1.380649e-23;    ///< Boltzmann constant k [J/K]
-inline constexpr double SPEED_OF_LIGHT_KMS = 299792.458;  ///< c [km/s]
-inline constexpr double SPEED_OF_LIGHT_CGS = 2.99792458e10;  ///< c [cm/s]
+inline constexpr double PLANCK_H = 6.62607015e-34;          ///< Planck constant h [J s]
+inline constexpr double SPEED_OF_LIGHT = 299792458.0;       ///< speed of light c [m/s]
+inline constexpr double BOLTZMANN_K = 1.380649e-23;         ///< Boltzmann constant k [J/K]
+inline constexpr double SPEED_OF_LIGHT_KMS = 299792.458;    ///< c [km/s]
+inline constexpr double SPEED_OF_LIGHT_CGS = 2.99792458e10; ///< c [cm/s]
 
 // Astronomical units: IAU 2015 resolutions B2 (parsec) and B3 (nominal solar luminosity).
-inline constexpr double PC_M = 3.0856775814913673e16;   ///< parsec [m]
-inline constexpr double PC_CM = 3.0856775814913673e18;  ///< parsec [cm]
-inline constexpr double L_SUN_W = 3.828e26;             ///< nominal solar luminosity [W]
-inline constexpr double L_SUN_CGS = 3.828e33;           ///< nominal solar luminosity [erg/s]
+inline constexpr double PC_M = 3.0856775814913673e16;  ///< parsec [m]
+inline constexpr double PC_CM = 3.0856775814913673e18; ///< parsec [cm]
+inline constexpr double L_SUN_W = 3.828e26;            ///< nominal solar luminosity [W]
+inline constexpr double L_SUN_CGS = 3.828e33;          ///< nominal solar luminosity [erg/s]
 
 /// W m^-2 -> L_sun pc^-2 (pc^2 / L_sun): turns a flux in SI into the renderer's units.
 inline constexpr double WM2_TO_LSUN_PC2 = PC_M * PC_M / L_SUN_W;

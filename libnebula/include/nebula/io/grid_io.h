@@ -20,7 +20,7 @@ namespace nebula {
 /// The grids of one VDB file or stream, with its file-level metadata.
 struct GridSet
 {
-    std::string source;              ///< file name, or "<stdin>", for error messages
+    std::string source; ///< file name, or "<stdin>", for error messages
     openvdb::GridPtrVec grids;
     openvdb::MetaMap meta;
 

@@ -8,19 +8,22 @@
 namespace nebula {
 
 /// File-level metadata keys (DESIGN §1-2).
-inline constexpr const char* META_TOOL = "nebula:tool";        ///< the last tool that wrote
-inline constexpr const char* META_VERSION = "nebula:version";  ///< its version
-inline constexpr const char* META_COMMAND = "nebula:command";  ///< its full command line
+inline constexpr const char* META_TOOL = "nebula:tool";       ///< the last tool that wrote
+inline constexpr const char* META_VERSION = "nebula:version"; ///< its version
+inline constexpr const char* META_COMMAND = "nebula:command"; ///< its full command line
 /// JSON array of {"tool", "version", "command"}, one entry per stage that wrote the file, in
 /// order: the whole chain that made it (nebgen's seed included).
 inline constexpr const char* META_HISTORY = "nebula:history";
-inline constexpr const char* META_STARS = "nebula:stars";  ///< JSON array of stars
-inline constexpr const char* META_DUST = "nebula:dust";    ///< JSON object of dust parameters
+inline constexpr const char* META_STARS = "nebula:stars"; ///< JSON array of stars
+inline constexpr const char* META_DUST = "nebula:dust";   ///< JSON object of dust parameters
 /// Grid metadata: the spectral lines an emission grid emits ("NAME:STRENGTH,...").
 inline constexpr const char* META_LINES = "nebula:lines";
 
 /// nebillum's optical depth grid for star @p star: "tau.<star>".
-inline std::string tauGridName(const std::string& star) { return "tau." + star; }
+inline std::string tauGridName(const std::string& star)
+{
+    return "tau." + star;
+}
 
 /// nebpyramid's level @p level of grid @p base: "<base>.L<level>".
 inline std::string levelGridName(const std::string& base, int level)

@@ -13,14 +13,14 @@ namespace nebula {
 struct ImageLayer
 {
     std::string name;
-    std::vector<float> rgb;  ///< width * height * 3, row-major, top row first
+    std::vector<float> rgb; ///< width * height * 3, row-major, top row first
 };
 
 /// A single float channel written under its own name (e.g. a spectral band "S0.550,00nm").
 struct ImageChannel
 {
     std::string name;
-    std::vector<float> values;  ///< width * height, row-major, top row first
+    std::vector<float> values; ///< width * height, row-major, top row first
 };
 
 /// A frame: premultiplied linear RGBA (A = 1 - transmittance) plus extra layers.
@@ -28,17 +28,18 @@ struct Image
 {
     int width = 0;
     int height = 0;
-    std::vector<float> rgba;          ///< width * height * 4, row-major, top row first
-    std::vector<ImageLayer> layers;   ///< e.g. "star.<name>"
-    std::vector<ImageChannel> channels;  ///< single channels, e.g. spectral bands
+    std::vector<float> rgba;            ///< width * height * 4, row-major, top row first
+    std::vector<ImageLayer> layers;     ///< e.g. "star.<name>"
+    std::vector<ImageChannel> channels; ///< single channels, e.g. spectral bands
 
     Image() = default;
     Image(int w, int h) : width(w), height(h), rgba(std::size_t(w) * h * 4, 0.0f) {}
 };
 
 /// Writes @p image as a float (32-bit) ZIP-compressed EXR: channels R,G,B,A, each layer's
-/// <name>.R/G/B and each single channel under its name. @p attributes become string header attributes (e.g. "nebula:command"),
-/// "comments" is set if present. Atomic (AtomicFile). Throws Error on failure.
+/// <name>.R/G/B and each single channel under its name. @p attributes become string header
+/// attributes (e.g. "nebula:command"), "comments" is set if present. Atomic (AtomicFile). Throws
+/// Error on failure.
 void writeExr(const std::string& path, const Image& image,
               const std::map<std::string, std::string>& attributes);
 
@@ -52,17 +53,17 @@ Image readExr(const std::string& path, std::map<std::string, std::string>* attri
 /// Tone curve from linear radiance to display values (DESIGN §8).
 struct ToneParams
 {
-    bool automatic = true;   ///< automatic per-frame exposure and gamma
-    double exposure = 0.0;   ///< manual: white point = 2^-exposure (used when !automatic)
-    double gamma = 1.0;      ///< manual: display = (L / white)^gamma before sRGB encoding
-    double percentile = 99.5;///< automatic: white point = this percentile of luminance
+    bool automatic = true;    ///< automatic per-frame exposure and gamma
+    double exposure = 0.0;    ///< manual: white point = 2^-exposure (used when !automatic)
+    double gamma = 1.0;       ///< manual: display = (L / white)^gamma before sRGB encoding
+    double percentile = 99.5; ///< automatic: white point = this percentile of luminance
 };
 
 /// The tone curve actually applied to a frame.
 struct ToneCurve
 {
-    double white = 1.0;  ///< linear radiance mapped to display 1
-    double gamma = 1.0;  ///< display = (L / white)^gamma, per channel, then sRGB encode
+    double white = 1.0; ///< linear radiance mapped to display 1
+    double gamma = 1.0; ///< display = (L / white)^gamma, per channel, then sRGB encode
 };
 
 /// Display value (linear, before sRGB encoding) that the automatic curve gives the log-mean
@@ -86,9 +87,10 @@ double srgbEncode(double linear);
 /// Writes an 8-bit RGBA sRGB PNG after applying @p curve to the premultiplied RGB (alpha
 /// written as 255: the background is black space). The curve maps the pixel's luminance
 /// Y/white to (Y/white)^gamma and scales R,G,B by the same factor, so hues are kept; a
-/// colour whose largest channel would exceed display white is scaled down as a whole. Text chunks from @p text ("Software",
-/// "Comment", ...): keys are PNG keywords (1-79 printable ASCII), non-ASCII values are written
-/// as UTF-8 iTXt. Carries an sRGB chunk. Atomic. Throws Error on failure.
+/// colour whose largest channel would exceed display white is scaled down as a whole. Text chunks
+/// from @p text ("Software", "Comment", ...): keys are PNG keywords (1-79 printable ASCII),
+/// non-ASCII values are written as UTF-8 iTXt. Carries an sRGB chunk. Atomic. Throws Error on
+/// failure.
 void writePng(const std::string& path, const Image& image, const ToneCurve& curve,
               const std::map<std::string, std::string>& text);
 

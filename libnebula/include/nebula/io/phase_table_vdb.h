@@ -1,8 +1,9 @@
 #pragma once
 /// @file phase_table_vdb.h
 /// The phase table as grids (DESIGN §2, §4): `phase` (Phi), `phase.error` (its standard
-/// error) and `phase.single` (its single-scattering part), FloatGrids in index space (identity transform) with voxel (i, j, 0) = mu bin i,
-/// t row j. The axes, the medium and the Monte Carlo settings are metadata of `phase`.
+/// error) and `phase.single` (its single-scattering part), FloatGrids in index space (identity
+/// transform) with voxel (i, j, 0) = mu bin i, t row j. The axes, the medium and the Monte Carlo
+/// settings are metadata of `phase`.
 
 #include "nebula/io/grid_io.h"
 #include "nebula/physics/phase_table.h"

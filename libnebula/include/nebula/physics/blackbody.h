@@ -23,8 +23,8 @@ double planckPerNm(double lambda_nm, double T);
 /// (lambda_nm > 0, T > 0). The same law, with the constants folded: C1 = 2 h c^2, C2 = h c/k.
 inline double planckPerNmUnchecked(double lambda_nm, double T)
 {
-    constexpr double C1 = 2.0 * PLANCK_H * SPEED_OF_LIGHT * SPEED_OF_LIGHT;  // 2 h c^2
-    constexpr double C2 = PLANCK_H * SPEED_OF_LIGHT / BOLTZMANN_K;           // h c / k [m K]
+    constexpr double C1 = 2.0 * PLANCK_H * SPEED_OF_LIGHT * SPEED_OF_LIGHT; // 2 h c^2
+    constexpr double C2 = PLANCK_H * SPEED_OF_LIGHT / BOLTZMANN_K;          // h c / k [m K]
     const double l = lambda_nm * 1e-9;
     const double l2 = l * l;
     return C1 / (l2 * l2 * l) / std::expm1(C2 / (l * T)) * 1e-9;

@@ -82,7 +82,7 @@ double extinctionRatio(const DustParams& dust, double lambda_nm);
 struct ScatteringMedium
 {
     double albedo = 0.6;
-    double g = 0.6;  ///< Henyey-Greenstein asymmetry (used by PhaseModel::HenyeyGreenstein)
+    double g = 0.6; ///< Henyey-Greenstein asymmetry (used by PhaseModel::HenyeyGreenstein)
     PhaseModel phase = PhaseModel::HenyeyGreenstein;
 
     /// Throws UsageError unless albedo is in [0, 1] and |g| < 1.
@@ -96,11 +96,11 @@ struct ScatteringMedium
 /// renderers extend it with their channels' extinction ratios (render/scene.h ChannelDust).
 struct DustParams : ScatteringMedium
 {
-    double kappa_V = 1.5e-3;  ///< V-band extinction per n_H per length [pc^-1 cm^3]
+    double kappa_V = 1.5e-3; ///< V-band extinction per n_H per length [pc^-1 cm^3]
     /// Extinction curve: "CCM89" (Cardelli, Clayton & Mathis 1989 with R_V) or "grey"
     /// (A(lambda) = A_V at every wavelength: large grains; also for tests).
     std::string curve = "CCM89";
-    double R_V = 3.1;         ///< total-to-selective extinction A_V / E(B-V)
+    double R_V = 3.1; ///< total-to-selective extinction A_V / E(B-V)
 
     /// Throws UsageError naming the offending parameter ("dust parameter albedo ...") if any
     /// value is out of range.

@@ -16,16 +16,15 @@ namespace nebula {
 /// One emission line of an emission grid.
 struct SpectralLine
 {
-    std::string name;   ///< catalogue name ("H-alpha") or a custom wavelength ("587.56")
-    double wavelength;  ///< rest wavelength in air [nm]
-    double strength;    ///< relative energy of the line, > 0 (the grid's value times this)
+    std::string name;  ///< catalogue name ("H-alpha") or a custom wavelength ("587.56")
+    double wavelength; ///< rest wavelength in air [nm]
+    double strength;   ///< relative energy of the line, > 0 (the grid's value times this)
 
     bool operator==(const SpectralLine& o) const
     {
         return name == o.name && wavelength == o.wavelength && strength == o.strength;
     }
 };
-
 
 /// The lines of nebgen's `emission` grid: H-alpha and H-beta in the Case B Balmer ratio
 /// H-alpha/H-beta = 2.86 (T = 10^4 K, n_e = 10^2 cm^-3; Osterbrock & Ferland 2006): 1/2.86 = 0.35.
@@ -61,7 +60,10 @@ std::string lineListToString(const std::vector<SpectralLine>& lines);
 
 /// Observed over emitted wavelength for radial velocity @p vr [km/s], v_r > 0 receding
 /// (DESIGN §7, first order in v/c): lambda' / lambda = 1 + v_r / c.
-inline double dopplerFactor(double vr) { return 1.0 + vr / SPEED_OF_LIGHT_KMS; }
+inline double dopplerFactor(double vr)
+{
+    return 1.0 + vr / SPEED_OF_LIGHT_KMS;
+}
 
 /// The relativistic Doppler factor (DESIGN §7's option) for radial velocity @p vr [km/s]
 /// and squared speed @p v2 [km^2/s^2]: lambda' / lambda = gamma (1 + v_r / c), gamma =
@@ -77,7 +79,7 @@ inline double relativisticDopplerFactor(double vr, double v2)
 struct LineTrapezoid
 {
     double x[4];
-    double height;  ///< [energy / nm]
+    double height; ///< [energy / nm]
 
     /// Value at @p lambda [nm] (0 outside [x[0], x[3]]).
     double at(double lambda) const;
@@ -93,8 +95,7 @@ struct LineTrapezoid
 /// when vA == vB). Its integral is @p energy and its centroid lambda0 (1 + (vA + vB) / 2c),
 /// both exactly (to rounding): Doppler broadening moves energy, never makes or loses it.
 /// Works for either order of vA and vB.
-LineTrapezoid lineTrapezoid(double lambda0, double vA, double vB, double halfWidth,
-                            double energy);
+LineTrapezoid lineTrapezoid(double lambda0, double vA, double vB, double halfWidth, double energy);
 
 /// The same with the Doppler factors lambda'/lambda at the segment's ends given, @p dA and
 /// @p dB > 0 (e.g. relativisticDopplerFactor()).

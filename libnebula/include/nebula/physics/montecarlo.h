@@ -22,7 +22,6 @@
 
 namespace nebula {
 
-
 /// How scattered light is counted.
 enum class McEstimator {
     /// MCML: free paths -ln(u), weight times the albedo at each interaction, the exit
@@ -46,7 +45,7 @@ struct McSettings
 {
     std::uint64_t photons = 100000;
     std::uint64_t seed = 1;
-    int muBins = 40;  ///< equal-cos bins of mu_z over [-1, 1]; even, so mu = 0 is an edge
+    int muBins = 40; ///< equal-cos bins of mu_z over [-1, 1]; even, so mu = 0 is an edge
     McEstimator estimator = McEstimator::NextEvent;
     /// Russian roulette below this fraction of the weight at the first interaction: the
     /// packet survives with probability w / w_r and then carries w_r (unbiased).
@@ -77,11 +76,11 @@ struct McTally
     /// roulette (net weight roulette created; zero in expectation), balance (the photon's
     /// direct + reflected + transmitted + absorbed - roulette).
     enum Total { DIRECT, REFLECTED, TRANSMITTED, ABSORBED, ROULETTE, BALANCE, TOTALS };
-    std::vector<double> sum, sumSq;          ///< TOTALS entries
-    std::vector<double> binSum, binSumSq;    ///< per mu bin: power fraction
-    std::vector<double> singleSum, singleSumSq;  ///< per mu bin: of it, scattered exactly once
-    std::vector<double> pointSum, pointSumSq;  ///< per mu point: dF/dOmega
-    std::uint64_t events = 0;                ///< interactions simulated
+    std::vector<double> sum, sumSq;             ///< TOTALS entries
+    std::vector<double> binSum, binSumSq;       ///< per mu bin: power fraction
+    std::vector<double> singleSum, singleSumSq; ///< per mu bin: of it, scattered exactly once
+    std::vector<double> pointSum, pointSumSq;   ///< per mu point: dF/dOmega
+    std::uint64_t events = 0;                   ///< interactions simulated
 
     McTally() = default;
     McTally(int muBins, std::size_t muPoints);
@@ -94,16 +93,16 @@ struct McResult
 {
     std::uint64_t photons = 0;
     std::uint64_t events = 0;
-    Estimate direct;       ///< unscattered transmission
-    Estimate reflected;    ///< diffuse (scattered) power leaving with mu_z < 0
-    Estimate transmitted;  ///< diffuse (scattered) power leaving with mu_z > 0
+    Estimate direct;      ///< unscattered transmission
+    Estimate reflected;   ///< diffuse (scattered) power leaving with mu_z < 0
+    Estimate transmitted; ///< diffuse (scattered) power leaving with mu_z > 0
     Estimate absorbed;
     Estimate roulette;
-    Estimate balance;      ///< direct + reflected + transmitted + absorbed - roulette
-    std::vector<double> muEdges;         ///< muBins + 1 bin edges, -1 .. 1
-    std::vector<Estimate> perSteradian;  ///< per bin: scattered power per sr, dF/dOmega
-    std::vector<Estimate> singlePerSteradian;  ///< the part scattered exactly once
-    std::vector<Estimate> points;        ///< per McSettings::muPoints: dF/dOmega
+    Estimate balance;                   ///< direct + reflected + transmitted + absorbed - roulette
+    std::vector<double> muEdges;        ///< muBins + 1 bin edges, -1 .. 1
+    std::vector<Estimate> perSteradian; ///< per bin: scattered power per sr, dF/dOmega
+    std::vector<Estimate> singlePerSteradian; ///< the part scattered exactly once
+    std::vector<Estimate> points;             ///< per McSettings::muPoints: dF/dOmega
 };
 
 /// Turns sums into means and standard errors.
@@ -122,8 +121,7 @@ McTally simulateSlab(const ScatteringMedium& medium, double tau, double mu0,
 /// Cube of optical edge @p t (DESIGN §4): photons enter the z = 0 face uniformly over it,
 /// travelling along +z; mu_z is then the cosine between exit and entry directions.
 McTally simulateCube(const ScatteringMedium& medium, double t, const McSettings& settings,
-                     std::uint64_t first, std::uint64_t count,
-                     const McProgress& progress = {});
+                     std::uint64_t first, std::uint64_t count, const McProgress& progress = {});
 
 /// Convenience: the whole run of settings.photons photons, summarized.
 McResult runSlab(const ScatteringMedium& medium, double tau, double mu0,

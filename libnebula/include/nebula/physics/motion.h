@@ -20,17 +20,17 @@ struct MotionParams
     /// v = rotation * (axis x (x - centre)) / radius, speed `rotation` at distance `radius`
     /// from the axis. Right-handed: positive turns counter-clockwise seen from +axis.
     double rotation = 0.0;
-    std::array<double, 3> axis{0, 1, 0};  ///< rotation axis (any length > 0; normalised)
+    std::array<double, 3> axis{0, 1, 0}; ///< rotation axis (any length > 0; normalised)
     /// RMS speed [km/s] of a divergence-free turbulent field: curl noise (Bridson et al.
     /// 2007) of a potential made of three decorrelated Perlin fBm fields, 4 octaves,
     /// lacunarity 2, gain 2^(-4/3) (so the velocity's octaves fall as 2^(-1/3), the
     /// Kolmogorov scaling of velocity with scale, v_l ~ l^(1/3)), scaled so that its RMS
     /// over the cube is `turbulence`. Must be >= 0.
     double turbulence = 0.0;
-    double turbulenceFrequency = 2.0;  ///< base features of the turbulence across the cube, > 0
-    std::array<double, 3> centre{0, 0, 0};  ///< [pc] (nebgen: the first star by default)
-    double radius = 1.0;                    ///< reference distance of the speeds above [pc], > 0
-    std::uint64_t seed = 1;                 ///< turbulence seed
+    double turbulenceFrequency = 2.0;      ///< base features of the turbulence across the cube, > 0
+    std::array<double, 3> centre{0, 0, 0}; ///< [pc] (nebgen: the first star by default)
+    double radius = 1.0;                   ///< reference distance of the speeds above [pc], > 0
+    std::uint64_t seed = 1;                ///< turbulence seed
 
     /// Throws UsageError naming nebgen's option if a value is not finite, the axis is zero,
     /// the radius or frequency not > 0, or the turbulence negative.
@@ -57,7 +57,7 @@ private:
     std::array<double, 3> turbulent(const std::array<double, 3>& x) const;
 
     MotionParams mParams;
-    std::array<double, 3> mAxis;  ///< unit vector
+    std::array<double, 3> mAxis; ///< unit vector
     double mCubeSize;
     double mTurbulenceScale = 0.0;
 };

@@ -16,9 +16,9 @@ double perlinNoise(double x, double y, double z);
 /// Parameters of fractal Brownian motion (sum of noise octaves).
 struct FbmParams
 {
-    int octaves = 6;          ///< number of octaves [1, 16]
-    double lacunarity = 2.0;  ///< frequency ratio between successive octaves
-    double gain = 0.5;        ///< amplitude ratio between successive octaves
+    int octaves = 6;         ///< number of octaves [1, 16]
+    double lacunarity = 2.0; ///< frequency ratio between successive octaves
+    double gain = 0.5;       ///< amplitude ratio between successive octaves
 };
 
 /// fBm: sum over octaves i of gain^i * perlinNoise(lacunarity^i * p + offset_i(seed)),

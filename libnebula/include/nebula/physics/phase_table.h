@@ -15,13 +15,13 @@ namespace nebula {
 /// What to tabulate and how accurately.
 struct PhaseTableSpec
 {
-    double tMin = 1e-4;  ///< smallest voxel optical thickness
-    double tMax = 1e3;   ///< largest
-    int tCount = 64;     ///< log-spaced t values, tMin and tMax included
-    int muBins = 128;    ///< equal-cos bins over [-1, 1]
+    double tMin = 1e-4; ///< smallest voxel optical thickness
+    double tMax = 1e3;  ///< largest
+    int tCount = 64;    ///< log-spaced t values, tMin and tMax included
+    int muBins = 128;   ///< equal-cos bins over [-1, 1]
     std::uint64_t seed = 1;
-    std::uint64_t minPhotons = 16384;    ///< photons per t at least
-    std::uint64_t maxPhotons = 4194304;  ///< photons per t at most
+    std::uint64_t minPhotons = 16384;   ///< photons per t at least
+    std::uint64_t maxPhotons = 4194304; ///< photons per t at most
     /// Photons are added (deterministically) until the relative standard error of every bin
     /// with mu > 0 is below this, for every t <= errorTMax (or maxPhotons is reached).
     double targetError = 0.01;
@@ -42,9 +42,9 @@ struct PhaseTable
     int tCount = 0, muBins = 0;
     std::uint64_t seed = 0;
     double targetError = 0.0, errorTMax = 0.0;
-    std::vector<std::uint64_t> photons;  ///< per t
-    std::vector<float> phi;    ///< [j * muBins + i]: t index j, mu bin i
-    std::vector<float> error;  ///< standard error of phi, same layout
+    std::vector<std::uint64_t> photons; ///< per t
+    std::vector<float> phi;             ///< [j * muBins + i]: t index j, mu bin i
+    std::vector<float> error;           ///< standard error of phi, same layout
     /// The part of phi scattered exactly once (same layout; empty if the table has none):
     /// the single-scattering Phi_1(t, mu), which includes the voxel's own extinction of the
     /// light on its way in and out. Phi / Phi_1 is the voxel's multiple-scattering gain.

@@ -11,10 +11,10 @@ namespace nebula {
 /// A point source. Travels as the file metadata `nebula:stars`.
 struct Star
 {
-    std::string name;                       ///< [A-Za-z0-9_-]+, used in grid names tau.<name>
-    std::array<double, 3> position{0, 0, 0};///< world position [pc]
-    double luminosity = 1.0;                ///< bolometric-free scale [L_sun], > 0
-    double temperature = 5772.0;            ///< effective temperature [K], > 0
+    std::string name;                        ///< [A-Za-z0-9_-]+, used in grid names tau.<name>
+    std::array<double, 3> position{0, 0, 0}; ///< world position [pc]
+    double luminosity = 1.0;                 ///< bolometric-free scale [L_sun], > 0
+    double temperature = 5772.0;             ///< effective temperature [K], > 0
 };
 
 /// Parses a JSON array of {"name", "position":[x,y,z], "luminosity", "temperature"} where a

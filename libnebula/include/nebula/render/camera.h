@@ -16,7 +16,7 @@ struct Camera
     Vec3 eye{4, 3, -19};
     Vec3 lookAt{0, 0, 0};
     Vec3 up{0, 1, 0};
-    double fovDeg = 36.0;   ///< horizontal field of view [degrees]
+    double fovDeg = 36.0; ///< horizontal field of view [degrees]
     int width = 512;
     int height = 512;
 
@@ -45,11 +45,14 @@ public:
 
 private:
     Vec3 mEye, mForward, mRight, mUp;
-    double mTanH;  ///< tan of half the horizontal field of view
+    double mTanH; ///< tan of half the horizontal field of view
     int mWidth, mHeight;
 };
 
-inline Vec3 toVec3(const std::array<double, 3>& a) { return Vec3(a[0], a[1], a[2]); }
+inline Vec3 toVec3(const std::array<double, 3>& a)
+{
+    return Vec3(a[0], a[1], a[2]);
+}
 
 /// Throws UsageError unless the eye differs from the look-at point and up is not parallel
 /// to the view direction.

@@ -32,46 +32,46 @@ struct SpectralOptions
     /// continuumStep apart); N > 0: N fixed bands over 360-830 nm, point-sampled at their
     /// centres (for comparison).
     int bands = 0;
-    double continuumStep = 10.0;     ///< piecewise-linear mode: continuum node spacing [nm]
+    double continuumStep = 10.0; ///< piecewise-linear mode: continuum node spacing [nm]
     /// Multiplies every velocity before the Doppler shift: the velocity grid's and the line
     /// width alike (visualisation).
     double exaggerateVelocity = 1.0;
-    double lineWidth = 10.0;         ///< half-width of a line's rest-frame box profile [km/s]
+    double lineWidth = 10.0; ///< half-width of a line's rest-frame box profile [km/s]
     /// Relativistic Doppler factor gamma (1 + v_r/c) instead of 1 + v_r/c.
     bool relativistic = false;
-    double blackbodyScale = 1.0;     ///< multiplies the black-body (Kirchhoff) emission
-    double temperatureScale = 1.0;   ///< multiplies the temperature grid (visualisation)
+    double blackbodyScale = 1.0;   ///< multiplies the black-body (Kirchhoff) emission
+    double temperatureScale = 1.0; ///< multiplies the temperature grid (visualisation)
     std::string temperatureGrid = "temperature";
     std::string velocityGrid = "velocity";
-    std::string lines;               ///< line list of the emission grid (overrides metadata)
-    int layers = 0;                  ///< spectral EXR channels: N bands over 360-830 nm
-    bool countPieces = false;        ///< build each ray's spectrum to count its pieces (stats)
-    double mergeTolerance = 0.0;     ///< with countPieces: also count after merge(tolerance)
+    std::string lines;           ///< line list of the emission grid (overrides metadata)
+    int layers = 0;              ///< spectral EXR channels: N bands over 360-830 nm
+    bool countPieces = false;    ///< build each ray's spectrum to count its pieces (stats)
+    double mergeTolerance = 0.0; ///< with countPieces: also count after merge(tolerance)
 };
 
 /// Every render parameter; defaults give the README's example picture.
 struct RenderOptions
 {
     Integrator integrator = Integrator::Fast;
-    std::string densityGrid = "density";  ///< the dust density grid (n_H [cm^-3])
-    int spp = 64;            ///< path tracer: samples per pixel (per channel)
-    std::uint64_t seed = 1;  ///< path tracer: same seed, same image whatever the threads
+    std::string densityGrid = "density"; ///< the dust density grid (n_H [cm^-3])
+    int spp = 64;                        ///< path tracer: samples per pixel (per channel)
+    std::uint64_t seed = 1; ///< path tracer: same seed, same image whatever the threads
     Camera camera;
-    double step = 0.5;                              ///< ray step [voxels]
-    std::array<double, 3> wavelengths{700.0, 546.1, 435.8};  ///< R, G, B channels [nm]
-    double emissionScale = 1.0;                     ///< multiplies the emission grid
-    std::array<double, 3> emissionColor{1.0, 0.15, 0.2};  ///< linear sRGB (H-alpha + H-beta pink)
+    double step = 0.5;                                      ///< ray step [voxels]
+    std::array<double, 3> wavelengths{700.0, 546.1, 435.8}; ///< R, G, B channels [nm]
+    double emissionScale = 1.0;                             ///< multiplies the emission grid
+    std::array<double, 3> emissionColor{1.0, 0.15, 0.2};    ///< linear sRGB (H-alpha + H-beta pink)
     std::string emissionGrid = "emission";
-    bool drawStars = true;                          ///< star sprites
-    double spriteRadius = 2.5;                      ///< sprite radius [pixels]
-    double minStarDistance = 0.5;                   ///< 1/r^2 clamp radius [voxels]
-    double minTransmittance = 1e-5;                 ///< rays stop below this in all channels
+    bool drawStars = true;          ///< star sprites
+    double spriteRadius = 2.5;      ///< sprite radius [pixels]
+    double minStarDistance = 0.5;   ///< 1/r^2 clamp radius [voxels]
+    double minTransmittance = 1e-5; ///< rays stop below this in all channels
     /// Effective phase function (DESIGN §4): with a table, the scattered radiance uses
     /// Phi(t_c, mu) at the voxel's optical thickness t_c = k_c * voxel size instead of the
     /// thin limit a p(mu). Null: single scattering, a p(mu).
     std::shared_ptr<const PhaseTable> phaseTable;
-    std::string phaseSource;       ///< the table's file, for messages and the EXR
-    bool phaseIgnoreDust = false;  ///< accept a table whose albedo/g/phase differ from the dust
+    std::string phaseSource;      ///< the table's file, for messages and the EXR
+    bool phaseIgnoreDust = false; ///< accept a table whose albedo/g/phase differ from the dust
     PhaseUse phaseUse = PhaseUse::Gain;
     /// Multi-resolution global scattering (DESIGN §5): pyramid levels 1..levels (nebpyramid's
     /// density.L<k>, tau.<star>.L<k>) each add the change of the per-voxel scattering when
@@ -85,17 +85,17 @@ struct RenderOptions
 /// What a render did, for benchmarks and -v.
 struct RenderStats
 {
-    std::uint64_t rays = 0;     ///< rays that met the volume's box
-    std::uint64_t samples = 0;  ///< field lookups (ray steps in occupied space)
+    std::uint64_t rays = 0;    ///< rays that met the volume's box
+    std::uint64_t samples = 0; ///< field lookups (ray steps in occupied space)
     /// Channel samples whose voxel optical thickness exceeded the phase table's t_max (the
     /// table's last row was used).
     std::uint64_t phaseClamped = 0;
-    std::uint64_t paths = 0;       ///< path tracer: random walks (pixels x spp x channels)
-    std::uint64_t collisions = 0;  ///< path tracer: tentative collisions (real and null)
-    std::uint64_t pieces = 0;      ///< spectral: linear pieces projected (lines + continuum)
-    std::uint64_t spectrumPieces = 0;  ///< spectral, countPieces: pieces of the rays' spectra
-    std::uint64_t mergedPieces = 0;    ///< the same after merge(mergeTolerance)
-    std::uint64_t maxSpectrumPieces = 0;  ///< the largest ray spectrum
+    std::uint64_t paths = 0;             ///< path tracer: random walks (pixels x spp x channels)
+    std::uint64_t collisions = 0;        ///< path tracer: tentative collisions (real and null)
+    std::uint64_t pieces = 0;            ///< spectral: linear pieces projected (lines + continuum)
+    std::uint64_t spectrumPieces = 0;    ///< spectral, countPieces: pieces of the rays' spectra
+    std::uint64_t mergedPieces = 0;      ///< the same after merge(mergeTolerance)
+    std::uint64_t maxSpectrumPieces = 0; ///< the largest ray spectrum
 
     /// Adds @p o's counts (the largest spectrum: the larger of the two).
     RenderStats& operator+=(const RenderStats& o)
@@ -108,8 +108,8 @@ struct RenderStats
         pieces += o.pieces;
         spectrumPieces += o.spectrumPieces;
         mergedPieces += o.mergedPieces;
-        maxSpectrumPieces = maxSpectrumPieces > o.maxSpectrumPieces ? maxSpectrumPieces
-                                                                    : o.maxSpectrumPieces;
+        maxSpectrumPieces =
+            maxSpectrumPieces > o.maxSpectrumPieces ? maxSpectrumPieces : o.maxSpectrumPieces;
         return *this;
     }
 };

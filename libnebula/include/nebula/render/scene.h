@@ -31,7 +31,7 @@ struct RenderLevel
 /// RGB channel.
 struct ChannelDust : DustParams
 {
-    std::array<double, 3> r{1, 1, 1};  ///< A(lambda_c)/A_V of channel c (DustParams::curve)
+    std::array<double, 3> r{1, 1, 1}; ///< A(lambda_c)/A_V of channel c (DustParams::curve)
 };
 
 /// What the kernel renders: compact fields plus the stars and dust.
@@ -40,7 +40,7 @@ struct RenderScene
     /// Channels: 0 density n_H, 1 emission, 2 + s: tau_V of star s.
     DenseVolume fields;
     std::vector<Star> stars;
-    std::vector<std::array<double, 3>> starColor;  ///< L_s * linear sRGB (Y = 1) [L_sun]
+    std::vector<std::array<double, 3>> starColor; ///< L_s * linear sRGB (Y = 1) [L_sun]
     ChannelDust dust;
     /// Coarse occupancy: block (bi,bj,bk) of BLOCK^3 lattice cells holds dust or emission.
     static constexpr int BLOCK = OCCUPANCY_BLOCK;
@@ -54,10 +54,10 @@ struct RenderScene
     std::vector<RenderLevel> levels;
 };
 
-/// Builds the scene from nebillum's output: density (opts.densityGrid), emission (optional) and tau.<star> for
-/// every star in nebula:stars. Throws Error naming the file and grid on anything missing or
-/// inconsistent (no stars, a tau grid missing, kappa_V of a tau grid != the dust's), or if
-/// opts.phaseTable was made for another albedo, g or phase model than @p dust (unless
+/// Builds the scene from nebillum's output: density (opts.densityGrid), emission (optional) and
+/// tau.<star> for every star in nebula:stars. Throws Error naming the file and grid on anything
+/// missing or inconsistent (no stars, a tau grid missing, kappa_V of a tau grid != the dust's), or
+/// if opts.phaseTable was made for another albedo, g or phase model than @p dust (unless
 /// opts.phaseIgnoreDust). With opts.levels = K, also reads density.L<k> and tau.<star>.L<k>
 /// for k = 1..K and throws Error if one is missing or its voxels are not 2^k times level 0's.
 RenderScene buildScene(const GridSet& grids, const RenderOptions& opts, const DustParams& dust);

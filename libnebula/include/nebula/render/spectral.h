@@ -7,12 +7,12 @@
 /// integral of the piecewise-linear spectrum against the CIE 1931 colour-matching functions,
 /// then linear sRGB. A fixed-band mode point-samples the same spectra for comparison.
 
-#include "nebula/physics/lines.h"
 #include "nebula/core/run.h"
 #include "nebula/io/image.h"
+#include "nebula/physics/lines.h"
+#include "nebula/physics/spectrum.h"
 #include "nebula/render/options.h"
 #include "nebula/render/scene.h"
-#include "nebula/physics/spectrum.h"
 
 #include <cmath>
 #include <string>
@@ -45,8 +45,8 @@ struct SpectralScene
     RenderScene base;
     DustParams dust;
     std::vector<SpectralEmitter> emitters;
-    int temperatureChannel = -1;  ///< -1: no temperature grid
-    int velocityChannel = -1;     ///< vx; vy, vz follow. -1: no velocity grid
+    int temperatureChannel = -1; ///< -1: no temperature grid
+    int velocityChannel = -1;    ///< vx; vy, vz follow. -1: no velocity grid
 };
 
 /// Builds the spectral scene: everything buildScene() checks and reads, plus every emission
@@ -58,8 +58,8 @@ struct SpectralScene
 /// UsageError for options the spectral renderer cannot honour (a phase table, levels,
 /// the path tracer, bands < 0, a continuum step outside (0, 50] nm, a line width <= 0, an
 /// --exaggerate-velocity <= 0 or one that makes gas move at the speed of light).
-SpectralScene buildSpectralScene(const GridSet& grids,
-                                 const RenderOptions& opts, const DustParams& dust);
+SpectralScene buildSpectralScene(const GridSet& grids, const RenderOptions& opts,
+                                 const DustParams& dust);
 
 /// Renders @p scene spectrally (see the file comment and DESIGN §7). Output as renderFrame:
 /// beauty R,G,B (linear sRGB of the spectrum's XYZ; may be negative for colours outside the

@@ -3,8 +3,8 @@
 /// Procedural nebula (nebgen): fBm dust density n_H, gas emission, stars, and with
 /// --spectral the dust/gas temperature, the gas velocity and [O III] emission (DESIGN §2, §7).
 
-#include "nebula/physics/dust.h"
 #include "nebula/io/grid_io.h"
+#include "nebula/physics/dust.h"
 #include "nebula/physics/lines.h"
 #include "nebula/physics/motion.h"
 #include "nebula/physics/noise.h"
@@ -20,8 +20,7 @@
 namespace nebula {
 
 /// Radial envelope of the emission (its noise texture is the same for both).
-enum class EmissionShape
-{
+enum class EmissionShape {
     /// A ball about the cube centre: full to 0.4 emissionRadius, zero beyond emissionRadius.
     Sphere,
     /// A shell about the motion centre: envelope 1 - smoothstep(0, w R, |d - R|) at distance
@@ -33,7 +32,7 @@ enum class EmissionShape
 /// The spectral grids of nebgen --spectral.
 struct SpectralParams
 {
-    bool enabled = false;         ///< write `temperature` and `velocity` (and `emission.oiii`)
+    bool enabled = false; ///< write `temperature` and `velocity` (and `emission.oiii`)
     /// Ionised-gas temperature [K] set where emission > 0 (e.g. 8000); 0 = off, the dust
     /// temperature everywhere.
     double gasTemperature = 0.0;
@@ -51,24 +50,24 @@ struct SpectralParams
 /// Every parameter of a procedural nebula. World space is centred on the origin.
 struct NebulaParams
 {
-    int res = 128;                 ///< voxels along each axis
-    double size = 10.0;            ///< edge length of the cube [pc]
-    std::uint64_t seed = 1;        ///< noise seed
-    double densityPeak = 4000.0;   ///< n_H where the shaped noise is 1 [cm^-3]
-    double frequency = 1.8;        ///< noise features across the cube (base octave)
-    FbmParams fbm{6, 2.0, 0.55};   ///< octaves, lacunarity, gain
-    double threshold = 0.05;       ///< fBm level below which there is no dust (voids)
-    double contrast = 3.0;         ///< gain applied to fBm above the threshold
-    double exponent = 2.0;         ///< shaped density = (contrast (fbm - threshold))^exponent
-    double warp = 0.35;            ///< domain-warp strength (fraction of the cube) for wisps
-    double envelope = 0.5;         ///< radius where the soft envelope reaches 0 [cube edges]
-    double emissionPeak = 0.4;     ///< emission where its shaped noise is 1 [linear units]
-    double emissionRadius = 0.3;   ///< radius of the emitting region [cube edges]
-    double cavity = 0.6;           ///< radius of the dust-free cavity around each star [pc]
-    std::vector<Star> stars;       ///< point sources (travel as nebula:stars)
-    DustParams dust;               ///< travels as nebula:dust
+    int res = 128;               ///< voxels along each axis
+    double size = 10.0;          ///< edge length of the cube [pc]
+    std::uint64_t seed = 1;      ///< noise seed
+    double densityPeak = 4000.0; ///< n_H where the shaped noise is 1 [cm^-3]
+    double frequency = 1.8;      ///< noise features across the cube (base octave)
+    FbmParams fbm{6, 2.0, 0.55}; ///< octaves, lacunarity, gain
+    double threshold = 0.05;     ///< fBm level below which there is no dust (voids)
+    double contrast = 3.0;       ///< gain applied to fBm above the threshold
+    double exponent = 2.0;       ///< shaped density = (contrast (fbm - threshold))^exponent
+    double warp = 0.35;          ///< domain-warp strength (fraction of the cube) for wisps
+    double envelope = 0.5;       ///< radius where the soft envelope reaches 0 [cube edges]
+    double emissionPeak = 0.4;   ///< emission where its shaped noise is 1 [linear units]
+    double emissionRadius = 0.3; ///< radius of the emitting region [cube edges]
+    double cavity = 0.6;         ///< radius of the dust-free cavity around each star [pc]
+    std::vector<Star> stars;     ///< point sources (travel as nebula:stars)
+    DustParams dust;             ///< travels as nebula:dust
     EmissionShape emissionShape = EmissionShape::Sphere;
-    double shellWidth = 0.15;      ///< shell thickness (FWHM) relative to its radius, (0, 1]
+    double shellWidth = 0.15; ///< shell thickness (FWHM) relative to its radius, (0, 1]
     /// Centre of the motion, the shell and the [O III] zone [pc]; default: the first star,
     /// or the origin without stars.
     std::optional<std::array<double, 3>> motionCentre;
@@ -95,14 +94,16 @@ inline constexpr double U_ISRF = 8.64e-13;
 /// Starlight in units of the interstellar field at @p x [pc] (optically thin, the stars
 /// unattenuated): U = sum_s L_s / (4 pi r_s^2 c u_ISRF), r_s = |x - x_s| clamped to at
 /// least @p rMin [pc], L_s [L_sun] taken as bolometric (L_sun = 3.828e33 erg/s, IAU 2015).
-double radiationFieldU(const std::array<double, 3>& x, const std::vector<Star>& stars,
-                       double rMin);
+double radiationFieldU(const std::array<double, 3>& x, const std::vector<Star>& stars, double rMin);
 
 /// Equilibrium temperature [K] of 0.1 um dust grains in a radiation field @p U times the
 /// interstellar one: T = 16.4 K (1 + U)^(1/6) (Draine 2011, "Physics of the Interstellar and
 /// Intergalactic Medium", eqs. 24.19-24.20; the 1 + U keeps the ambient interstellar field,
 /// so T -> 16.4 K far from the stars).
-inline double dustTemperature(double U) { return 16.4 * std::pow(1.0 + U, 1.0 / 6.0); }
+inline double dustTemperature(double U)
+{
+    return 16.4 * std::pow(1.0 + U, 1.0 / 6.0);
+}
 
 /// The stars of the README's example nebula: a hot B star inside the cloud and a cooler
 /// A star near its edge.

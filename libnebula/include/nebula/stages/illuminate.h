@@ -10,10 +10,10 @@ namespace nebula {
 
 struct IllumOptions
 {
-    std::vector<Star> stars;    ///< replaces the input's nebula:stars when not empty
-    DustParams dust;            ///< kappa_V converts column density to tau_V
-    std::string densityGrid = "density";  ///< the dust density grid (n_H [cm^-3])
-    bool onlyNew = false;       ///< write only the tau grids, not the input passed through
+    std::vector<Star> stars;             ///< replaces the input's nebula:stars when not empty
+    DustParams dust;                     ///< kappa_V converts column density to tau_V
+    std::string densityGrid = "density"; ///< the dust density grid (n_H [cm^-3])
+    bool onlyNew = false;                ///< write only the tau grids, not the input passed through
 };
 
 /// Where tau.<star> is written: the density's active voxels and their 26 neighbours, so every
@@ -26,7 +26,6 @@ struct TauSupport
     std::vector<std::uint32_t> points;
 };
 TauSupport tauSupport(const openvdb::FloatGrid& density, const DenseVolume& n);
-
 
 /// Adds (or replaces) in @p products a FloatGrid tau.<star><suffix> per star: the exact
 /// V-band optical depth (optical_depth.h, kappa_V from @p dust) of the trilinear @p density
@@ -41,8 +40,9 @@ void addOpticalDepths(GridSet& products, const openvdb::FloatGrid& density,
 
 /// Adds (or replaces) tau.<star> for every star to @p grids, active on the density's active
 /// voxels and their 26 neighbours (so every dusty lattice cell has tau at all 8 corners),
-/// with the density's transform; exact (optical_depth.h); records stars and dust in the metadata. With opts.onlyNew, the
-/// input grids are dropped. Throws Error on a missing or bad density grid or no stars.
+/// with the density's transform; exact (optical_depth.h); records stars and dust in the metadata.
+/// With opts.onlyNew, the input grids are dropped. Throws Error on a missing or bad density grid or
+/// no stars.
 void illuminate(GridSet& grids, const IllumOptions& opts, const Run& run);
 
 } // namespace nebula

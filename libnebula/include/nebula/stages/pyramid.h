@@ -19,8 +19,8 @@ namespace nebula {
 
 /// How nebpyramid makes tau.<star>.L<k>.
 enum class TauMethod {
-    Recompute,  ///< the exact integrator (as nebillum) through the coarse density
-    Average     ///< the mean of the level-0 tau.<star> over each block
+    Recompute, ///< the exact integrator (as nebillum) through the coarse density
+    Average    ///< the mean of the level-0 tau.<star> over each block
 };
 
 /// "recompute" / "average" <-> TauMethod. Throws UsageError naming --tau on anything else.
@@ -30,12 +30,11 @@ std::string toString(TauMethod method);
 /// Every nebpyramid default.
 struct PyramidOptions
 {
-    int levels = 3;                      ///< levels 1 .. levels are built (level 0 = input)
+    int levels = 3; ///< levels 1 .. levels are built (level 0 = input)
     TauMethod tau = TauMethod::Recompute;
-    std::string densityGrid = "density";  ///< the dust density grid (n_H [cm^-3])
-    bool onlyNew = false;  ///< write only the levels, not the input passed through
+    std::string densityGrid = "density"; ///< the dust density grid (n_H [cm^-3])
+    bool onlyNew = false;                ///< write only the levels, not the input passed through
 };
-
 
 /// The transform of level @p level: the level-0 transform @p fine preceded by the index map
 /// I -> 2^level I + (2^level - 1)/2, so a coarse voxel centre is the centre of its block of

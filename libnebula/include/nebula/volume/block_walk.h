@@ -27,7 +27,6 @@ void blockMaxima(const DenseVolume& v, std::array<int, 3>& blocks,
 /// The edge of a cube of a voxel's volume: cbrt |det M| of the index-to-world map [pc].
 double voxelSize(const Affine& indexToWorld);
 
-
 /// Front-to-back stepping of one volume (level 0 or a pyramid level) along camera rays:
 /// clips to the lattice box, skips empty occupancy blocks, and hands each step's midpoint
 /// (index space), world distance and length to a callback.
@@ -44,15 +43,14 @@ struct Marcher
             const Vec3& eye)
         : vol(v), blocks(b), occupied(o), w2i(v.indexToWorld.inverse()), eyeI(w2i.apply(eye)),
           boxLo(v.lo()[0], v.lo()[1], v.lo()[2]),
-          boxHi(v.lo()[0] + v.dims()[0] - 1, v.lo()[1] + v.dims()[1] - 1, v.lo()[2] + v.dims()[2] - 1),
+          boxHi(v.lo()[0] + v.dims()[0] - 1, v.lo()[1] + v.dims()[1] - 1,
+                v.lo()[2] + v.dims()[2] - 1),
           voxelWorld(voxelSize(v.indexToWorld))
-    {
-    }
+    {}
 
     /// Calls @p step(pI, tm, seg) for steps of @p stepVoxels voxels along world direction
     /// @p dW until it returns false; returns whether the ray met the box.
-    template <class Step>
-    bool march(const Vec3& dW, double stepVoxels, Step&& step) const
+    template <class Step> bool march(const Vec3& dW, double stepVoxels, Step&& step) const
     {
         const int B = OCCUPANCY_BLOCK;
         const Vec3 dI = w2i.applyLinear(dW);
@@ -74,10 +72,11 @@ struct Marcher
             const double tm = t + 0.5 * seg;
             const Vec3 pI = eyeI + dI * tm;
             // Empty-space skipping: jump to the exit of an empty occupancy block.
-            const int bi = int(std::floor(pI.x - boxLo.x)) / B, bj = int(std::floor(pI.y - boxLo.y)) / B,
+            const int bi = int(std::floor(pI.x - boxLo.x)) / B,
+                      bj = int(std::floor(pI.y - boxLo.y)) / B,
                       bk = int(std::floor(pI.z - boxLo.z)) / B;
-            if (bi >= 0 && bj >= 0 && bk >= 0 && bi < blocks[0] && bj < blocks[1] && bk < blocks[2] &&
-                !occupied[(std::size_t(bk) * blocks[1] + bj) * blocks[0] + bi]) {
+            if (bi >= 0 && bj >= 0 && bk >= 0 && bi < blocks[0] && bj < blocks[1] &&
+                bk < blocks[2] && !occupied[(std::size_t(bk) * blocks[1] + bj) * blocks[0] + bi]) {
                 double tExit = t1;
                 const int bb[3] = {bi, bj, bk};
                 for (int a = 0; a < 3; ++a) {

@@ -37,7 +37,7 @@ struct Vec3
 /// An affine map x' = M x + t (e.g. index space -> world space).
 struct Affine
 {
-    std::array<double, 9> m{1, 0, 0, 0, 1, 0, 0, 0, 1};  ///< row-major 3x3 linear part
+    std::array<double, 9> m{1, 0, 0, 0, 1, 0, 0, 0, 1}; ///< row-major 3x3 linear part
     Vec3 t;
 
     Vec3 applyLinear(const Vec3& v) const
@@ -96,7 +96,8 @@ public:
         const int i = int(fx), j = int(fy), k = int(fz);
         if (!(fx >= mLo[0] && fy >= mLo[1] && fz >= mLo[2] && i + 1 < mLo[0] + mDims[0] &&
               j + 1 < mLo[1] + mDims[1] && k + 1 < mLo[2] + mDims[2])) {
-            for (int c = 0; c < count; ++c) out[c] = 0.0f;
+            for (int c = 0; c < count; ++c)
+                out[c] = 0.0f;
             return;
         }
         const float u = float(p.x - fx), v = float(p.y - fy), w = float(p.z - fz);
@@ -127,7 +128,7 @@ public:
         return v[0];
     }
 
-    Affine indexToWorld;  ///< the source grid's affine map from index to world [pc]
+    Affine indexToWorld; ///< the source grid's affine map from index to world [pc]
 
 private:
     std::array<int, 3> mLo{0, 0, 0};
