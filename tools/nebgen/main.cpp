@@ -40,7 +40,6 @@ int main(int argc, char** argv)
     bool noStars = false;
     std::string lines = nebula::lineListToString(params.lines);
     std::string shape = "sphere";
-    std::string rotationAxis = "0,1,0";
     std::string centre;
 
     const std::string description =
@@ -155,10 +154,9 @@ int main(int argc, char** argv)
                        "(positive: counter-clockwise seen from +axis)")
             ->capture_default_str()
             ->group(spectralGroup));
-    spectralOnly.push_back(
-        app.add_option("--rotation-axis", rotationAxis, "X,Y,Z: rotation axis (any length)")
-            ->capture_default_str()
-            ->group(spectralGroup));
+    spectralOnly.push_back(nebula::cli::addVec3(app, "--rotation-axis", params.spectral.motion.axis,
+                                                "Rotation axis (any length)")
+                               ->group(spectralGroup));
     spectralOnly.push_back(
         app.add_option("--turbulence", params.spectral.motion.turbulence,
                        "RMS speed [km/s] of divergence-free curl-noise turbulence "
@@ -206,7 +204,6 @@ int main(int argc, char** argv)
         if (motionCentre->count() > 0) {
             params.motionCentre = nebula::cli::parseVec3(centre, "--motion-centre");
         }
-        params.spectral.motion.axis = nebula::cli::parseVec3(rotationAxis, "--rotation-axis");
         params.stars = nebula::cli::loadStars(starOpts);
         if (params.stars.empty() && !noStars) params.stars = nebula::exampleStars();
         params.dust = dustOpts.apply(params.dust);

@@ -13,7 +13,7 @@ int main(int argc, char** argv)
     nebula::RenderOptions opts; // every default lives here
     nebula::RenderOutput out;
     nebula::DustOptions dustOpts;
-    std::string eye, lookAt, up, res, wavelengths, emissionColor, phaseFile;
+    std::string res, phaseFile;
     bool noStars = false, noPng = false;
     double exposure = 0.0;
 
@@ -44,17 +44,9 @@ int main(int argc, char** argv)
     app.add_option("-o,--output", out.exr, "Output EXR file")->required();
     app.add_option("--png", out.png, "Output PNG (default: the EXR name with .png)");
     app.add_flag("--no-png", noPng, "Write no PNG");
-    auto fmt = [](const nebula::Vec3& v) {
-        char b[96];
-        std::snprintf(b, sizeof b, "%g,%g,%g", v.x, v.y, v.z);
-        return std::string(b);
-    };
-    app.add_option("--eye", eye,
-                   "Camera position X,Y,Z [pc] (default " + fmt(opts.camera.eye) + ")");
-    app.add_option("--look-at", lookAt,
-                   "Point the camera looks at X,Y,Z [pc] (default " + fmt(opts.camera.lookAt) +
-                       ")");
-    app.add_option("--up", up, "Up direction X,Y,Z (default " + fmt(opts.camera.up) + ")");
+    nebula::cli::addVec3(app, "--eye", opts.camera.eye, "Camera position [pc]");
+    nebula::cli::addVec3(app, "--look-at", opts.camera.lookAt, "Point the camera looks at [pc]");
+    nebula::cli::addVec3(app, "--up", opts.camera.up, "Up direction");
     app.add_option("--fov", opts.camera.fovDeg, "Horizontal field of view [degrees]")
         ->capture_default_str()
         ->check(CLI::Range(0.01, 179.0));
@@ -62,18 +54,16 @@ int main(int argc, char** argv)
     app.add_option("--step", opts.step, "Ray step [voxels]")
         ->capture_default_str()
         ->check(CLI::PositiveNumber);
-    app.add_option(
-        "--wavelengths", wavelengths,
-        "R,G,B channel wavelengths [nm] for the extinction curve (default 700,546.1,435.8)");
+    nebula::cli::addVec3(app, "--wavelengths", opts.wavelengths,
+                         "R,G,B channel wavelengths [nm] for the extinction curve");
     app.add_option("--emission-grid", opts.emissionGrid, "Gas emission grid")
         ->capture_default_str();
     app.add_option("--emission-scale", opts.emissionScale,
                    "Emission multiplier [L_sun pc^-3 sr^-1 per grid unit]")
         ->capture_default_str()
         ->check(CLI::NonNegativeNumber);
-    app.add_option(
-        "--emission-color", emissionColor,
-        "Emission colour, linear sRGB R,G,B (default 1,0.15,0.2: H-alpha with some H-beta)");
+    nebula::cli::addVec3(app, "--emission-color", opts.emissionColor,
+                         "Emission colour, linear sRGB R,G,B (H-alpha with some H-beta)");
     app.add_flag("--no-stars", noStars, "Do not draw the stars themselves");
     app.add_option("--sprite-radius", opts.spriteRadius, "Star sprite radius [pixels]")
         ->capture_default_str()
@@ -191,20 +181,8 @@ int main(int argc, char** argv)
         ->check(CLI::Range(1.0, 100.0));
 
     return nebula::cli::run(app, "nebrender", common, argc, argv, [&](nebula::Run& run) {
-        if (!eye.empty()) opts.camera.eye = nebula::toVec3(nebula::cli::parseVec3(eye, "--eye"));
-        if (!lookAt.empty())
-            opts.camera.lookAt = nebula::toVec3(nebula::cli::parseVec3(lookAt, "--look-at"));
-        if (!up.empty()) opts.camera.up = nebula::toVec3(nebula::cli::parseVec3(up, "--up"));
         nebula::validateCamera(opts.camera);
         if (!res.empty()) nebula::cli::parseResolution(res, opts.camera.width, opts.camera.height);
-        if (!wavelengths.empty()) {
-            const auto w = nebula::cli::parseVec3(wavelengths, "--wavelengths");
-            opts.wavelengths = {w[0], w[1], w[2]};
-        }
-        if (!emissionColor.empty()) {
-            const auto c = nebula::cli::parseVec3(emissionColor, "--emission-color");
-            opts.emissionColor = {c[0], c[1], c[2]};
-        }
         opts.drawStars = !noStars;
         if (bandsOpt->count() > 0) sp.enabled = true;
         nebula::cli::requireMode(spectralOnly, sp.enabled, "--spectral");

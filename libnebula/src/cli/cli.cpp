@@ -2,6 +2,7 @@
 
 #include "nebula/core/error.h"
 
+#include <fmt/format.h>
 #include <openvdb/openvdb.h>
 #include <tbb/global_control.h>
 
@@ -69,6 +70,43 @@ std::array<double, 3> parseVec3(const std::string& text, const std::string& opti
     return v;
 }
 
+namespace {
+
+std::string vec3Text(double x, double y, double z)
+{
+    return fmt::format("{},{},{}", x, y, z);
+}
+
+} // namespace
+
+CLI::Option* addVec3(CLI::App& app, const std::string& name, std::array<double, 3>& target,
+                     const std::string& description)
+{
+    const std::string option = name.substr(name.rfind(',') + 1); // "-e,--eye" -> "--eye"
+    return app
+        .add_option_function<std::string>(
+            name, [&target, option](const std::string& text) { target = parseVec3(text, option); },
+            description)
+        ->type_name("X,Y,Z")
+        ->default_str(vec3Text(target[0], target[1], target[2]));
+}
+
+CLI::Option* addVec3(CLI::App& app, const std::string& name, Vec3& target,
+                     const std::string& description)
+{
+    const std::string option = name.substr(name.rfind(',') + 1);
+    return app
+        .add_option_function<std::string>(
+            name,
+            [&target, option](const std::string& text) {
+                const auto v = parseVec3(text, option);
+                target = Vec3(v[0], v[1], v[2]);
+            },
+            description)
+        ->type_name("X,Y,Z")
+        ->default_str(vec3Text(target.x, target.y, target.z));
+}
+
 void requireMode(const std::vector<CLI::Option*>& options, bool enabled, const std::string& mode)
 {
     if (enabled) return;
@@ -125,6 +163,10 @@ int run(CLI::App& app, const std::string& tool, CommonOptions& opts, int argc, c
 {
     try {
         app.parse(argc, argv);
+    } catch (const UsageError& e) { // from an option's callback (addVec3)
+        std::cerr << tool << ": error: " << e.what() << "\n"
+                  << "Run " << tool << " --help for the options and examples.\n";
+        return 2;
     } catch (const CLI::ParseError& e) {
         if (e.get_exit_code() == 0) return app.exit(e); // --help, --version: stdout, 0
         std::string message = e.what();

@@ -310,3 +310,50 @@ TEST(Cli, RequireMode)
 }
 
 } // namespace
+
+// addVec3: "X,Y,Z" straight into the target at parse time, its value the default --help
+// shows; a bad value is a usage error (exit 2) naming the option, and the body never runs.
+TEST(Cli, AddVec3ParsesIntoTheTargetOrRefuses)
+{
+    const auto runWith = [](std::initializer_list<std::string> args, std::array<double, 3>& a,
+                            nebula::Vec3& v, std::string* help = nullptr) {
+        CLI::App app("test tool", "nebtest");
+        nebula::CommonOptions opts;
+        nebula::cli::addCommon(app, opts, 0);
+        nebula::cli::addVec3(app, "--axis", a, "An axis");
+        nebula::cli::addVec3(app, "--eye", v, "An eye [pc]");
+        if (help) *help = app.help();
+        std::vector<std::string> storage = {"nebtest"};
+        storage.insert(storage.end(), args.begin(), args.end());
+        std::vector<char*> argv;
+        for (auto& s : storage)
+            argv.push_back(s.data());
+        argv.push_back(nullptr);
+        Capture cap;
+        bool ran = false;
+        const int code = nebula::cli::run(app, "nebtest", opts, int(storage.size()), argv.data(),
+                                          [&](nebula::Run&) { ran = true; });
+        return std::make_tuple(code, ran, cap.err());
+    };
+    std::array<double, 3> a{0, 1, 0};
+    nebula::Vec3 v(4, 3, -19);
+    std::string help;
+    auto [code, ran, err] = runWith({}, a, v, &help);
+    EXPECT_EQ(code, 0);
+    EXPECT_NE(help.find("--axis X,Y,Z=0,1,0"), std::string::npos) << help;
+    EXPECT_NE(help.find("--eye X,Y,Z=4,3,-19"), std::string::npos) << help;
+    std::tie(code, ran, err) = runWith({"--axis", "1,-2.5,1e3", "--eye", "0,0,-25"}, a, v);
+    EXPECT_EQ(code, 0) << err;
+    EXPECT_EQ(a, (std::array<double, 3>{1, -2.5, 1000}));
+    EXPECT_EQ(v.z, -25.0);
+    for (const char* bad : {"1,2", "1,2,nan", "a,b,c", "1,2,3,4"}) {
+        std::tie(code, ran, err) = runWith({"--eye", bad}, a, v);
+        EXPECT_EQ(code, 2) << bad;
+        EXPECT_FALSE(ran) << bad;
+        EXPECT_EQ(err.rfind("nebtest: error: --eye \"" + std::string(bad) +
+                                "\": expected X,Y,Z (three numbers)",
+                            0),
+                  0u)
+            << err;
+    }
+}

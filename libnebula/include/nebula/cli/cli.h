@@ -5,9 +5,11 @@
 /// the run() wrapper that turns exceptions into exit codes (0 ok, 1 error, 2 usage).
 
 #include "nebula/core/run.h"
+#include "nebula/volume/volume.h"
 
 #include <CLI/CLI.hpp>
 
+#include <array>
 #include <atomic>
 #include <chrono>
 #include <functional>
@@ -57,6 +59,14 @@ std::string versionString(const std::string& tool);
 
 /// Parses "X,Y,Z" into three doubles; throws UsageError naming @p option otherwise.
 std::array<double, 3> parseVec3(const std::string& text, const std::string& option);
+
+/// Adds option @p name taking "X,Y,Z" (three finite numbers, parseVec3()) straight into
+/// @p target, whose value is the default --help shows. A bad value is a usage error (exit 2)
+/// naming the option.
+CLI::Option* addVec3(CLI::App& app, const std::string& name, std::array<double, 3>& target,
+                     const std::string& description);
+CLI::Option* addVec3(CLI::App& app, const std::string& name, Vec3& target,
+                     const std::string& description);
 
 /// Parses "WxH" (positive integers) for @p option "--res"; throws UsageError otherwise.
 void parseResolution(const std::string& text, int& width, int& height);
