@@ -29,7 +29,6 @@ struct PathScene
 {
     DenseVolume fields; ///< 0 density n_H, 1 emission
     Affine w2i;
-    Vec3 boxLo, boxHi; ///< lattice box (index space)
     std::array<int, 3> blocks{0, 0, 0};
     std::vector<std::array<float, 3>> majorant; ///< per block: per channel [1/pc]
     std::vector<Vec3> starPos;
@@ -37,8 +36,6 @@ struct PathScene
     double emissionScale = 1.0;
     std::array<double, 3> emissionColor{1, 1, 1};
     double rmin2 = 0.0;
-
-    int blockIndex(int bi, int bj, int bk) const { return (bk * blocks[1] + bj) * blocks[0] + bi; }
 };
 
 PathScene buildPathScene(const RenderScene& scene, const RenderOptions& opts)
@@ -53,9 +50,6 @@ PathScene buildPathScene(const RenderScene& scene, const RenderOptions& opts)
         ps.fields.voxel(i)[1] = v.voxel(i)[1];
     }
     ps.w2i = v.indexToWorld.inverse();
-    ps.boxLo = Vec3(v.lo()[0], v.lo()[1], v.lo()[2]);
-    ps.boxHi =
-        Vec3(v.lo()[0] + v.dims()[0] - 1, v.lo()[1] + v.dims()[1] - 1, v.lo()[2] + v.dims()[2] - 1);
     const double voxelWorld = voxelSize(v.indexToWorld);
     ps.rmin2 = std::pow(opts.minStarDistance * voxelWorld, 2);
     ps.emissionScale = opts.emissionScale;
@@ -84,49 +78,24 @@ PathScene buildPathScene(const RenderScene& scene, const RenderOptions& opts)
 }
 
 /// A ray (world origin @p o, unit world direction @p d) walked through the majorant blocks
-/// in index space; world distance t is the parameter.
+/// (the shared BlockRay); world distance t is the parameter.
 struct Tracker
 {
     const PathScene& ps;
-    Vec3 oI, dI;
-    double t0 = 0.0, t1 = -1.0; ///< clipped to the lattice box
+    BlockRay ray;
+    double t0, t1; ///< clipped to the lattice box
 
-    Tracker(const PathScene& s, const Vec3& o, const Vec3& d, double tMax) : ps(s)
-    {
-        oI = ps.w2i.apply(o);
-        dI = ps.w2i.applyLinear(d);
-        t0 = 0.0;
-        t1 = tMax;
-        for (int a = 0; a < 3; ++a) {
-            if (std::abs(dI[a]) < 1e-300) {
-                if (oI[a] < ps.boxLo[a] || oI[a] > ps.boxHi[a]) t1 = -1.0;
-                continue;
-            }
-            double ta = (ps.boxLo[a] - oI[a]) / dI[a], tb = (ps.boxHi[a] - oI[a]) / dI[a];
-            if (ta > tb) std::swap(ta, tb);
-            t0 = std::max(t0, ta);
-            t1 = std::min(t1, tb);
-        }
-    }
+    Tracker(const PathScene& s, const Vec3& o, const Vec3& d, double tMax)
+        : ps(s), ray(s.fields, s.w2i, s.blocks, o, d, tMax), t0(ray.t0), t1(ray.t1)
+    {}
 
-    /// The block holding point t + tiny along the ray and the t where the ray leaves it.
-    /// Returns false outside the block grid.
+    /// The block holding point t along the ray and the t where the ray leaves it. Returns
+    /// false outside the block grid.
     bool block(double t, int& b, double& tExit) const
     {
-        const int B = RenderScene::BLOCK;
-        const Vec3 p = oI + dI * t;
         int bb[3];
-        for (int a = 0; a < 3; ++a) {
-            bb[a] = static_cast<int>(std::floor((p[a] - ps.boxLo[a]) / B));
-            if (bb[a] < 0 || bb[a] >= ps.blocks[a]) return false;
-        }
-        b = ps.blockIndex(bb[0], bb[1], bb[2]);
-        tExit = t1;
-        for (int a = 0; a < 3; ++a) {
-            if (std::abs(dI[a]) < 1e-300) continue;
-            const double face = ps.boxLo[a] + B * (bb[a] + (dI[a] > 0 ? 1 : 0));
-            tExit = std::min(tExit, (face - oI[a]) / dI[a]);
-        }
+        if (!ray.blockAt(ray.oI + ray.dI * t, b, bb)) return false;
+        tExit = ray.blockExit(bb);
         return true;
     }
 
@@ -174,7 +143,7 @@ double transmittance(const PathScene& ps, int c, const Vec3& x, const Vec3& d, d
     tr.track(
         c, rng, collisions,
         [&](double t, double mu) {
-            const double n = ps.fields.sample0(tr.oI + tr.dI * t);
+            const double n = ps.fields.sample0(tr.ray.oI + tr.ray.dI * t);
             T *= std::max(0.0, 1.0 - k0 * n / mu);
             return T > 1e-12;
         },
@@ -206,7 +175,7 @@ void walk(const PathScene& ps, int c, int c1, const Vec3& eye, const Vec3& d0, P
         double tHit = 0.0;
         float f[2];
         tr.track(c, rng, collisions, [&](double t, double mu) {
-            ps.fields.sample(tr.oI + tr.dI * t, f);
+            ps.fields.sample(tr.ray.oI + tr.ray.dI * t, f);
             const double k = k0 * f[0];
             // Collision estimator of emission: j / majorant at every tentative collision.
             if (f[1] > 0.0f) {

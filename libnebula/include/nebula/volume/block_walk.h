@@ -27,16 +27,86 @@ void blockMaxima(const DenseVolume& v, std::array<int, 3>& blocks,
 /// The edge of a cube of a voxel's volume: cbrt |det M| of the index-to-world map [pc].
 double voxelSize(const Affine& indexToWorld);
 
+/// A ray through the occupancy blocks of a lattice, in index space, with world distance t
+/// as its parameter: the one block walk of nebula. It clips the ray to the lattice box, finds
+/// the block holding a point of the ray and the distance at which the ray leaves that block.
+/// The fast integrators step along it and skip empty blocks (Marcher); the path tracer
+/// draws free flights against each block's majorant (path_tracer.cpp).
+struct BlockRay
+{
+    Vec3 oI, dI;       ///< origin and direction in index space (dI: index units per pc)
+    Vec3 boxLo, boxHi; ///< the lattice box [index]
+    std::array<int, 3> blocks{0, 0, 0};
+    double t0 = 0.0, t1 = -1.0; ///< the ray's part inside the box, t0 >= 0 [pc]
+
+    /// The ray from world point @p oW along unit world direction @p dW, up to world distance
+    /// @p tMax, through lattice @p v (world -> index map @p w2i) cut into @p blockCounts
+    /// blocks of OCCUPANCY_BLOCK^3 cells.
+    BlockRay(const DenseVolume& v, const Affine& w2i, const std::array<int, 3>& blockCounts,
+             const Vec3& oW, const Vec3& dW, double tMax = std::numeric_limits<double>::infinity())
+        : BlockRay(v, blockCounts, w2i.apply(oW), w2i.applyLinear(dW), tMax)
+    {}
+
+    /// The same with the origin and direction already in index space.
+    BlockRay(const DenseVolume& v, const std::array<int, 3>& blockCounts, const Vec3& originI,
+             const Vec3& dirI, double tMax)
+        : oI(originI), dI(dirI), boxLo(v.lo()[0], v.lo()[1], v.lo()[2]),
+          boxHi(v.lo()[0] + v.dims()[0] - 1, v.lo()[1] + v.dims()[1] - 1,
+                v.lo()[2] + v.dims()[2] - 1),
+          blocks(blockCounts)
+    {
+        t0 = 0.0;
+        t1 = tMax;
+        for (int a = 0; a < 3; ++a) {
+            if (std::abs(dI[a]) < 1e-300) {
+                if (oI[a] < boxLo[a] || oI[a] > boxHi[a]) t1 = -1.0;
+                continue;
+            }
+            double ta = (boxLo[a] - oI[a]) / dI[a], tb = (boxHi[a] - oI[a]) / dI[a];
+            if (ta > tb) std::swap(ta, tb);
+            t0 = std::max(t0, ta);
+            t1 = std::min(t1, tb);
+        }
+    }
+
+    /// Whether the ray meets the box.
+    bool hits() const { return t0 < t1; }
+
+    /// The block (linear index @p b) holding index point @p p; false outside the block grid.
+    bool blockAt(const Vec3& p, int& b, int bb[3]) const
+    {
+        for (int a = 0; a < 3; ++a) {
+            bb[a] = static_cast<int>(std::floor((p[a] - boxLo[a]) / OCCUPANCY_BLOCK));
+            if (bb[a] < 0 || bb[a] >= blocks[a]) return false;
+        }
+        b = (bb[2] * blocks[1] + bb[1]) * blocks[0] + bb[0];
+        return true;
+    }
+
+    /// World distance at which the ray leaves block @p bb (at most t1).
+    double blockExit(const int bb[3]) const
+    {
+        double tExit = t1;
+        for (int a = 0; a < 3; ++a) {
+            if (std::abs(dI[a]) < 1e-300) continue;
+            const double face = boxLo[a] + OCCUPANCY_BLOCK * (bb[a] + (dI[a] > 0 ? 1 : 0));
+            tExit = std::min(tExit, (face - oI[a]) / dI[a]);
+        }
+        return tExit;
+    }
+};
+
 /// Front-to-back stepping of one volume (level 0 or a pyramid level) along camera rays:
-/// clips to the lattice box, skips empty occupancy blocks, and hands each step's midpoint
-/// (index space), world distance and length to a callback.
+/// walks a BlockRay, skips empty occupancy blocks, and hands each step's midpoint (index
+/// space), world distance and length to a callback.
 struct Marcher
 {
     const DenseVolume& vol;
     const std::array<int, 3>& blocks;
     const std::vector<std::uint8_t>& occupied;
     Affine w2i;
-    Vec3 eyeI, boxLo, boxHi;
+    Vec3 eyeI;
+    Vec3 boxLo, boxHi; ///< the lattice box [index]
     double voxelWorld;
 
     Marcher(const DenseVolume& v, const std::array<int, 3>& b, const std::vector<std::uint8_t>& o,
@@ -52,45 +122,23 @@ struct Marcher
     /// @p dW until it returns false; returns whether the ray met the box.
     template <class Step> bool march(const Vec3& dW, double stepVoxels, Step&& step) const
     {
-        const int B = OCCUPANCY_BLOCK;
-        const Vec3 dI = w2i.applyLinear(dW);
-        // Ray parameter t is world distance from the eye; clip to the lattice box.
-        double t0 = 0.0, t1 = std::numeric_limits<double>::infinity();
-        for (int a = 0; a < 3; ++a) {
-            if (std::abs(dI[a]) < 1e-300) {
-                if (eyeI[a] < boxLo[a] || eyeI[a] > boxHi[a]) t1 = -1.0;
-                continue;
-            }
-            double ta = (boxLo[a] - eyeI[a]) / dI[a], tb = (boxHi[a] - eyeI[a]) / dI[a];
-            if (ta > tb) std::swap(ta, tb);
-            t0 = std::max(t0, ta);
-            t1 = std::min(t1, tb);
-        }
-        const double dt = stepVoxels / dI.length();
-        for (double t = t0; t < t1;) {
-            const double seg = std::min(dt, t1 - t);
+        const BlockRay ray(vol, blocks, eyeI, w2i.applyLinear(dW),
+                           std::numeric_limits<double>::infinity());
+        const double dt = stepVoxels / ray.dI.length();
+        for (double t = ray.t0; t < ray.t1;) {
+            const double seg = std::min(dt, ray.t1 - t);
             const double tm = t + 0.5 * seg;
-            const Vec3 pI = eyeI + dI * tm;
+            const Vec3 pI = ray.oI + ray.dI * tm;
             // Empty-space skipping: jump to the exit of an empty occupancy block.
-            const int bi = int(std::floor(pI.x - boxLo.x)) / B,
-                      bj = int(std::floor(pI.y - boxLo.y)) / B,
-                      bk = int(std::floor(pI.z - boxLo.z)) / B;
-            if (bi >= 0 && bj >= 0 && bk >= 0 && bi < blocks[0] && bj < blocks[1] &&
-                bk < blocks[2] && !occupied[(std::size_t(bk) * blocks[1] + bj) * blocks[0] + bi]) {
-                double tExit = t1;
-                const int bb[3] = {bi, bj, bk};
-                for (int a = 0; a < 3; ++a) {
-                    if (std::abs(dI[a]) < 1e-300) continue;
-                    const double face = boxLo[a] + B * (bb[a] + (dI[a] > 0 ? 1 : 0));
-                    tExit = std::min(tExit, (face - eyeI[a]) / dI[a]);
-                }
-                t = std::max(tExit, t + 1e-6 * dt);
+            int b, bb[3];
+            if (ray.blockAt(pI, b, bb) && !occupied[std::size_t(b)]) {
+                t = std::max(ray.blockExit(bb), t + 1e-6 * dt);
                 continue;
             }
             if (!step(pI, tm, seg)) break;
             t += seg;
         }
-        return t0 < t1;
+        return ray.hits();
     }
 };
 
