@@ -7,6 +7,7 @@
 #include "nebula/render/path_tracer.h"
 #include "nebula/render/spectral.h"
 
+#include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
 #include <chrono>
@@ -21,10 +22,9 @@ bool endsWith(const std::string& s, const std::string& suffix)
            s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
 }
 
-} // namespace
 
-void renderToFiles(const GridSet& grids, const RenderOptions& opts, const DustParams& dust,
-                   const RenderOutput& out, const Run& run)
+/// The PNG path: RenderOutput::png, or the EXR's name with .png; "" for none.
+std::string pngPath(const RenderOutput& out)
 {
     if (!endsWith(out.exr, ".exr")) {
         throw UsageError("-o " + out.exr + ": expected an .exr file name");
@@ -32,10 +32,13 @@ void renderToFiles(const GridSet& grids, const RenderOptions& opts, const DustPa
     std::string png = out.png;
     if (png.empty()) png = out.exr.substr(0, out.exr.size() - 4) + ".png";
     if (png == "none") png.clear();
-    // Fail before the slow part if an output folder is not writable.
-    checkOutputWritable(out.exr, "EXR");
-    if (!png.empty()) checkOutputWritable(png, "PNG");
+    return png;
+}
 
+/// Refuses combinations the integrators cannot honour, and warns about pyramid levels that
+/// no phase table will use.
+void checkIntegratorOptions(const GridSet& grids, const RenderOptions& opts, const Run& run)
+{
     const bool path = opts.integrator == Integrator::Path;
     if (path && opts.levels > 0) {
         throw UsageError("--levels is for the fast integrator; --integrator path simulates "
@@ -50,68 +53,61 @@ void renderToFiles(const GridSet& grids, const RenderOptions& opts, const DustPa
         run.warn(grids.source + " has pyramid levels (" + levelGridName(opts.densityGrid, 1) +
                  ", ...), which only a phase table uses: this image is single scattering. "
                  "Pass --phase (nebphase -i " +
-                 grids.source +
-                 " -o phase.vdb) to use them, or "
-                 "--levels 0 to say you mean it");
+                 grids.source + " -o phase.vdb) to use them, or --levels 0 to say you mean it");
     }
     if (path && opts.phaseTable) {
         throw UsageError("--phase is for the fast integrator; --integrator path simulates "
                          "multiple scattering itself");
     }
-    const bool spectral = opts.spectral.enabled;
-    const auto start = std::chrono::steady_clock::now();
-    SpectralScene sscene; // the spectral scene, or just its RGB base
-    if (spectral) {
-        sscene = buildSpectralScene(grids, opts, dust);
-    } else {
-        sscene.base = buildScene(grids, opts, dust);
+}
+
+/// What the render did, under -v; a warning if the phase table was too short.
+void reportStats(const RenderOptions& opts, const SpectralScene& sscene, const RenderStats& stats,
+                 double tBuild, double tRender, const Run& run)
+{
+    const auto perItem = [](double seconds, std::uint64_t n) {
+        return 1e9 * seconds / double(std::max<std::uint64_t>(n, 1));
+    };
+    const double rays = double(std::max<std::uint64_t>(stats.rays, 1));
+    if (opts.integrator == Integrator::Path) {
+        run.info(fmt::format("path tracing: {} walks, {} tentative collisions, {:.4g} ns wall "
+                             "per walk",
+                             stats.paths, stats.collisions, perItem(tRender, stats.paths)));
     }
-    const RenderScene& scene = sscene.base;
-    const auto built = std::chrono::steady_clock::now();
-    RenderStats stats;
-    const Image img = spectral ? renderSpectral(sscene, opts, &run, &stats)
-                      : path   ? renderPathTraced(scene, opts, &run, &stats)
-                               : renderFrame(scene, opts, &run, &stats);
-    const auto done = std::chrono::steady_clock::now();
-    const double tBuild = std::chrono::duration<double>(built - start).count();
-    const double tRender = std::chrono::duration<double>(done - built).count();
-    if (path) {
-        run.info("path tracing: " + std::to_string(stats.paths) + " walks, " +
-                 std::to_string(stats.collisions) + " tentative collisions, " +
-                 std::to_string(1e9 * tRender / double(std::max<std::uint64_t>(stats.paths, 1))) +
-                 " ns wall per walk");
-    }
-    if (spectral) {
-        run.info(
-            std::string("spectral: ") +
-            (opts.spectral.bands > 0 ? std::to_string(opts.spectral.bands) + " fixed bands"
-                                     : "piecewise-linear") +
-            ", " + std::to_string(sscene.emitters.size()) + " emission grid(s), " +
-            std::to_string(stats.pieces) + " linear pieces projected (" +
-            std::to_string(double(stats.pieces) / double(std::max<std::uint64_t>(stats.rays, 1))) +
-            " per ray)");
+    if (opts.spectral.enabled) {
+        run.info(fmt::format("spectral: {}, {} emission grid(s), {} linear pieces projected "
+                             "({:.6g} per ray)",
+                             opts.spectral.bands > 0
+                                 ? fmt::format("{} fixed bands", opts.spectral.bands)
+                                 : std::string("piecewise-linear"),
+                             sscene.emitters.size(), stats.pieces, double(stats.pieces) / rays));
         if (opts.spectral.countPieces && opts.spectral.bands == 0) {
-            const double rays = double(std::max<std::uint64_t>(stats.rays, 1));
-            run.info("spectral: the rays' spectra have " +
-                     std::to_string(double(stats.spectrumPieces) / rays) +
-                     " pieces on average (largest " + std::to_string(stats.maxSpectrumPieces) +
-                     "), " + std::to_string(double(stats.mergedPieces) / rays) +
-                     " after merging at tolerance " + std::to_string(opts.spectral.mergeTolerance));
+            run.info(fmt::format("spectral: the rays' spectra have {:.6g} pieces on average "
+                                 "(largest {}), {:.6g} after merging at tolerance {}",
+                                 double(stats.spectrumPieces) / rays, stats.maxSpectrumPieces,
+                                 double(stats.mergedPieces) / rays, opts.spectral.mergeTolerance));
         }
     }
-    run.info("scene " + std::to_string(tBuild) + " s, render " + std::to_string(tRender) + " s, " +
-             std::to_string(stats.rays) + " rays, " + std::to_string(stats.samples) + " samples (" +
-             std::to_string(1e9 * tRender / double(std::max<std::uint64_t>(stats.samples, 1))) +
-             " ns wall per sample)");
-
+    run.info(fmt::format("scene {:.3g} s, render {:.3g} s, {} rays, {} samples ({:.4g} ns wall "
+                         "per sample)",
+                         tBuild, tRender, stats.rays, stats.samples,
+                         perItem(tRender, stats.samples)));
     if (stats.phaseClamped > 0) {
-        run.warn("in " + std::to_string(stats.phaseClamped) + " of " +
-                 std::to_string(3 * stats.samples) +
-                 " channel samples the voxel optical "
-                 "thickness exceeded the phase table's t_max = " +
-                 std::to_string(opts.phaseTable->tMax) + "; its last row was used");
+        run.warn(fmt::format("in {} of {} channel samples the voxel optical thickness exceeded "
+                             "the phase table's t_max = {}; its last row was used",
+                             stats.phaseClamped, 3 * stats.samples, opts.phaseTable->tMax));
     }
-    const ToneCurve curve = computeToneCurve(img, out.tone);
+}
+
+/// The EXR's attributes: how it was made (tool, command, the whole history), what it holds
+/// (units, integrator), and the scene (dust, stars, camera, exposure, phase table).
+std::map<std::string, std::string> exrAttributes(const GridSet& grids, const RenderOptions& opts,
+                                                 const DustParams& dust, const RenderScene& scene,
+                                                 const ToneCurve& curve, const RenderOutput& out,
+                                                 const Run& run)
+{
+    const bool path = opts.integrator == Integrator::Path;
+    const bool spectral = opts.spectral.enabled;
     const auto vec = [](const Vec3& v) { return nlohmann::json::array({v.x, v.y, v.z}); };
     const nlohmann::json tone = {
         {"white", curve.white}, {"gamma", curve.gamma}, {"automatic", out.tone.automatic}};
@@ -156,7 +152,39 @@ void renderToFiles(const GridSet& grids, const RenderOptions& opts, const DustPa
             {"phase", toString(t.medium.phase)}, {"t_min", t.tMin},           {"t_max", t.tMax}};
         attrs["nebula:phase_table"] = table.dump();
     }
-    writeExr(out.exr, img, attrs);
+    return attrs;
+}
+
+} // namespace
+
+void renderToFiles(const GridSet& grids, const RenderOptions& opts, const DustParams& dust,
+                   const RenderOutput& out, const Run& run)
+{
+    const std::string png = pngPath(out);
+    // Fail before the slow part if an output folder is not writable.
+    checkOutputWritable(out.exr, "EXR");
+    if (!png.empty()) checkOutputWritable(png, "PNG");
+    checkIntegratorOptions(grids, opts, run);
+
+    const auto start = std::chrono::steady_clock::now();
+    SpectralScene sscene; // the spectral scene, or just its RGB base
+    if (opts.spectral.enabled) {
+        sscene = buildSpectralScene(grids, opts, dust);
+    } else {
+        sscene.base = buildScene(grids, opts, dust);
+    }
+    const auto built = std::chrono::steady_clock::now();
+    RenderStats stats;
+    const Image img = opts.spectral.enabled ? renderSpectral(sscene, opts, &run, &stats)
+                      : opts.integrator == Integrator::Path
+                          ? renderPathTraced(sscene.base, opts, &run, &stats)
+                          : renderFrame(sscene.base, opts, &run, &stats);
+    const auto done = std::chrono::steady_clock::now();
+    reportStats(opts, sscene, stats, std::chrono::duration<double>(built - start).count(),
+                std::chrono::duration<double>(done - built).count(), run);
+
+    const ToneCurve curve = computeToneCurve(img, out.tone);
+    writeExr(out.exr, img, exrAttributes(grids, opts, dust, sscene.base, curve, out, run));
     if (!png.empty()) {
         writePng(png, img, curve,
                  {{"Software", std::string("nebrender ") + NEBULA_VERSION_STRING},
