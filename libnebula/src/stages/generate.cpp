@@ -149,7 +149,10 @@ std::vector<Star> exampleStars()
     return {alpha, beta};
 }
 
-GridSet generateNebula(const NebulaParams& p, const std::function<void(std::size_t)>& progress)
+namespace {
+
+/// Throws UsageError naming nebgen's option for any parameter out of range.
+void validateParams(const NebulaParams& p)
 {
     if (p.res < 2 || p.res > 2048) throw UsageError("--res must be in [2, 2048]");
     if (!(p.size > 0.0) || !std::isfinite(p.size)) throw UsageError("--size must be > 0 pc");
@@ -160,8 +163,8 @@ GridSet generateNebula(const NebulaParams& p, const std::function<void(std::size
     if (!(p.contrast > 0.0)) throw UsageError("--contrast must be > 0");
     if (!(p.exponent > 0.0)) throw UsageError("--exponent must be > 0");
     p.dust.validate();
-    const bool shell = p.emissionShape == EmissionShape::Shell;
-    if (shell && !(p.emissionRadius > 0.0 && std::isfinite(p.emissionRadius))) {
+    if (p.emissionShape == EmissionShape::Shell &&
+        !(p.emissionRadius > 0.0 && std::isfinite(p.emissionRadius))) {
         throw UsageError("--emission-radius must be > 0 for --emission-shape shell, got " +
                          numberText(p.emissionRadius));
     }
@@ -175,7 +178,6 @@ GridSet generateNebula(const NebulaParams& p, const std::function<void(std::size
         }
     }
     if (p.lines.empty()) throw UsageError("--lines must name at least one line");
-    const bool oiiiOn = p.spectral.enabled && p.spectral.oiii > 0.0;
     if (p.spectral.enabled) {
         if (!(p.spectral.gasTemperature >= 0.0) || !std::isfinite(p.spectral.gasTemperature)) {
             throw UsageError("--gas-temperature must be a finite number >= 0 [K] (0: off), got " +
@@ -187,7 +189,123 @@ GridSet generateNebula(const NebulaParams& p, const std::function<void(std::size
         }
         motionParams(p).validate();
     }
+}
 
+/// The procedural fields at one voxel: dust density n_H [cm^-3], gas emission and the [O III]
+/// zone's emission.
+struct NebulaVoxel
+{
+    double density = 0.0, emission = 0.0, oiii = 0.0;
+};
+
+/// The procedural nebula (DESIGN §2): domain-warped fBm dust in a perturbed spherical
+/// envelope with cavities around the stars, and gas emission in a sphere or shell, with an
+/// inner [O III] zone.
+class NebulaField
+{
+public:
+    explicit NebulaField(const NebulaParams& p)
+        : mP(p), mShell(p.emissionShape == EmissionShape::Shell), mSeed(p.seed),
+          mSeedWarp(p.seed * 0x9E3779B97F4A7C15ull + 1)
+    {
+        // Motion centre in cube units; the shell's radius and width, the [O III] zone's extent.
+        const auto centrePc = motionCentre(p);
+        mCx = centrePc[0] / p.size;
+        mCy = centrePc[1] / p.size;
+        mCz = centrePc[2] / p.size;
+        mR = p.emissionRadius;
+        mWR = p.shellWidth * p.emissionRadius;
+        mR0 = mShell ? mR - mWR : 0.0;
+        mR1 = mShell ? mR + mWR : mR;
+    }
+
+    /// The fields at voxel (i, j, k) of a res^3 cube.
+    NebulaVoxel at(int i, int j, int k, bool withOiii) const
+    {
+        const NebulaParams& p = mP;
+        const int n = p.res;
+        // Position in cube units, [-0.5, 0.5]^3.
+        const double x = (i + 0.5) / n - 0.5, y = (j + 0.5) / n - 0.5, z = (k + 0.5) / n - 0.5;
+        const double r = std::sqrt(x * x + y * y + z * z);
+        // Domain warp: displace the lookup by a vector fBm for filaments and lanes.
+        const double f = p.frequency;
+        const double wx = fbm(x * f, y * f, z * f, p.fbm, mSeedWarp);
+        const double wy = fbm(x * f + 31.4, y * f, z * f, p.fbm, mSeedWarp);
+        const double wz = fbm(x * f, y * f + 47.2, z * f, p.fbm, mSeedWarp);
+        const double qx = x + p.warp * wx, qy = y + p.warp * wy, qz = z + p.warp * wz;
+        NebulaVoxel v;
+        v.density = dust(x, y, z, r, wx, qx, qy, qz);
+        // Distance from the motion centre [cube edges] (shell, [O III] zone).
+        const double dc =
+            std::sqrt((x - mCx) * (x - mCx) + (y - mCy) * (y - mCy) + (z - mCz) * (z - mCz));
+        const double envEm = mShell ? 1.0 - smoothstep(0.0, mWR, std::abs(dc - mR))
+                                    : 1.0 - smoothstep(0.4 * p.emissionRadius, p.emissionRadius, r);
+        if (envEm > 0.0 && p.emissionPeak > 0.0) {
+            const double e = fbm(qx * f * 1.5, qy * f * 1.5, qz * f * 1.5, p.fbm, mSeed + 7);
+            v.emission =
+                p.emissionPeak * envEm * shape(e, p.threshold - 0.1, p.contrast, p.exponent);
+        }
+        if (withOiii && v.emission > 0.0) {
+            // Ionisation stratification: O++ in the inner part of the ionised region.
+            const double s = 1.0 - smoothstep(mR0 + 0.5 * (mR1 - mR0), mR0 + 0.8 * (mR1 - mR0), dc);
+            v.oiii = p.spectral.oiii * v.emission * s;
+        }
+        return v;
+    }
+
+private:
+    /// Dust at cube point (x, y, z), distance r from the centre, warped point q: the fBm
+    /// shaped into clumps inside a soft envelope, emptied around each star.
+    double dust(double x, double y, double z, double r, double wx, double qx, double qy,
+                double qz) const
+    {
+        const NebulaParams& p = mP;
+        const double f = p.frequency;
+        // Soft spherical envelope, perturbed so the edge is not a sphere.
+        // (capped at the cube's inscribed sphere so no face cuts the cloud).
+        const double edge = std::min(0.5, p.envelope * (1.0 + 0.35 * wx));
+        const double env = 1.0 - smoothstep(0.25 * edge, edge, r);
+        double dens = 0.0;
+        if (env > 0.0) {
+            const double d = fbm(qx * f, qy * f, qz * f, p.fbm, mSeed);
+            dens = p.densityPeak * env * shape(d, p.threshold, p.contrast, p.exponent);
+        }
+        for (const auto& s : p.stars) {
+            if (p.cavity <= 0.0) break;
+            const double sx = x * p.size - s.position[0], sy = y * p.size - s.position[1],
+                         sz = z * p.size - s.position[2];
+            const double dist = std::sqrt(sx * sx + sy * sy + sz * sz);
+            dens *= smoothstep(0.5 * p.cavity, p.cavity, dist);
+        }
+        return dens;
+    }
+
+    const NebulaParams& mP;
+    bool mShell;
+    std::uint64_t mSeed, mSeedWarp;
+    double mCx = 0, mCy = 0, mCz = 0, mR = 0, mWR = 0, mR0 = 0, mR1 = 0;
+};
+
+/// A fog-volume FloatGrid of @p dense's non-zero values (zero voxels inactive).
+openvdb::FloatGrid::Ptr fogGrid(const DenseGrid& dense, openvdb::math::Transform::Ptr xform,
+                                const std::string& name, const std::string& units)
+{
+    auto grid = openvdb::FloatGrid::create(0.0f);
+    openvdb::tools::copyFromDense(dense, grid->tree(), 0.0f); // tolerance 0: all non-zero
+    openvdb::tools::prune(grid->tree());
+    grid->setTransform(xform);
+    grid->setName(name);
+    grid->setGridClass(openvdb::GRID_FOG_VOLUME);
+    grid->insertMeta("units", openvdb::StringMetadata(units));
+    return grid;
+}
+
+} // namespace
+
+GridSet generateNebula(const NebulaParams& p, const std::function<void(std::size_t)>& progress)
+{
+    validateParams(p);
+    const bool oiiiOn = p.spectral.enabled && p.spectral.oiii > 0.0;
     const int n = p.res;
     const double voxel = p.size / n;
     // Voxel centres at integer index coordinates, the cube centred on the world origin.
@@ -195,101 +313,32 @@ GridSet generateNebula(const NebulaParams& p, const std::function<void(std::size
     xform->postTranslate(openvdb::Vec3d(-0.5 * (n - 1) * voxel));
 
     const openvdb::CoordBBox box(openvdb::Coord(0), openvdb::Coord(n - 1));
-    openvdb::tools::Dense<float, openvdb::tools::LayoutXYZ> density(box, 0.0f), emission(box, 0.0f);
+    DenseGrid density(box, 0.0f), emission(box, 0.0f);
     std::unique_ptr<DenseGrid> oiii;
     if (oiiiOn) oiii = std::make_unique<DenseGrid>(box, 0.0f);
-    const std::uint64_t seed = p.seed;
-    const std::uint64_t seedWarp = seed * 0x9E3779B97F4A7C15ull + 1;
-    // Motion centre in cube units; the shell's radius and width, the [O III] zone's extent.
-    const auto centrePc = motionCentre(p);
-    const double cx = centrePc[0] / p.size, cy = centrePc[1] / p.size, cz = centrePc[2] / p.size;
-    const double R = p.emissionRadius, wR = p.shellWidth * p.emissionRadius;
-    const double r0 = shell ? R - wR : 0.0, r1 = shell ? R + wR : R;
-
+    const NebulaField field(p);
     tbb::parallel_for(0, n, [&](int k) {
         for (int j = 0; j < n; ++j) {
             for (int i = 0; i < n; ++i) {
-                // Position in cube units, [-0.5, 0.5]^3.
-                const double x = (i + 0.5) / n - 0.5, y = (j + 0.5) / n - 0.5,
-                             z = (k + 0.5) / n - 0.5;
-                const double r = std::sqrt(x * x + y * y + z * z);
                 const openvdb::Coord c(i, j, k);
-                // Domain warp: displace the lookup by a vector fBm for filaments and lanes.
-                const double f = p.frequency;
-                const double wx = fbm(x * f, y * f, z * f, p.fbm, seedWarp);
-                const double wy = fbm(x * f + 31.4, y * f, z * f, p.fbm, seedWarp);
-                const double wz = fbm(x * f, y * f + 47.2, z * f, p.fbm, seedWarp);
-                const double qx = x + p.warp * wx, qy = y + p.warp * wy, qz = z + p.warp * wz;
-                // Soft spherical envelope, perturbed so the edge is not a sphere.
-                // (capped at the cube's inscribed sphere so no face cuts the cloud).
-                const double edge = std::min(0.5, p.envelope * (1.0 + 0.35 * wx));
-                const double env = 1.0 - smoothstep(0.25 * edge, edge, r);
-                double dens = 0.0;
-                if (env > 0.0) {
-                    const double d = fbm(qx * f, qy * f, qz * f, p.fbm, seed);
-                    dens = p.densityPeak * env * shape(d, p.threshold, p.contrast, p.exponent);
-                }
-                for (const auto& s : p.stars) {
-                    if (p.cavity <= 0.0) break;
-                    const double sx = x * p.size - s.position[0], sy = y * p.size - s.position[1],
-                                 sz = z * p.size - s.position[2];
-                    const double dist = std::sqrt(sx * sx + sy * sy + sz * sz);
-                    dens *= smoothstep(0.5 * p.cavity, p.cavity, dist);
-                }
-                double em = 0.0;
-                // Distance from the motion centre [cube edges] (shell, [O III] zone).
-                const double dc =
-                    std::sqrt((x - cx) * (x - cx) + (y - cy) * (y - cy) + (z - cz) * (z - cz));
-                const double envEm =
-                    shell ? 1.0 - smoothstep(0.0, wR, std::abs(dc - R))
-                          : 1.0 - smoothstep(0.4 * p.emissionRadius, p.emissionRadius, r);
-                if (envEm > 0.0 && p.emissionPeak > 0.0) {
-                    const double e = fbm(qx * f * 1.5, qy * f * 1.5, qz * f * 1.5, p.fbm, seed + 7);
-                    em = p.emissionPeak * envEm *
-                         shape(e, p.threshold - 0.1, p.contrast, p.exponent);
-                }
-                density.setValue(c, float(dens));
-                emission.setValue(c, float(em));
-                if (oiii && em > 0.0) {
-                    // Ionisation stratification: O++ in the inner part of the ionised region.
-                    const double s =
-                        1.0 - smoothstep(r0 + 0.5 * (r1 - r0), r0 + 0.8 * (r1 - r0), dc);
-                    oiii->setValue(c, float(p.spectral.oiii * em * s));
-                }
+                const NebulaVoxel v = field.at(i, j, k, oiiiOn);
+                density.setValue(c, float(v.density));
+                emission.setValue(c, float(v.emission));
+                if (oiii && v.emission > 0.0) oiii->setValue(c, float(v.oiii));
             }
         }
         if (progress) progress(1);
     });
 
-    // Zero voxels stay inactive (tolerance 0 keeps every non-zero value active).
-    auto dGrid = openvdb::FloatGrid::create(0.0f);
-    openvdb::tools::copyFromDense(density, dGrid->tree(), 0.0f);
-    openvdb::tools::prune(dGrid->tree());
-    dGrid->setTransform(xform);
-    dGrid->setName("density");
-    dGrid->setGridClass(openvdb::GRID_FOG_VOLUME);
-    dGrid->insertMeta("units", openvdb::StringMetadata("n_H [cm^-3]"));
-
-    auto eGrid = openvdb::FloatGrid::create(0.0f);
-    openvdb::tools::copyFromDense(emission, eGrid->tree(), 0.0f);
-    openvdb::tools::prune(eGrid->tree());
-    eGrid->setTransform(xform->copy());
-    eGrid->setName("emission");
-    eGrid->setGridClass(openvdb::GRID_FOG_VOLUME);
-    eGrid->insertMeta("units", openvdb::StringMetadata("emission [L_sun pc^-3 sr^-1]"));
+    const std::string emissionUnits = "emission [L_sun pc^-3 sr^-1]";
+    auto dGrid = fogGrid(density, xform, "density", "n_H [cm^-3]");
+    auto eGrid = fogGrid(emission, xform->copy(), "emission", emissionUnits);
     eGrid->insertMeta(META_LINES, openvdb::StringMetadata(lineListToString(p.lines)));
-
     GridSet set;
     set.source = "nebgen";
     set.grids = {dGrid, eGrid};
     if (oiii) {
-        auto oGrid = openvdb::FloatGrid::create(0.0f);
-        openvdb::tools::copyFromDense(*oiii, oGrid->tree(), 0.0f);
-        openvdb::tools::prune(oGrid->tree());
-        oGrid->setTransform(xform->copy());
-        oGrid->setName("emission.oiii");
-        oGrid->setGridClass(openvdb::GRID_FOG_VOLUME);
-        oGrid->insertMeta("units", openvdb::StringMetadata("emission [L_sun pc^-3 sr^-1]"));
+        auto oGrid = fogGrid(*oiii, xform->copy(), "emission.oiii", emissionUnits);
         oGrid->insertMeta(META_LINES, openvdb::StringMetadata(lineListToString(
                                           parseLineList(OIII_EMISSION_LINES, "[O III] lines"))));
         set.grids.push_back(oGrid);
