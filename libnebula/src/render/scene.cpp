@@ -14,6 +14,113 @@ namespace nebula {
 
 using detail::numberText;
 
+namespace {
+
+/// The tau grid of star @p star (with @p suffix, ".L<k>" for a level); Error naming the file,
+/// the grid and the command that makes it if it is missing.
+openvdb::FloatGrid::Ptr tauGrid(const GridSet& grids, const Star& star, const std::string& suffix,
+                                const std::string& missingHint)
+{
+    const std::string name = tauGridName(star.name) + suffix;
+    if (!grids.find(name)) {
+        throw Error(grids.source + ": no grid \"" + name + "\" for star \"" + star.name + "\"" +
+                    missingHint);
+    }
+    return grids.floatGrid(name, "");
+}
+
+/// Throws Error unless @p tau was computed with the dust's kappa_V (its metadata, if any).
+void requireSameKappa(const GridSet& grids, const openvdb::FloatGrid& tau, const DustParams& dust)
+{
+    if (const auto k = tau.getMetadata<openvdb::DoubleMetadata>("kappa_V")) {
+        if (std::abs(k->value() - dust.kappa_V) > 1e-9 * dust.kappa_V) {
+            throw Error(grids.source + ": grid \"" + tau.getName() +
+                        "\" was computed with kappa_V = " + std::to_string(k->value()) +
+                        " but the dust has kappa_V = " + std::to_string(dust.kappa_V) +
+                        "; rerun nebillum");
+        }
+    }
+}
+
+/// Throws Error unless the phase table was made for the dust's albedo, g and phase model
+/// (or opts.phaseIgnoreDust).
+void requireTableForDust(const GridSet& grids, const RenderOptions& opts, const DustParams& dust)
+{
+    const auto& table = opts.phaseTable;
+    if (!table) return;
+    const auto& m = table->medium;
+    const bool same = std::abs(m.albedo - dust.albedo) <= 1e-9 && std::abs(m.g - dust.g) <= 1e-9 &&
+                      m.phase == dust.phase;
+    if (!same && !opts.phaseIgnoreDust) {
+        throw Error(opts.phaseSource + ": the phase table was made for albedo " +
+                    numberText(m.albedo) + ", g " + numberText(m.g) + ", phase " +
+                    toString(m.phase) + " but " + grids.source + "'s dust has albedo " +
+                    numberText(dust.albedo) + ", g " + numberText(dust.g) + ", phase " +
+                    toString(dust.phase) + "; rebuild it (nebphase -i " + grids.source +
+                    " -o phase.vdb) or pass --phase-ignore-dust");
+    }
+}
+
+/// How many pyramid levels to read: opts.levels, or (auto, -1) every level the input has
+/// when there is a phase table.
+int levelCount(const GridSet& grids, const RenderOptions& opts)
+{
+    int count = opts.levels;
+    if (count < 0) {
+        count = 0;
+        while (opts.phaseTable && grids.find(levelGridName(opts.densityGrid, count + 1)))
+            ++count;
+    }
+    if (count > 0 && !opts.phaseTable) {
+        throw UsageError("--levels needs a phase table (--phase): each level adds the change "
+                         "of the per-voxel scattering Phi as the voxel doubles");
+    }
+    return count;
+}
+
+/// Pyramid level @p k: density.L<k> and tau.<star>.L<k> as dense fields (channel 1, the
+/// emission, empty); Error if a grid is missing or its voxels are not 2^k times level 0's
+/// (@p a0: level 0's index-to-world map).
+RenderLevel readLevel(const GridSet& grids, const RenderOptions& opts,
+                      const std::vector<Star>& stars, int k, const Affine& a0)
+{
+    const std::string suffix = ".L" + std::to_string(k);
+    const std::string dName = levelGridName(opts.densityGrid, k);
+    if (!grids.find(dName)) {
+        throw Error(grids.source + ": no grid \"" + dName + "\" for level " + std::to_string(k) +
+                    " of --levels " + std::to_string(opts.levels) + "; run nebpyramid --levels " +
+                    std::to_string(opts.levels) + " first");
+    }
+    auto dk = grids.floatGrid(dName, "");
+    requireFiniteNonNegative(*dk, grids.source);
+    auto empty = openvdb::FloatGrid::create(0.0f);
+    empty->setTransform(dk->transform().copy());
+    std::vector<openvdb::FloatGrid::ConstPtr> lf{dk, empty};
+    for (const auto& st : stars) {
+        lf.push_back(tauGrid(grids, st, suffix,
+                             " at level " + std::to_string(k) + "; run nebpyramid on this file"));
+    }
+    RenderLevel level;
+    level.level = k;
+    level.fields = denseFromGrids(lf, activeBounds({dk}, 1), grids.source);
+    // Voxels 2^k times level 0's (same orientation): compare the linear maps.
+    const auto& ak = level.fields.indexToWorld;
+    const double scale = double(1 << k);
+    double worst = 0.0, norm = 0.0;
+    for (int i = 0; i < 9; ++i) {
+        worst = std::max(worst, std::abs(ak.m[std::size_t(i)] - scale * a0.m[std::size_t(i)]));
+        norm = std::max(norm, std::abs(scale * a0.m[std::size_t(i)]));
+    }
+    if (worst > 1e-6 * norm) {
+        throw Error(grids.source + ": grid \"" + dName + "\" has voxels that are not " +
+                    std::to_string(1 << k) + " times those of \"" + opts.densityGrid +
+                    "\" (level " + std::to_string(k) + "); rebuild the levels with nebpyramid");
+    }
+    return level;
+}
+
+} // namespace
+
 RenderScene buildScene(const GridSet& grids, const RenderOptions& opts, const DustParams& dust)
 {
     RenderScene scene;
@@ -35,20 +142,8 @@ RenderScene buildScene(const GridSet& grids, const RenderOptions& opts, const Du
     }
     std::vector<openvdb::FloatGrid::ConstPtr> fields{density, emission};
     for (const auto& s : scene.stars) {
-        const std::string name = tauGridName(s.name);
-        if (!grids.find(name)) {
-            throw Error(grids.source + ": no grid \"" + name + "\" for star \"" + s.name +
-                        "\"; run nebillum on this file first");
-        }
-        auto tau = grids.floatGrid(name, "");
-        if (const auto k = tau->getMetadata<openvdb::DoubleMetadata>("kappa_V")) {
-            if (std::abs(k->value() - dust.kappa_V) > 1e-9 * dust.kappa_V) {
-                throw Error(grids.source + ": grid \"" + name +
-                            "\" was computed with kappa_V = " + std::to_string(k->value()) +
-                            " but the dust has kappa_V = " + std::to_string(dust.kappa_V) +
-                            "; rerun nebillum");
-            }
-        }
+        auto tau = tauGrid(grids, s, "", "; run nebillum on this file first");
+        requireSameKappa(grids, *tau, dust);
         fields.push_back(tau);
     }
     scene.fields = denseFromGrids(fields, activeBounds({density, fields[1]}, 1), grids.source);
@@ -60,75 +155,12 @@ RenderScene buildScene(const GridSet& grids, const RenderOptions& opts, const Du
     static_cast<DustParams&>(scene.dust) = dust;
     for (int c = 0; c < 3; ++c)
         scene.dust.r[c] = extinctionRatio(dust, opts.wavelengths[c]);
-
-    if (const auto& table = opts.phaseTable) {
-        const auto& m = table->medium;
-        const bool same = std::abs(m.albedo - dust.albedo) <= 1e-9 &&
-                          std::abs(m.g - dust.g) <= 1e-9 && m.phase == dust.phase;
-        if (!same && !opts.phaseIgnoreDust) {
-            throw Error(opts.phaseSource + ": the phase table was made for albedo " +
-                        numberText(m.albedo) + ", g " + numberText(m.g) + ", phase " +
-                        toString(m.phase) + " but " + grids.source + "'s dust has albedo " +
-                        numberText(dust.albedo) + ", g " + numberText(dust.g) + ", phase " +
-                        toString(dust.phase) + "; rebuild it (nebphase -i " + grids.source +
-                        " -o phase.vdb) or pass --phase-ignore-dust");
-        }
-    }
-
+    requireTableForDust(grids, opts, dust);
     scene.buildOccupancy();
 
-    int levelCount = opts.levels;
-    if (levelCount < 0) { // auto: every level the input has, when there is a table
-        levelCount = 0;
-        while (opts.phaseTable &&
-               grids.find(opts.densityGrid + ".L" + std::to_string(levelCount + 1))) {
-            ++levelCount;
-        }
-    }
-    if (levelCount > 0 && !opts.phaseTable) {
-        throw UsageError("--levels needs a phase table (--phase): each level adds the change "
-                         "of the per-voxel scattering Phi as the voxel doubles");
-    }
-    const Affine& a0 = scene.fields.indexToWorld;
-    for (int k = 1; k <= levelCount; ++k) {
-        const std::string suffix = ".L" + std::to_string(k);
-        const std::string dName = opts.densityGrid + suffix;
-        if (!grids.find(dName)) {
-            throw Error(grids.source + ": no grid \"" + dName + "\" for level " +
-                        std::to_string(k) + " of --levels " + std::to_string(opts.levels) +
-                        "; run nebpyramid --levels " + std::to_string(opts.levels) + " first");
-        }
-        auto dk = grids.floatGrid(dName, "");
-        requireFiniteNonNegative(*dk, grids.source);
-        std::vector<openvdb::FloatGrid::ConstPtr> lf{dk, nullptr};
-        auto empty = openvdb::FloatGrid::create(0.0f);
-        empty->setTransform(dk->transform().copy());
-        lf[1] = empty;
-        for (const auto& st : scene.stars) {
-            const std::string name = tauGridName(st.name) + suffix;
-            if (!grids.find(name)) {
-                throw Error(grids.source + ": no grid \"" + name + "\" for star \"" + st.name +
-                            "\" at level " + std::to_string(k) + "; run nebpyramid on this file");
-            }
-            lf.push_back(grids.floatGrid(name, ""));
-        }
-        RenderLevel level;
-        level.level = k;
-        level.fields = denseFromGrids(lf, activeBounds({dk}, 1), grids.source);
-        // Voxels 2^k times level 0's (same orientation): compare the linear maps.
-        const auto& ak = level.fields.indexToWorld;
-        const double scale = double(1 << k);
-        double worst = 0.0, norm = 0.0;
-        for (int i = 0; i < 9; ++i) {
-            worst = std::max(worst, std::abs(ak.m[std::size_t(i)] - scale * a0.m[std::size_t(i)]));
-            norm = std::max(norm, std::abs(scale * a0.m[std::size_t(i)]));
-        }
-        if (worst > 1e-6 * norm) {
-            throw Error(grids.source + ": grid \"" + dName + "\" has voxels that are not " +
-                        std::to_string(1 << k) + " times those of \"" + opts.densityGrid +
-                        "\" (level " + std::to_string(k) + "); rebuild the levels with nebpyramid");
-        }
-        scene.levels.push_back(std::move(level));
+    const int levels = levelCount(grids, opts);
+    for (int k = 1; k <= levels; ++k) {
+        scene.levels.push_back(readLevel(grids, opts, scene.stars, k, scene.fields.indexToWorld));
     }
     return scene;
 }
