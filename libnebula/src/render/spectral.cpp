@@ -104,8 +104,10 @@ XYZ nodesToXYZ(const double* values, const std::vector<XYZ>& weight)
 
 } // namespace
 
-SpectralScene buildSpectralScene(const GridSet& grids, const RenderOptions& opts,
-                                 const DustParams& dust)
+namespace {
+
+/// UsageError for options the spectral renderer cannot honour.
+void checkSpectralOptions(const RenderOptions& opts)
 {
     const SpectralOptions& so = opts.spectral;
     if (opts.integrator == Integrator::Path) {
@@ -134,13 +136,14 @@ SpectralScene buildSpectralScene(const GridSet& grids, const RenderOptions& opts
         throw UsageError("--temperature-scale must be a finite number > 0");
     }
     if (so.layers < 0 || so.layers > 470) throw UsageError("--spectral-layers must be in [0, 470]");
+}
 
-    SpectralScene scene;
-    scene.dust = dust;
-    RenderOptions base = opts;
-    base.levels = 0;
-    scene.base = buildScene(grids, base, dust);
-
+/// The emission grids: opts.emissionGrid, then every other FloatGrid with nebula:lines, each
+/// with its lines and the unit that gives the line mix the RGB mode's luminance.
+std::vector<openvdb::FloatGrid::ConstPtr>
+emissionGrids(const GridSet& grids, const RenderOptions& opts, SpectralScene& scene)
+{
+    const SpectralOptions& so = opts.spectral;
     // Emission grids: the main one, then every other FloatGrid that says what it emits.
     std::vector<openvdb::FloatGrid::ConstPtr> emitGrids;
     std::vector<SpectralLine> fallback;
@@ -177,11 +180,14 @@ SpectralScene buildSpectralScene(const GridSet& grids, const RenderOptions& opts
         addEmitter(grids.floatGrid(g->getName(), ""), false);
     }
 
-    openvdb::FloatGrid::Ptr temperature;
-    if (grids.find(so.temperatureGrid)) {
-        temperature = grids.floatGrid(so.temperatureGrid, "--temperature-grid");
-        requireValidTemperature(*temperature, grids.source);
-    }
+    return emitGrids;
+}
+
+/// The velocity grid's three components as FloatGrids (empty without one); UsageError if
+/// --exaggerate-velocity makes any gas as fast as light.
+std::vector<openvdb::FloatGrid::Ptr> velocityComponents(const GridSet& grids,
+                                                        const SpectralOptions& so)
+{
     std::vector<openvdb::FloatGrid::Ptr> velocity;
     if (grids.find(so.velocityGrid)) {
         const auto v = velocityGrid(grids, so.velocityGrid, "--velocity-grid");
@@ -213,6 +219,29 @@ SpectralScene buildSpectralScene(const GridSet& grids, const RenderOptions& opts
                              std::to_string(SPEED_OF_LIGHT_KMS) + " km/s)");
         }
     }
+
+    return velocity;
+}
+
+} // namespace
+
+SpectralScene buildSpectralScene(const GridSet& grids, const RenderOptions& opts,
+                                 const DustParams& dust)
+{
+    const SpectralOptions& so = opts.spectral;
+    checkSpectralOptions(opts);
+    SpectralScene scene;
+    scene.dust = dust;
+    RenderOptions base = opts;
+    base.levels = 0;
+    scene.base = buildScene(grids, base, dust);
+    const auto emitGrids = emissionGrids(grids, opts, scene);
+    openvdb::FloatGrid::Ptr temperature;
+    if (grids.find(so.temperatureGrid)) {
+        temperature = grids.floatGrid(so.temperatureGrid, "--temperature-grid");
+        requireValidTemperature(*temperature, grids.source);
+    }
+    const auto velocity = velocityComponents(grids, so);
 
     // One lattice for everything: channels as documented in SpectralScene.
     const auto density = grids.floatGrid(opts.densityGrid, "--density-grid");
