@@ -231,15 +231,17 @@ int maxPyramidLevel(const openvdb::CoordBBox& bounds)
     return level;
 }
 
-void buildPyramid(GridSet& grids, const PyramidOptions& opts, const Run& run)
+namespace {
+
+/// Throws unless @p density can have opts.levels levels: active voxels, spanning enough.
+void checkLevels(const GridSet& grids, const openvdb::FloatGrid& density,
+                 const PyramidOptions& opts)
 {
     if (opts.levels < 1) {
         throw UsageError("--levels must be >= 1, got " + std::to_string(opts.levels));
     }
-    const auto density = grids.floatGrid(opts.densityGrid, "--density-grid");
-    requireFiniteNonNegative(*density, grids.source);
-    const std::string quoted = "grid \"" + density->getName() + "\"";
-    const auto bounds = density->evalActiveVoxelBoundingBox();
+    const std::string quoted = "grid \"" + density.getName() + "\"";
+    const auto bounds = density.evalActiveVoxelBoundingBox();
     if (bounds.empty()) {
         throw Error(grids.source + ": " + quoted + " has no active voxels; nothing to average");
     }
@@ -258,7 +260,66 @@ void buildPyramid(GridSet& grids, const PyramidOptions& opts, const Run& run)
             " voxels along the longest axis, so level " + std::to_string(opts.levels) +
             " would be fewer than 2 voxels across; at most --levels " + std::to_string(maxLevel));
     }
+}
 
+/// --tau average: the level-0 optical depths, checked before any work.
+std::vector<openvdb::FloatGrid::Ptr> levelZeroTaus(const GridSet& grids,
+                                                   const openvdb::FloatGrid& density,
+                                                   const std::vector<Star>& stars)
+{
+    std::vector<openvdb::FloatGrid::Ptr> tau0;
+    for (const auto& star : stars) {
+        const std::string name = tauGridName(star.name);
+        if (!grids.find(name)) {
+            throw Error(grids.source + ": no grid \"" + name + "\" for star \"" + star.name +
+                        "\"; --tau average averages the level-0 optical depths: run "
+                        "nebillum first, or use --tau recompute");
+        }
+        auto tau = grids.floatGrid(name, "--tau average");
+        requireFiniteNonNegative(*tau, grids.source);
+        if (tau->transform() != density.transform()) {
+            throw Error(grids.source + ": grid \"" + name + "\" does not share the transform of " +
+                        "grid \"" + density.getName() +
+                        "\"; rerun nebillum, or use --tau recompute");
+        }
+        tau0.push_back(tau);
+    }
+    return tau0;
+}
+
+/// --tau average at level @p k: each star's level-0 tau averaged over the coarse voxels,
+/// exact where it has none (@p column0 through the level-0 density @p n0).
+void averagedTaus(GridSet& taus, const openvdb::FloatGrid& coarse, int k,
+                  const std::vector<openvdb::FloatGrid::Ptr>& tau0, const std::vector<Star>& stars,
+                  const DustParams& dust, const DenseVolume& n0, const ColumnIntegrator& column0)
+{
+    const Affine worldToIndex0 = n0.indexToWorld.inverse();
+    for (std::size_t s = 0; s < stars.size(); ++s) {
+        const auto& p = stars[s].position;
+        double kappa_V = dust.kappa_V; // the one the level-0 tau was made with
+        if (auto m = tau0[s]->getMetadata<openvdb::DoubleMetadata>("kappa_V")) {
+            kappa_V = m->value();
+        }
+        auto tau = averageOpticalDepth(*tau0[s], coarse, k, column0,
+                                       worldToIndex0.apply(Vec3(p[0], p[1], p[2])), kappa_V);
+        tau->setGridClass(openvdb::GRID_UNKNOWN);
+        tau->insertMeta("star", openvdb::StringMetadata(stars[s].name));
+        tau->insertMeta("kappa_V", openvdb::DoubleMetadata(kappa_V));
+        tau->insertMeta("units", openvdb::StringMetadata("optical depth at V (550 nm)"));
+        taus.replace(tau);
+    }
+}
+
+} // namespace
+
+void buildPyramid(GridSet& grids, const PyramidOptions& opts, const Run& run)
+{
+    if (opts.levels < 1) {
+        throw UsageError("--levels must be >= 1, got " + std::to_string(opts.levels));
+    }
+    const auto density = grids.floatGrid(opts.densityGrid, "--density-grid");
+    requireFiniteNonNegative(*density, grids.source);
+    checkLevels(grids, *density, opts);
     const auto stars = grids.stars();
     if (stars.empty()) {
         throw Error(grids.source + ": no stars: the file has no " + std::string(META_STARS) +
@@ -267,46 +328,24 @@ void buildPyramid(GridSet& grids, const PyramidOptions& opts, const Run& run)
     }
     const DustParams dust = grids.dust();
     dust.validate();
-
-    // --tau average: the level-0 optical depths, checked before any work.
-    std::vector<openvdb::FloatGrid::Ptr> tau0;
-    if (opts.tau == TauMethod::Average) {
-        for (const auto& star : stars) {
-            const std::string name = tauGridName(star.name);
-            if (!grids.find(name)) {
-                throw Error(grids.source + ": no grid \"" + name + "\" for star \"" + star.name +
-                            "\"; --tau average averages the level-0 optical depths: run "
-                            "nebillum first, or use --tau recompute");
-            }
-            auto tau = grids.floatGrid(name, "--tau average");
-            requireFiniteNonNegative(*tau, grids.source);
-            if (tau->transform() != density->transform()) {
-                throw Error(grids.source + ": grid \"" + name +
-                            "\" does not share the "
-                            "transform of " +
-                            quoted +
-                            "; rerun nebillum, or use --tau "
-                            "recompute");
-            }
-            tau0.push_back(tau);
-        }
-    }
-
+    const bool average = opts.tau == TauMethod::Average;
+    const auto tau0 =
+        average ? levelZeroTaus(grids, *density, stars) : std::vector<openvdb::FloatGrid::Ptr>{};
     // The level-0 density as a dense lattice (zero border), for the exact tau of the coarse
     // voxels that --tau average has no level-0 tau for.
     std::optional<DenseVolume> n0;
     std::optional<ColumnIntegrator> column0;
-    if (opts.tau == TauMethod::Average) {
+    if (average) {
         n0.emplace(denseFromGrids({density}, activeBounds({density}, 1), grids.source));
         column0.emplace(*n0);
     }
 
     const double mass0 = gridMass(*density);
-    run.info(quoted + ": " + dimsText(bounds) + " active bounding box, " +
+    run.info("grid \"" + density->getName() +
+             "\": " + dimsText(density->evalActiveVoxelBoundingBox()) + " active bounding box, " +
              std::to_string(density->activeVoxelCount()) + " active voxels, mass " + approx(mass0) +
              " [cm^-3 pc^3]; " + std::to_string(opts.levels) + " levels, tau " +
              toString(opts.tau) + ", " + std::to_string(stars.size()) + " stars");
-
     GridSet products;
     products.source = grids.source;
     for (int k = 1; k <= opts.levels; ++k) {
@@ -317,29 +356,12 @@ void buildPyramid(GridSet& grids, const PyramidOptions& opts, const Run& run)
         run.info("level " + std::to_string(k) + ": " + coarse->getName() + " " +
                  dimsText(coarse->evalActiveVoxelBoundingBox()) + " active bounding box, mass " +
                  approx(mass) + " (relative change " + approx(mass / mass0 - 1.0) + ")");
-
         GridSet taus;
         taus.source = grids.source;
-        const std::string suffix = ".L" + std::to_string(k);
-        if (opts.tau == TauMethod::Recompute) {
-            addOpticalDepths(taus, *coarse, stars, dust, suffix, run);
+        if (average) {
+            averagedTaus(taus, *coarse, k, tau0, stars, dust, *n0, *column0);
         } else {
-            const Affine worldToIndex0 = n0->indexToWorld.inverse();
-            for (std::size_t s = 0; s < stars.size(); ++s) {
-                const auto& p = stars[s].position;
-                double kappa_V = dust.kappa_V; // the one the level-0 tau was made with
-                if (auto m = tau0[s]->getMetadata<openvdb::DoubleMetadata>("kappa_V")) {
-                    kappa_V = m->value();
-                }
-                auto tau =
-                    averageOpticalDepth(*tau0[s], *coarse, k, *column0,
-                                        worldToIndex0.apply(Vec3(p[0], p[1], p[2])), kappa_V);
-                tau->setGridClass(openvdb::GRID_UNKNOWN);
-                tau->insertMeta("star", openvdb::StringMetadata(stars[s].name));
-                tau->insertMeta("kappa_V", openvdb::DoubleMetadata(kappa_V));
-                tau->insertMeta("units", openvdb::StringMetadata("optical depth at V (550 nm)"));
-                taus.replace(tau);
-            }
+            addOpticalDepths(taus, *coarse, stars, dust, ".L" + std::to_string(k), run);
         }
         for (auto& g : taus.grids) {
             g->insertMeta("level", openvdb::Int32Metadata(k));
@@ -350,7 +372,6 @@ void buildPyramid(GridSet& grids, const PyramidOptions& opts, const Run& run)
         run.info("level " + std::to_string(k) + ": " + std::to_string(taus.grids.size()) +
                  " tau grids (" + toString(opts.tau) + "), " + approx(secondsSince(start)) + " s");
     }
-
     if (opts.onlyNew) grids.grids.clear();
     for (auto& g : products.grids)
         grids.replace(g);
