@@ -4,6 +4,7 @@
 #include "nebula/cli/options.h"
 #include "nebula/core/atomic_file.h"
 #include "nebula/core/error.h"
+#include "nebula/core/format.h"
 #include "nebula/io/grid_io.h"
 #include "nebula/io/phase_table_vdb.h"
 #include "nebula/physics/montecarlo.h"
@@ -23,6 +24,8 @@
 #include <string>
 
 namespace {
+
+using nebula::detail::numberText;
 
 /// nebphase's own options; the table's defaults live in PhaseTableSpec.
 struct PhaseOptions
@@ -48,44 +51,10 @@ std::string approx(double v, int digits = 3)
     return out.str();
 }
 
-/// A number for a message: the fewest digits (at least 6) that read back as @p v.
-std::string num(double v)
-{
-    std::string text;
-    for (int digits = 6; digits <= 17; ++digits) {
-        std::ostringstream out;
-        out.precision(digits);
-        out << v;
-        text = out.str();
-        if (std::strtod(text.c_str(), nullptr) == v) break;
-    }
-    return text;
-}
-
-/// The dust options checked under their option names (DustParams::validate() names the
-/// parameter, not the option).
-void checkDustOptions(const nebula::DustOptions& d)
-{
-    if (d.albedo && !(*d.albedo >= 0.0 && *d.albedo <= 1.0)) {
-        throw nebula::UsageError("--albedo must be in [0, 1], got " + num(*d.albedo));
-    }
-    if (d.g && !(std::fabs(*d.g) < 1.0)) {
-        throw nebula::UsageError("--g must be in (-1, 1), got " + num(*d.g));
-    }
-    if (d.phase) {
-        try {
-            nebula::phaseModelFromString(*d.phase);
-        } catch (const nebula::Error& e) {
-            throw nebula::UsageError(std::string("--phase-function: ") + e.what());
-        }
-    }
-}
-
 /// The dust: the input's nebula:dust (or the defaults) with the options applied.
 nebula::DustParams loadDust(const nebula::Run& run, const std::string& input,
                             const nebula::DustOptions& dustOpts)
 {
-    checkDustOptions(dustOpts);
     nebula::DustParams base;
     if (!input.empty()) {
         const auto grids = nebula::readGrids(input, run);
@@ -95,7 +64,7 @@ nebula::DustParams loadDust(const nebula::Run& run, const std::string& input,
         base = grids.dust();
     }
     const auto dust = dustOpts.apply(base);
-    run.info("dust: albedo " + num(dust.albedo) + ", g " + num(dust.g) + ", phase " +
+    run.info("dust: albedo " + numberText(dust.albedo) + ", g " + numberText(dust.g) + ", phase " +
              nebula::toString(dust.phase) + (input.empty() ? "" : " (from " + input + ")"));
     return dust;
 }
@@ -143,10 +112,10 @@ void tableMode(const nebula::Run& run, const nebula::CommonOptions& common,
     if (!opts.json.empty() && opts.json != "-") {
         nebula::checkOutputWritable(opts.json, "JSON table");
     }
-    run.info("table: " + std::to_string(spec.tCount) + " t values " + num(spec.tMin) + " .. " +
-             num(spec.tMax) + " (log), " + std::to_string(spec.muBins) + " mu bins, " +
-             std::to_string(spec.minPhotons) + " .. " + std::to_string(spec.maxPhotons) +
-             " photons per t, seed " + std::to_string(spec.seed));
+    run.info("table: " + std::to_string(spec.tCount) + " t values " + numberText(spec.tMin) +
+             " .. " + numberText(spec.tMax) + " (log), " + std::to_string(spec.muBins) +
+             " mu bins, " + std::to_string(spec.minPhotons) + " .. " +
+             std::to_string(spec.maxPhotons) + " photons per t, seed " + std::to_string(spec.seed));
 
     const auto start = std::chrono::steady_clock::now();
     nebula::PhaseTable table;
@@ -164,19 +133,19 @@ void tableMode(const nebula::Run& run, const nebula::CommonOptions& common,
     for (auto n : table.photons)
         photons += n;
     const double worst = table.worstRelativeError(spec.errorTMax);
-    run.info("worst relative error of Phi (mu > 0, t <= " + num(spec.errorTMax) +
-             "): " + approx(worst) + " (target " + num(spec.targetError) + "); " +
+    run.info("worst relative error of Phi (mu > 0, t <= " + numberText(spec.errorTMax) +
+             "): " + approx(worst) + " (target " + numberText(spec.targetError) + "); " +
              std::to_string(photons) + " photons in all; " + seconds);
     if (!std::isfinite(worst)) {
-        run.warn("some bins with mu > 0 and t <= " + num(spec.errorTMax) +
+        run.warn("some bins with mu > 0 and t <= " + numberText(spec.errorTMax) +
                  " have Phi = 0 (no scattered light), so their relative error is undefined; "
                  "each such row used --max-photons " +
                  std::to_string(spec.maxPhotons));
     } else if (worst > spec.targetError) {
         run.warn("worst relative error of Phi is " + approx(worst) +
-                 " (mu > 0, t <= " + num(spec.errorTMax) + "), above --error " +
-                 num(spec.targetError) + ": --max-photons " + std::to_string(spec.maxPhotons) +
-                 " reached; raise it for a more accurate table");
+                 " (mu > 0, t <= " + numberText(spec.errorTMax) + "), above --error " +
+                 numberText(spec.targetError) + ": --max-photons " +
+                 std::to_string(spec.maxPhotons) + " reached; raise it for a more accurate table");
     }
 
     // The JSON is committed only after the VDB is written, so a failure leaves neither.
@@ -216,10 +185,10 @@ void slabMode(const nebula::Run& run, const nebula::CommonOptions& common,
 {
     const double tau = *opts.tau;
     if (!(tau > 0.0) || !std::isfinite(tau)) {
-        throw nebula::UsageError("--tau must be a finite number > 0, got " + num(tau));
+        throw nebula::UsageError("--tau must be a finite number > 0, got " + numberText(tau));
     }
     if (!(opts.mu0 > 0.0 && opts.mu0 <= 1.0)) {
-        throw nebula::UsageError("--mu0 must be in (0, 1], got " + num(opts.mu0));
+        throw nebula::UsageError("--mu0 must be in (0, 1], got " + numberText(opts.mu0));
     }
     if (opts.bins < 1 || opts.bins > 100000) {
         throw nebula::UsageError("--bins must be in [1, 100000], got " + std::to_string(opts.bins));
@@ -354,7 +323,7 @@ int main(int argc, char** argv)
             ->check(notNegative),
         tbl->add_option("--error", opts.table.targetError,
                         "Target relative standard error of Phi (mu > 0 bins, t <= " +
-                            num(spec.errorTMax) + ")")
+                            numberText(spec.errorTMax) + ")")
             ->capture_default_str(),
         tbl->add_option("--json", opts.json, "Also write the table as JSON (file, or -)"),
     };
