@@ -4,6 +4,8 @@
 
 #include "nebula/core/run.h"
 
+#include "test_util.h"
+
 #include <gtest/gtest.h>
 
 #include <fcntl.h>
@@ -20,20 +22,7 @@
 
 namespace {
 
-/// Captures std::cerr (rdbuf swap) for its lifetime.
-class CerrCapture
-{
-public:
-    CerrCapture() : mOld(std::cerr.rdbuf(mBuffer.rdbuf())) {}
-    ~CerrCapture() { std::cerr.rdbuf(mOld); }
-    CerrCapture(const CerrCapture&) = delete;
-    CerrCapture& operator=(const CerrCapture&) = delete;
-    std::string text() const { return mBuffer.str(); }
-
-private:
-    std::ostringstream mBuffer;
-    std::streambuf* mOld;
-};
+using nebula::test::CerrCapture;
 
 /// Points file descriptor 2 (stderr, also what fprintf(stderr) writes to) at @p fd for its
 /// lifetime, flushing both sides.

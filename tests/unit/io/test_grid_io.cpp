@@ -95,20 +95,7 @@ GridSet sampleSet()
     return s;
 }
 
-/// Captures std::cerr (rdbuf swap) for its lifetime.
-class CerrCapture
-{
-public:
-    CerrCapture() : mOld(std::cerr.rdbuf(mBuffer.rdbuf())) {}
-    ~CerrCapture() { std::cerr.rdbuf(mOld); }
-    CerrCapture(const CerrCapture&) = delete;
-    CerrCapture& operator=(const CerrCapture&) = delete;
-    std::string text() const { return mBuffer.str(); }
-
-private:
-    std::ostringstream mBuffer;
-    std::streambuf* mOld;
-};
+using nebula::test::CerrCapture;
 
 // ---- round trip -----------------------------------------------------------------------------
 

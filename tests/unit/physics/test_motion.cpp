@@ -24,7 +24,10 @@ using nebula::test::errorMessage;
 
 namespace {
 
-using Vec = std::array<double, 3>;
+using nebula::test::frobenius;
+using nebula::test::jacobian;
+using nebula::test::randomPoints;
+using Vec = nebula::test::Vec;
 
 double dot(const Vec& a, const Vec& b)
 {
@@ -41,39 +44,6 @@ Vec sub(const Vec& a, const Vec& b)
 Vec cross(const Vec& a, const Vec& b)
 {
     return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
-}
-
-/// Jacobian J[i][j] = d v_i / d x_j by central differences of step h.
-template <typename F> std::array<Vec, 3> jacobian(const F& v, const Vec& x, double h)
-{
-    std::array<Vec, 3> J{};
-    for (int j = 0; j < 3; ++j) {
-        Vec xp = x, xm = x;
-        xp[j] += h;
-        xm[j] -= h;
-        const Vec vp = v(xp), vm = v(xm);
-        for (int i = 0; i < 3; ++i)
-            J[i][j] = (vp[i] - vm[i]) / (2.0 * h);
-    }
-    return J;
-}
-
-double frobenius(const std::array<Vec, 3>& J)
-{
-    double s = 0.0;
-    for (const auto& row : J)
-        s += dot(row, row);
-    return std::sqrt(s);
-}
-
-std::vector<Vec> randomPoints(int n, double halfSize, unsigned seed)
-{
-    std::mt19937_64 rng(seed);
-    std::uniform_real_distribution<double> u(-halfSize, halfSize);
-    std::vector<Vec> pts(n);
-    for (auto& p : pts)
-        p = {u(rng), u(rng), u(rng)};
-    return pts;
 }
 
 // ---- motion models ---------------------------------------------------------------------
