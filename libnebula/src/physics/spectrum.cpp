@@ -1,5 +1,5 @@
 /// @file spectrum.cpp
-/// Piecewise-linear spectra (DESIGN §7, notes §6.2): insertion sweep, integrals, merging.
+/// Piecewise-linear spectra (DESIGN §7.1): insertion sweep, integrals, merging.
 
 #include "nebula/physics/spectrum.h"
 

@@ -1,5 +1,5 @@
 // Tests for nebula/image.h: EXR round trip, atomic failure behaviour, PNG encoding and the
-// automatic tone curve (DESIGN §8, notes/physics-sources.md 4.3).
+// automatic tone curve (DESIGN §8).
 
 #include "nebula/core/error.h"
 #include "nebula/io/image.h"

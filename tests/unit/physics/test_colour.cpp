@@ -666,7 +666,7 @@ TEST(BlackbodyColour, NearWhiteAt6500K)
 
 TEST(BlackbodyColour, MatchesCieIntegratedRatios)
 {
-    // shared/notes/physics-sources.md 4.1, "CIE-1931-integrated linear sRGB", normalised so
+    // DESIGN §3.2, "CIE-1931-integrated linear sRGB", normalised so
     // that the largest channel is 1.
     struct Case
     {

@@ -131,7 +131,7 @@ TEST(CcmExtinction, BBandIsOnePlusInverseRV)
 
 TEST(CcmExtinction, ChannelRatios)
 {
-    // shared/notes/physics-sources.md 4.2: sigma_c / sigma_G at 700 / 546.1 / 435.8 nm.
+    // DESIGN §3.1: sigma_c / sigma_G at 700 / 546.1 / 435.8 nm.
     struct Case
     {
         double R_V, redOverGreen, blueOverGreen;

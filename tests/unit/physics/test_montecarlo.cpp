@@ -153,7 +153,7 @@ TEST(MonteCarlo, ThinCubeScattersLikeOneEvent)
 
 TEST(MonteCarlo, CubeMatchesIndependentVariantBNumbers)
 {
-    // notes/physics-sources.md §2.3 "variant B" (beam through the voxel), computed with an
+    // DESIGN §4.1 "variant B" (beam through the voxel), computed with an
     // independent pure-Python Monte Carlo, a = 0.6, g = 0.6, 40,000 photons: scattered
     // escape, its mean cosine, and the unscattered fraction. Tolerances: 3 of that run's
     // standard errors (binomial, ~0.0023 for escape and unscattered; ~0.005 for a mean cosine

@@ -1,5 +1,5 @@
 /// @file test_spectrum.cpp
-/// Piecewise-linear spectra (DESIGN §7, notes §6.2): the 11 overlap cases of the paper's
+/// Piecewise-linear spectra (DESIGN §7.1): the 11 overlap cases of the paper's
 /// table, random sums against brute force, exact integrals of products, merging and
 /// multiplication by a smooth function.
 
@@ -264,7 +264,7 @@ TEST(SpectrumTrapezoid, NegativeWidthPieceThrows)
 TEST(SpectrumTrapezoid, DopplerBroadenedLineKeepsTheTrapezoidArea)
 {
     // H-alpha line of integral I over a box of half width eps, its two ends shifted by the
-    // velocities at the two samples (notes §6.2, Algorithm 2). The y values are fixed by
+    // velocities at the two samples (DESIGN §7.1, Algorithm 2). The y values are fixed by
     // the densities, so the area is (x2 - x1)(y1 + y2)/2, as in the paper.
     const double lambda = 656.28; // [nm]
     const double eps = 0.05;      // [nm]

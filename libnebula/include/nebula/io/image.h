@@ -74,10 +74,9 @@ constexpr double TONE_MIN_GAMMA = 0.3;
 
 /// Automatic curve: white = the @p params.percentile luminance (nearest rank) of the pixels
 /// with finite luminance > 0; gamma chosen so that the log-mean luminance of the pixels above
-/// 1e-6 white maps to display TONE_KEY, clamped to [TONE_MIN_GAMMA, 1] (after
-/// notes/physics-sources.md 4.3, which maps it to 0.5: that flattens nebulae whose 1/r^2
-/// halo spans decades); a black
-/// frame gives white 1, gamma 1. Manual: white = 2^-exposure, gamma as given. Throws Error on
+/// 1e-6 white maps to display TONE_KEY, clamped to [TONE_MIN_GAMMA, 1] (DESIGN §8; a key
+/// of 0.5, as some tone mappers use, flattens nebulae whose 1/r^2 halo spans decades); a
+/// black frame gives white 1, gamma 1. Manual: white = 2^-exposure, gamma as given. Throws Error on
 /// an invalid parameter.
 ToneCurve computeToneCurve(const Image& image, const ToneParams& params);
 

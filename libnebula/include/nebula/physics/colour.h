@@ -7,7 +7,7 @@
 ///
 /// The CMFs are taken as piecewise linear between the 1 nm table nodes and 0 outside
 /// 360-830 nm, so the XYZ of a piecewise-linear spectrum is an exact integral (Alghamdi et
-/// al. 2023, notes §6.2): no sampling, no quadrature error.
+/// al. 2023, DESIGN §7.1): no sampling, no quadrature error.
 
 #include "nebula/physics/spectrum.h"
 

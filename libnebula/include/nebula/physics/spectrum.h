@@ -1,6 +1,6 @@
 #pragma once
 /// @file spectrum.h
-/// Piecewise-linear spectra (DESIGN §7; Alghamdi et al. 2023, notes §6.2): linear pieces on
+/// Piecewise-linear spectra (DESIGN §7.1; Alghamdi et al. 2023): linear pieces on
 /// non-overlapping wavelength intervals, exact sums, integrals and products, and merging of
 /// neighbouring pieces under a tolerance. Groundwork for the spectral renderer.
 
@@ -32,14 +32,14 @@ constexpr double BREAKPOINT_REL_TOL = 1e-12;
 
 /// A piecewise-linear function of wavelength: a sum of Pieces kept as a list sorted by x0
 /// with no overlaps (touching endpoints allowed). Values may be negative (absorption lines
-/// are added as pieces with negative values, notes §6.2).
+/// are added as pieces with negative values, DESIGN §7.1).
 class Spectrum
 {
 public:
     /// Adds @p p to the spectrum. Where p overlaps existing pieces, the overlap becomes pieces
     /// whose slope and intercept are the sums; the parts that do not overlap stay separate
     /// pieces. This is one sweep over the sorted breakpoints of p and of the pieces it
-    /// overlaps, which reproduces all 11 cases of the paper's table (notes §6.2). The
+    /// overlaps, which reproduces all 11 cases of the paper's table (DESIGN §7.1). The
     /// affected pieces are found by binary search: O(log n + k) for k affected pieces, plus
     /// one move of the vector's tail when the piece count changes.
     /// An endpoint of p within BREAKPOINT_REL_TOL of an existing breakpoint is snapped to it.
@@ -50,7 +50,7 @@ public:
 
     /// Adds the trapezoid through (@p x0, @p y0) and (@p x1, @p y1), x [nm], y in the
     /// spectrum's value unit. If x0 > x1 the endpoints are swapped together with their values
-    /// (a Doppler shift that reverses the order, notes §6.2). Its integral is
+    /// (a Doppler shift that reverses the order, DESIGN §7.1). Its integral is
     /// (x1 - x0) (y0 + y1) / 2, up to rounding.
     void addTrapezoid(double x0, double x1, double y0, double y1);
 
@@ -74,7 +74,7 @@ public:
     double integral() const;
 
     /// Exact integral of the product of this spectrum and @p other over all wavelengths:
-    /// each overlapping pair of pieces contributes the integral of a quadratic (notes §6.2),
+    /// each overlapping pair of pieces contributes the integral of a quadratic (DESIGN §7.1),
     /// evaluated in the numerically stable Simpson form, which is exact for quadratics.
     /// A linear merge of the two sorted lists: O(n + m).
     double integral(const Spectrum& other) const;

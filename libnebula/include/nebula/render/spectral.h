@@ -2,7 +2,7 @@
 /// @file spectral.h
 /// nebrender --spectral (DESIGN §7): spectra along camera rays instead of three channels.
 /// Line emission is shifted by the gas's radial velocity and broadened into exact
-/// trapezoids (Alghamdi et al. 2023, notes §6.2); black-body emission and the starlight the
+/// trapezoids (Alghamdi et al. 2023, DESIGN §7.1); black-body emission and the starlight the
 /// dust scatters carry the extinction curve at every wavelength. Colour is the exact
 /// integral of the piecewise-linear spectrum against the CIE 1931 colour-matching functions,
 /// then linear sRGB. A fixed-band mode point-samples the same spectra for comparison.
