@@ -49,11 +49,6 @@ private:
     int mWidth, mHeight;
 };
 
-inline Vec3 toVec3(const std::array<double, 3>& a)
-{
-    return Vec3(a[0], a[1], a[2]);
-}
-
 /// Throws UsageError unless the eye differs from the look-at point and up is not parallel
 /// to the view direction.
 void validateCamera(const Camera& camera);

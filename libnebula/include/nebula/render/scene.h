@@ -42,8 +42,8 @@ struct RenderScene
     std::vector<Star> stars;
     std::vector<std::array<double, 3>> starColor; ///< L_s * linear sRGB (Y = 1) [L_sun]
     ChannelDust dust;
-    /// Coarse occupancy: block (bi,bj,bk) of BLOCK^3 lattice cells holds dust or emission.
-    static constexpr int BLOCK = OCCUPANCY_BLOCK;
+    /// Coarse occupancy: block (bi,bj,bk) of OCCUPANCY_BLOCK^3 lattice cells holds dust or
+    /// emission.
     std::array<int, 3> blocks{0, 0, 0};
     std::vector<std::uint8_t> occupied;
 
