@@ -22,7 +22,6 @@ bool endsWith(const std::string& s, const std::string& suffix)
            s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
 }
 
-
 /// The PNG path: RenderOutput::png, or the EXR's name with .png; "" for none.
 std::string pngPath(const RenderOutput& out)
 {

@@ -65,14 +65,16 @@ struct Outcome
     nebula::CommonOptions opts;
 };
 
-/// Runs cli::run() for tool "nebtest" with common options @p flags on the arguments @p args
-/// (argv[0] is "nebtest"), calling @p body inside.
+/// Runs cli::run() for tool "nebtest" with common options @p flags (and whatever @p setup
+/// adds) on the arguments @p args (argv[0] is "nebtest"), calling @p body inside.
 Outcome runTool(unsigned flags, std::initializer_list<std::string> args,
-                const std::function<void(nebula::Run&)>& body = {})
+                const std::function<void(nebula::Run&)>& body = {},
+                const std::function<void(CLI::App&)>& setup = {})
 {
     CLI::App app("test tool", "nebtest");
     Outcome o;
     nebula::cli::addCommon(app, o.opts, flags);
+    if (setup) setup(app);
     std::vector<std::string> storage = {"nebtest"};
     storage.insert(storage.end(), args.begin(), args.end());
     std::vector<char*> argv;
@@ -317,23 +319,12 @@ TEST(Cli, AddVec3ParsesIntoTheTargetOrRefuses)
 {
     const auto runWith = [](std::initializer_list<std::string> args, std::array<double, 3>& a,
                             nebula::Vec3& v, std::string* help = nullptr) {
-        CLI::App app("test tool", "nebtest");
-        nebula::CommonOptions opts;
-        nebula::cli::addCommon(app, opts, 0);
-        nebula::cli::addVec3(app, "--axis", a, "An axis");
-        nebula::cli::addVec3(app, "--eye", v, "An eye [pc]");
-        if (help) *help = app.help();
-        std::vector<std::string> storage = {"nebtest"};
-        storage.insert(storage.end(), args.begin(), args.end());
-        std::vector<char*> argv;
-        for (auto& s : storage)
-            argv.push_back(s.data());
-        argv.push_back(nullptr);
-        Capture cap;
-        bool ran = false;
-        const int code = nebula::cli::run(app, "nebtest", opts, int(storage.size()), argv.data(),
-                                          [&](nebula::Run&) { ran = true; });
-        return std::make_tuple(code, ran, cap.err());
+        const Outcome o = runTool(0, args, {}, [&](CLI::App& app) {
+            nebula::cli::addVec3(app, "--axis", a, "An axis");
+            nebula::cli::addVec3(app, "--eye", v, "An eye [pc]");
+            if (help) *help = app.help();
+        });
+        return std::make_tuple(o.code, o.bodyRan, o.err);
     };
     std::array<double, 3> a{0, 1, 0};
     nebula::Vec3 v(4, 3, -19);

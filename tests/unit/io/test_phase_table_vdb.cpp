@@ -6,6 +6,8 @@
 
 #include <openvdb/openvdb.h>
 
+#include "phase_tables.h"
+
 #include <gtest/gtest.h>
 
 #include <functional>
@@ -15,18 +17,7 @@ using namespace nebula;
 
 namespace {
 
-PhaseTableSpec smallSpec()
-{
-    PhaseTableSpec s;
-    s.tMin = 1e-3;
-    s.tMax = 10.0;
-    s.tCount = 5; // 1e-3, 1e-2, 0.1, 1, 10
-    s.muBins = 16;
-    s.minPhotons = 2048;
-    s.maxPhotons = 65536;
-    s.targetError = 0.02;
-    return s;
-}
+using nebula::test::smallSpec;
 
 std::string errorOf(const std::function<void()>& f)
 {

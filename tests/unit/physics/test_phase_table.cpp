@@ -2,28 +2,15 @@
 // grid form and its error messages are in io/test_phase_table_vdb.cpp.)
 #include "nebula/physics/phase_table.h"
 
+#include "phase_tables.h"
+
 #include <gtest/gtest.h>
 
 #include <cmath>
 
 using namespace nebula;
 
-namespace {
-
-PhaseTableSpec smallSpec()
-{
-    PhaseTableSpec s;
-    s.tMin = 1e-3;
-    s.tMax = 10.0;
-    s.tCount = 5; // 1e-3, 1e-2, 0.1, 1, 10
-    s.muBins = 16;
-    s.minPhotons = 2048;
-    s.maxPhotons = 65536;
-    s.targetError = 0.02;
-    return s;
-}
-
-} // namespace
+using nebula::test::smallSpec;
 
 TEST(PhaseTable, BuildIsDeterministicAndMeetsItsErrorTarget)
 {
