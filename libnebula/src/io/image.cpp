@@ -24,6 +24,7 @@
 #include <cstring>
 #include <exception>
 #include <memory>
+#include <ostream>
 #include <set>
 
 namespace nebula {
@@ -80,46 +81,32 @@ void validateImage(const std::string& where, const Image& image, bool withLayers
     }
 }
 
-/// An Imf::OStream over a FILE* that remembers its first failure. OutputFile's destructor
-/// writes the line offset table and swallows exceptions, so a full disk would otherwise go
-/// unnoticed and a truncated EXR be committed.
-class CheckedOStream : public Imf::OStream
+/// An Imf::OStream over an AtomicFile's checked stream that throws on the first failure.
+/// OutputFile's destructor writes the line offset table and swallows exceptions, so the
+/// stream's own error state (checked by AtomicFile::finish()) is what catches a full disk.
+class ExrOStream : public Imf::OStream
 {
 public:
-    CheckedOStream(std::FILE* fp, const std::string& name) : Imf::OStream(name.c_str()), mFp(fp) {}
+    ExrOStream(std::ostream& os, const std::string& name) : Imf::OStream(name.c_str()), mOs(os) {}
 
     void write(const char c[], int n) override
     {
-        if (std::fwrite(c, 1, std::size_t(n), mFp) != std::size_t(n)) fail("write");
+        mOs.write(c, std::streamsize(n));
+        if (!mOs) throw Iex::IoExc("write failed");
+        mPos += uint64_t(n);
     }
-    uint64_t tellp() override
-    {
-        const off_t pos = ::ftello(mFp);
-        if (pos < 0) fail("tell");
-        return uint64_t(pos);
-    }
+    // OutputFile's destructor calls these outside its own try block: they must not throw. A
+    // failed seek leaves the stream bad, which AtomicFile::finish() reports.
+    uint64_t tellp() override { return mPos; }
     void seekp(uint64_t pos) override
     {
-        if (::fseeko(mFp, off_t(pos), SEEK_SET) != 0) fail("seek");
+        mOs.seekp(std::streamoff(pos));
+        mPos = pos;
     }
-
-    /// errno of the first failure, 0 if none.
-    int error() const { return mError; }
 
 private:
-    [[noreturn]] void fail(const char* what)
-    {
-        if (mError == 0) mError = errno != 0 ? errno : EIO;
-        throw Iex::IoExc(std::string(what) + " failed (" + std::strerror(mError) + ")");
-    }
-
-    std::FILE* mFp;
-    int mError = 0;
-};
-
-struct FileCloser
-{
-    void operator()(std::FILE* fp) const { std::fclose(fp); }
+    std::ostream& mOs;
+    uint64_t mPos = 0;
 };
 
 char* sliceBase(const float* p)
@@ -152,14 +139,25 @@ void pngWarning(png_structp png, png_const_charp msg)
     if (state) std::snprintf(state->lastWarning, sizeof state->lastWarning, "%s", msg ? msg : "");
 }
 
+/// libpng's output: an AtomicFile's checked stream; a failed write is a libpng error.
+void pngWriteData(png_structp png, png_bytep data, png_size_t length)
+{
+    auto* os = static_cast<std::ostream*>(png_get_io_ptr(png));
+    if (!os->write(reinterpret_cast<const char*>(data), std::streamsize(length))) {
+        png_error(png, "write failed");
+    }
+}
+
+void pngFlush(png_structp) {}
+
 /// Every libpng call that may longjmp happens inside this function, which holds only
 /// trivially destructible locals: the jump back to setjmp skips no C++ destructor.
 /// Returns false after a libpng error (the message is in the error state).
-bool pngWriteAll(png_structp png, png_infop info, std::FILE* fp, png_uint_32 width,
+bool pngWriteAll(png_structp png, png_infop info, std::ostream* os, png_uint_32 width,
                  png_uint_32 height, png_bytepp rows, png_textp text, int numText)
 {
     if (setjmp(png_jmpbuf(png))) return false;
-    png_init_io(png, fp);
+    png_set_write_fn(png, os, pngWriteData, pngFlush);
     png_set_IHDR(png, info, width, height, 8, PNG_COLOR_TYPE_RGB_ALPHA, PNG_INTERLACE_NONE,
                  PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
     png_set_sRGB_gAMA_and_cHRM(png, info, PNG_sRGB_INTENT_PERCEPTUAL);
@@ -193,9 +191,10 @@ bool isAscii(const std::string& s)
 
 // ---- EXR ------------------------------------------------------------------------------------
 
-void writeExr(const std::string& path, const Image& image,
+void writeExr(AtomicFile& file, const Image& image,
               const std::map<std::string, std::string>& attributes)
 {
+    const std::string& path = file.path();
     validateImage(path, image, true);
 
     Imf::Header header(image.width, image.height);
@@ -247,30 +246,26 @@ void writeExr(const std::string& path, const Image& image,
             header.insert(key, Imf::StringAttribute(value));
         }
 
-        AtomicFile file(path);
-        std::unique_ptr<std::FILE, FileCloser> fp(std::fopen(file.tmpPath().c_str(), "wb"));
-        if (!fp) {
-            throw Error(path + ": cannot write EXR: cannot open \"" + file.tmpPath() + "\" (" +
-                        std::strerror(errno) + ")");
-        }
-        CheckedOStream os(fp.get(), file.tmpPath());
+        ExrOStream os(file.stream(), path);
         {
             Imf::OutputFile out(os, header);
             out.setFrameBuffer(fb);
             out.writePixels(image.height);
         } // the destructor writes the line offset table
-        if (os.error() != 0) {
-            throw Error(path + ": cannot write EXR: " + std::strerror(os.error()));
-        }
-        if (std::fclose(fp.release()) != 0) {
-            throw Error(path + ": cannot write EXR: " + std::strerror(errno));
-        }
-        file.commit();
     } catch (const Error&) {
         throw;
     } catch (const std::exception& e) {
         throw Error(path + ": cannot write EXR: " + e.what());
     }
+    file.finish(); // a write the line offset table failed is reported here
+}
+
+void writeExr(const std::string& path, const Image& image,
+              const std::map<std::string, std::string>& attributes)
+{
+    AtomicFile file(path);
+    writeExr(file, image, attributes);
+    file.commit();
 }
 
 Image readExr(const std::string& path, std::map<std::string, std::string>* attributes)
@@ -435,9 +430,10 @@ double srgbEncode(double linear)
 
 // ---- PNG ------------------------------------------------------------------------------------
 
-void writePng(const std::string& path, const Image& image, const ToneCurve& curve,
+void writePng(AtomicFile& file, const Image& image, const ToneCurve& curve,
               const std::map<std::string, std::string>& text)
 {
+    const std::string& path = file.path();
     validateImage(path, image, false);
     if (!(curve.white > 0.0) || !std::isfinite(curve.white) || !(curve.gamma > 0.0) ||
         !std::isfinite(curve.gamma)) {
@@ -495,42 +491,30 @@ void writePng(const std::string& path, const Image& image, const ToneCurve& curv
         chunks.push_back(t);
     }
 
-    AtomicFile file(path);
-    std::FILE* fp = std::fopen(file.tmpPath().c_str(), "wb");
-    if (!fp) {
-        throw Error(path + ": cannot write PNG: cannot open \"" + file.tmpPath() + "\" (" +
-                    std::strerror(errno) + ")");
-    }
-
     PngErrorState err;
     bool ok = false;
-    errno = 0;
     png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, &err, pngError, pngWarning);
     png_infop info = png ? png_create_info_struct(png) : nullptr;
     if (!png || !info) {
         std::snprintf(err.message, sizeof err.message, "out of memory");
     } else {
-        ok = pngWriteAll(png, info, fp, png_uint_32(image.width), png_uint_32(image.height),
-                         rows.data(), chunks.data(), int(chunks.size()));
+        ok = pngWriteAll(png, info, &file.stream(), png_uint_32(image.width),
+                         png_uint_32(image.height), rows.data(), chunks.data(), int(chunks.size()));
     }
-    const int writeErrno = errno; // from a failed fwrite inside libpng, if any
     if (png) png_destroy_write_struct(&png, info ? &info : nullptr);
-
-    const bool streamError = std::ferror(fp) != 0;
-    const int closeError = std::fclose(fp) != 0 ? errno : 0;
-    if (!ok) {
+    if (!ok && file.stream()) {
         std::string why = err.message;
-        if (streamError && writeErrno != 0) {
-            why += std::string(" (") + std::strerror(writeErrno) + ")";
-        } else if (err.lastWarning[0] != '\0') {
-            why += std::string(" (") + err.lastWarning + ")";
-        }
+        if (err.lastWarning[0] != '\0') why += std::string(" (") + err.lastWarning + ")";
         throw Error(path + ": cannot write PNG: " + why);
     }
-    if (streamError || closeError) {
-        throw Error(path + ": cannot write PNG: write error (" +
-                    std::strerror(closeError ? closeError : EIO) + ")");
-    }
+    file.finish(); // names the OS error of a failed write
+}
+
+void writePng(const std::string& path, const Image& image, const ToneCurve& curve,
+              const std::map<std::string, std::string>& text)
+{
+    AtomicFile file(path);
+    writePng(file, image, curve, text);
     file.commit();
 }
 

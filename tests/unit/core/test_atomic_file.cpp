@@ -1,7 +1,10 @@
 /// @file test_atomic_file.cpp
 /// AtomicFile (core/atomic_file.h): the data goes to a temporary next to the target,
 /// commit() renames it into place, and a destroyed uncommitted AtomicFile leaves neither a
-/// temporary nor a changed target behind; checkOutputWritable() names the path.
+/// temporary nor a changed target behind; write errors (a full disk, simulated with
+/// RLIMIT_FSIZE) leave the old file; commitAll() is all or none; targets that are not regular
+/// files are refused unless written through; a signal removes the temporary, and temporaries
+/// of dead writers are removed by the next run; checkOutputWritable() names the path.
 
 #include "nebula/core/atomic_file.h"
 
@@ -19,7 +22,10 @@
 #include <string>
 #include <vector>
 
+#include <csignal>
+#include <sys/resource.h>
 #include <sys/stat.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
 namespace fs = std::filesystem;
@@ -92,7 +98,7 @@ TEST_F(AtomicFileTest, CommitRenamesIntoPlace)
     {
         nebula::AtomicFile file(path);
         tmp = file.tmpPath();
-        write(tmp, "finished data");
+        file.stream() << "finished data";
         EXPECT_FALSE(fs::exists(path)); // nothing at the target before commit()
         file.commit();
         EXPECT_TRUE(fs::exists(path));
@@ -109,7 +115,7 @@ TEST_F(AtomicFileTest, CommitReplacesAnExistingFile)
     write(path, "old");
     {
         nebula::AtomicFile file(path);
-        write(file.tmpPath(), "new");
+        file.stream() << "new";
         EXPECT_EQ(read(path), "old"); // untouched until commit()
         file.commit();
     }
@@ -124,7 +130,8 @@ TEST_F(AtomicFileTest, UncommittedLeavesNoTemporaryAndNoOutput)
     {
         nebula::AtomicFile file(path);
         tmp = file.tmpPath();
-        write(tmp, "half-written");
+        file.stream() << "half-written";
+        file.finish(); // even when finished
     }
     EXPECT_FALSE(fs::exists(tmp));
     EXPECT_FALSE(fs::exists(path));
@@ -138,7 +145,7 @@ TEST_F(AtomicFileTest, UncommittedDoesNotTouchAnExistingFile)
     const auto before = fs::last_write_time(path);
     {
         nebula::AtomicFile file(path);
-        write(file.tmpPath(), "a failed run");
+        file.stream() << "a failed run";
     } // e.g. an exception before commit()
     EXPECT_EQ(read(path), "the previous output");
     EXPECT_EQ(fs::last_write_time(path), before);
@@ -150,7 +157,7 @@ TEST_F(AtomicFileTest, ExceptionBeforeCommitCleansUp)
     const std::string path = (dir / "thrown.vdb").string();
     try {
         nebula::AtomicFile file(path);
-        write(file.tmpPath(), "x");
+        file.stream() << "x";
         throw nebula::Error("simulated failure");
     } catch (const nebula::Error&) {
     }
@@ -177,18 +184,200 @@ TEST_F(AtomicFileTest, CommittedFileHasOrdinaryPermissions)
 
 TEST_F(AtomicFileTest, FailedCommitThrowsNamingThePathAndCleansUp)
 {
-    // The target is a non-empty folder: rename() cannot replace it.
-    const fs::path target = dir / "occupied";
-    fs::create_directories(target / "inside");
+    // The temporary vanished (someone cleaned the folder): rename() fails.
+    const std::string path = (dir / "out.vdb").string();
     std::string msg;
     {
-        nebula::AtomicFile file(target.string());
-        write(file.tmpPath(), "data");
+        nebula::AtomicFile file(path);
+        file.stream() << "data";
+        fs::remove(file.tmpPath());
         msg = errorMessage([&] { file.commit(); });
     }
+    EXPECT_EQ(msg.rfind(path + ": ", 0), 0u) << msg;
+    EXPECT_TRUE(contains(msg, "No such file")) << msg;
+    EXPECT_TRUE(entries().empty());
+}
+
+TEST_F(AtomicFileTest, AFolderAsTargetIsRefused)
+{
+    const fs::path target = dir / "occupied";
+    fs::create_directories(target / "inside");
+    const std::string msg = errorMessage([&] { nebula::AtomicFile file(target.string()); });
     EXPECT_EQ(msg.rfind(target.string() + ": ", 0), 0u) << msg;
-    EXPECT_EQ(entries(), std::vector<std::string>{"occupied"}); // no temporary left
+    EXPECT_TRUE(contains(msg, "folder")) << msg;
+    EXPECT_EQ(entries(), std::vector<std::string>{"occupied"});
     EXPECT_TRUE(fs::is_directory(target / "inside"));
+}
+
+/// Files may grow to @p bytes only, as on a nearly full disk: a write beyond fails with
+/// EFBIG instead of raising SIGXFSZ. Restores the limit when destroyed.
+class FileSizeLimit
+{
+public:
+    explicit FileSizeLimit(rlim_t bytes)
+    {
+        ::getrlimit(RLIMIT_FSIZE, &mOld);
+        mOldHandler = std::signal(SIGXFSZ, SIG_IGN);
+        struct rlimit lim = mOld;
+        lim.rlim_cur = bytes;
+        ::setrlimit(RLIMIT_FSIZE, &lim);
+    }
+    ~FileSizeLimit()
+    {
+        ::setrlimit(RLIMIT_FSIZE, &mOld);
+        std::signal(SIGXFSZ, mOldHandler);
+    }
+
+private:
+    struct rlimit mOld;
+    void (*mOldHandler)(int);
+};
+
+TEST_F(AtomicFileTest, AFailedWriteKeepsTheOldFileAndNamesTheOsError)
+{
+    const std::string path = (dir / "big.vdb").string();
+    write(path, "the previous output");
+    std::string msg;
+    {
+        nebula::AtomicFile file(path);
+        FileSizeLimit limit(4096);
+        file.stream() << std::string(3 << 20, 'x'); // larger than the limit
+        msg = errorMessage([&] { file.commit(); });
+    }
+    EXPECT_EQ(msg.rfind(path + ": ", 0), 0u) << msg;
+    EXPECT_TRUE(contains(msg, "write failed (File too large)")) << msg;
+    EXPECT_EQ(read(path), "the previous output");
+    EXPECT_EQ(entries(), std::vector<std::string>{"big.vdb"});
+}
+
+TEST_F(AtomicFileTest, CommitAllReplacesEveryTargetOrNone)
+{
+    const std::string a = (dir / "a.exr").string(), b = (dir / "a.png").string();
+    write(a, "old exr");
+    {
+        nebula::AtomicFile fa(a), fb(b);
+        fa.stream() << "new exr";
+        fb.stream() << "new png";
+        nebula::commitAll({&fa, &fb});
+    }
+    EXPECT_EQ(read(a), "new exr");
+    EXPECT_EQ(read(b), "new png");
+    EXPECT_EQ(entries(), (std::vector<std::string>{"a.exr", "a.png"}));
+
+    // The second rename fails: the first target gets its old contents back, and the second,
+    // which did not exist, stays absent.
+    const std::string c = (dir / "c.png").string();
+    std::string msg;
+    {
+        nebula::AtomicFile fa(a), fc(c);
+        fa.stream() << "newer exr";
+        fc.stream() << "newer png";
+        fs::remove(fc.tmpPath());
+        msg = errorMessage([&] { nebula::commitAll({&fa, &fc}); });
+    }
+    EXPECT_EQ(msg.rfind(c + ": ", 0), 0u) << msg;
+    EXPECT_EQ(read(a), "new exr");
+    EXPECT_EQ(entries(), (std::vector<std::string>{"a.exr", "a.png"}));
+
+    // A write error in either: neither target changes.
+    {
+        nebula::AtomicFile fa(a), fb(b);
+        FileSizeLimit limit(4096);
+        fa.stream() << "small";
+        fb.stream() << std::string(3 << 20, 'y');
+        msg = errorMessage([&] { nebula::commitAll({&fa, &fb}); });
+    }
+    EXPECT_EQ(msg.rfind(b + ": ", 0), 0u) << msg;
+    EXPECT_EQ(read(a), "new exr");
+    EXPECT_EQ(read(b), "new png");
+    EXPECT_EQ(entries(), (std::vector<std::string>{"a.exr", "a.png"}));
+}
+
+TEST_F(AtomicFileTest, TargetsThatAreNotRegularFilesAreRefusedUnlessWrittenThrough)
+{
+    const std::string fifo = (dir / "pipe.exr").string();
+    ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+    const std::string real = (dir / "real.vdb").string(), link = (dir / "link.vdb").string();
+    write(real, "old");
+    fs::create_symlink(real, link);
+
+    for (const std::string& path : {fifo, link, std::string("/dev/null")}) {
+        std::string msg;
+        try {
+            nebula::AtomicFile file(path);
+            ADD_FAILURE() << path << " accepted";
+        } catch (const nebula::UsageError& e) {
+            msg = e.what();
+        }
+        EXPECT_EQ(msg.rfind(path + ": ", 0), 0u) << msg;
+        EXPECT_TRUE(contains(msg, "--write-through")) << msg;
+    }
+    EXPECT_EQ(read(real), "old");
+    EXPECT_TRUE(fs::is_fifo(fifo));
+
+    nebula::setWriteThrough(true);
+    {
+        // A symlink: its target is replaced atomically, the link stays a link.
+        nebula::AtomicFile file(link);
+        file.stream() << "through the link";
+        file.commit();
+    }
+    EXPECT_TRUE(fs::is_symlink(link));
+    EXPECT_EQ(read(real), "through the link");
+    {
+        // A device: written directly.
+        nebula::AtomicFile file("/dev/null");
+        EXPECT_TRUE(file.tmpPath().empty());
+        file.stream() << "discarded";
+        file.commit();
+    }
+    nebula::setWriteThrough(false);
+    EXPECT_EQ(entries(), (std::vector<std::string>{"link.vdb", "pipe.exr", "real.vdb"}));
+}
+
+TEST_F(AtomicFileTest, ASignalRemovesTheTemporary)
+{
+    const std::string path = (dir / "killed.vdb").string();
+    write(path, "old");
+    const pid_t child = ::fork();
+    ASSERT_GE(child, 0);
+    if (child == 0) {
+        nebula::AtomicFile file(path);
+        file.stream() << "half";
+        std::raise(SIGTERM);
+        ::_exit(0); // not reached
+    }
+    int status = 0;
+    ASSERT_EQ(::waitpid(child, &status, 0), child);
+    EXPECT_TRUE(WIFSIGNALED(status) && WTERMSIG(status) == SIGTERM) << status;
+    EXPECT_EQ(read(path), "old");
+    EXPECT_EQ(entries(), std::vector<std::string>{"killed.vdb"});
+}
+
+TEST_F(AtomicFileTest, TemporariesOfDeadWritersAreRemovedByTheNextRun)
+{
+    const std::string path = (dir / "out.exr").string();
+    // A writer killed with SIGKILL: its pid is gone.
+    const pid_t child = ::fork();
+    ASSERT_GE(child, 0);
+    if (child == 0) ::_exit(0);
+    ASSERT_EQ(::waitpid(child, nullptr, 0), child);
+    const std::string dead = path + ".tmp." + std::to_string(child) + ".Ab12Cd";
+    write(dead, "half of a killed write");
+    // A live writer (pid 1 started before its temporary was written) and another file's
+    // temporary are left alone.
+    const std::string live = path + ".tmp.1.Xy34Zw";
+    const std::string other = (dir / "other.exr.tmp.").string() + std::to_string(child) + ".Qq11Qq";
+    write(live, "in progress");
+    write(other, "not ours");
+    {
+        nebula::AtomicFile file(path);
+        file.commit();
+    }
+    EXPECT_FALSE(fs::exists(dead));
+    EXPECT_TRUE(fs::exists(live));
+    EXPECT_TRUE(fs::exists(other));
+    EXPECT_EQ(nebula::removeStaleTemporaries(path), 0);
 }
 
 TEST_F(AtomicFileTest, MissingFolderThrowsNamingThePath)

@@ -3,6 +3,8 @@
 /// Rendered frames: float RGBA plus named RGB layers, written as EXR (linear radiance,
 /// DESIGN §8) and PNG (8-bit sRGB after the automatic tone curve).
 
+#include "nebula/core/atomic_file.h"
+
 #include <map>
 #include <string>
 #include <vector>
@@ -41,6 +43,10 @@ struct Image
 /// attributes (e.g. "nebula:command"), "comments" is set if present. Atomic (AtomicFile). Throws
 /// Error on failure.
 void writeExr(const std::string& path, const Image& image,
+              const std::map<std::string, std::string>& attributes);
+/// writeExr() into an open AtomicFile, finished but not committed: for outputs that are
+/// committed together (commitAll()).
+void writeExr(AtomicFile& file, const Image& image,
               const std::map<std::string, std::string>& attributes);
 
 /// Reads an EXR written by writeExr (R,G,B,A and layers) and its string attributes; for
@@ -91,6 +97,9 @@ double srgbEncode(double linear);
 /// non-ASCII values are written as UTF-8 iTXt. Carries an sRGB chunk. Atomic. Throws Error on
 /// failure.
 void writePng(const std::string& path, const Image& image, const ToneCurve& curve,
+              const std::map<std::string, std::string>& text);
+/// writePng() into an open AtomicFile, finished but not committed (see writeExr()).
+void writePng(AtomicFile& file, const Image& image, const ToneCurve& curve,
               const std::map<std::string, std::string>& text);
 
 } // namespace nebula
