@@ -106,12 +106,58 @@ std::vector<std::uint8_t> dustyCells(const DenseVolume& n)
     return dusty;
 }
 
+bool insideLattice(const DenseVolume& n, const Vec3& p)
+{
+    for (int ax = 0; ax < 3; ++ax) {
+        if (!(p[ax] >= n.lo()[ax] && p[ax] <= n.lo()[ax] + n.dims()[ax] - 1)) return false;
+    }
+    return true;
+}
+
+/// The part [t0, t1] of o + e t, t in [0, 1], inside the lattice's box; false if none.
+bool clipToLattice(const DenseVolume& n, const Vec3& o, const Vec3& e, double& t0, double& t1)
+{
+    t0 = 0.0;
+    t1 = 1.0;
+    for (int ax = 0; ax < 3; ++ax) {
+        const double lo = n.lo()[ax], hi = lo + n.dims()[ax] - 1;
+        if (e[ax] == 0.0) {
+            if (o[ax] < lo || o[ax] > hi) return false;
+            continue;
+        }
+        double ta = (lo - o[ax]) / e[ax], tb = (hi - o[ax]) / e[ax];
+        if (ta > tb) std::swap(ta, tb);
+        t0 = std::max(t0, ta);
+        t1 = std::min(t1, tb);
+    }
+    return t0 < t1;
+}
+
+/// integral n dl [cm^-3 pc] from a to b. Only the chord inside the lattice is walked, so a
+/// star's distance costs nothing; the chord is measured from the end inside the lattice (a
+/// voxel), so a star 1e12 grid widths away still gives it to full precision.
 double column(const DenseVolume& n, const std::uint8_t* dusty, const Vec3& a, const Vec3& b)
 {
-    const Vec3 d = b - a;
-    const double worldLength = n.indexToWorld.applyLinear(d).length();
-    if (worldLength == 0.0) return 0.0;
-    return worldLength * unitIntegral(n, dusty, a, d);
+    for (int ax = 0; ax < 3; ++ax) {
+        if (!std::isfinite(a[ax]) || !std::isfinite(b[ax])) {
+            throw Error("optical depth: a segment end is not finite");
+        }
+    }
+    // The integral is symmetric: start from the end inside the lattice.
+    const bool swap = !insideLattice(n, a) && insideLattice(n, b);
+    const Vec3& o = swap ? b : a;
+    const Vec3 e = (swap ? a : b) - o;
+    double t0 = 0.0, t1 = 1.0;
+    if (!clipToLattice(n, o, e, t0, t1)) return 0.0;
+    if (t0 == 0.0 && t1 == 1.0) { // all inside: the segment as given
+        const double worldLength = n.indexToWorld.applyLinear(e).length();
+        if (worldLength == 0.0) return 0.0;
+        return worldLength * unitIntegral(n, dusty, o, e);
+    }
+    const Vec3 p0 = o + e * t0, chord = e * (t1 - t0);
+    const double chordLength = n.indexToWorld.applyLinear(chord).length();
+    if (chordLength == 0.0) return 0.0;
+    return chordLength * unitIntegral(n, dusty, p0, chord);
 }
 
 } // namespace
@@ -140,7 +186,9 @@ double columnDensityReference(const DenseVolume& n, const Vec3& a, const Vec3& b
     std::vector<double> ts{0.0, 1.0};
     for (int ax = 0; ax < 3; ++ax) {
         if (d[ax] == 0.0) continue;
-        const double lo = std::min(a[ax], b[ax]), hi = std::max(a[ax], b[ax]);
+        // Planes outside the lattice bound only zero density: a far star adds none.
+        const double lo = std::max(std::min(a[ax], b[ax]), double(n.lo()[ax]) - 1.0);
+        const double hi = std::min(std::max(a[ax], b[ax]), double(n.lo()[ax] + n.dims()[ax]));
         for (double plane = std::ceil(lo); plane <= hi; plane += 1.0) {
             ts.push_back((plane - a[ax]) / d[ax]);
         }

@@ -1,10 +1,13 @@
 // Optical depth (nebillum) against closed forms and brute force (DESIGN §2-3).
 #include "nebula/physics/optical_depth.h"
 
+#include "nebula/core/error.h"
+
 #include <gtest/gtest.h>
 #include <tbb/global_control.h>
 
 #include <cmath>
+#include <limits>
 #include <random>
 
 using namespace nebula;
@@ -235,4 +238,58 @@ TEST(OpticalDepth, NeverNegative)
         for (float t : tau)
             ASSERT_GE(t, 0.0f);
     }
+}
+
+// Stars far outside the lattice (10 to 1e12 grid widths): only the chord inside the lattice is
+// walked, so the cost does not grow with the distance, and the chord closed forms hold: through
+// the uniform slab of UniformSlabObliqueRaysAnyAffine, tau = kappa n0 (k1 - k0 + 1) |M d| / d.z
+// for a star below the slab, and exactly 0 for a star above it (an empty path).
+TEST(OpticalDepth, FarStarsGiveTheChordClosedForms)
+{
+    const int nx = 64, nz = 24;
+    const double n0 = 500.0, h = 0.2;
+    const int k0 = 9, k1 = 13;
+    DenseVolume vol({0, 0, 0}, {nx, nx, nz}, 1);
+    for (int k = k0; k <= k1; ++k)
+        for (int j = 0; j < nx; ++j)
+            for (int i = 0; i < nx; ++i)
+                vol.voxel(vol.index(i, j, k))[0] = float(n0);
+    vol.indexToWorld.m = {h, 0, 0, 0, h, 0, 0, 0, h};
+    for (const double widths : {10.0, 1e3, 1e6, 1e12}) {
+        const double D = widths * nx;
+        // Below the slab, 0.3 sideways per unit down, so each ray crosses the slab inside the
+        // lattice; and straight above it.
+        const Vec3 below(31.5 + 0.3 * D, 30.2, -D), above(31.5, 30.2, nz + D);
+        const auto tauBelow = productionTau(vol, below);
+        const auto tauAbove = productionTau(vol, above);
+        int checked = 0;
+        for (int k = k1 + 2; k < nz; ++k)
+            for (int j = 20; j < 44; j += 3)
+                for (int i = 20; i < 44; i += 3) {
+                    const Vec3 d = Vec3(i, j, k) - below;
+                    const double expected = KAPPA * n0 * h * d.length() * (k1 - k0 + 1) / d.z;
+                    EXPECT_NEAR(fieldAt(vol, tauBelow, i, j, k), expected, 1e-5 * expected)
+                        << widths << " grid widths, voxel " << i << "," << j << "," << k;
+                    EXPECT_EQ(fieldAt(vol, tauAbove, i, j, k), 0.0f);
+                    ++checked;
+                }
+        EXPECT_GT(checked, 300);
+    }
+}
+
+// At 1e20 grid widths (the index arithmetic of an unclipped walk overflowed here) and at the
+// edge of the double range, tau stays finite and right; a non-finite star is an error.
+TEST(OpticalDepth, StarsAtAbsurdDistancesAreFiniteAndNonFiniteOnesRefused)
+{
+    const auto vol = makeVolume(8, 0, 1.0, [](int, int, int) { return 10.0; });
+    for (const double D : {1e20, 1e300}) {
+        const auto tau = productionTau(vol, Vec3(-D, 3.5, 3.5));
+        // Along x through the whole lattice row: the uniform field n = 10 over 0 .. i.
+        EXPECT_NEAR(fieldAt(vol, tau, 5, 3, 3), KAPPA * 10.0 * 5.0, 1e-6) << D;
+        for (float t : tau)
+            EXPECT_TRUE(std::isfinite(t));
+    }
+    const double inf = std::numeric_limits<double>::infinity();
+    EXPECT_THROW(productionTau(vol, Vec3(inf, 0, 0)), Error);
+    EXPECT_THROW(productionTau(vol, Vec3(std::nan(""), 0, 0)), Error);
 }
