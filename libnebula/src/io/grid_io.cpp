@@ -66,6 +66,7 @@ openvdb::FloatGrid::Ptr GridSet::floatGrid(const std::string& name, const std::s
                     " (" + base->type() + "), expected a FloatGrid");
     }
     requireAffine(*grid, source);
+    requireVoxelSize(*grid, source);
     return grid;
 }
 
@@ -106,6 +107,20 @@ DustParams GridSet::dust() const
     return DustParams::fromJson(json, source + ": metadata " + META_DUST);
 }
 
+DustParams GridSet::dust(const Run& run) const
+{
+    const std::string json = metaString(META_DUST);
+    if (json.empty()) return DustParams{};
+    std::vector<std::string> missing;
+    const DustParams d = DustParams::fromJson(json, source + ": metadata " + META_DUST, &missing);
+    if (!missing.empty()) {
+        run.warn(source + ": metadata " + META_DUST + " lacks " +
+                 (missing.size() == 1 ? "a field" : std::to_string(missing.size()) + " fields") +
+                 "; using the defaults " + d.missingFieldsText(missing));
+    }
+    return d;
+}
+
 void GridSet::setDust(const DustParams& dust)
 {
     setMetaString(META_DUST, dust.toJson());
@@ -117,6 +132,45 @@ void requireAffine(const openvdb::GridBase& grid, const std::string& source)
         throw Error(source + ": grid \"" + grid.getName() + "\" has a non-affine transform (" +
                     grid.transform().mapType() +
                     "); only affine (linear) transforms are supported");
+    }
+}
+
+void requireVoxelSize(const openvdb::GridBase& grid, const std::string& source)
+{
+    const auto& xform = grid.transform();
+    const std::string where = source + ": grid \"" + grid.getName() + "\" ";
+    // The linear map read off by applying it (as affineFromTransform() does): no inverse is
+    // taken, so a singular map cannot throw here.
+    const auto o = xform.indexToWorld(openvdb::Vec3d(0, 0, 0));
+    openvdb::Vec3d axis[3];
+    for (int i = 0; i < 3; ++i) {
+        openvdb::Vec3d e(0, 0, 0);
+        e[i] = 1.0;
+        axis[i] = xform.indexToWorld(e) - o;
+    }
+    const auto axisText = [&](int i) {
+        return "(" + detail::numberText(axis[i][0]) + ", " + detail::numberText(axis[i][1]) + ", " +
+               detail::numberText(axis[i][2]) + ")";
+    };
+    for (int i = 0; i < 3; ++i) {
+        const double length = axis[i].length();
+        if (!std::isfinite(o[i]) || !std::isfinite(length)) {
+            throw Error(where + "has a transform with non-finite values (voxel axis " +
+                        std::string(1, char('x' + i)) + " " + axisText(i) +
+                        "); expected a finite voxel size > 0");
+        }
+        if (!(length > 0.0)) {
+            throw Error(where + "has voxel size 0 along its " + std::string(1, char('x' + i)) +
+                        " axis (a singular transform); expected a finite voxel size > 0");
+        }
+    }
+    // Invertible: the voxel's volume is not negligible next to its edges (axes not parallel).
+    const double volume = std::fabs(axis[0].dot(axis[1].cross(axis[2])));
+    const double edges = axis[0].length() * axis[1].length() * axis[2].length();
+    if (!(volume > 1e-9 * edges)) {
+        throw Error(where + "has a singular transform: its voxel axes " + axisText(0) + ", " +
+                    axisText(1) + ", " + axisText(2) +
+                    " span no volume; expected a finite voxel size > 0");
     }
 }
 

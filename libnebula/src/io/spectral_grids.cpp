@@ -65,6 +65,7 @@ openvdb::Vec3fGrid::Ptr velocityGrid(const GridSet& grids, const std::string& na
                     "), expected a Vec3fGrid of velocities [km/s]");
     }
     requireAffine(*grid, grids.source);
+    requireVoxelSize(*grid, grids.source);
     const auto bad = [&](const openvdb::Vec3f& v) {
         return !(std::isfinite(v[0]) && std::isfinite(v[1]) && std::isfinite(v[2]));
     };

@@ -96,11 +96,13 @@ std::string typeName(const nlohmann::json& value)
 }
 
 /// Field @p key of @p object as a number; Error naming @p source and the field otherwise.
-double numberField(const nlohmann::json& object, const char* key, const std::string& source)
+double numberField(const nlohmann::json& object, const char* key, const std::string& source,
+                   double fallback, std::vector<std::string>& missing)
 {
     const auto it = object.find(key);
     if (it == object.end()) {
-        throw Error(source + ": dust parameters: missing field \"" + key + "\"");
+        missing.push_back(key);
+        return fallback;
     }
     if (!it->is_number()) {
         throw Error(source + ": dust parameters: \"" + key + "\" must be a number, got " +
@@ -110,11 +112,13 @@ double numberField(const nlohmann::json& object, const char* key, const std::str
 }
 
 /// Field @p key of @p object as a string; Error naming @p source and the field otherwise.
-std::string stringField(const nlohmann::json& object, const char* key, const std::string& source)
+std::string stringField(const nlohmann::json& object, const char* key, const std::string& source,
+                        const std::string& fallback, std::vector<std::string>& missing)
 {
     const auto it = object.find(key);
     if (it == object.end()) {
-        throw Error(source + ": dust parameters: missing field \"" + key + "\"");
+        missing.push_back(key);
+        return fallback;
     }
     if (!it->is_string()) {
         throw Error(source + ": dust parameters: \"" + key + "\" must be a string, got " +
@@ -269,26 +273,29 @@ std::string DustParams::toJson() const
     return j.dump();
 }
 
-DustParams DustParams::fromJson(const std::string& text, const std::string& source)
+DustParams DustParams::fromJson(const std::string& text, const std::string& source,
+                                std::vector<std::string>* missingFields)
 {
     const nlohmann::json j = detail::parseJson(text, source, "dust parameters: ");
     if (!j.is_object()) {
         throw Error(source + ": dust parameters: expected a JSON object, got " + typeName(j));
     }
 
-    // Every field is required, so that no stage silently falls back to its own default.
+    // A missing field takes the default (the same in every stage), and is reported.
+    const DustParams defaults;
     DustParams params;
-    params.kappa_V = numberField(j, "kappa_V", source);
-    params.albedo = numberField(j, "albedo", source);
-    params.g = numberField(j, "g", source);
-    const std::string phase = stringField(j, "phase", source);
+    std::vector<std::string> missing;
+    params.kappa_V = numberField(j, "kappa_V", source, defaults.kappa_V, missing);
+    params.albedo = numberField(j, "albedo", source, defaults.albedo, missing);
+    params.g = numberField(j, "g", source, defaults.g, missing);
+    const std::string phase = stringField(j, "phase", source, toString(defaults.phase), missing);
     try {
         params.phase = phaseModelFromString(phase);
     } catch (const Error& e) {
         throw Error(source + ": dust parameters: \"phase\": " + e.what());
     }
-    params.curve = stringField(j, "curve", source);
-    params.R_V = numberField(j, "R_V", source);
+    params.curve = stringField(j, "curve", source, defaults.curve, missing);
+    params.R_V = numberField(j, "R_V", source, defaults.R_V, missing);
 
     // Out-of-range values in a file are a data error, not a usage error.
     try {
@@ -296,7 +303,24 @@ DustParams DustParams::fromJson(const std::string& text, const std::string& sour
     } catch (const UsageError& e) {
         throw Error(source + ": " + e.what());
     }
+    if (missingFields) *missingFields = std::move(missing);
     return params;
+}
+
+std::string DustParams::missingFieldsText(const std::vector<std::string>& missing) const
+{
+    std::string text;
+    for (const auto& field : missing) {
+        std::string value;
+        if (field == "kappa_V") value = numberText(kappa_V);
+        if (field == "albedo") value = numberText(albedo);
+        if (field == "g") value = numberText(g);
+        if (field == "phase") value = toString(phase);
+        if (field == "curve") value = curve;
+        if (field == "R_V") value = numberText(R_V);
+        text += (text.empty() ? "" : ", ") + field + " = " + value;
+    }
+    return text;
 }
 
 } // namespace nebula

@@ -326,7 +326,7 @@ void buildPyramid(GridSet& grids, const PyramidOptions& opts, const Run& run)
                     " metadata, which the tau.<star>.L<k> grids need; add stars with nebgen "
                     "or nebillum (--star, --stars)");
     }
-    const DustParams dust = grids.dust();
+    const DustParams dust = grids.dust(run);
     dust.validate();
     const bool average = opts.tau == TauMethod::Average;
     const auto tau0 =

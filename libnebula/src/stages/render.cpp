@@ -3,6 +3,7 @@
 #include "nebula/core/atomic_file.h"
 #include "nebula/core/error.h"
 #include "nebula/io/grid_names.h"
+#include "nebula/io/image_check.h"
 #include "nebula/render/fast.h"
 #include "nebula/render/path_tracer.h"
 #include "nebula/render/spectral.h"
@@ -182,6 +183,7 @@ void renderToFiles(const GridSet& grids, const RenderOptions& opts, const DustPa
     reportStats(opts, sscene, stats, std::chrono::duration<double>(built - start).count(),
                 std::chrono::duration<double>(done - built).count(), run);
 
+    requireFinitePixels(img, out.exr);
     const ToneCurve curve = computeToneCurve(img, out.tone);
     writeExr(out.exr, img, exrAttributes(grids, opts, dust, sscene.base, curve, out, run));
     if (!png.empty()) {

@@ -9,11 +9,13 @@
 
 #include "test_util.h"
 
+#include <openvdb/io/io.h>
 #include <openvdb/openvdb.h>
 
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
@@ -428,10 +430,35 @@ TEST(GridSet, MetadataAccessors)
     s.setMetaString(nebula::META_STARS, "[{\"name\": 3}]");
     std::string msg = errorMessage([&] { s.stars(); });
     EXPECT_EQ(msg.rfind("m.vdb", 0), 0u) << msg;
-    s.setMetaString(nebula::META_DUST, "{\"albedo\": 0.5}");
+    s.setMetaString(nebula::META_DUST, "{\"albedo\": \"high\"}");
     EXPECT_TRUE(s.hasDust());
     msg = errorMessage([&] { s.dust(); });
     EXPECT_EQ(msg.rfind("m.vdb", 0), 0u) << msg;
+}
+
+// A nebula:dust that lacks fields: the defaults for them, and with a Run one warning that
+// names them (none under -q, none for a complete one).
+TEST(GridSet, PartialDustWarnsOnceNamingTheMissingFields)
+{
+    GridSet s;
+    s.source = "m.vdb";
+    s.setMetaString(nebula::META_DUST, R"({"albedo": 0.5, "g": 0.2, "phase": "hg"})");
+    {
+        nebula::test::CerrCapture cap;
+        const auto d = s.dust(nebula::Run("nebtest", "", {}));
+        EXPECT_EQ(d.albedo, 0.5);
+        EXPECT_EQ(d.kappa_V, nebula::DustParams{}.kappa_V);
+        EXPECT_EQ(cap.text(), "nebtest: warning: m.vdb: metadata nebula:dust lacks 3 fields; "
+                              "using the defaults kappa_V = 0.0015, curve = CCM89, R_V = 3.1\n");
+    }
+    {
+        nebula::test::CerrCapture cap;
+        EXPECT_EQ(s.dust().albedo, 0.5); // silent without a Run
+        s.dust(nebula::Run("nebtest", "", {true, 0}));
+        s.setDust(nebula::DustParams{});
+        s.dust(nebula::Run("nebtest", "", {}));
+        EXPECT_EQ(cap.text(), "");
+    }
 }
 
 TEST(GridSet, DescribeGrids)
@@ -493,6 +520,68 @@ TEST(GridChecks, RequireFiniteNonNegative)
         EXPECT_TRUE(contains(msg, mention)) << msg;
         EXPECT_TRUE(contains(msg, "(4, 5, 6)")) << msg;
     }
+}
+
+namespace {
+
+/// @p grid's transform read back from its serialisation with every double @p from replaced by
+/// @p to: a scale OpenVDB's constructors refuse but a file can hold.
+void doctorTransform(openvdb::GridBase& grid, double from, double to)
+{
+    std::ostringstream out(std::ios::binary);
+    grid.transform().write(out);
+    std::string bytes = out.str();
+    std::string a(sizeof from, '\0'), b(sizeof to, '\0');
+    std::memcpy(a.data(), &from, sizeof from);
+    std::memcpy(b.data(), &to, sizeof to);
+    int n = 0;
+    for (auto at = bytes.find(a); at != std::string::npos; at = bytes.find(a, at + 1), ++n)
+        bytes.replace(at, b.size(), b);
+    ASSERT_GE(n, 3);
+    std::istringstream in(bytes, std::ios::binary);
+    openvdb::io::setCurrentVersion(in); // as a file of this library version would be read
+    auto xform = openvdb::math::Transform::createLinearTransform();
+    xform->read(in);
+    grid.setTransform(xform);
+}
+
+} // namespace
+
+// requireVoxelSize: a zero, NaN or degenerate voxel is an error naming the file and grid
+// (GridSet::floatGrid() checks it), not "singular grid transform" later.
+TEST(GridChecks, RequireVoxelSize)
+{
+    auto g = floatGrid("density", 1.0f);
+    g->setTransform(openvdb::math::Transform::createLinearTransform(0.125));
+    EXPECT_NO_THROW(nebula::requireVoxelSize(*g, "a.vdb"));
+    doctorTransform(*g, 0.125, 0.0);
+    EXPECT_EQ(errorMessage([&] { nebula::requireVoxelSize(*g, "a.vdb"); }),
+              "a.vdb: grid \"density\" has voxel size 0 along its x axis (a singular "
+              "transform); expected a finite voxel size > 0");
+    GridSet s;
+    s.source = "a.vdb";
+    s.grids.push_back(g);
+    EXPECT_EQ(errorMessage([&] {
+                  s.floatGrid("density", "");
+              }).rfind("a.vdb: grid \"density\" has voxel size 0", 0),
+              0u);
+
+    auto n = floatGrid("density", 1.0f);
+    n->setTransform(openvdb::math::Transform::createLinearTransform(0.125));
+    doctorTransform(*n, 0.125, std::nan(""));
+    EXPECT_EQ(errorMessage([&] {
+                  nebula::requireVoxelSize(*n, "b.vdb");
+              }).rfind("b.vdb: grid \"density\" has a transform with non-finite values", 0),
+              0u);
+
+    // Rotated, sheared, anisotropic and mirrored voxels are fine.
+    openvdb::math::Mat4d m = openvdb::math::Mat4d::identity();
+    m.setToRotation(openvdb::math::Vec3d(1, 2, 3).unit(), 0.7);
+    m.preScale(openvdb::math::Vec3d(0.1, -0.2, 0.3));
+    m(1, 0) += 0.05;
+    auto p = floatGrid("density", 1.0f);
+    p->setTransform(openvdb::math::Transform::createLinearTransform(m));
+    EXPECT_NO_THROW(nebula::requireVoxelSize(*p, "c.vdb"));
 }
 
 TEST(GridChecks, RequireAffine)

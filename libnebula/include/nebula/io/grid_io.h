@@ -37,8 +37,12 @@ struct GridSet
     /// Stars from `nebula:stars` (empty if absent). Throws Error if it does not parse.
     std::vector<Star> stars() const;
     void setStars(const std::vector<Star>& stars);
-    /// Dust from `nebula:dust`, or the defaults if absent.
+    /// Dust from `nebula:dust`, or the defaults if absent; a field it lacks takes its
+    /// default (DustParams::fromJson()).
     DustParams dust() const;
+    /// dust(), warning through @p run (once per call) which fields `nebula:dust` lacks and
+    /// the defaults used for them.
+    DustParams dust(const Run& run) const;
     bool hasDust() const;
     void setDust(const DustParams& dust);
 
@@ -84,6 +88,11 @@ std::string gridTypeName(const openvdb::GridBase& grid);
 
 /// Throws Error unless @p grid's transform is affine (linear map, any scale/rotation/mirror).
 void requireAffine(const openvdb::GridBase& grid, const std::string& source);
+
+/// Throws Error naming @p source and the grid unless @p grid's transform has a finite voxel
+/// size > 0 along every axis and is invertible (its voxel axes span a volume). A file can
+/// hold a zero or NaN scale that OpenVDB reads without complaint (GridSet::floatGrid() checks).
+void requireVoxelSize(const openvdb::GridBase& grid, const std::string& source);
 
 /// Throws Error naming @p source and the grid if any active value is NaN, infinite or
 /// negative (returns the number of active voxels checked).

@@ -8,6 +8,7 @@
 #include <array>
 #include <cmath>
 #include <string>
+#include <vector>
 
 namespace nebula {
 
@@ -107,11 +108,16 @@ struct DustParams : ScatteringMedium
     void validate() const;
     /// JSON object {"kappa_V", "albedo", "g", "phase", "curve", "R_V"}.
     std::string toJson() const;
-    /// Parses toJson()'s format; @p source names the file for error messages. Every field is
-    /// required; unknown fields are ignored. Throws Error (not UsageError: the values come
-    /// from a file) on invalid JSON, a missing or mistyped field, an unknown phase name, or a
-    /// value validate() rejects.
-    static DustParams fromJson(const std::string& text, const std::string& source);
+    /// Parses toJson()'s format; @p source names the file for error messages. A missing
+    /// field takes its default (DustParams{}), and its name is added to @p missing (if not
+    /// null) in the order of toJson(), so that the caller can warn; unknown fields are
+    /// ignored. Throws Error (not UsageError: the values come from a file) on invalid JSON, a
+    /// mistyped field, an unknown phase name, or a value validate() rejects.
+    static DustParams fromJson(const std::string& text, const std::string& source,
+                               std::vector<std::string>* missing = nullptr);
+    /// "albedo = 0.6, g = 0.6": @p missing fields (from fromJson()) with this dust's values,
+    /// for the warning.
+    std::string missingFieldsText(const std::vector<std::string>& missing) const;
 };
 
 } // namespace nebula
