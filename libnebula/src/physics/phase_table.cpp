@@ -6,6 +6,7 @@
 #include "nebula/core/format.h"
 
 #include "nebula/core/error.h"
+#include "nebula/core/memory.h"
 
 #include <nlohmann/json.hpp>
 
@@ -34,9 +35,13 @@ void PhaseTableSpec::validate() const
         throw UsageError("--max-photons (" + std::to_string(maxPhotons) +
                          ") must be >= --photons (" + std::to_string(minPhotons) + ")");
     }
-    if (!(targetError > 0.0)) {
-        throw UsageError("--error must be > 0, got " + numberText(targetError));
+    if (!(targetError > 0.0) || !std::isfinite(targetError)) {
+        throw UsageError("--error must be a finite number > 0, got " + numberText(targetError));
     }
+    // phi, error and single, and the three grids they are written as.
+    requireMemory(double(tCount) * double(muBins) * 6.0 * sizeof(float),
+                  "--t-count " + std::to_string(tCount) + " x --mu-bins " + std::to_string(muBins) +
+                      ": the phase table");
 }
 
 double PhaseTable::t(int j) const

@@ -1,6 +1,7 @@
 #include "nebula/render/camera.h"
 
 #include "nebula/core/error.h"
+#include "nebula/core/format.h"
 #include "nebula/core/units.h"
 
 #include <cmath>
@@ -58,8 +59,35 @@ bool Camera::project(const Vec3& p, double& px, double& py) const
     return PinholeProjection(*this).project(p, px, py);
 }
 
+namespace {
+
+/// Throws UsageError naming @p option unless @p v is finite and its squared length (and
+/// that of a difference with another such point) is too.
+void requireSquarable(const Vec3& v, const char* option)
+{
+    for (double x : {v.x, v.y, v.z}) {
+        if (!std::isfinite(x)) {
+            throw UsageError(std::string(option) + " must be three finite numbers, got " +
+                             detail::numberText(v.x) + "," + detail::numberText(v.y) + "," +
+                             detail::numberText(v.z));
+        }
+        if (std::fabs(x) > MAX_CAMERA_COORDINATE) {
+            throw UsageError(std::string(option) + " " + detail::numberText(v.x) + "," +
+                             detail::numberText(v.y) + "," + detail::numberText(v.z) +
+                             ": each number must be at most " +
+                             detail::numberText(MAX_CAMERA_COORDINATE) +
+                             " in magnitude (its distance squared would overflow)");
+        }
+    }
+}
+
+} // namespace
+
 void validateCamera(const Camera& c)
 {
+    requireSquarable(c.eye, "--eye");
+    requireSquarable(c.lookAt, "--look-at");
+    requireSquarable(c.up, "--up");
     const Vec3 f = c.lookAt - c.eye;
     if (!(f.length() > 0.0)) throw UsageError("--eye and --look-at must differ");
     if (!(c.up.length() > 0.0) || !(f.normalized().cross(c.up.normalized()).length() > 1e-6)) {

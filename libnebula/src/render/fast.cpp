@@ -291,8 +291,8 @@ Image renderFrame(const RenderScene& scene, const RenderOptions& opts, const Run
 {
     const Camera& view = opts.camera;
     if (view.width <= 0 || view.height <= 0) throw UsageError("--res must be WxH with W, H > 0");
-    if (!(opts.step > 0.0)) throw UsageError("--step must be > 0 voxels");
-    Image img = detail::frameImage(scene, view.width, view.height);
+    requireRayStep(scene, opts.step);
+    Image img = detail::frameImage(scene, opts);
     const FastIntegrator integrator(scene, opts);
     detail::forEachRowBand(view.height, 4, run, "nebrender", stats,
                            [&](int y0, int y1, RenderStats& bandStats) {

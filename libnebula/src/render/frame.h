@@ -4,10 +4,12 @@
 /// standard layers, and the parallel loop over bands of rows that owns the threads, the
 /// progress bar and the statistics, so an integrator only says what one band of rows does.
 
+#include "nebula/core/memory.h"
 #include "nebula/core/run.h"
 #include "nebula/io/image.h"
 #include "nebula/render/options.h"
 #include "nebula/render/scene.h"
+#include "nebula/render/sprites.h"
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -19,11 +21,28 @@
 
 namespace nebula::detail {
 
-/// The standard layers, in this order: "star.<name>" per star (0), "transmittance" (1),
-/// then each of @p extra (0); after the beauty R,G,B,A (0).
-inline Image frameImage(const RenderScene& scene, int width, int height,
-                        const std::vector<std::string>& extra = {})
+/// Throws UsageError (requireMemory(), naming --res) if a frame of @p width x @p height with
+/// the beauty R,G,B,A, @p layers RGB layers and @p channels single channels would not fit in
+/// memory, counting the tone curve's and the PNG's per-pixel buffers (two doubles and four
+/// bytes); and (naming --sprite-radius) if the star sprites' footprint would not.
+inline void requireFrameMemory(const RenderOptions& opts, int width, int height, std::size_t layers,
+                               std::size_t channels)
 {
+    const double floats = 4.0 + 3.0 * double(layers) + double(channels);
+    const double perPixel = floats * sizeof(float) + 2.0 * sizeof(double) + 4.0;
+    requireMemory(double(width) * double(height) * perPixel,
+                  "--res " + std::to_string(width) + "x" + std::to_string(height) + ": the image");
+    if (opts.drawStars) requireSpriteMemory(opts);
+}
+
+/// The standard layers, in this order: "star.<name>" per star (0), "transmittance" (1),
+/// then each of @p extra (0); after the beauty R,G,B,A (0). @p channels: how many single
+/// channels the caller adds, for the memory check (requireFrameMemory()) done first.
+inline Image frameImage(const RenderScene& scene, const RenderOptions& opts,
+                        const std::vector<std::string>& extra = {}, std::size_t channels = 0)
+{
+    const int width = opts.camera.width, height = opts.camera.height;
+    requireFrameMemory(opts, width, height, scene.stars.size() + 1 + extra.size(), channels);
     Image img(width, height);
     const std::size_t n = std::size_t(width) * height * 3;
     for (const auto& s : scene.stars)

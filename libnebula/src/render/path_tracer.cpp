@@ -237,7 +237,7 @@ Image renderPathTraced(const RenderScene& scene, const RenderOptions& opts, cons
     const std::size_t S = scene.stars.size();
     const PathScene ps = buildPathScene(scene, opts);
 
-    Image img = detail::frameImage(scene, W, H, {"variance"});
+    Image img = detail::frameImage(scene, opts, {"variance"});
     ImageLayer& transLayer = img.layers[S];
     ImageLayer& varLayer = img.layers[S + 1];
 

@@ -7,6 +7,8 @@
 #include "nebula/io/volume_vdb.h"
 #include "nebula/physics/colour.h"
 
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <cmath>
 
@@ -153,8 +155,13 @@ RenderScene buildScene(const GridSet& grids, const RenderOptions& opts, const Du
         scene.starColor.push_back({c[0] * s.luminosity, c[1] * s.luminosity, c[2] * s.luminosity});
     }
     static_cast<DustParams&>(scene.dust) = dust;
-    for (int c = 0; c < 3; ++c)
-        scene.dust.r[c] = extinctionRatio(dust, opts.wavelengths[c]);
+    for (int c = 0; c < 3; ++c) {
+        try {
+            scene.dust.r[c] = extinctionRatio(dust, opts.wavelengths[c]);
+        } catch (const Error& e) { // a wavelength outside the curve: the option's fault
+            throw UsageError("--wavelengths: " + std::string(e.what()));
+        }
+    }
     requireTableForDust(grids, opts, dust);
     scene.buildOccupancy();
 
@@ -163,6 +170,25 @@ RenderScene buildScene(const GridSet& grids, const RenderOptions& opts, const Du
         scene.levels.push_back(readLevel(grids, opts, scene.stars, k, scene.fields.indexToWorld));
     }
     return scene;
+}
+
+void requireRayStep(const RenderScene& scene, double step)
+{
+    if (!(step > 0.0) || !std::isfinite(step)) {
+        throw UsageError("--step must be a finite number > 0 [voxels], got " + numberText(step));
+    }
+    const auto& d = scene.fields.dims();
+    const double diagonal =
+        std::sqrt(double(d[0]) * d[0] + double(d[1]) * d[1] + double(d[2]) * d[2]); // [voxels]
+    const double smallest = diagonal / MAX_STEPS_PER_RAY;
+    if (step >= smallest) return;
+    const double voxel = voxelSize(scene.fields.indexToWorld); // [pc]
+    throw UsageError(fmt::format(
+        "--step {}: a ray across this grid ({}x{}x{} voxels, {:.4g} voxels corner to corner) "
+        "would take {:.3g} steps, more than the limit of {:.0e}; the smallest step for this "
+        "grid is {:.3g} voxels ({:.3g} pc)",
+        numberText(step), d[0], d[1], d[2], diagonal, diagonal / step, MAX_STEPS_PER_RAY, smallest,
+        smallest * voxel));
 }
 
 void RenderScene::buildOccupancy()

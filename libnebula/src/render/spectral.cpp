@@ -711,9 +711,9 @@ Image renderSpectral(const SpectralScene& scene, const RenderOptions& opts, cons
 {
     const Camera& view = opts.camera;
     if (view.width <= 0 || view.height <= 0) throw UsageError("--res must be WxH with W, H > 0");
-    if (!(opts.step > 0.0)) throw UsageError("--step must be > 0 voxels");
+    requireRayStep(scene.base, opts.step);
     const SpectralIntegrator integrator(scene, opts);
-    Image img = detail::frameImage(scene.base, view.width, view.height);
+    Image img = detail::frameImage(scene.base, opts, {}, std::size_t(integrator.layers()));
     for (int b = 0; b < integrator.layers(); ++b) {
         img.channels.push_back({bandName(SPECTRAL_MIN_NM + (b + 0.5) * integrator.layerWidth()),
                                 std::vector<float>(std::size_t(view.width) * view.height, 0.0f)});

@@ -1,13 +1,36 @@
 #include "nebula/render/sprites.h"
 
+#include "nebula/core/error.h"
+#include "nebula/core/format.h"
+#include "nebula/core/memory.h"
 #include "nebula/core/units.h"
 #include "nebula/physics/optical_depth.h"
+
+#include <fmt/format.h>
 
 #include <algorithm>
 #include <cmath>
 #include <vector>
 
 namespace nebula {
+
+double spriteFootprintEdge(const RenderOptions& opts)
+{
+    return 2.0 * (std::ceil(2.0 * opts.spriteRadius) + 1.0) + 1.0;
+}
+
+void requireSpriteMemory(const RenderOptions& opts)
+{
+    if (!(opts.spriteRadius > 0.0) || !std::isfinite(opts.spriteRadius)) {
+        throw UsageError("--sprite-radius must be a finite number > 0 [pixels], got " +
+                         detail::numberText(opts.spriteRadius));
+    }
+    const double edge = spriteFootprintEdge(opts);
+    requireMemory(edge * edge * sizeof(double),
+                  "--sprite-radius " + detail::numberText(opts.spriteRadius) +
+                      ": the star sprite footprint (" + fmt::format("{:.3g} x {:.3g}", edge, edge) +
+                      " pixels)");
+}
 
 void drawStarSprites(Image& img, const RenderScene& scene, const RenderOptions& opts,
                      const std::function<std::array<double, 3>(std::size_t, double)>& colour,
@@ -27,6 +50,7 @@ void drawStarSprites(Image& img, const RenderScene& scene, const RenderOptions& 
     // Star sprites: the attenuated flux F_c = L_c / (4 pi d^2) e^(-r_c tau) spread over a
     // small Gaussian footprint whose radiance times pixel solid angle sums to F_c.
     if (S > 0) {
+        requireSpriteMemory(opts); // before R below, which it keeps within an int
         // Column density eye -> star through the dust, exact; the density channel and the
         // integrator's cell occupancy are built once for all stars.
         DenseVolume density(vol.lo(), vol.dims(), 1);

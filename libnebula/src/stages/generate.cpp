@@ -2,6 +2,7 @@
 
 #include "nebula/core/error.h"
 #include "nebula/core/format.h"
+#include "nebula/core/memory.h"
 
 #include <openvdb/tools/Dense.h>
 #include <openvdb/tools/Prune.h>
@@ -191,6 +192,29 @@ void validateParams(const NebulaParams& p)
     }
 }
 
+/// Bytes of a FloatGrid (or Vec3fGrid: @p floats 3) whose every voxel is active: leaf values
+/// plus their value masks.
+constexpr double sparseBytesPerVoxel(double floats)
+{
+    return floats * sizeof(float) + 1.0 / 8.0;
+}
+
+} // namespace
+
+double generateBytes(const NebulaParams& p)
+{
+    const bool oiiiOn = p.spectral.enabled && p.spectral.oiii > 0.0;
+    const double fields = oiiiOn ? 3.0 : 2.0; // density, emission (, emission.oiii)
+    // The dense arrays and, at worst, fog grids as large (all voxels active); the spectral
+    // temperature and velocity grids on the same voxels.
+    double perVoxel = fields * (sizeof(float) + sparseBytesPerVoxel(1.0));
+    if (p.spectral.enabled) perVoxel += sparseBytesPerVoxel(1.0) + sparseBytesPerVoxel(3.0);
+    const double n = p.res;
+    return n * n * n * perVoxel;
+}
+
+namespace {
+
 /// The procedural fields at one voxel: dust density n_H [cm^-3], gas emission and the [O III]
 /// zone's emission.
 struct NebulaVoxel
@@ -306,6 +330,7 @@ GridSet generateNebula(const NebulaParams& p, const std::function<void(std::size
 {
     validateParams(p);
     const bool oiiiOn = p.spectral.enabled && p.spectral.oiii > 0.0;
+    requireMemory(generateBytes(p), "--res " + std::to_string(p.res) + ": generating the grids");
     const int n = p.res;
     const double voxel = p.size / n;
     // Voxel centres at integer index coordinates, the cube centred on the world origin.

@@ -8,6 +8,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <string>
 #include <utility>
 
 using namespace nebula;
@@ -91,4 +92,38 @@ TEST(Camera, ValidateRefusesDegenerateViews)
     EXPECT_THROW(validateCamera(parallel), UsageError);
     parallel.up = Vec3(0, 0, 1);
     EXPECT_NO_THROW(validateCamera(parallel));
+}
+
+// Coordinates whose squares overflow, and non-finite ones, are blamed on their own option
+// (an eye at 1e300 used to be blamed on --up).
+TEST(Camera, ValidateNamesTheOptionOfAHugeOrNonFiniteVector)
+{
+    Camera far;
+    far.eye = Vec3(1e300, 0, 0);
+    try {
+        validateCamera(far);
+        ADD_FAILURE() << "no UsageError";
+    } catch (const UsageError& e) {
+        const std::string msg = e.what();
+        EXPECT_EQ(msg.rfind("--eye 1e+300,0,0: each number must be at most 1e+150 in magnitude", 0),
+                  0u)
+            << msg;
+        EXPECT_EQ(msg.find("--up"), std::string::npos) << msg;
+    }
+    Camera nanLook;
+    nanLook.lookAt = Vec3(0, std::nan(""), 0);
+    try {
+        validateCamera(nanLook);
+        ADD_FAILURE() << "no UsageError";
+    } catch (const UsageError& e) {
+        EXPECT_EQ(std::string(e.what()).rfind("--look-at must be three finite numbers", 0), 0u)
+            << e.what();
+    }
+    Camera infUp;
+    infUp.up = Vec3(0, INFINITY, 0);
+    EXPECT_THROW(validateCamera(infUp), UsageError);
+    // At the limit: valid.
+    Camera edge;
+    edge.eye = Vec3(MAX_CAMERA_COORDINATE, 0, -MAX_CAMERA_COORDINATE);
+    EXPECT_NO_THROW(validateCamera(edge));
 }

@@ -4,11 +4,15 @@
 // the `1 - k dl` scheme would amplify light. (Camera geometry is in test_camera.cpp.)
 #include "nebula/render/fast.h"
 
+#include "nebula/core/error.h"
+#include "nebula/render/sprites.h"
+
 #include "render_scenes.h"
 
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <string>
 
 using namespace nebula;
 
@@ -231,4 +235,63 @@ TEST(Render, PyramidLevelAddsTheGainOfDoubledVoxels)
         EXPECT_NEAR(none.rgba[c] / thin.rgba[c], 1.0, 0.02) << "c " << c;
         EXPECT_NEAR(one.rgba[c] / thin.rgba[c], 2.0, 0.04 * 2.0) << "c " << c;
     }
+}
+
+// A ray step so small that a ray across the lattice would take more than MAX_STEPS_PER_RAY
+// steps is refused (it used to hang), saying the smallest step this grid allows in voxels
+// and pc; the same for the spectral integrator (test_spectral.cpp uses the same check).
+TEST(Render, TinyStepIsRefusedWithTheSmallestForTheGrid)
+{
+    const auto scene = cube(1.0, 0.0, {});
+    // 41^3 voxels of 0.1 pc: 71.0 voxels corner to corner, smallest step 7.1e-05 voxels.
+    EXPECT_NO_THROW(requireRayStep(scene, 7.2e-5));
+    for (double step : {1e-9, 7e-5}) {
+        try {
+            renderFrame(scene, axisCamera(Vec3(2, 2, -20), step));
+            ADD_FAILURE() << "no UsageError for step " << step;
+        } catch (const UsageError& e) {
+            const std::string msg = e.what();
+            EXPECT_NE(msg.find("a ray across this grid (41x41x41 voxels, 71.01 voxels corner to "
+                               "corner) would take "),
+                      std::string::npos)
+                << msg;
+            EXPECT_NE(msg.find("more than the limit of 1e+06; the smallest step for this grid is "
+                               "7.1e-05 voxels (7.1e-06 pc)"),
+                      std::string::npos)
+                << msg;
+        }
+    }
+    for (double bad : {0.0, -1.0, double(NAN), double(INFINITY)}) {
+        EXPECT_THROW(requireRayStep(scene, bad), UsageError) << bad;
+    }
+}
+
+// A sprite radius whose footprint would not fit in memory is refused before the render (it
+// died with std::bad_alloc after it), naming --sprite-radius.
+TEST(Render, HugeSpriteRadiusIsRefusedBeforeRendering)
+{
+    Star s;
+    s.name = "s";
+    s.position = {2.0, 2.0, 2.0};
+    const auto scene = cube(0.0, 0.0, {s});
+    RenderOptions o = axisCamera(Vec3(2, 2, -20), 0.5);
+    o.drawStars = true;
+    o.spriteRadius = 1e9;
+    try {
+        renderFrame(scene, o);
+        ADD_FAILURE() << "no UsageError";
+    } catch (const UsageError& e) {
+        EXPECT_EQ(std::string(e.what()).rfind("--sprite-radius 1e+09: the star sprite footprint "
+                                              "(4e+09 x 4e+09 pixels) needs ",
+                                              0),
+                  0u)
+            << e.what();
+    }
+    EXPECT_THROW(requireSpriteMemory(o), UsageError);
+    o.spriteRadius = 2.5;
+    EXPECT_NO_THROW(requireSpriteMemory(o));
+    EXPECT_EQ(spriteFootprintEdge(o), 13.0); // 2 (ceil(5) + 1) + 1
+    o.drawStars = false;
+    o.spriteRadius = 1e9; // not drawn: not checked
+    EXPECT_NO_THROW(renderFrame(scene, o));
 }

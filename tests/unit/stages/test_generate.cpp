@@ -8,6 +8,7 @@
 #include "nebula/stages/generate.h"
 
 #include "nebula/core/error.h"
+#include "nebula/core/memory.h"
 
 #include "test_util.h"
 
@@ -584,3 +585,31 @@ TEST(RadiationField, FallsAsInverseSquareFromOneStar)
 }
 
 } // namespace
+
+// The memory generateNebula() may need: dense arrays of the emitting fields plus, at worst,
+// sparse grids of every voxel; a resolution that would not fit is refused before anything
+// is allocated, naming --res and both sizes.
+TEST(GenerateNebula, MemoryNeedsAreCheckedBeforeAllocating)
+{
+    NebulaParams p = small(100);
+    const double voxels = 1e6;
+    EXPECT_EQ(nebula::generateBytes(p), voxels * 2 * (4 + 4.125));
+    p.spectral.enabled = true;
+    EXPECT_EQ(nebula::generateBytes(p), voxels * (2 * (4 + 4.125) + 4.125 + 12.125));
+    p.spectral.oiii = 0.5;
+    EXPECT_EQ(nebula::generateBytes(p), voxels * (3 * (4 + 4.125) + 4.125 + 12.125));
+
+    // 2048^3 with every grid: 325 GiB. Refused unless this machine has that much (then the
+    // check is only that it does not throw before generating, which would take too long).
+    p = small(2048);
+    p.spectral.enabled = true;
+    p.spectral.oiii = 0.5;
+    const double need = nebula::generateBytes(p);
+    EXPECT_GT(need, 3e11);
+    if (double(nebula::physicalMemory()) < need) {
+        EXPECT_EQ(errorMessage([&] { nebula::generateNebula(p); }),
+                  "--res 2048: generating the grids needs " + nebula::bytesText(need) +
+                      " of memory; this machine has " +
+                      nebula::bytesText(double(nebula::physicalMemory())));
+    }
+}

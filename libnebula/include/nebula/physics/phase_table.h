@@ -28,7 +28,8 @@ struct PhaseTableSpec
     double errorTMax = 10.0;
 
     /// Throws UsageError naming the option (--t-min, --t-max, --t-count, --mu-bins,
-    /// --photons, --max-photons, --error) on invalid values.
+    /// --photons, --max-photons, --error) on invalid values, and (requireMemory()) if the
+    /// table of tCount x muBins bins would not fit in memory.
     void validate() const;
 };
 

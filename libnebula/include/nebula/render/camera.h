@@ -49,8 +49,13 @@ private:
     int mWidth, mHeight;
 };
 
-/// Throws UsageError unless the eye differs from the look-at point and up is not parallel
-/// to the view direction.
+/// The largest magnitude of a coordinate of --eye, --look-at and --up: squared distances
+/// stay finite.
+inline constexpr double MAX_CAMERA_COORDINATE = 1e150;
+
+/// Throws UsageError naming the option unless --eye, --look-at and --up are finite with
+/// coordinates of at most MAX_CAMERA_COORDINATE in magnitude, the eye differs from the
+/// look-at point and up is not parallel to the view direction.
 void validateCamera(const Camera& camera);
 
 } // namespace nebula

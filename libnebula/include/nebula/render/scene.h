@@ -62,4 +62,12 @@ struct RenderScene
 /// for k = 1..K and throws Error if one is missing or its voxels are not 2^k times level 0's.
 RenderScene buildScene(const GridSet& grids, const RenderOptions& opts, const DustParams& dust);
 
+/// The most ray-march steps a ray may take across a scene's lattice (corner to corner).
+inline constexpr double MAX_STEPS_PER_RAY = 1e6;
+
+/// Throws UsageError naming --step unless @p step [voxels] is a finite number > 0 with which
+/// a ray across @p scene's lattice takes at most MAX_STEPS_PER_RAY steps; the message says
+/// the smallest step allowed for this grid, in voxels and pc.
+void requireRayStep(const RenderScene& scene, double step);
+
 } // namespace nebula

@@ -18,6 +18,14 @@ namespace nebula {
 /// @p footprint, if set, is called for every pixel a sprite touches with the star, the pixel
 /// index and the factor that turns the star's attenuated luminosity into the pixel's radiance
 /// (for outputs other than R,G,B, e.g. spectral channels).
+/// The sprite footprint's edge [pixels] for opts.spriteRadius: 2 ceil(2 radius) + 3.
+double spriteFootprintEdge(const RenderOptions& opts);
+
+/// Throws UsageError naming --sprite-radius (requireMemory()) if a star sprite's footprint
+/// (spriteFootprintEdge()^2 weights) would not fit in memory. drawStarSprites() checks it;
+/// the integrators check it before rendering, so that the render does not fail at its end.
+void requireSpriteMemory(const RenderOptions& opts);
+
 void drawStarSprites(Image& img, const RenderScene& scene, const RenderOptions& opts,
                      const std::function<std::array<double, 3>(std::size_t, double)>& colour = {},
                      const std::function<void(std::size_t, std::size_t, double)>& footprint = {});

@@ -109,6 +109,10 @@ inline double dustTemperature(double U)
 /// A star near its edge.
 std::vector<Star> exampleStars();
 
+/// The most memory [bytes] generateNebula() may need for @p params: its dense arrays plus,
+/// at worst (every voxel active), the grids made from them.
+double generateBytes(const NebulaParams& params);
+
 /// Builds the `density` (fog volume, n_H [cm^-3]) and `emission` grids (with `nebula:lines`
 /// metadata) and sets the stars and dust metadata. Zero voxels are inactive, trees pruned.
 /// With spectral.enabled also:
@@ -120,7 +124,8 @@ std::vector<Star> exampleStars();
 /// - `emission.oiii` if spectral.oiii > 0 (see SpectralParams::oiii), with nebula:lines
 ///   OIII_EMISSION_LINES.
 /// The result depends only on the parameters, not on the thread count. @p progress gets
-/// z-slices done. Throws UsageError naming nebgen's option for a bad parameter.
+/// z-slices done. Throws UsageError naming nebgen's option for a bad parameter, and (naming
+/// --res, requireMemory()) before allocating if generateBytes() exceeds the machine's memory.
 GridSet generateNebula(const NebulaParams& params,
                        const std::function<void(std::size_t)>& progress = {});
 
