@@ -334,7 +334,7 @@ TEST_F(Cli, SpectralOptionErrors)
     expectFailure("nebgen --res 8 --shell-width 0.2 -o x.vdb", 2,
                   "--shell-width needs --emission-shape shell");
     expectFailure("nebgen --res 8 --emission-shape shell --shell-width 0 -o x.vdb", 2,
-                  "--shell-width must be in (0, 1]");
+                  "--shell-width: expected a number in (0, 1], got 0");
     expectFailure("nebgen --res 8 --emission-shape cube -o x.vdb", 2, "--emission-shape");
     expectFailure("nebgen --res 8 --spectral --rotation-axis 0,0,0 -o x.vdb", 2,
                   "--rotation-axis must not be the zero vector");
@@ -343,12 +343,13 @@ TEST_F(Cli, SpectralOptionErrors)
     expectFailure("nebgen --res 8 --spectral --motion-centre a,b,c -o x.vdb", 2,
                   "--motion-centre \"a,b,c\": expected X,Y,Z");
     expectFailure("nebgen --res 8 --spectral --motion-radius 0 -o x.vdb", 2,
-                  "--motion-radius must be a finite number > 0 [pc], got 0");
+                  "--motion-radius: expected a finite number > 0, got 0");
     expectFailure("nebgen --res 8 --spectral --turbulence -1 -o x.vdb", 2,
-                  "--turbulence must be a finite RMS speed >= 0");
-    expectFailure("nebgen --res 8 --spectral --oiii -1 -o x.vdb", 2, "--oiii must be");
+                  "--turbulence: expected a finite number >= 0, got -1");
+    expectFailure("nebgen --res 8 --spectral --oiii -1 -o x.vdb", 2,
+                  "--oiii: expected a finite number >= 0, got -1");
     expectFailure("nebgen --res 8 --spectral --gas-temperature -5 -o x.vdb", 2,
-                  "--gas-temperature must be");
+                  "--gas-temperature: expected a finite number >= 0, got -5");
 }
 
 TEST_F(Cli, SpectralHelp)

@@ -366,7 +366,9 @@ TEST_F(NebPhase, BadInputNamesTheOptionAndLeavesNoFile)
     expectFailure(t + "--g -1.5", 2, "--g");
     expectFailure(t + "--phase-function mie", 2, "--phase-function");
     expectFailure(t + "--photons 0", 2, "--photons");
-    expectFailure(t + "--photons -5", 2, "--photons: must be >= 0"); // not wrapped around
+    // Not wrapped around to a huge unsigned value.
+    expectFailure(t + "--photons -5", 2,
+                  "--photons: expected an integer in [1, 18446744073709551615], got -5");
     expectFailure("nebphase --photons 100 --max-photons 10 -o t.vdb", 2, "--max-photons");
     expectFailure(t + "--t-min 1 --t-max 1", 2, "--t-max");
     expectFailure(t + "--t-min 0", 2, "--t-min");

@@ -228,12 +228,15 @@ TEST_F(NebPyramid, HelpStartsWithExamples)
 TEST_F(NebPyramid, BadOptions)
 {
     writeVdb(path("cube.vdb"), {cube()}, starMeta());
-    expectFailure("nebpyramid -i cube.vdb --levels 0 -o out.vdb", 2, "--levels must be >= 1");
+    expectFailure("nebpyramid -i cube.vdb --levels 0 -o out.vdb", 2,
+                  "--levels: expected an integer in [1, 24], got 0");
     expectFailure("nebpyramid -i cube.vdb --levels -2 -o out.vdb", 2, "--levels");
     expectFailure("nebpyramid -i cube.vdb --levels 4 -o out.vdb", 2,
                   "--levels 4 is too many for grid \"density\" of cube.vdb: its active bounding "
                   "box is 16 voxels along the longest axis");
-    expectFailure("nebpyramid -i cube.vdb --levels 40 -o out.vdb", 2, "at most --levels 3");
+    expectFailure("nebpyramid -i cube.vdb --levels 20 -o out.vdb", 2, "at most --levels 3");
+    expectFailure("nebpyramid -i cube.vdb --levels 40 -o out.vdb", 2,
+                  "--levels: expected an integer in [1, 24], got 40");
     expectFailure("nebpyramid -i cube.vdb --levels two -o out.vdb", 2, "--levels");
     expectFailure("nebpyramid -i cube.vdb --tau mean -o out.vdb", 2,
                   "--tau \"mean\": expected recompute or average");

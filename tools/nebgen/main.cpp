@@ -5,6 +5,7 @@
 #include "nebula/core/error.h"
 #include "nebula/stages/generate.h"
 
+#include <cstdint>
 #include <cstdio>
 #include <string>
 #include <vector>
@@ -75,35 +76,50 @@ int main(int argc, char** argv)
         "Metadata: nebula:stars (JSON), nebula:dust (JSON). Next step: nebillum.";
     CLI::App app{description, "nebgen"};
     nebula::cli::addCommon(app, common, nebula::cli::OUTPUT);
-    app.add_option("--res", params.res, "Voxels along each axis")->capture_default_str();
-    app.add_option("--size", params.size, "Edge length of the cube [pc]")->capture_default_str();
-    app.add_option("--seed", params.seed, "Noise seed")->capture_default_str();
+    app.add_option("--res", params.res,
+                   "Voxels along each axis (at most what fits in memory: about 16 bytes a voxel, "
+                   "more with --spectral)")
+        ->capture_default_str()
+        ->check(nebula::cli::integerIn(2, 2048));
+    app.add_option("--size", params.size, "Edge length of the cube [pc]")
+        ->capture_default_str()
+        ->check(nebula::cli::positive());
+    app.add_option("--seed", params.seed, "Noise seed")
+        ->capture_default_str()
+        ->check(nebula::cli::integerIn(0, UINT64_MAX));
     app.add_option("--density", params.densityPeak,
                    "Density scale: n_H [cm^-3] where the shaped noise is 1")
-        ->capture_default_str();
+        ->capture_default_str()
+        ->check(nebula::cli::nonNegative());
     app.add_option("--frequency", params.frequency, "Noise features across the cube")
         ->capture_default_str();
-    app.add_option("--octaves", params.fbm.octaves, "fBm octaves")->capture_default_str();
+    app.add_option("--octaves", params.fbm.octaves, "fBm octaves")
+        ->capture_default_str()
+        ->check(nebula::cli::integerIn(1, 16));
     app.add_option("--lacunarity", params.fbm.lacunarity, "fBm frequency ratio")
         ->capture_default_str();
     app.add_option("--gain", params.fbm.gain, "fBm amplitude ratio")->capture_default_str();
     app.add_option("--threshold", params.threshold, "fBm level below which there is no dust")
         ->capture_default_str();
     app.add_option("--contrast", params.contrast, "Gain on fBm above the threshold")
-        ->capture_default_str();
+        ->capture_default_str()
+        ->check(nebula::cli::positive());
     app.add_option("--exponent", params.exponent, "Density = (contrast (fBm - threshold))^exponent")
-        ->capture_default_str();
+        ->capture_default_str()
+        ->check(nebula::cli::positive());
     app.add_option("--warp", params.warp, "Domain-warp strength [cube edges]")
         ->capture_default_str();
     app.add_option("--envelope", params.envelope, "Cloud radius [cube edges]")
         ->capture_default_str();
     app.add_option("--emission", params.emissionPeak, "Peak gas emission (0: none)")
-        ->capture_default_str();
+        ->capture_default_str()
+        ->check(nebula::cli::nonNegative());
     app.add_option("--emission-radius", params.emissionRadius,
                    "Radius of the emitting region [cube edges]")
         ->capture_default_str();
     app.add_option("--cavity", params.cavity, "Dust-free cavity around each star [pc] (0: none)")
-        ->capture_default_str();
+        ->capture_default_str()
+        ->check(nebula::cli::nonNegative());
     nebula::cli::addStars(app, starOpts);
     app.add_flag("--no-stars", noStars, "No stars (default: the example's two stars)");
     nebula::cli::addDust(app, dustOpts);
@@ -122,8 +138,9 @@ int main(int argc, char** argv)
         ->check(CLI::IsMember({"sphere", "shell"}))
         ->group(emissionGroup);
     auto* shellWidth = app.add_option("--shell-width", params.shellWidth,
-                                      "Shell thickness (FWHM) relative to its radius, (0, 1]")
+                                      "Shell thickness (FWHM) relative to its radius")
                            ->capture_default_str()
+                           ->check(nebula::cli::numberIn(0.0, 1.0, true))
                            ->group(emissionGroup);
     auto* motionCentre = app.add_option("--motion-centre", centre,
                                         "X,Y,Z [pc]: centre of the motion, the shell and the "
@@ -141,6 +158,7 @@ int main(int argc, char** argv)
                        "Ionised-gas temperature [K] where emission > 0 (e.g. 8000; 0: dust "
                        "temperature everywhere)")
             ->capture_default_str()
+            ->check(nebula::cli::nonNegative())
             ->group(spectralGroup));
     spectralOnly.push_back(
         app.add_option("--expansion", params.spectral.motion.expansion,
@@ -162,22 +180,26 @@ int main(int argc, char** argv)
                        "RMS speed [km/s] of divergence-free curl-noise turbulence "
                        "(Kolmogorov-like octaves)")
             ->capture_default_str()
+            ->check(nebula::cli::nonNegative())
             ->group(spectralGroup));
     spectralOnly.push_back(app.add_option("--turbulence-frequency",
                                           params.spectral.motion.turbulenceFrequency,
                                           "Turbulence features across the cube")
                                ->capture_default_str()
+                               ->check(nebula::cli::positive())
                                ->group(spectralGroup));
     spectralOnly.push_back(
         app.add_option("--motion-radius", params.motionRadius,
                        "Distance [pc] at which --expansion and --rotation are reached "
                        "(default: --emission-radius times --size)")
+            ->check(nebula::cli::positive())
             ->group(spectralGroup));
     spectralOnly.push_back(
         app.add_option("--oiii", params.spectral.oiii,
                        "Also write emission.oiii ([O III] 5007/4959 = 2.98) at this strength "
                        "relative to emission, in the inner ionised region (0: none)")
             ->capture_default_str()
+            ->check(nebula::cli::nonNegative())
             ->group(spectralGroup));
 
     return nebula::cli::run(app, "nebgen", common, argc, argv, [&](nebula::Run& run) {

@@ -27,13 +27,14 @@ int main(int argc, char** argv)
     nebula::cli::addStars(app, starOpts);
     auto* grp = app.add_option_group("Dust");
     grp->add_option("--kappa-v", dustOpts.kappa_V,
-                    "V-band extinction per n_H per pc [pc^-1 cm^3] (default: the input's)");
+                    "V-band extinction per n_H per pc [pc^-1 cm^3] (default: the input's)")
+        ->check(nebula::cli::positive());
 
     return nebula::cli::run(app, "nebillum", common, argc, argv, [&](nebula::Run& run) {
         nebula::refuseBinaryToTerminal(common.output, "-o");
         auto grids = nebula::readGrids(common.input, run);
         opts.stars = nebula::cli::loadStars(starOpts);
-        opts.dust = dustOpts.apply(grids.dust());
+        opts.dust = dustOpts.apply(grids.dust(run));
         opts.densityGrid = common.densityGrid;
         opts.onlyNew = common.onlyNew;
         nebula::illuminate(grids, opts, run);

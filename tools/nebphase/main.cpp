@@ -61,7 +61,7 @@ nebula::DustParams loadDust(const nebula::Run& run, const std::string& input,
         if (!grids.hasDust()) {
             run.warn(grids.source + " has no " + nebula::META_DUST + "; using the default dust");
         }
-        base = grids.dust();
+        base = grids.dust(run);
     }
     const auto dust = dustOpts.apply(base);
     run.info("dust: albedo " + numberText(dust.albedo) + ", g " + numberText(dust.g) + ", phase " +
@@ -289,9 +289,6 @@ int main(int argc, char** argv)
         "transmission exp(-tau/mu0) is then exact (error 0); analog (MCML) balances each\n"
         "photon exactly.",
         "nebphase"};
-    // CLI11 would wrap "-5" around into a huge unsigned value: refuse a sign first.
-    const CLI::Validator notNegative(
-        [](std::string& v) { return v.rfind('-', 0) == 0 ? "must be >= 0, got " + v : ""; }, "");
     nebula::cli::addCommon(app, common, 0);
     app.add_option("-i,--input", common.input,
                    "VDB whose nebula:dust is the dust (file, or - for stdin); optional");
@@ -300,42 +297,53 @@ int main(int argc, char** argv)
     app.add_option("--seed", opts.table.seed,
                    "Random seed (same seed, same result whatever --threads)")
         ->capture_default_str()
-        ->check(notNegative);
+        ->check(nebula::cli::integerIn(0, UINT64_MAX));
     app.add_option("--photons", opts.photons,
                    "Photons: per t at least (table, default " + std::to_string(spec.minPhotons) +
                        "); in all (--slab, default " + std::to_string(opts.slabPhotons) + ")")
-        ->check(notNegative);
+        ->check(nebula::cli::integerIn(1, UINT64_MAX));
     nebula::cli::addDust(app, dustOpts, /*withKappa=*/false);
 
     auto* tbl = app.add_option_group("Table", "Table mode (the default)");
     std::vector<CLI::Option*> tableOnly{
         output,
         tbl->add_option("--t-min", opts.table.tMin, "Smallest voxel optical thickness t")
-            ->capture_default_str(),
-        tbl->add_option("--t-max", opts.table.tMax, "Largest t")->capture_default_str(),
-        tbl->add_option("--t-count", opts.table.tCount, "Log-spaced t values, both ends included")
-            ->capture_default_str(),
+            ->capture_default_str()
+            ->check(nebula::cli::positive()),
+        tbl->add_option("--t-max", opts.table.tMax, "Largest t")
+            ->capture_default_str()
+            ->check(nebula::cli::positive()),
+        tbl->add_option("--t-count", opts.table.tCount,
+                        "Log-spaced t values, both ends included (--t-count x --mu-bins as far "
+                        "as the table fits in memory)")
+            ->capture_default_str()
+            ->check(nebula::cli::integerIn(2, 1000000)),
         tbl->add_option("--mu-bins", opts.table.muBins, "Equal-cos bins over [-1, 1] (even)")
-            ->capture_default_str(),
+            ->capture_default_str()
+            ->check(nebula::cli::integerIn(2, 1000000)),
         tbl->add_option("--max-photons", opts.maxPhotons,
                         "Photons per t at most (default " + std::to_string(spec.maxPhotons) +
                             ", or --photons if larger)")
-            ->check(notNegative),
+            ->check(nebula::cli::integerIn(1, UINT64_MAX)),
         tbl->add_option("--error", opts.table.targetError,
                         "Target relative standard error of Phi (mu > 0 bins, t <= " +
                             numberText(spec.errorTMax) + ")")
-            ->capture_default_str(),
+            ->capture_default_str()
+            ->check(nebula::cli::positive()),
         tbl->add_option("--json", opts.json, "Also write the table as JSON (file, or -)"),
     };
 
     auto* slb = app.add_option_group("Slab", "Slab mode (--slab)");
     slb->add_flag("--slab", opts.slab, "Run a plane-parallel slab instead; JSON to stdout");
     std::vector<CLI::Option*> slabOnly{
-        slb->add_option("--tau", opts.tau, "Optical depth of the slab (> 0)"),
-        slb->add_option("--mu0", opts.mu0, "Cosine of the incident beam to the normal, (0, 1]")
-            ->capture_default_str(),
+        slb->add_option("--tau", opts.tau, "Optical depth of the slab")
+            ->check(nebula::cli::positive()),
+        slb->add_option("--mu0", opts.mu0, "Cosine of the incident beam to the normal")
+            ->capture_default_str()
+            ->check(nebula::cli::numberIn(0.0, 1.0, true)),
         slb->add_option("--bins", opts.bins, "Equal-cos angular bins per face")
-            ->capture_default_str(),
+            ->capture_default_str()
+            ->check(nebula::cli::integerIn(1, 100000)),
         slb->add_option("--estimator", opts.estimator, "analog or next-event")
             ->capture_default_str()
             ->check(CLI::IsMember({"analog", "next-event"})),

@@ -41,7 +41,8 @@ int main(int argc, char** argv)
     app.add_option("--levels", opts.levels,
                    "Coarsest level N (levels 1 .. N); level N must stay at least 2 voxels\n"
                    "across the longest axis of the density's active bounding box")
-        ->capture_default_str();
+        ->capture_default_str()
+        ->check(nebula::cli::integerIn(1, 24));
     app.add_option("--tau", tau, "How tau.<star>.L<k> is made: recompute or average")
         ->capture_default_str();
 

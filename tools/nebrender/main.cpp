@@ -5,6 +5,7 @@
 #include "nebula/io/phase_table_vdb.h"
 #include "nebula/stages/render.h"
 
+#include <cstdint>
 #include <cstdio>
 
 int main(int argc, char** argv)
@@ -49,11 +50,14 @@ int main(int argc, char** argv)
     nebula::cli::addVec3(app, "--up", opts.camera.up, "Up direction");
     app.add_option("--fov", opts.camera.fovDeg, "Horizontal field of view [degrees]")
         ->capture_default_str()
-        ->check(CLI::Range(0.01, 179.0));
-    app.add_option("--res", res, "Image size WxH (default 512x512)");
-    app.add_option("--step", opts.step, "Ray step [voxels]")
+        ->check(nebula::cli::numberIn(0.01, 179.0));
+    app.add_option("--res", res,
+                   "Image size WxH, each in [1, 65536] (default 512x512), as far as the image "
+                   "fits in memory");
+    app.add_option("--step", opts.step,
+                   "Ray step [voxels]; at most 1e6 steps across the grid's diagonal")
         ->capture_default_str()
-        ->check(CLI::PositiveNumber);
+        ->check(nebula::cli::positive());
     nebula::cli::addVec3(app, "--wavelengths", opts.wavelengths,
                          "R,G,B channel wavelengths [nm] for the extinction curve");
     app.add_option("--emission-grid", opts.emissionGrid, "Gas emission grid")
@@ -61,17 +65,18 @@ int main(int argc, char** argv)
     app.add_option("--emission-scale", opts.emissionScale,
                    "Emission multiplier [L_sun pc^-3 sr^-1 per grid unit]")
         ->capture_default_str()
-        ->check(CLI::NonNegativeNumber);
+        ->check(nebula::cli::nonNegative());
     nebula::cli::addVec3(app, "--emission-color", opts.emissionColor,
                          "Emission colour, linear sRGB R,G,B (H-alpha with some H-beta)");
     app.add_flag("--no-stars", noStars, "Do not draw the stars themselves");
-    app.add_option("--sprite-radius", opts.spriteRadius, "Star sprite radius [pixels]")
+    app.add_option("--sprite-radius", opts.spriteRadius,
+                   "Star sprite radius [pixels], as far as its footprint fits in memory")
         ->capture_default_str()
-        ->check(CLI::PositiveNumber);
+        ->check(nebula::cli::positive());
     app.add_option("--min-star-distance", opts.minStarDistance,
                    "Distance below which 1/r^2 is clamped [voxels]")
         ->capture_default_str()
-        ->check(CLI::PositiveNumber);
+        ->check(nebula::cli::positive());
     nebula::cli::addDust(app, dustOpts, /*withKappa=*/false);
     app.add_option("--phase", phaseFile,
                    "Effective phase-function table from nebphase: scattering uses Phi(t, mu) of\n"
@@ -88,7 +93,7 @@ int main(int argc, char** argv)
                    "Global scattering from nebpyramid's levels 1..K (needs --phase): each adds\n"
                    "the change of the voxel scattering as the voxel doubles (default: with\n"
                    "--phase, every level the input has; 0: none)")
-        ->check(CLI::Range(0, 16));
+        ->check(nebula::cli::integerIn(0, 16));
     std::string integrator = "fast";
     app.add_option("--integrator", integrator,
                    "fast: ray caster (single scattering, or --phase); path: reference Monte\n"
@@ -97,9 +102,10 @@ int main(int argc, char** argv)
         ->capture_default_str();
     app.add_option("--spp", opts.spp, "Path tracer: random walks per pixel and channel")
         ->capture_default_str()
-        ->check(CLI::Range(1, 1 << 30));
+        ->check(nebula::cli::integerIn(1, 1 << 30));
     app.add_option("--seed", opts.seed, "Path tracer: random seed (same seed, same image)")
-        ->capture_default_str();
+        ->capture_default_str()
+        ->check(nebula::cli::integerIn(0, UINT64_MAX));
     app.add_flag(
         "--phase-ignore-dust", opts.phaseIgnoreDust,
         "Use the --phase table even if its albedo, g or phase model differ from the dust's");
@@ -112,18 +118,20 @@ int main(int argc, char** argv)
             ->add_option("--bands", sp.bands,
                          "Fixed-band mode instead: N bands over 360-830 nm, point-sampled at\n"
                          "their centres (for comparison; implies --spectral)")
-            ->check(CLI::Range(1, 1000000));
+            ->check(nebula::cli::integerIn(1, 1000000));
     std::vector<CLI::Option*> spectralOnly;
     spectralOnly.push_back(spectral
                                ->add_option("--continuum-step", sp.continuumStep,
                                             "Piecewise-linear mode: continuum node spacing [nm]")
-                               ->capture_default_str());
+                               ->capture_default_str()
+                               ->check(nebula::cli::numberIn(0.0, 50.0, true)));
     spectralOnly.push_back(
         spectral
             ->add_option("--exaggerate-velocity", sp.exaggerateVelocity,
                          "Multiply every velocity by F before the Doppler shift (visualisation):\n"
                          "the velocity grid and the line width alike")
-            ->capture_default_str());
+            ->capture_default_str()
+            ->check(nebula::cli::positive()));
     spectralOnly.push_back(
         spectral->add_flag("--relativistic", sp.relativistic,
                            "Relativistic Doppler factor gamma (1 + v_r/c): gas moving across the\n"
@@ -133,7 +141,8 @@ int main(int argc, char** argv)
             ->add_option("--line-width", sp.lineWidth,
                          "Half-width of each line's rest-frame box profile [km/s] (thermal and\n"
                          "turbulent broadening)")
-            ->capture_default_str());
+            ->capture_default_str()
+            ->check(nebula::cli::positive()));
     spectralOnly.push_back(spectral->add_option(
         "--lines", sp.lines,
         "Lines of the emission grid, e.g. H-alpha:1,H-beta:0.35,[O III]5007:0.5\n"
@@ -142,12 +151,14 @@ int main(int argc, char** argv)
         spectral
             ->add_option("--blackbody-scale", sp.blackbodyScale,
                          "Multiply the black-body emission (1 = Kirchhoff's law, physical)")
-            ->capture_default_str());
+            ->capture_default_str()
+            ->check(nebula::cli::nonNegative()));
     spectralOnly.push_back(
         spectral
             ->add_option("--temperature-scale", sp.temperatureScale,
                          "Multiply the temperature grid (visualisation of cold dust)")
-            ->capture_default_str());
+            ->capture_default_str()
+            ->check(nebula::cli::positive()));
     spectralOnly.push_back(
         spectral->add_option("--temperature-grid", sp.temperatureGrid, "Temperature grid [K]")
             ->capture_default_str());
@@ -160,7 +171,7 @@ int main(int argc, char** argv)
             ->add_option("--spectral-layers", sp.layers,
                          "Also write N spectral EXR channels S0.<centre>nm: mean radiance per nm\n"
                          "in N equal bands over 360-830 nm")
-            ->check(CLI::Range(1, 470)));
+            ->check(nebula::cli::integerIn(1, 470)));
     spectralOnly.push_back(spectral->add_flag(
         "--count-pieces", sp.countPieces,
         "Assemble each ray's piecewise-linear spectrum and report its piece count\n"
@@ -170,17 +181,21 @@ int main(int argc, char** argv)
             ->add_option("--merge-tolerance", sp.mergeTolerance,
                          "With --count-pieces: also count the pieces left after merging\n"
                          "neighbours under this relative tolerance (Spectrum::merge)")
-            ->check(CLI::Range(0.0, 1.0)));
+            ->check(nebula::cli::numberIn(0.0, 1.0)));
     auto* exp = app.add_option("--exposure", exposure,
                                "PNG: fixed exposure in stops (white = 2^-E); turns off the "
-                               "automatic tone curve");
-    app.add_option("--gamma", out.tone.gamma, "PNG: gamma with --exposure")->capture_default_str();
+                               "automatic tone curve")
+                    ->check(nebula::cli::numberIn(-1000.0, 1000.0));
+    app.add_option("--gamma", out.tone.gamma, "PNG: gamma with --exposure")
+        ->capture_default_str()
+        ->check(nebula::cli::positive());
     app.add_option("--percentile", out.tone.percentile,
                    "PNG: automatic white point = this luminance percentile")
         ->capture_default_str()
-        ->check(CLI::Range(1.0, 100.0));
+        ->check(nebula::cli::numberIn(1.0, 100.0));
 
     return nebula::cli::run(app, "nebrender", common, argc, argv, [&](nebula::Run& run) {
+        nebula::cli::refuseSharedStream({{"-i", common.input}, {"--phase", phaseFile}}, "stdin");
         nebula::validateCamera(opts.camera);
         if (!res.empty()) nebula::cli::parseResolution(res, opts.camera.width, opts.camera.height);
         opts.drawStars = !noStars;
@@ -200,7 +215,7 @@ int main(int argc, char** argv)
             opts.phaseSource = phaseFile;
         }
         const auto grids = nebula::readGrids(common.input, run);
-        const auto dust = dustOpts.apply(grids.dust());
+        const auto dust = dustOpts.apply(grids.dust(run));
         opts.densityGrid = common.densityGrid;
         nebula::renderToFiles(grids, opts, dust, out, run);
     });

@@ -1,13 +1,18 @@
 #include "nebula/cli/cli.h"
 
 #include "nebula/core/error.h"
+#include "nebula/core/format.h"
 
 #include <fmt/format.h>
 #include <openvdb/openvdb.h>
 #include <tbb/global_control.h>
 
 #include <cmath>
+#include <cstdint>
+#include <fstream>
 #include <iostream>
+#include <limits>
+#include <new>
 #include <sstream>
 #include <unistd.h>
 
@@ -40,7 +45,7 @@ void addCommon(CLI::App& app, CommonOptions& opts, unsigned flags)
     }
     app.add_option("--threads", opts.threads, "Worker threads (0 = all cores)")
         ->capture_default_str()
-        ->check(CLI::NonNegativeNumber);
+        ->check(integerIn(0, MAX_THREADS));
     app.add_flag("-q,--quiet", opts.quiet, "No progress bar or warnings");
     app.add_flag("-v,--verbose", opts.verbose, "Report each stage on stderr");
     app.set_version_flag("--version", versionString(app.get_name()));
@@ -65,6 +70,14 @@ std::array<double, 3> parseVec3(const std::string& text, const std::string& opti
             if (used != parts[i].size() || !std::isfinite(v[i])) throw UsageError(expected);
         } catch (const std::exception&) {
             throw UsageError(expected);
+        }
+    }
+    for (double c : v) {
+        if (std::fabs(c) > MAX_VEC3_COMPONENT) {
+            throw UsageError(option + " \"" + text + "\": each number must be at most " +
+                             detail::numberText(MAX_VEC3_COMPONENT) +
+                             " in magnitude (lengths and distances are computed from squares, "
+                             "which would overflow)");
         }
     }
     return v;
@@ -130,7 +143,266 @@ void parseResolution(const std::string& text, int& width, int& height)
         height = h;
     } catch (const std::exception&) {
         throw UsageError("--res \"" + text +
-                         "\": expected WxH with positive integers, e.g. 512x512");
+                         "\": expected WxH, each an integer in [1, 65536], e.g. 512x512");
+    }
+}
+
+namespace {
+
+/// @p text for a message: bytes that are not printable ASCII as \xNN, at most @p limit
+/// characters (then "...").
+std::string printable(const std::string& text, std::size_t limit = 40)
+{
+    std::string out;
+    for (std::size_t i = 0; i < text.size(); ++i) {
+        if (out.size() >= limit) return out + "...";
+        const auto c = static_cast<unsigned char>(text[i]);
+        if (c >= 0x20 && c < 0x7f) {
+            out += char(c);
+        } else {
+            out += fmt::format("\\x{:02X}", unsigned(c));
+        }
+    }
+    return out;
+}
+
+/// "(lo, hi]", "> 0", ">= 0", "< 1" or "" (no limit) for numberIn().
+std::string rangeText(double lo, double hi, bool loOpen, bool hiOpen)
+{
+    const bool hasLo = std::isfinite(lo), hasHi = std::isfinite(hi);
+    if (hasLo && hasHi) {
+        return std::string(loOpen ? "(" : "[") + detail::numberText(lo) + ", " +
+               detail::numberText(hi) + (hiOpen ? ")" : "]");
+    }
+    if (hasLo) return (loOpen ? "> " : ">= ") + detail::numberText(lo);
+    if (hasHi) return (hiOpen ? "< " : "<= ") + detail::numberText(hi);
+    return "";
+}
+
+} // namespace
+
+CLI::Validator integerIn(std::int64_t lo, std::uint64_t hi)
+{
+    const std::string range = fmt::format("[{}, {}]", lo, hi);
+    return CLI::Validator(
+        [lo, hi, range](std::string& text) -> std::string {
+            const std::string expected =
+                "expected an integer in " + range + ", got " + printable(text);
+            std::size_t i = 0;
+            bool negative = false;
+            if (i < text.size() && (text[i] == '+' || text[i] == '-')) negative = text[i++] == '-';
+            if (i == text.size()) return expected;
+            std::uint64_t magnitude = 0;
+            for (; i < text.size(); ++i) {
+                if (text[i] < '0' || text[i] > '9') return expected;
+                const auto digit = std::uint64_t(text[i] - '0');
+                if (magnitude > (UINT64_MAX - digit) / 10) return expected; // overflows
+                magnitude = 10 * magnitude + digit;
+            }
+            if (negative && magnitude > 0) {
+                // -magnitude >= lo, i.e. magnitude <= -lo (computed without overflow).
+                if (lo >= 0 || magnitude - 1 > std::uint64_t(-(lo + 1))) return expected;
+                text = "-" + std::to_string(magnitude);
+            } else {
+                if (magnitude > hi || (lo > 0 && magnitude < std::uint64_t(lo))) return expected;
+                text = std::to_string(magnitude); // CLI11 would read "010" as octal
+            }
+            return "";
+        },
+        range, "nebula-integer");
+}
+
+CLI::Validator numberIn(double lo, double hi, bool loOpen, bool hiOpen)
+{
+    const std::string range = rangeText(lo, hi, loOpen, hiOpen);
+    const std::string what = range.empty()                            ? "a finite number"
+                             : std::isfinite(lo) && std::isfinite(hi) ? "a number in " + range
+                                                                      : "a finite number " + range;
+    return CLI::Validator(
+        [=](std::string& text) -> std::string {
+            const std::string expected = "expected " + what + ", got " + printable(text);
+            char* end = nullptr;
+            const double v = std::strtod(text.c_str(), &end);
+            if (text.empty() || end != text.c_str() + text.size() || !std::isfinite(v)) {
+                return expected;
+            }
+            const bool aboveLo = loOpen ? v > lo : v >= lo;
+            const bool belowHi = hiOpen ? v < hi : v <= hi;
+            return aboveLo && belowHi ? "" : expected;
+        },
+        // --help: CLI11's own words for the usual half-lines, else the range.
+        !std::isfinite(hi) && lo == 0.0 ? (loOpen ? "POSITIVE" : "NONNEGATIVE") : range,
+        "nebula-number");
+}
+
+CLI::Validator positive()
+{
+    return numberIn(0.0, INFINITY, true);
+}
+
+CLI::Validator nonNegative()
+{
+    return numberIn(0.0, INFINITY);
+}
+
+CLI::Validator finite()
+{
+    return numberIn(-INFINITY, INFINITY);
+}
+
+namespace {
+
+bool hasValidator(CLI::Option& opt, const std::string& name)
+{
+    try {
+        opt.get_validator(name);
+        return true;
+    } catch (const CLI::OptionNotFound&) {
+        return false;
+    }
+}
+
+} // namespace
+
+void checkNumbers(CLI::App& app)
+{
+    for (CLI::Option* opt : app.get_options()) {
+        if (opt->get_expected_min() == 0) continue; // a flag
+        const std::string type = opt->get_type_name();
+        if (type.rfind("FLOAT", 0) == 0) {
+            if (!hasValidator(*opt, "nebula-number")) opt->check(finite());
+        } else if (type.rfind("INT", 0) == 0 || type.rfind("UINT", 0) == 0) {
+            if (!hasValidator(*opt, "nebula-integer")) {
+                opt->check(type[0] == 'U'
+                               ? integerIn(0, UINT64_MAX)
+                               : integerIn(std::numeric_limits<int>::min(),
+                                           std::uint64_t(std::numeric_limits<int>::max())));
+            }
+            // check() made it non-modifying; it must rewrite "010" as "10" for CLI11, which
+            // would read it as octal.
+            opt->get_validator("nebula-integer")->non_modifying(false);
+        }
+    }
+    for (CLI::App* group : app.get_subcommands([](CLI::App* a) { return a->get_name().empty(); }))
+        checkNumbers(*group);
+}
+
+void refuseSharedStream(const std::vector<std::pair<std::string, std::string>>& paths,
+                        const std::string& stream)
+{
+    const std::pair<std::string, std::string>* first = nullptr;
+    for (const auto& p : paths) {
+        if (p.second != "-") continue;
+        if (first) {
+            throw UsageError(first->first + " - and " + p.first + " - both " +
+                             (stream == "stdin" ? "read stdin" : "write stdout") +
+                             ", which can carry only one of them; give one a file name");
+        }
+        first = &p;
+    }
+}
+
+namespace {
+
+std::string trimmed(const std::string& s)
+{
+    const auto b = s.find_first_not_of(" \t\r");
+    if (b == std::string::npos) return "";
+    const auto e = s.find_last_not_of(" \t\r");
+    return s.substr(b, e - b + 1);
+}
+
+/// The option a config key names, as CLI11 looks it up ("res", "-o" style "o", "--res").
+CLI::Option* configOption(CLI::App& app, const std::string& key)
+{
+    if (auto* o = app.get_option_no_throw("--" + key)) return o;
+    if (key.size() == 1) {
+        if (auto* o = app.get_option_no_throw("-" + key)) return o;
+    }
+    if (!key.empty() && key[0] == '-') return app.get_option_no_throw(key);
+    return nullptr;
+}
+
+} // namespace
+
+void checkConfigFile(CLI::App& app, const std::string& path, const std::string& tool)
+{
+    std::ifstream in(path, std::ios::binary);
+    if (!in) return; // CLI11 reports a missing file
+    const std::string where = "--config: " + path + ", line ";
+    std::string line;
+    int number = 0;
+    bool inArray = false; // inside a [multi-line, array] value
+    while (std::getline(in, line)) {
+        ++number;
+        const std::string at = where + std::to_string(number) + ": ";
+        for (std::size_t i = 0; i < line.size(); ++i) {
+            const auto c = static_cast<unsigned char>(line[i]);
+            if ((c < 0x20 && c != '\t' && c != '\r') || c == 0x7f) {
+                throw UsageError(at + fmt::format("byte 0x{:02X} at column {} is not text; a "
+                                                  "config file holds lines \"key = value\"",
+                                                  unsigned(c), i + 1));
+            }
+        }
+        const std::string text = trimmed(line);
+        if (inArray) {
+            if (!text.empty() && text.back() == ']') inArray = false;
+            continue;
+        }
+        if (text.empty() || text[0] == '#' || text[0] == ';') continue;
+        if (text.front() == '[') {
+            if (text == "[default]" || text == "[[default]]") continue;
+            throw UsageError(at + "section " + printable(text) + ": " + tool +
+                             " has no sections (only [default]); give its options as "
+                             "\"key = value\" lines at the top of the file");
+        }
+        const auto eq = text.find('=');
+        std::string key = trimmed(text.substr(0, eq));
+        if (key.size() >= 2 && (key.front() == '"' || key.front() == '\'') &&
+            key.back() == key.front()) {
+            key = key.substr(1, key.size() - 2);
+        }
+        CLI::Option* opt = key.empty() ? nullptr : configOption(app, key);
+        const bool bareFlag = eq == std::string::npos && opt && opt->get_expected_min() == 0;
+        if (eq == std::string::npos && !bareFlag) {
+            throw UsageError(at + "expected \"key = value\", a [section] or a # comment, got \"" +
+                             printable(text) + "\"");
+        }
+        if (!opt) {
+            throw UsageError(at + "unknown option \"" + printable(key) +
+                             "\" in the config file (not an option of " + tool + ")");
+        }
+        if (opt->get_name() == "--config") {
+            throw UsageError(at + "a config file cannot name another config file");
+        }
+        if (eq != std::string::npos) {
+            std::string value = trimmed(text.substr(eq + 1));
+            if (value.empty()) {
+                throw UsageError(at + "\"" + printable(key) + "\" has no value after '='");
+            }
+            if (value.front() == '[') {
+                if (value.back() != ']') inArray = true;
+                continue; // several values: CLI11 checks each
+            }
+            if (value.size() >= 2 && (value.front() == '"' || value.front() == '\'') &&
+                value.back() == value.front()) {
+                value = value.substr(1, value.size() - 2);
+            }
+            // The number checks, here where the line is known (CLI11 would name only the
+            // option).
+            for (const char* check : {"nebula-number", "nebula-integer"}) {
+                try {
+                    std::string copy = value;
+                    const std::string error = (*opt->get_validator(check))(copy);
+                    if (!error.empty()) throw UsageError(at + opt->get_name() + ": " + error);
+                } catch (const CLI::OptionNotFound&) {
+                }
+            }
+        }
+    }
+    if (inArray) {
+        throw UsageError(where + std::to_string(number) +
+                         ": the array opened with '[' is not closed");
     }
 }
 
@@ -162,8 +434,18 @@ int run(CLI::App& app, const std::string& tool, CommonOptions& opts, int argc, c
         const std::function<void(Run&)>& body)
 {
     try {
+        checkNumbers(app);
+        // The config files, checked line by line before CLI11 reads them.
+        for (int i = 1; i < argc; ++i) {
+            const std::string arg = argv[i];
+            if (arg == "--config" && i + 1 < argc) {
+                checkConfigFile(app, argv[++i], tool);
+            } else if (arg.rfind("--config=", 0) == 0) {
+                checkConfigFile(app, arg.substr(9), tool);
+            }
+        }
         app.parse(argc, argv);
-    } catch (const UsageError& e) { // from an option's callback (addVec3)
+    } catch (const UsageError& e) { // from an option's callback (addVec3) or checkConfigFile
         std::cerr << tool << ": error: " << e.what() << "\n"
                   << "Run " << tool << " --help for the options and examples.\n";
         return 2;
@@ -194,6 +476,11 @@ int run(CLI::App& app, const std::string& tool, CommonOptions& opts, int argc, c
     } catch (const UsageError& e) {
         std::cerr << tool << ": error: " << e.what() << "\n";
         return 2;
+    } catch (const std::bad_alloc&) {
+        std::cerr << tool
+                  << ": error: out of memory (an allocation failed); try a smaller size, "
+                     "resolution or number of levels, or fewer threads\n";
+        return 1;
     } catch (const std::exception& e) {
         std::cerr << tool << ": error: " << e.what() << "\n";
         return 1;

@@ -1,5 +1,7 @@
 #include "nebula/cli/options.h"
 
+#include "nebula/cli/cli.h"
+
 #include "nebula/core/error.h"
 
 #include <cmath>
@@ -50,21 +52,6 @@ double finiteNumber(const std::string& text, const std::string& expected)
     } catch (const std::exception&) { // invalid_argument, or out_of_range ("1e999")
     }
     throw UsageError(expected);
-}
-
-/// A CLI11 check: a number in the open interval (lo, hi).
-CLI::Validator openRange(double lo, double hi)
-{
-    return CLI::Validator(
-        [lo, hi](std::string& text) -> std::string {
-            double v = 0.0;
-            if (!CLI::detail::lexical_cast(text, v) || !(v > lo && v < hi)) {
-                return "value " + text + " not in the open interval (" + fmt::format("{}", lo) +
-                       ", " + fmt::format("{}", hi) + ")";
-            }
-            return "";
-        },
-        "(" + fmt::format("{}", lo) + ", " + fmt::format("{}", hi) + ")");
 }
 
 } // namespace
@@ -124,6 +111,10 @@ std::vector<Star> loadStars(const StarOptions& opts)
         std::stringstream text;
         text << in.rdbuf();
         stars = parseStars(text.str(), opts.starsFile);
+        if (stars.empty()) {
+            throw Error(opts.starsFile + " (--stars) holds no stars: an empty list; give at " +
+                        "least one star, or leave out --stars");
+        }
     }
     for (const auto& s : opts.star) {
         stars.push_back(parseStarOption(s));
@@ -143,20 +134,20 @@ void addDust(CLI::App& app, DustOptions& opts, bool withKappa)
         "Dust", "Dust model, carried as nebula:dust (nebillum, nebrender: default the input's)");
     if (withKappa) {
         grp->add_option("--kappa-v", opts.kappa_V, "V-band extinction per n_H per pc [pc^-1 cm^3]")
-            ->check(CLI::PositiveNumber)
+            ->check(positive())
             ->default_str(fmt::format("{}", d.kappa_V));
     }
     grp->add_option("--albedo", opts.albedo, "Single-scattering albedo")
-        ->check(CLI::Range(0.0, 1.0))
+        ->check(numberIn(0.0, 1.0))
         ->default_str(fmt::format("{}", d.albedo));
     grp->add_option("--g", opts.g, "Henyey-Greenstein asymmetry")
-        ->check(openRange(-1.0, 1.0))
+        ->check(numberIn(-1.0, 1.0, true, true))
         ->default_str(fmt::format("{}", d.g));
     grp->add_option("--phase-function", opts.phase, "Phase function")
         ->check(CLI::IsMember({"hg", "rayleigh", "hazy", "murky"}))
         ->default_str(toString(d.phase));
     grp->add_option("--rv", opts.R_V, "Extinction curve R_V = A_V/E(B-V)")
-        ->check(CLI::PositiveNumber)
+        ->check(positive())
         ->default_str(fmt::format("{}", d.R_V));
     grp->add_option("--extinction-curve", opts.curve,
                     "Extinction curve: CCM89 (Cardelli, Clayton & Mathis 1989) or grey (the same "

@@ -300,6 +300,14 @@ std::vector<Star> parseStars(const std::string& json, const std::string& source)
             throw Error(where + ": \"position\" must be an array of 3 finite numbers [pc], got " +
                         shown(*position));
         }
+        for (const auto& v : *position) {
+            if (std::fabs(v.get<double>()) > MAX_STAR_COORDINATE) {
+                throw Error(where + ": \"position\" " + shown(*position) +
+                            ": each coordinate must be at most " + numberText(MAX_STAR_COORDINATE) +
+                            " pc in magnitude (distances are computed from squares, which "
+                            "would overflow)");
+            }
+        }
         for (int k = 0; k < 3; ++k) {
             star.position[k] = (*position)[k].get<double>();
         }
@@ -312,6 +320,11 @@ std::vector<Star> parseStars(const std::string& json, const std::string& source)
         if (!luminosity->is_number() || !(luminosity->get<double>() > 0.0) ||
             !std::isfinite(luminosity->get<double>())) {
             throw Error(where + ": \"luminosity\" must be > 0 [L_sun], got " + shown(*luminosity));
+        }
+        if (luminosity->get<double>() > MAX_STAR_LUMINOSITY) {
+            throw Error(where + ": \"luminosity\" " + shown(*luminosity) +
+                        " is above the limit of " + numberText(MAX_STAR_LUMINOSITY) +
+                        " L_sun (larger values overflow the rendered radiance)");
         }
         star.luminosity = luminosity->get<double>();
 
@@ -326,6 +339,11 @@ std::vector<Star> parseStars(const std::string& json, const std::string& source)
                 !std::isfinite(temperature->get<double>())) {
                 throw Error(where + ": \"temperature\" must be > 0 [K], got " +
                             shown(*temperature));
+            }
+            if (temperature->get<double>() > MAX_STAR_TEMPERATURE) {
+                throw Error(where + ": \"temperature\" " + shown(*temperature) +
+                            " is above the limit of " + numberText(MAX_STAR_TEMPERATURE) +
+                            " K (the hottest stars are about 2e5 K)");
             }
             star.temperature = temperature->get<double>();
         } else if (spectralClass != item.end()) {

@@ -13,15 +13,18 @@
 
 #include <algorithm>
 #include <array>
+#include <cstdint>
 #include <filesystem>
 #include <fstream>
 #include <functional>
 #include <initializer_list>
 #include <iostream>
+#include <new>
 #include <random>
 #include <sstream>
 #include <stdexcept>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <unistd.h>
@@ -347,4 +350,213 @@ TEST(Cli, AddVec3ParsesIntoTheTargetOrRefuses)
                   0u)
             << err;
     }
+}
+
+// ---- number checks, shared streams, config files ----------------------------------------------
+
+namespace {
+
+/// The message of @p check on @p text ("" if it passes), and the text as it leaves the check.
+std::pair<std::string, std::string> checked(const CLI::Validator& check, std::string text)
+{
+    const std::string error = check(text);
+    return {error, text};
+}
+
+} // namespace
+
+// integerIn: decimal integers in a range, named in the message; no sign for an unsigned
+// range, no overflow, no "0x" or "1e3", and "010" is ten (CLI11 alone would read eight).
+TEST(CliChecks, IntegerIn)
+{
+    const auto seed = nebula::cli::integerIn(0, UINT64_MAX);
+    EXPECT_EQ(seed.get_description(), "[0, 18446744073709551615]");
+    EXPECT_EQ(checked(seed, "18446744073709551615"),
+              std::make_pair(std::string(), std::string("18446744073709551615")));
+    EXPECT_EQ(checked(seed, "010").second, "10");
+    EXPECT_EQ(checked(seed, "+7").second, "7");
+    for (const char* bad : {"-1", "18446744073709551616", "99999999999999999999", "0x10", "1e3",
+                            "1.0", "", "-", "+", " 1", "1 ", "one"}) {
+        EXPECT_EQ(checked(seed, bad).first,
+                  "expected an integer in [0, 18446744073709551615], got " + std::string(bad))
+            << bad;
+    }
+    const auto levels = nebula::cli::integerIn(-3, 16);
+    EXPECT_EQ(checked(levels, "-3").first, "");
+    EXPECT_EQ(checked(levels, "-0").second, "0");
+    EXPECT_EQ(checked(levels, "-4").first, "expected an integer in [-3, 16], got -4");
+    EXPECT_EQ(checked(levels, "17").first, "expected an integer in [-3, 16], got 17");
+    const auto res = nebula::cli::integerIn(2, 2048);
+    EXPECT_EQ(checked(res, "1").first, "expected an integer in [2, 2048], got 1");
+    EXPECT_EQ(checked(res, "-0").first, "expected an integer in [2, 2048], got -0");
+    const auto wide = nebula::cli::integerIn(INT64_MIN, INT64_MAX);
+    EXPECT_EQ(checked(wide, "-9223372036854775808").first, "");
+    EXPECT_NE(checked(wide, "-9223372036854775809").first, "");
+    // Bytes that are not text are shown escaped.
+    EXPECT_EQ(checked(res, std::string("1\x01\xff", 3)).first,
+              "expected an integer in [2, 2048], got 1\\x01\\xFF");
+}
+
+// numberIn and friends: finite numbers in a range written as people write it.
+TEST(CliChecks, NumberIn)
+{
+    EXPECT_EQ(nebula::cli::positive().get_description(), "POSITIVE");
+    EXPECT_EQ(nebula::cli::nonNegative().get_description(), "NONNEGATIVE");
+    EXPECT_EQ(nebula::cli::numberIn(1, INFINITY, true).get_description(), "> 1");
+    EXPECT_EQ(nebula::cli::finite().get_description(), "");
+    EXPECT_EQ(nebula::cli::numberIn(0.01, 179).get_description(), "[0.01, 179]");
+    EXPECT_EQ(nebula::cli::numberIn(-1, 1, true, true).get_description(), "(-1, 1)");
+    EXPECT_EQ(nebula::cli::numberIn(0, 1, true).get_description(), "(0, 1]");
+
+    EXPECT_EQ(checked(nebula::cli::positive(), "0").first, "expected a finite number > 0, got 0");
+    EXPECT_EQ(checked(nebula::cli::positive(), "1e-300").first, "");
+    EXPECT_EQ(checked(nebula::cli::nonNegative(), "-1").first,
+              "expected a finite number >= 0, got -1");
+    EXPECT_EQ(checked(nebula::cli::numberIn(0.01, 179), "180").first,
+              "expected a number in [0.01, 179], got 180");
+    EXPECT_EQ(checked(nebula::cli::numberIn(-1, 1, true, true), "1").first,
+              "expected a number in (-1, 1), got 1");
+    EXPECT_EQ(checked(nebula::cli::numberIn(-1, 1, true, true), "-0.999").first, "");
+    for (const char* bad :
+         {"nan", "NaN", "inf", "-inf", "infinity", "1e999", "-1e999", "", "1x", "one"}) {
+        EXPECT_EQ(checked(nebula::cli::finite(), bad).first,
+                  "expected a finite number, got " + std::string(bad))
+            << bad;
+        EXPECT_NE(checked(nebula::cli::positive(), bad).first, "") << bad;
+        EXPECT_NE(checked(nebula::cli::numberIn(0, 1), bad).first, "") << bad;
+    }
+    EXPECT_EQ(checked(nebula::cli::finite(), "-1e308").first, "");
+}
+
+// checkNumbers (run by cli::run): every floating-point option refuses nan and inf, every
+// unsigned one a sign and overflow, every int one values beyond an int, unless the option has
+// its own range; a usage error (2) naming the option, and the body never runs.
+TEST(CliChecks, EveryNumberOptionIsChecked)
+{
+    double scale = 1.0, ranged = 0.5;
+    std::uint64_t seed = 0;
+    int count = 0;
+    const auto setup = [&](CLI::App& app) {
+        app.add_option("--scale", scale);
+        app.add_option("--ranged", ranged)->check(nebula::cli::numberIn(0, 1));
+        app.add_option("--seed", seed);
+        app.add_option_group("Group")->add_option("--count", count);
+    };
+    const auto expectUsage = [&](std::initializer_list<std::string> args,
+                                 const std::string& mention) {
+        const Outcome o = runTool(0, args, {}, setup);
+        EXPECT_EQ(o.code, 2) << o.err;
+        EXPECT_FALSE(o.bodyRan);
+        EXPECT_TRUE(contains(o.err, mention)) << mention << " in:\n" << o.err;
+    };
+    expectUsage({"--scale", "nan"}, "--scale: expected a finite number, got nan");
+    expectUsage({"--scale", "-inf"}, "--scale: expected a finite number, got -inf");
+    expectUsage({"--ranged", "inf"}, "--ranged: expected a number in [0, 1], got inf");
+    expectUsage({"--seed", "-1"}, "--seed: expected an integer in [0, 18446744073709551615]");
+    expectUsage({"--count", "4294967296"},
+                "--count: expected an integer in [-2147483648, 2147483647], got 4294967296");
+    const Outcome o = runTool(
+        0, {"--scale", "-2.5", "--seed", "18446744073709551615", "--count", "-7", "--ranged", "1"},
+        {}, setup);
+    EXPECT_EQ(o.code, 0) << o.err;
+    EXPECT_EQ(scale, -2.5);
+    EXPECT_EQ(seed, UINT64_MAX);
+    EXPECT_EQ(count, -7);
+    EXPECT_EQ(ranged, 1.0);
+    // --threads has its range in words.
+    expectUsage({"--threads", "-1"}, "--threads: expected an integer in [0, 4096], got -1");
+}
+
+// A std::bad_alloc that escapes the body is "out of memory" with the tool's name, exit 1.
+TEST(CliRun, BadAllocIsOutOfMemory)
+{
+    const Outcome o = runTool(0, {}, [](nebula::Run&) { throw std::bad_alloc(); });
+    EXPECT_EQ(o.code, 1);
+    EXPECT_EQ(o.err.rfind("nebtest: error: out of memory", 0), 0u) << o.err;
+    EXPECT_FALSE(contains(o.err, "std::bad_alloc")) << o.err;
+}
+
+TEST(Cli, RefuseSharedStream)
+{
+    using nebula::cli::refuseSharedStream;
+    EXPECT_NO_THROW(refuseSharedStream({{"-i", "-"}, {"--phase", "p.vdb"}}, "stdin"));
+    EXPECT_NO_THROW(refuseSharedStream({{"-i", "a"}, {"--phase", ""}}, "stdin"));
+    EXPECT_EQ(errorMessage([] {
+                  refuseSharedStream({{"-i", "-"}, {"--phase", "-"}}, "stdin");
+              }),
+              "-i - and --phase - both read stdin, which can carry only one of them; give one a "
+              "file name");
+    EXPECT_THROW(refuseSharedStream({{"-o", "-"}, {"--json", "-"}}, "stdout"), nebula::UsageError);
+    EXPECT_TRUE(contains(errorMessage([] {
+                             refuseSharedStream({{"-o", "-"}, {"--json", "-"}}, "stdout");
+                         }),
+                         "-o - and --json - both write stdout"));
+}
+
+// Huge coordinates are refused by the X,Y,Z parser: their squares would overflow.
+TEST(Cli, ParseVec3RefusesMagnitudesWhoseSquaresOverflow)
+{
+    EXPECT_NO_THROW(nebula::cli::parseVec3("1e150,-1e150,0", "--eye"));
+    const std::string msg = errorMessage([] { nebula::cli::parseVec3("1e300,0,0", "--eye"); });
+    EXPECT_EQ(msg.rfind("--eye \"1e300,0,0\": each number must be at most 1e+150 in magnitude", 0),
+              0u)
+        << msg;
+    EXPECT_THROW(nebula::cli::parseVec3("0,-1e151,0", "--up"), nebula::UsageError);
+}
+
+// checkConfigFile: each line a comment, [default], key = value with a known key and a value
+// the option's number check accepts, or an array's continuation; messages name file and line.
+TEST(CliChecks, ConfigFileLines)
+{
+    std::random_device rd;
+    const fs::path dir = fs::temp_directory_path() /
+                         ("nebula_cfg_" + std::to_string(::getpid()) + "_" + std::to_string(rd()));
+    fs::create_directories(dir);
+    const std::string file = (dir / "c.toml").string();
+    CLI::App app("t", "nebtest");
+    nebula::CommonOptions opts;
+    std::vector<std::string> list;
+    double scale = 1;
+    nebula::cli::addCommon(app, opts, nebula::cli::DENSITY_GRID);
+    app.add_option("--list", list);
+    app.add_option("--scale", scale)->check(nebula::cli::positive());
+    nebula::cli::checkNumbers(app);
+    const auto check = [&](const std::string& text) {
+        std::ofstream(file, std::ios::binary | std::ios::trunc) << text;
+        try {
+            nebula::cli::checkConfigFile(app, file, "nebtest");
+        } catch (const nebula::UsageError& e) {
+            return std::string(e.what());
+        }
+        return std::string();
+    };
+    EXPECT_EQ(check("# c\n; c\n\n[default]\nthreads = 2\ndensity-grid = \"n H\"\nquiet\n"
+                    "verbose = true\nlist = [\"a\",\n  \"b\"]\nscale = '2.5'\n"),
+              "");
+    const std::string at = "--config: " + file + ", line ";
+    EXPECT_EQ(check("threads = 2\nthreadz = 3\n"),
+              at + "2: unknown option \"threadz\" in the config file (not an option of nebtest)");
+    EXPECT_EQ(check("just words\n"),
+              at + "1: expected \"key = value\", a [section] or a # comment, got \"just words\"");
+    EXPECT_EQ(check("[nebtest]\n"), at + "1: section [nebtest]: nebtest has no sections (only "
+                                         "[default]); give its options as \"key = value\" lines "
+                                         "at the top of the file");
+    EXPECT_EQ(check("threads =\n"), at + "1: \"threads\" has no value after '='");
+    EXPECT_EQ(check("threads = -1\n"),
+              at + "1: --threads: expected an integer in [0, 4096], got -1");
+    EXPECT_EQ(check("scale = \"nan\"\n"), at + "1: --scale: expected a finite number > 0, got nan");
+    EXPECT_EQ(check("list = [\"a\",\n\"b\",\n"), at + "2: the array opened with '[' is not closed");
+    EXPECT_EQ(check("config = other.toml\n"),
+              at + "1: a config file cannot name another config file");
+    EXPECT_EQ(check(std::string("threads = 2\nab\0cd\n", 18)),
+              at + "2: byte 0x00 at column 3 is not text; a config file holds lines \"key = "
+                   "value\"");
+    EXPECT_EQ(check("a\x1b[31m = 1\n"),
+              at + "1: byte 0x1B at column 2 is not text; a config file holds lines \"key = "
+                   "value\"");
+    EXPECT_EQ(check("caf\xc3\xa9 = 1\n"),
+              at + "1: unknown option \"caf\\xC3\\xA9\" in the config file (not an option of "
+                   "nebtest)");
+    std::error_code ec;
+    fs::remove_all(dir, ec);
 }

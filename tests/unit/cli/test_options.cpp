@@ -182,11 +182,19 @@ TEST_F(StarsFileTest, AddStarsOptions)
     nebula::StarOptions opts;
     nebula::cli::addStars(app, opts);
     const std::string file = (dir / "s.json").string();
-    std::ofstream(file) << "[]";
+    std::ofstream(file)
+        << R"([{"name": "c", "position": [0, 1, 0], "luminosity": 3, "temperature": 7000}])";
     parse(app, {"--star", "a:0,0,0:1:A0V", "--star", "b:1,0,0:2:6000", "--stars", file});
     EXPECT_EQ(opts.star, (std::vector<std::string>{"a:0,0,0:1:A0V", "b:1,0,0:2:6000"}));
     EXPECT_EQ(opts.starsFile, file);
-    EXPECT_EQ(nebula::cli::loadStars(opts).size(), 2u);
+    EXPECT_EQ(nebula::cli::loadStars(opts).size(), 3u);
+
+    // A file that holds no stars is an error naming it (it was silently no stars), also
+    // with --star.
+    std::ofstream(file, std::ios::trunc) << "[]";
+    const std::string msg = errorMessage([&] { nebula::cli::loadStars(opts); });
+    EXPECT_EQ(msg, file + " (--stars) holds no stars: an empty list; give at least one star, or "
+                          "leave out --stars");
 
     // --stars must name an existing file.
     CLI::App app2("t", "t");

@@ -224,3 +224,34 @@ TEST(SpectralClass, RejectsAnythingElse)
 }
 
 } // namespace
+
+// Limits that keep everything derived from a star finite: coordinates (squared distances),
+// luminosity (radiance in a float) and temperature (Planck's law); each says its limit.
+TEST(ParseStars, ValuesThatWouldOverflowAreRefusedSayingTheLimit)
+{
+    const auto parse = [](const std::string& position, const std::string& luminosity,
+                          const std::string& temperature) {
+        return errorMessage([&] {
+            nebula::parseStars(R"([{"name": "a", "position": )" + position + R"(, "luminosity": )" +
+                                   luminosity + R"(, "temperature": )" + temperature + "}]",
+                               "stars.json");
+        });
+    };
+    EXPECT_EQ(parse("[0, 0, 0]", "1e308", "5000"),
+              R"(stars.json: star 1 ("a"): "luminosity" 1e+308 is above the limit of 1e+30 L_sun )"
+              R"((larger values overflow the rendered radiance))");
+    EXPECT_EQ(parse("[0, 1e151, 0]", "1", "5000"),
+              R"(stars.json: star 1 ("a"): "position" [0,1e+151,0]: each coordinate must be at )"
+              R"(most 1e+150 pc in magnitude (distances are computed from squares, which would )"
+              R"(overflow))");
+    EXPECT_EQ(parse("[0, 0, 0]", "1", "1e10"),
+              R"(stars.json: star 1 ("a"): "temperature" 1e+10 is above the limit of 1e+09 K )"
+              R"((the hottest stars are about 2e5 K))");
+    // At the limits: fine.
+    const auto stars = nebula::parseStars(
+        R"([{"name": "a", "position": [1e150, -1e150, 0], "luminosity": 1e30,
+             "temperature": 1e9}])",
+        "stars.json");
+    ASSERT_EQ(stars.size(), 1u);
+    EXPECT_EQ(stars[0].luminosity, nebula::MAX_STAR_LUMINOSITY);
+}

@@ -12,10 +12,13 @@
 #include <array>
 #include <atomic>
 #include <chrono>
+#include <cstdint>
 #include <functional>
 #include <memory>
 #include <mutex>
 #include <string>
+#include <utility>
+#include <vector>
 
 namespace nebula {
 
@@ -32,6 +35,9 @@ struct CommonOptions
 };
 
 namespace cli {
+
+/// The most --threads a tool accepts.
+inline constexpr int MAX_THREADS = 4096;
 
 enum CommonFlags : unsigned {
     INPUT = 1u << 0,        ///< -i/--input (required)
@@ -70,6 +76,49 @@ CLI::Option* addVec3(CLI::App& app, const std::string& name, Vec3& target,
 
 /// Parses "WxH" (positive integers) for @p option "--res"; throws UsageError otherwise.
 void parseResolution(const std::string& text, int& width, int& height);
+
+/// The largest magnitude of a coordinate of an X,Y,Z option (addVec3, parseVec3): squares of
+/// three such numbers, and of differences of two points, stay finite.
+inline constexpr double MAX_VEC3_COMPONENT = 1e150;
+
+// CLI11 checks with limits in words: a failure reads "--seed: expected an integer in [0,
+// 18446744073709551615], got -1", never CLI11's 300-digit rendering of the largest double.
+// The description (shown after the type in --help) is the limit, e.g. "INT:[0, 4096]".
+
+/// A whole number written in decimal (optional sign, digits only: no "0x", no "1e3") in
+/// [@p lo, @p hi]. A negative value for an unsigned option, or one that overflows, is refused
+/// before CLI11 converts it (CLI11 would wrap "-1" round to the largest unsigned value).
+CLI::Validator integerIn(std::int64_t lo, std::uint64_t hi);
+
+/// A finite number in [@p lo, @p hi]; @p loOpen / @p hiOpen make that end open. An infinite
+/// @p hi (or -infinite @p lo) is no limit: the message then says "> 0", ">= 0", ... (and
+/// --help POSITIVE, NONNEGATIVE for 0, as CLI11's own checks did).
+CLI::Validator numberIn(double lo, double hi, bool loOpen = false, bool hiOpen = false);
+/// A finite number > 0.
+CLI::Validator positive();
+/// A finite number >= 0.
+CLI::Validator nonNegative();
+/// A finite number (not nan, inf, or out of the range of a double such as 1e999).
+CLI::Validator finite();
+
+/// What cli::run() does to every option of @p app (and its option groups) before parsing:
+/// a floating-point option without a numberIn() check gets finite(); an integer option
+/// without an integerIn() check gets the range of int (INT) or of std::uint64_t (UINT). So no
+/// option of any tool takes nan, inf, a negative unsigned or an overflowing value.
+void checkNumbers(CLI::App& app);
+
+/// Throws UsageError if two of @p paths (option name, value) are "-": both would read stdin
+/// (@p stream "stdin") or write stdout ("stdout"). Names both options.
+void refuseSharedStream(const std::vector<std::pair<std::string, std::string>>& paths,
+                        const std::string& stream);
+
+/// Checks the text of config file @p path for @p app before CLI11 reads it: every line must be
+/// blank, a comment (# or ;), [default], "key = value" with a key that is an option of @p app
+/// (a bare flag name also), or the continuation of a [multi-line, array]; a single value
+/// must pass the option's number check (integerIn(), numberIn()). Throws UsageError
+/// naming the file and line ("--config: cfg.toml, line 3: unknown option \"rez\"
+/// ..."); binary content is named by its first non-text byte, never echoed.
+void checkConfigFile(CLI::App& app, const std::string& path, const std::string& tool);
 
 /// Throws UsageError("<option> needs <mode>") for the first of @p options that was given
 /// while @p enabled is false (options that only mean something in a mode, e.g. --spectral).

@@ -36,7 +36,7 @@ namespace cli {
 
 void addStars(CLI::App& app, StarOptions& opts);
 /// The stars of --stars FILE followed by each --star; empty if neither was given.
-/// Throws Error (file, JSON) or UsageError (--star syntax).
+/// Throws Error (file, JSON, a file that holds no stars) or UsageError (--star syntax).
 std::vector<Star> loadStars(const StarOptions& opts);
 /// Parses one --star value.
 Star parseStarOption(const std::string& text);

@@ -17,13 +17,21 @@ struct Star
     double temperature = 5772.0;             ///< effective temperature [K], > 0
 };
 
+/// Limits parseStars() enforces on every star, so that nothing derived from a star
+/// overflows: a coordinate's magnitude [pc] (distances are computed from squares), the
+/// luminosity [L_sun] (radiance L / (4 pi r^2) per pixel solid angle stays within a float),
+/// and the temperature [K] (Planck's law times the luminosity stays finite).
+inline constexpr double MAX_STAR_COORDINATE = 1e150;
+inline constexpr double MAX_STAR_LUMINOSITY = 1e30;
+inline constexpr double MAX_STAR_TEMPERATURE = 1e9;
+
 /// Parses a JSON array of {"name", "position":[x,y,z], "luminosity", "temperature"} where a
 /// "class" (e.g. "B3V") may stand in for "temperature". @p source names the file (or
 /// "nebula:stars metadata") in error messages. Throws Error on a parse error, a missing or
-/// mistyped field, a non-positive luminosity or temperature, a bad or duplicate name, or a
-/// star with both "temperature" and "class". Messages start with the source and name the
-/// star (counted from 1) and the field: `stars.json: star 2 ("beta"): "luminosity" must be
-/// > 0 [L_sun], got -1`. Unknown fields are ignored.
+/// mistyped field, a non-positive luminosity or temperature, a value above the limits
+/// above, a bad or duplicate name, or a star with both "temperature" and "class". Messages start
+/// with the source and name the star (counted from 1) and the field: `stars.json: star 2 ("beta"):
+/// "luminosity" must be > 0 [L_sun], got -1`. Unknown fields are ignored.
 std::vector<Star> parseStars(const std::string& json, const std::string& source);
 
 /// The JSON array parseStars() reads (always with "temperature").
