@@ -121,8 +121,11 @@ inline double maxValue(const openvdb::FloatGrid& g)
     return m;
 }
 
-inline void writeVdb(const std::string& p, openvdb::GridPtrVec grids, const openvdb::MetaMap& meta)
+/// Writes @p grids as another program would: with OpenVDB, and without nebula's checksums of
+/// the contents it changed (README "Failure behaviour": a program that keeps them is refused).
+inline void writeVdb(const std::string& p, openvdb::GridPtrVec grids, openvdb::MetaMap meta)
 {
+    meta.removeMeta(nebula::META_CHECKSUMS);
     openvdb::io::File f(p);
     f.write(grids, meta);
     f.close();

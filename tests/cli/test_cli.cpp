@@ -194,15 +194,14 @@ TEST_F(Cli, MissingNotVdbAndTruncatedFiles)
     {
         std::ofstream(path("text.vdb")) << "this is not a grid file\n";
     }
-    expectFailure("nebillum -i text.vdb -o out.vdb", 1, "text.vdb: not a valid, complete VDB");
+    expectFailure("nebillum -i text.vdb -o out.vdb", 1, "text.vdb: not a VDB file");
     makeLit();
     const auto size = fs::file_size(path("lit.vdb"));
     for (const double frac : {0.05, 0.5, 0.95}) {
         fs::copy_file(path("lit.vdb"), path("cut.vdb"), fs::copy_options::overwrite_existing);
         fs::resize_file(path("cut.vdb"), std::uintmax_t(double(size) * frac));
-        expectFailure("nebrender -i cut.vdb -o out.exr", 1, "cut.vdb: not a valid, complete VDB");
-        expectFailure("nebillum -i - -o out.vdb < cut.vdb", 1,
-                      "<stdin>: not a valid, complete VDB");
+        expectFailure("nebrender -i cut.vdb -o out.exr", 1, "cut.vdb: truncated");
+        expectFailure("nebillum -i - -o out.vdb < cut.vdb", 1, "<stdin>: truncated");
     }
 }
 

@@ -394,8 +394,8 @@ TEST_F(NebPhase, BadInputNamesTheOptionAndLeavesNoFile)
     // Files: missing, not a VDB, bad nebula:dust, unwritable outputs.
     expectFailure(t + "-i nowhere.vdb", 1, "nowhere.vdb: cannot open file");
     std::ofstream(path("text.vdb")) << "this is not a grid file\n";
-    expectFailure(t + "-i text.vdb", 1, "text.vdb: not a valid, complete VDB");
-    expectFailure("nebphase --slab --tau 1 -i text.vdb", 1, "text.vdb: not a valid, complete VDB");
+    expectFailure(t + "-i text.vdb", 1, "text.vdb: not a VDB file");
+    expectFailure("nebphase --slab --tau 1 -i text.vdb", 1, "text.vdb: not a VDB file");
     auto g = openvdb::FloatGrid::create(0.0f);
     g->setName("density");
     openvdb::MetaMap meta;

@@ -296,5 +296,5 @@ TEST_F(NebPyramid, BadGridsAndFiles)
     makeLit();
     fs::copy_file(path("lit.vdb"), path("cut.vdb"));
     fs::resize_file(path("cut.vdb"), fs::file_size(path("lit.vdb")) / 2);
-    expectFailure("nebpyramid -i - -o out.vdb < cut.vdb", 1, "<stdin>: not a valid, complete VDB");
+    expectFailure("nebpyramid -i - -o out.vdb < cut.vdb", 1, "<stdin>: truncated");
 }

@@ -3,14 +3,20 @@
 #include "nebula/core/atomic_file.h"
 #include "nebula/core/error.h"
 #include "nebula/core/format.h"
+#include "nebula/io/checksum.h"
+#include "nebula/io/vdb_check.h"
 
 #include <openvdb/io/File.h>
 #include <openvdb/io/Stream.h>
 
+#include <cerrno>
 #include <cmath>
-#include <fstream>
+#include <cstring>
+#include <fcntl.h>
 #include <iostream>
 #include <sstream>
+#include <streambuf>
+#include <sys/stat.h>
 #include <unistd.h>
 
 namespace nebula {
@@ -54,7 +60,7 @@ openvdb::FloatGrid::Ptr GridSet::floatGrid(const std::string& name, const std::s
     if (!base) {
         std::string names;
         for (const auto& g : grids)
-            names += (names.empty() ? "" : ", ") + g->getName();
+            names += (names.empty() ? "" : ", ") + detail::printable(g->getName(), 60);
         throw Error(source + ": no grid \"" + name + "\"" +
                     (option.empty() ? "" : " (" + option + ")") + "; the file has " +
                     (names.empty() ? std::string("no grids") : "grids: " + names));
@@ -222,64 +228,233 @@ nlohmann::json GridSet::historyWith(const std::string& tool, const std::string& 
     return history;
 }
 
+namespace {
+
+/// A read-only std::streambuf over bytes in memory (no copy), seekable.
+class MemoryBuf : public std::streambuf
+{
+public:
+    MemoryBuf(const char* data, std::size_t size)
+    {
+        char* p = const_cast<char*>(data); // std::streambuf's get area is non-const; never written
+        setg(p, p, p + size);
+    }
+
+protected:
+    pos_type seekoff(off_type off, std::ios_base::seekdir dir, std::ios_base::openmode) override
+    {
+        const off_type base = dir == std::ios_base::beg   ? 0
+                              : dir == std::ios_base::cur ? off_type(gptr() - eback())
+                                                          : off_type(egptr() - eback());
+        const off_type pos = base + off;
+        if (pos < 0 || pos > off_type(egptr() - eback())) return pos_type(off_type(-1));
+        setg(eback(), eback() + pos, egptr());
+        return pos_type(pos);
+    }
+    pos_type seekpos(pos_type pos, std::ios_base::openmode mode) override
+    {
+        return seekoff(off_type(pos), std::ios_base::beg, mode);
+    }
+};
+
+/// All of @p fd, read to its end (a file, or a pipe: so that "-" gets the same checks).
+std::string readAll(int fd, const std::string& source)
+{
+    std::string bytes;
+    struct stat st;
+    if (::fstat(fd, &st) == 0 && S_ISREG(st.st_mode)) bytes.reserve(std::size_t(st.st_size));
+    std::vector<char> chunk(1 << 20);
+    for (;;) {
+        const ssize_t n = ::read(fd, chunk.data(), chunk.size());
+        if (n < 0 && errno == EINTR) continue;
+        if (n < 0) throw Error(source + ": read failed (" + std::strerror(errno) + ")");
+        if (n == 0) break;
+        bytes.append(chunk.data(), std::size_t(n));
+    }
+    return bytes;
+}
+
+std::string readInput(const std::string& path, const std::string& source)
+{
+    if (path == "-") {
+        if (::isatty(STDIN_FILENO)) {
+            throw UsageError("-i -: stdin is a terminal; pipe a VDB stream in or give a file");
+        }
+        return readAll(STDIN_FILENO, source);
+    }
+    const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+    if (fd < 0) throw Error(path + ": cannot open file (" + std::strerror(errno) + ")");
+    struct stat st;
+    if (::fstat(fd, &st) == 0 && S_ISDIR(st.st_mode)) {
+        ::close(fd);
+        throw Error(path + ": is a folder, not a VDB file");
+    }
+    try {
+        std::string bytes = readAll(fd, source);
+        ::close(fd);
+        return bytes;
+    } catch (...) {
+        ::close(fd);
+        throw;
+    }
+}
+
+[[noreturn]] void damaged(const GridSet& set, const std::string& what)
+{
+    throw Error(set.source + ": damaged: " + what +
+                " does not match the checksum nebula wrote with it (nebula:checksums); if "
+                "another program changed it on purpose, remove nebula:checksums from the file "
+                "metadata");
+}
+
+/// Verifies the grids and the file metadata against `nebula:checksums`, where the file has it.
+void verifyChecksums(const GridSet& set)
+{
+    const std::string text = set.metaString(META_CHECKSUMS);
+    if (text.empty()) return;
+    const std::string key = std::string("metadata ") + META_CHECKSUMS;
+    nlohmann::json sums;
+    try {
+        sums = nlohmann::json::parse(text);
+    } catch (const std::exception&) {
+        throw Error(set.source + ": damaged: " + key + " is not valid JSON");
+    }
+    if (!sums.is_object() || !sums.contains("algorithm") || !sums["algorithm"].is_string() ||
+        sums["algorithm"].get<std::string>() != CHECKSUM_ALGORITHM) {
+        throw Error(set.source + ": " + key +
+                    " names no checksum algorithm this nebula knows (expected " +
+                    CHECKSUM_ALGORITHM + "): the file is damaged or from a newer nebula");
+    }
+    if (!sums.is_object() || !sums.contains("grids") || !sums["grids"].is_object() ||
+        !sums.contains("metadata") || !sums["metadata"].is_string()) {
+        throw Error(set.source + ": damaged: " + key +
+                    " is not {\"grids\": {...}, \"metadata\": \"...\"}");
+    }
+    if (metadataChecksum(set.meta, META_CHECKSUMS) != sums["metadata"].get<std::string>()) {
+        damaged(set, "the file metadata");
+    }
+    for (const auto& [name, sum] : sums["grids"].items()) {
+        const auto grid = set.find(name);
+        if (!grid) {
+            throw Error(set.source + ": damaged: grid \"" + detail::printable(name, 60) +
+                        "\", which nebula wrote into it, is missing");
+        }
+        const std::string actual = gridChecksum(*grid);
+        if (!sum.is_string() || (!actual.empty() && actual != sum.get<std::string>())) {
+            damaged(set, "grid \"" + detail::printable(name, 60) + "\"");
+        }
+    }
+}
+
+} // namespace
+
 GridSet readGrids(const std::string& path)
 {
+    const std::string source = path == "-" ? std::string("<stdin>") : path;
+    return readGridsFromMemory(readInput(path, source), source);
+}
+
+GridSet readGridsFromMemory(const std::string& bytes, const std::string& source)
+{
     GridSet set;
-    set.source = path == "-" ? std::string("<stdin>") : path;
+    set.source = source;
+    // Structure first: OpenVDB trusts the lengths in the file (a damaged one can make it
+    // allocate gigabytes or overrun a buffer).
+    checkVdbStructure(bytes, set.source);
     try {
-        if (path == "-") {
-            if (::isatty(STDIN_FILENO)) {
-                throw UsageError("-i -: stdin is a terminal; pipe a VDB stream in or give a file");
-            }
-            // delayLoad=false: otherwise io::Stream copies all of stdin to a temp file.
-            openvdb::io::Stream stream(std::cin, /*delayLoad=*/false);
-            set.grids = *stream.getGrids();
-            if (auto m = stream.getMetadata()) set.meta = *m;
-        } else {
-            if (!std::ifstream(path).good()) throw Error(path + ": cannot open file");
-            openvdb::io::File file(path);
-            file.open(/*delayLoad=*/false);
-            set.grids = *file.getGrids();
-            if (auto m = file.getMetadata()) set.meta = *m;
-            file.close();
-        }
+        MemoryBuf buf(bytes.data(), bytes.size());
+        std::istream in(&buf);
+        openvdb::io::Stream stream(in, /*delayLoad=*/false);
+        set.grids = *stream.getGrids();
+        if (auto m = stream.getMetadata()) set.meta = *m;
     } catch (const Error&) {
         throw;
     } catch (const std::exception& e) {
-        throw Error(set.source + ": not a valid, complete VDB file (" + e.what() + ")");
+        throw Error(set.source + ": not a valid, complete VDB file (" +
+                    detail::printable(e.what()) + ")");
     }
     for (const auto& g : set.grids) {
         if (!g) throw Error(set.source + ": not a valid, complete VDB file (empty grid entry)");
     }
+    try {
+        verifyChecksums(set);
+    } catch (const Error&) {
+        throw;
+    } catch (const std::exception& e) { // OpenVDB on a grid it read but cannot use
+        throw Error(set.source + ": not a valid VDB file (" + detail::printable(e.what()) + ")");
+    }
     return set;
 }
 
-void writeGrids(const std::string& path, GridSet grids, const std::string& tool,
-                const std::string& command)
+namespace {
+
+/// Archive::write(ostream, grids, seekable, meta) is protected; io::File::write calls it on a
+/// std::ofstream it never checks. This calls it on an AtomicFile's checked stream.
+class CheckedArchive : public openvdb::io::Archive
+{
+public:
+    void writeTo(std::ostream& os, const openvdb::GridPtrVec& grids,
+                 const openvdb::MetaMap& meta) const
+    {
+        Archive::write(os, grids, /*seekable=*/true, meta);
+    }
+};
+
+/// Stamps provenance and checksums into @p grids before a write.
+void stamp(GridSet& grids, const std::string& tool, const std::string& command)
 {
     const nlohmann::json history = grids.historyWith(tool, command);
     grids.setMetaString(META_TOOL, tool);
     grids.setMetaString(META_VERSION, NEBULA_VERSION_STRING);
     grids.setMetaString(META_COMMAND, command);
     grids.setMetaString(META_HISTORY, history.dump());
+    nlohmann::json sums = nlohmann::json::object();
     for (auto& g : grids.grids) {
         if (g->getCreator().empty()) g->setCreator(tool + " " NEBULA_VERSION_STRING);
+        const std::string sum = gridChecksum(*g);
+        if (!sum.empty()) sums[g->getName()] = sum;
     }
+    grids.meta.removeMeta(META_CHECKSUMS);
+    const nlohmann::json all = {{"algorithm", CHECKSUM_ALGORITHM},
+                                {"grids", sums},
+                                {"metadata", metadataChecksum(grids.meta, META_CHECKSUMS)}};
+    grids.setMetaString(META_CHECKSUMS, all.dump());
+}
+
+} // namespace
+
+void writeGrids(AtomicFile& file, GridSet grids, const std::string& tool,
+                const std::string& command)
+{
+    stamp(grids, tool, command);
+    try {
+        CheckedArchive().writeTo(file.stream(), grids.grids, grids.meta);
+    } catch (const std::exception& e) {
+        if (file.stream()) {
+            throw Error(file.path() + ": cannot write VDB file (" + detail::printable(e.what()) +
+                        ")");
+        }
+    }
+    file.finish(); // names the OS error of a failed write
+}
+
+void writeGrids(const std::string& path, GridSet grids, const std::string& tool,
+                const std::string& command)
+{
     if (path == "-") {
         refuseBinaryToTerminal(path, "-o");
-        openvdb::io::Stream(std::cout).write(grids.grids, grids.meta);
-        std::cout.flush();
-        if (!std::cout) throw Error("<stdout>: write failed");
+        stamp(grids, tool, command);
+        // A fresh ostream over stdout's buffer: OpenVDB leaves a pointer to its (then freed)
+        // stream metadata in the stream it wrote to, so a second write to std::cout itself
+        // would crash.
+        std::ostream out(std::cout.rdbuf());
+        openvdb::io::Stream(out).write(grids.grids, grids.meta);
+        out.flush();
+        if (!out) throw Error("<stdout>: write failed (" + std::string(std::strerror(errno)) + ")");
         return;
     }
     AtomicFile out(path);
-    try {
-        openvdb::io::File file(out.tmpPath());
-        file.write(grids.grids, grids.meta);
-        file.close();
-    } catch (const std::exception& e) {
-        throw Error(path + ": cannot write VDB file (" + e.what() + ")");
-    }
+    writeGrids(out, std::move(grids), tool, command);
     out.commit();
 }
 

@@ -12,6 +12,30 @@
 
 namespace nebula::detail {
 
+/// @p text for a one-line message: bytes that are not printable ASCII are shown as \xNN, and
+/// text beyond @p maxChars is cut and marked with "...", so that a damaged file's bytes can
+/// neither mangle a terminal nor flood it.
+inline std::string printable(const std::string& text, std::size_t maxChars = 200)
+{
+    static const char hex[] = "0123456789abcdef";
+    std::string out;
+    for (std::size_t i = 0; i < text.size(); ++i) {
+        if (out.size() >= maxChars) {
+            out += "...";
+            break;
+        }
+        const auto c = static_cast<unsigned char>(text[i]);
+        if (c >= 32 && c < 127) {
+            out += char(c);
+        } else {
+            out += "\\x";
+            out += hex[c >> 4];
+            out += hex[c & 15];
+        }
+    }
+    return out;
+}
+
 /// Parses @p text; on failure throws Error "<source>: <what>not valid JSON: <detail>", where
 /// detail is nlohmann's message without its "[json.exception.parse_error.101] " prefix
 /// (parse errors, and out_of_range for a number too large for a double).
@@ -26,7 +50,7 @@ inline nlohmann::json parseJson(const std::string& text, const std::string& sour
         if (detail.rfind("[json.exception", 0) == 0 && bracket != std::string::npos) {
             detail.erase(0, bracket + 2);
         }
-        throw Error(source + ": " + what + "not valid JSON: " + detail);
+        throw Error(source + ": " + what + "not valid JSON: " + printable(detail));
     }
 }
 

@@ -4,6 +4,7 @@
 /// (stdin/stdout), input grids passed through, a grid of the same name replaced, and the
 /// file metadata that records provenance, stars and dust.
 
+#include "nebula/core/atomic_file.h"
 #include "nebula/core/run.h"
 #include "nebula/io/grid_names.h"
 #include "nebula/physics/dust.h"
@@ -59,9 +60,15 @@ struct GridSet
     void setMetaString(const std::string& key, const std::string& value);
 };
 
-/// Reads every grid of @p path ("-" = stdin, read with delayLoad=false). Throws Error
-/// naming the file: missing, not a VDB, truncated or unreadable.
+/// Reads every grid of @p path ("-" = stdin). The whole file or stream is read into memory
+/// and its structure checked (checkVdbStructure()) before OpenVDB parses it, and the grids
+/// are verified against `nebula:checksums` where the file has it. Throws Error naming the
+/// file (and grid): missing, not a VDB, truncated, damaged or unreadable.
 GridSet readGrids(const std::string& path);
+
+/// readGrids() of a whole file or stream already in memory; @p source names it in messages.
+/// (The fuzzer's entry point: tests/fuzz.)
+GridSet readGridsFromMemory(const std::string& bytes, const std::string& source);
 
 /// readGrids(), reporting what it read under -v ("read <file>: 3 grids: density, ...").
 GridSet readGrids(const std::string& path, const Run& run);
@@ -72,11 +79,17 @@ std::string describeGrids(const GridSet& grids);
 /// writeGrids() as @p run's tool and command, reporting what it wrote under -v.
 void writeGrids(const std::string& path, GridSet grids, const Run& run);
 
-/// Writes @p grids to @p path ("-" = stdout) atomically, stamping `nebula:tool`,
-/// `nebula:version` and `nebula:command` into the file metadata and appending this stage to
-/// `nebula:history` (GridSet::historyWith()). @p path "-" on a terminal
+/// Writes @p grids to @p path ("-" = stdout) atomically (AtomicFile: every write checked,
+/// fsynced, renamed into place), stamping `nebula:tool`, `nebula:version` and
+/// `nebula:command` into the file metadata, appending this stage to `nebula:history`
+/// (GridSet::historyWith()) and recording `nebula:checksums`. @p path "-" on a terminal
 /// is refused (UsageError).
 void writeGrids(const std::string& path, GridSet grids, const std::string& tool,
+                const std::string& command);
+
+/// writeGrids() into an open AtomicFile, finished but not committed (for outputs committed
+/// together with commitAll()).
+void writeGrids(AtomicFile& file, GridSet grids, const std::string& tool,
                 const std::string& command);
 
 /// Throws UsageError if @p path is "-" and stdout is a terminal (binary output); @p option

@@ -14,6 +14,8 @@ inline constexpr const char* META_COMMAND = "nebula:command"; ///< its full comm
 /// JSON array of {"tool", "version", "command"}, one entry per stage that wrote the file, in
 /// order: the whole chain that made it (nebgen's seed included).
 inline constexpr const char* META_HISTORY = "nebula:history";
+/// Grid name -> checksum of its contents (io/checksum.h), verified on read.
+inline constexpr const char* META_CHECKSUMS = "nebula:checksums";
 inline constexpr const char* META_STARS = "nebula:stars"; ///< JSON array of stars
 inline constexpr const char* META_DUST = "nebula:dust";   ///< JSON object of dust parameters
 /// Grid metadata: the spectral lines an emission grid emits ("NAME:STRENGTH,...").
