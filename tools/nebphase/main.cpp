@@ -148,26 +148,33 @@ void tableMode(const nebula::Run& run, const nebula::CommonOptions& common,
                  std::to_string(spec.maxPhotons) + " reached; raise it for a more accurate table");
     }
 
-    // The JSON is committed only after the VDB is written, so a failure leaves neither.
-    std::optional<nebula::AtomicFile> jsonFile;
+    // Both outputs or neither: each is written and fsynced before either replaces its target.
     const std::string jsonText = opts.json.empty() ? std::string() : table.toJson();
-    if (!opts.json.empty() && opts.json != "-") {
-        jsonFile.emplace(opts.json);
-        std::ofstream out(jsonFile->tmpPath());
-        out << jsonText;
-        out.close();
-        if (!out) throw nebula::Error(opts.json + ": cannot write the JSON table");
-    }
-
     nebula::GridSet grids; // only the table: the input's grids are not passed through
     grids.source = output;
     nebula::addPhaseTable(grids, table);
     grids.setDust(dust);
-    nebula::writeGrids(output, std::move(grids), run);
-
-    if (jsonFile) {
-        jsonFile->commit();
-    } else if (opts.json == "-") {
+    if (output == "-") {
+        nebula::writeGrids(output, std::move(grids), run);
+        if (!opts.json.empty() && opts.json != "-") {
+            nebula::AtomicFile jsonFile(opts.json);
+            jsonFile.stream() << jsonText;
+            jsonFile.commit();
+        }
+    } else {
+        nebula::AtomicFile vdbFile(output);
+        nebula::writeGrids(vdbFile, std::move(grids), run.tool(), run.command());
+        std::optional<nebula::AtomicFile> jsonFile;
+        if (!opts.json.empty() && opts.json != "-") {
+            jsonFile.emplace(opts.json);
+            jsonFile->stream() << jsonText;
+            nebula::commitAll({&vdbFile, &*jsonFile});
+        } else {
+            vdbFile.commit();
+        }
+        run.info("wrote " + output + (jsonFile ? " and " + opts.json : std::string()));
+    }
+    if (opts.json == "-") {
         std::cout << jsonText;
         std::cout.flush();
         if (!std::cout) throw nebula::Error("<stdout>: write failed");

@@ -1,5 +1,6 @@
 #include "nebula/cli/cli.h"
 
+#include "nebula/core/atomic_file.h"
 #include "nebula/core/error.h"
 #include "nebula/core/format.h"
 
@@ -9,11 +10,13 @@
 
 #include <cmath>
 #include <cstdint>
+#include <filesystem>
 #include <fstream>
 #include <iostream>
 #include <limits>
 #include <new>
 #include <sstream>
+#include <sys/stat.h>
 #include <unistd.h>
 
 namespace nebula {
@@ -35,6 +38,7 @@ void addCommon(CLI::App& app, CommonOptions& opts, unsigned flags)
         app.add_option("-o,--output", opts.output, "Output file, or - for stdout")->required();
     }
     if (flags & PASS_THROUGH) {
+        opts.inPlace = true;
         app.add_flag("--only-new", opts.onlyNew,
                      "Write only this tool's own grids, not the input grids passed through");
     }
@@ -46,6 +50,9 @@ void addCommon(CLI::App& app, CommonOptions& opts, unsigned flags)
     app.add_option("--threads", opts.threads, "Worker threads (0 = all cores)")
         ->capture_default_str()
         ->check(integerIn(0, MAX_THREADS));
+    app.add_flag("--write-through", opts.writeThrough,
+                 "Write an output that is a FIFO, a device or a symbolic link through it "
+                 "(without, such outputs are refused: regular files are replaced atomically)");
     app.add_flag("-q,--quiet", opts.quiet, "No progress bar or warnings");
     app.add_flag("-v,--verbose", opts.verbose, "Report each stage on stderr");
     app.set_version_flag("--version", versionString(app.get_name()));
@@ -144,6 +151,66 @@ void parseResolution(const std::string& text, int& width, int& height)
     } catch (const std::exception&) {
         throw UsageError("--res \"" + text +
                          "\": expected WxH, each an integer in [1, 65536], e.g. 512x512");
+    }
+}
+
+namespace {
+
+struct FileOption
+{
+    std::string option;
+    std::string path;
+};
+
+std::vector<FileOption> givenFileOptions(const CLI::App& app,
+                                         std::initializer_list<const char*> names)
+{
+    std::vector<FileOption> files;
+    for (const char* name : names) {
+        const CLI::Option* o = app.get_option_no_throw(name);
+        if (!o || o->count() == 0) continue;
+        for (const auto& result : o->results())
+            if (!result.empty() && result != "-" && result != "none")
+                files.push_back({name, result});
+    }
+    return files;
+}
+
+/// The same file: the same existing inode, or (for names that do not exist yet) the same
+/// absolute, normalised name.
+bool sameFile(const std::string& a, const std::string& b)
+{
+    struct stat sa, sb;
+    const bool ea = ::stat(a.c_str(), &sa) == 0, eb = ::stat(b.c_str(), &sb) == 0;
+    if (ea && eb) return sa.st_dev == sb.st_dev && sa.st_ino == sb.st_ino;
+    if (ea != eb) return false;
+    std::error_code ec1, ec2;
+    const auto na = std::filesystem::weakly_canonical(std::filesystem::absolute(a), ec1);
+    const auto nb = std::filesystem::weakly_canonical(std::filesystem::absolute(b), ec2);
+    return !ec1 && !ec2 && na == nb;
+}
+
+} // namespace
+
+void checkFileOptions(const CLI::App& app, const CommonOptions& opts)
+{
+    const auto outputs = givenFileOptions(app, {"--output", "--png", "--json"});
+    const auto inputs = givenFileOptions(app, {"--input", "--phase", "--stars", "--config"});
+    for (std::size_t i = 0; i < outputs.size(); ++i) {
+        for (std::size_t j = i + 1; j < outputs.size(); ++j) {
+            if (sameFile(outputs[i].path, outputs[j].path)) {
+                throw UsageError(outputs[i].option + " " + outputs[i].path + " and " +
+                                 outputs[j].option + " " + outputs[j].path +
+                                 " are the same file; give each output its own name");
+            }
+        }
+        for (const auto& in : inputs) {
+            if (!sameFile(outputs[i].path, in.path)) continue;
+            if (opts.inPlace && outputs[i].option == "--output" && in.option == "--input") continue;
+            throw UsageError(outputs[i].option + " " + outputs[i].path + " is the input " +
+                             in.option + " " + in.path +
+                             "; writing it would destroy the input: give the output another name");
+        }
     }
 }
 
@@ -464,6 +531,8 @@ int run(CLI::App& app, const std::string& tool, CommonOptions& opts, int argc, c
         return 2;
     }
     try {
+        checkFileOptions(app, opts);
+        setWriteThrough(opts.writeThrough);
         openvdb::initialize();
         std::unique_ptr<tbb::global_control> threads;
         if (opts.threads > 0) {

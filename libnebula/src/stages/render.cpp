@@ -12,6 +12,7 @@
 #include <nlohmann/json.hpp>
 
 #include <chrono>
+#include <optional>
 
 namespace nebula {
 
@@ -185,11 +186,18 @@ void renderToFiles(const GridSet& grids, const RenderOptions& opts, const DustPa
 
     requireFinitePixels(img, out.exr);
     const ToneCurve curve = computeToneCurve(img, out.tone);
-    writeExr(out.exr, img, exrAttributes(grids, opts, dust, sscene.base, curve, out, run));
+    // Both outputs or neither: each is written and fsynced before either replaces its target.
+    AtomicFile exrFile(out.exr);
+    writeExr(exrFile, img, exrAttributes(grids, opts, dust, sscene.base, curve, out, run));
+    std::optional<AtomicFile> pngFile;
     if (!png.empty()) {
-        writePng(png, img, curve,
+        pngFile.emplace(png);
+        writePng(*pngFile, img, curve,
                  {{"Software", std::string("nebrender ") + NEBULA_VERSION_STRING},
                   {"Comment", run.command()}});
+        commitAll({&exrFile, &*pngFile});
+    } else {
+        exrFile.commit();
     }
     run.info("wrote " + out.exr + (png.empty() ? std::string() : " and " + png));
 }

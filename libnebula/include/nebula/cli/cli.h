@@ -29,7 +29,9 @@ struct CommonOptions
     std::string output;   ///< output file, "-" = stdout
     bool onlyNew = false; ///< write only this tool's own grids
     std::string densityGrid = "density";
-    int threads = 0; ///< 0 = all cores
+    int threads = 0;           ///< 0 = all cores
+    bool writeThrough = false; ///< --write-through: write FIFOs, devices, symlinks in place
+    bool inPlace = false;      ///< -i X -o X may name one file (tools that pass grids through)
     bool quiet = false;
     int verbose = 0;
 };
@@ -46,19 +48,27 @@ enum CommonFlags : unsigned {
     DENSITY_GRID = 1u << 3, ///< --density-grid
 };
 
-/// Adds the common options selected by @p flags, plus --threads, -q, -v, --version and
-/// --config, to @p app.
+/// Adds the common options selected by @p flags, plus --threads, --write-through, -q, -v,
+/// --version and --config, to @p app.
 void addCommon(CLI::App& app, CommonOptions& opts, unsigned flags);
 
 } // namespace cli
 
 namespace cli {
 
-/// Parses @p argv into @p app, sets up threads and the Run, calls @p body, and maps the
-/// outcome to an exit code: 0 ok (also --help, --version), 2 usage error (CLI11 errors,
-/// UsageError), 1 any other error, printed as "tool: error: message" on stderr.
+/// Parses @p argv into @p app, checks the file options (checkFileOptions()), sets up threads
+/// and the Run, calls @p body, and maps the outcome to an exit code: 0 ok (also --help,
+/// --version), 2 usage error (CLI11 errors, UsageError), 1 any other error, printed as
+/// "tool: error: message" on stderr.
 int run(CLI::App& app, const std::string& tool, CommonOptions& opts, int argc, char** argv,
         const std::function<void(Run&)>& body);
+
+/// The outputs of every tool (-o/--output, --png, --json) must be different files, and none
+/// may be one of its inputs (-i/--input, --phase, --stars, --config), except -i X -o X in a
+/// tool that passes its input grids through (@p opts.inPlace): the input is read completely
+/// before the output replaces it. Same file means the same name, or the same inode (a link,
+/// "./x" for "x"). Throws UsageError naming both options.
+void checkFileOptions(const CLI::App& app, const CommonOptions& opts);
 
 /// The version line: "tool 0.1.0 (OpenVDB x.y.z)".
 std::string versionString(const std::string& tool);
