@@ -1,0 +1,53 @@
+#!/usr/bin/env bash
+# Runs the libFuzzer targets for a bounded time from the committed seed corpus, and fails on
+# any finding.
+# Usage: run_fuzz.sh FUZZ_BUILD_DIR [SECONDS]   (default 90: the three targets run side by
+# side for SECONDS of wall time each, which keeps both cores of a CI machine busy)
+# The corpus grows in a scratch copy (FUZZ_BUILD_DIR/corpus); a finding is saved as
+# FUZZ_BUILD_DIR/findings/crash-* (or leak-*, oom-*, timeout-*). Keep it as a regression
+# test: copy it into tests/fuzz/regressions/ (the unit test
+# DamagedInputs.FuzzRegressionsAreRefusedOrRead replays every file there).
+set -euo pipefail
+build=$1
+seconds=${2:-90}
+src=$(cd "$(dirname "$0")" && pwd)
+mkdir -p "$build/findings"
+
+run_target() { # target seeds seconds
+    local target=$1 seeds=$2 time=$3
+    local corpus=$build/corpus/$target
+    mkdir -p "$corpus"
+    # -rss_limit_mb / -malloc_limit_mb: an allocation out of proportion to the input is a
+    # finding too.
+    ASAN_OPTIONS=detect_leaks=1:allocator_may_return_null=0 \
+    UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
+        "$build/tests/fuzz/$target" -max_total_time="$time" -timeout=10 -rss_limit_mb=2048 \
+            -malloc_limit_mb=512 -max_len=65536 -print_final_stats=1 \
+            -artifact_prefix="$build/findings/" "$corpus" "$seeds" > "$build/$target.log" 2>&1
+}
+
+status=0
+pids=()
+run_target fuzz_vdb_check "$src/corpus/grid" "$seconds" & pids+=($!)
+run_target fuzz_grid_reader "$src/corpus/grid" "$seconds" & pids+=($!)
+run_target fuzz_metadata "$src/corpus/metadata" "$seconds" & pids+=($!)
+for pid in "${pids[@]}"; do wait "$pid" || status=1; done
+total=0
+for target in fuzz_vdb_check fuzz_grid_reader fuzz_metadata; do
+    echo "== $target (${seconds} s)"
+    grep -E "stat::number_of_executed_units|stat::average_exec_per_sec|stat::peak_rss_mb" \
+        "$build/$target.log" | sed "s/^/  /"
+    runs=$(grep -oE "number_of_executed_units: *[0-9]+" "$build/$target.log" |
+        grep -oE "[0-9]+$" || echo 0)
+    total=$((total + runs))
+    if grep -qE "ERROR|deadly signal|SUMMARY" "$build/$target.log"; then
+        tail -40 "$build/$target.log"
+    fi
+done
+echo "executions in all: $total"
+if ls "$build"/findings/* > /dev/null 2>&1; then
+    echo "fuzzing found inputs that fail (kept in $build/findings):"
+    ls -l "$build"/findings
+    exit 1
+fi
+exit $status
