@@ -528,6 +528,7 @@ namespace {
 /// @p to: a scale OpenVDB's constructors refuse but a file can hold.
 void doctorTransform(openvdb::GridBase& grid, double from, double to)
 {
+    openvdb::initialize(); // Transform::read() looks the map type up in the registry
     std::ostringstream out(std::ios::binary);
     grid.transform().write(out);
     std::string bytes = out.str();
