@@ -3,6 +3,7 @@
 #include "nebula/core/error.h"
 #include "nebula/core/format.h"
 
+#include <openvdb/io/Compression.h>
 #include <openvdb/points/StreamCompression.h>
 
 #include <algorithm>
@@ -11,6 +12,8 @@
 #include <cstdint>
 #include <cstring>
 #include <exception>
+#include <istream>
+#include <streambuf>
 #include <string>
 #include <utility>
 #include <vector>
@@ -121,10 +124,10 @@ std::int64_t firstOverlap(std::string_view a, std::string_view b)
 std::size_t fixedMetadataSize(std::string_view type)
 {
     static constexpr std::pair<std::string_view, std::size_t> TYPES[] = {
-        {"bool", 1},    {"double", 8},   {"float", 4},  {"int32", 4},   {"int64", 8},
-        {"vec2i", 8},   {"vec2s", 8},    {"vec2d", 16}, {"vec3i", 12},  {"vec3s", 12},
-        {"vec3d", 24},  {"vec4i", 16},   {"vec4s", 16}, {"vec4d", 32},  {"mat4s", 64},
-        {"mat4d", 128}, {"ptidx32", 4},  {"ptidx64", 8}};
+        {"bool", 1},    {"double", 8},  {"float", 4},  {"int32", 4},  {"int64", 8},
+        {"vec2i", 8},   {"vec2s", 8},   {"vec2d", 16}, {"vec3i", 12}, {"vec3s", 12},
+        {"vec3d", 24},  {"vec4i", 16},  {"vec4s", 16}, {"vec4d", 32}, {"mat4s", 64},
+        {"mat4d", 128}, {"ptidx32", 4}, {"ptidx64", 8}};
     for (const auto& [name, size] : TYPES) {
         if (name == type) return size;
     }
@@ -136,8 +139,12 @@ std::size_t fixedMetadataSize(std::string_view type)
 std::size_t linearMapSize(std::string_view type)
 {
     static constexpr std::pair<std::string_view, std::size_t> MAPS[] = {
-        {"AffineMap", 128},         {"UnitaryMap", 128},        {"ScaleMap", 120},
-        {"UniformScaleMap", 120},   {"TranslationMap", 24},     {"ScaleTranslateMap", 144},
+        {"AffineMap", 128},
+        {"UnitaryMap", 128},
+        {"ScaleMap", 120},
+        {"UniformScaleMap", 120},
+        {"TranslationMap", 24},
+        {"ScaleTranslateMap", 144},
         {"UniformScaleTranslateMap", 144}};
     for (const auto& [name, size] : MAPS) {
         if (name == type) return size;
@@ -216,8 +223,7 @@ class Reader
 public:
     Reader(std::string_view bytes, const std::string& source)
         : mBytes(bytes), mSource(detail::printable(source, 100))
-    {
-    }
+    {}
 
     std::string_view bytes() const { return mBytes; }
     std::size_t pos() const { return mPos; }
@@ -280,6 +286,17 @@ private:
     std::size_t mPos = 0;
 };
 
+/// A read-only std::streambuf over bytes in place.
+class ViewBuf : public std::streambuf
+{
+public:
+    explicit ViewBuf(std::string_view bytes)
+    {
+        char* p = const_cast<char*>(bytes.data()); // never written: get area only
+        setg(p, p, p + bytes.size());
+    }
+};
+
 /// A Blosc chunk's header fields (blosc.h: nbytes at byte 4, cbytes at byte 12).
 struct BloscSizes
 {
@@ -317,7 +334,7 @@ struct LeafRecord
     std::size_t maskAt; ///< offset of the topology mask (a mask leaf's values)
     Coord origin;
     std::size_t bufferAt = 0;
-    std::int8_t code = 6;          ///< mask-compression code of its buffer
+    std::int8_t code = 6;         ///< mask-compression code of its buffer
     std::int64_t chunkBytes = -1; ///< bytes of its zip/Blosc chunk with the count; -1: none
 };
 
@@ -334,8 +351,7 @@ class TreeChecker
 public:
     TreeChecker(Reader& r, const TreeKind& kind, bool half, std::uint32_t compression)
         : mR(r), mKind(kind), mHalf(half && kind.halfSize != 0), mCompression(compression)
-    {
-    }
+    {}
 
     void topology()
     {
@@ -557,8 +573,37 @@ private:
             } else {
                 zipChunk(payload, expected, at, item);
             }
+            if (mKind.boolValues()) decodedBools(at, expected, item);
         }
         return std::int64_t(mR.pos() - at);
+    }
+
+    /// OpenVDB loads decompressed bool values as bool, so a damaged payload that decodes to
+    /// other bytes is undefined behaviour: bool chunks (internal nodes of bool and mask trees,
+    /// at most 32 KiB) are decompressed here, with OpenVDB's own reader, now that their counts
+    /// are known to be sound.
+    void decodedBools(std::size_t at, std::uint64_t expected, const char* item)
+    {
+        const auto chunk = mR.bytes().substr(at, mR.pos() - at);
+        ViewBuf buf(chunk);
+        std::istream in(&buf);
+        std::string values(expected, '\0');
+        try {
+            if (mCompression & COMPRESS_BLOSC) {
+                openvdb::io::bloscFromStream(in, values.data(), values.size());
+            } else {
+                openvdb::io::unzipFromStream(in, values.data(), values.size());
+            }
+        } catch (const std::exception&) {
+            mR.fail(at, item, "does not decompress");
+        }
+        for (std::size_t i = 0; i < values.size(); ++i) {
+            if (std::uint8_t(values[i]) > 1) {
+                mR.fail(at, item,
+                        "decompresses to a bool byte " + std::to_string(std::uint8_t(values[i])) +
+                            " (value " + std::to_string(i) + "), expected 0 or 1");
+            }
+        }
     }
 
     /// bloscFromStream() hands the chunk to blosc_decompress_ctx(), which trusts the header:
@@ -668,7 +713,8 @@ private:
         const auto flagAt = mR.pos();
         const auto flag = mR.read<std::uint8_t>("grid-offsets flag");
         if (flag > 1) {
-            mR.fail(flagAt, "grid-offsets flag", "is " + std::to_string(flag) + ", expected 0 or 1");
+            mR.fail(flagAt, "grid-offsets flag",
+                    "is " + std::to_string(flag) + ", expected 0 or 1");
         }
         mHasOffsets = flag == 1;
         uuid();
@@ -718,9 +764,9 @@ private:
                         "-byte value, expected " + std::to_string(fixed));
         }
         if (type == "bool" && std::uint8_t(value[0]) > 1) {
-            mR.fail(sizeAt + 4, item, "is a bool of value " +
-                                          std::to_string(std::uint8_t(value[0])) +
-                                          ", expected 0 or 1");
+            mR.fail(sizeAt + 4, item,
+                    "is a bool of value " + std::to_string(std::uint8_t(value[0])) +
+                        ", expected 0 or 1");
         }
     }
 
@@ -837,8 +883,8 @@ private:
         const auto at = mR.pos();
         g.compression = mR.read<std::uint32_t>("compression flags");
         if (g.compression & ~(COMPRESS_ZIP | COMPRESS_ACTIVE_MASK | COMPRESS_BLOSC)) {
-            mR.fail(at, "compression flags", "have unknown bits (" +
-                                                 std::to_string(g.compression) + ")");
+            mR.fail(at, "compression flags",
+                    "have unknown bits (" + std::to_string(g.compression) + ")");
         }
         metaMap("metadata count", &g);
         transform();
@@ -884,8 +930,8 @@ private:
                      std::to_string(g.endPos) + " (its end offset), but there are only " +
                      std::to_string(size) + " bytes");
         }
-        const bool blockOk = (g.blockPos >= here && g.blockPos <= g.endPos) ||
-                             (instance && g.blockPos == 0);
+        const bool blockOk =
+            (g.blockPos >= here && g.blockPos <= g.endPos) || (instance && g.blockPos == 0);
         if (!blockOk) {
             mR.fail(at, "descriptor",
                     "gives block offset " + std::to_string(g.blockPos) + ", outside the grid (" +
@@ -921,8 +967,8 @@ private:
     {
         const auto size = linearMapSize(type);
         if (size == 0) {
-            mR.fail(at, "transform", "has map type \"" + shownName(type) +
-                                         "\", which OpenVDB does not know");
+            mR.fail(at, "transform",
+                    "has map type \"" + shownName(type) + "\", which OpenVDB does not know");
         }
         mR.take(size, "transform " + std::string(type));
     }
@@ -945,10 +991,10 @@ private:
         }
         std::string masksStorage, sizesStorage;
         const auto masks = delayedLoadArray(d.masks, d.masksBlosc, d.count, d.at, masksStorage);
-        const auto sizes = compressed ? delayedLoadArray(d.sizes, d.sizesBlosc,
-                                                         std::size_t(d.count) * 8, d.at,
-                                                         sizesStorage)
-                                      : std::string_view();
+        const auto sizes = compressed
+                               ? delayedLoadArray(d.sizes, d.sizesBlosc, std::size_t(d.count) * 8,
+                                                  d.at, sizesStorage)
+                               : std::string_view();
         for (std::size_t i = 0; i < leaves.size(); ++i) {
             if ((g.compression & COMPRESS_ACTIVE_MASK) && std::int8_t(masks[i]) != leaves[i].code) {
                 mR.fail(d.at, item,

@@ -25,8 +25,11 @@ namespace nebula {
 /// holding one is refused, as are bytes after the last grid of a stream.
 ///
 /// Works on @p bytes in place: no copies of payloads, and no allocation in proportion to a
-/// length or count read from the bytes. It cannot see inside compressed payloads or judge
-/// values (a flipped bit in a zip stream or in a voxel value is OpenVDB's to find, or nobody's).
+/// length or count read from the bytes (only what the tree itself holds: the leaves' places,
+/// the delayed-load tables, one bool node's values). It does not decompress value payloads,
+/// except those of bool and mask trees' internal nodes (OpenVDB loads them as bool, where any
+/// byte but 0 and 1 is undefined behaviour), and cannot judge values: a flipped bit inside a
+/// zip or Blosc payload, or in a voxel value, is OpenVDB's to find (it throws), or nobody's.
 ///
 /// Throws nebula::Error with ONE line "<source>: <what is wrong>" naming the grid (by its
 /// name, sanitised) and the byte offset where that applies, e.g.
