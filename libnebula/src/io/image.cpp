@@ -154,11 +154,11 @@ void pngFlush(png_structp) {}
 /// trivially destructible locals: the jump back to setjmp skips no C++ destructor.
 /// Returns false after a libpng error (the message is in the error state).
 bool pngWriteAll(png_structp png, png_infop info, std::ostream* os, png_uint_32 width,
-                 png_uint_32 height, png_bytepp rows, png_textp text, int numText)
+                 png_uint_32 height, int bitDepth, png_bytepp rows, png_textp text, int numText)
 {
     if (setjmp(png_jmpbuf(png))) return false;
     png_set_write_fn(png, os, pngWriteData, pngFlush);
-    png_set_IHDR(png, info, width, height, 8, PNG_COLOR_TYPE_RGB_ALPHA, PNG_INTERLACE_NONE,
+    png_set_IHDR(png, info, width, height, bitDepth, PNG_COLOR_TYPE_RGB_ALPHA, PNG_INTERLACE_NONE,
                  PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
     png_set_sRGB_gAMA_and_cHRM(png, info, PNG_sRGB_INTENT_PERCEPTUAL);
     if (numText > 0) png_set_text(png, info, text, numText);
@@ -242,6 +242,17 @@ void writeExr(AtomicFile& file, const Image& image,
             fb.insert(ch.name, Imf::Slice(Imf::FLOAT, sliceBase(ch.values.data()), sizeof(float),
                                           sizeof(float) * std::size_t(image.width)));
         }
+        std::vector<float> inView; // 1 in view, 0 outside (a dome master's corners)
+        if (!image.inView.empty()) {
+            if (image.inView.size() != pixelCount(image.width, image.height)) {
+                throw Error(path + ": the image's in-view mask does not match its size");
+            }
+            inView.assign(image.inView.begin(), image.inView.end());
+            header.channels().insert(EXR_IN_VIEW_CHANNEL, Imf::Channel(Imf::FLOAT));
+            fb.insert(EXR_IN_VIEW_CHANNEL,
+                      Imf::Slice(Imf::FLOAT, sliceBase(inView.data()), sizeof(float),
+                                 sizeof(float) * std::size_t(image.width)));
+        }
         for (const auto& [key, value] : attributes) {
             header.insert(key, Imf::StringAttribute(value));
         }
@@ -266,6 +277,22 @@ void writeExr(const std::string& path, const Image& image,
     AtomicFile file(path);
     writeExr(file, image, attributes);
     file.commit();
+}
+
+std::map<std::string, std::string> readExrAttributes(const std::string& path)
+{
+    try {
+        Imf::InputFile in(path.c_str());
+        std::map<std::string, std::string> attributes;
+        for (auto it = in.header().begin(); it != in.header().end(); ++it) {
+            if (const auto* s = dynamic_cast<const Imf::StringAttribute*>(&it.attribute())) {
+                attributes[it.name()] = s->value();
+            }
+        }
+        return attributes;
+    } catch (const std::exception& e) {
+        throw Error(path + ": cannot read EXR: " + e.what());
+    }
 }
 
 Image readExr(const std::string& path, std::map<std::string, std::string>* attributes)
@@ -340,6 +367,15 @@ Image readExr(const std::string& path, std::map<std::string, std::string>* attri
 
         in.setFrameBuffer(fb);
         in.readPixels(dw.min.y, dw.max.y);
+        // The in-view mask comes back as Image::inView, not as a channel.
+        for (auto it = image.channels.begin(); it != image.channels.end(); ++it) {
+            if (it->name != EXR_IN_VIEW_CHANNEL) continue;
+            image.inView.resize(it->values.size());
+            for (std::size_t i = 0; i < it->values.size(); ++i)
+                image.inView[i] = it->values[i] > 0.5f ? 1 : 0;
+            image.channels.erase(it);
+            break;
+        }
 
         if (attributes) {
             attributes->clear();
@@ -375,11 +411,18 @@ ToneCurve computeToneCurve(const Image& image, const ToneParams& params)
         }
         return curve;
     }
-    if (!(params.percentile >= 0.0 && params.percentile <= 100.0)) {
+    return toneCurveFromStats(luminanceStats(image, params.percentile));
+}
+
+LuminanceStats luminanceStats(const Image& image, double percentile)
+{
+    if (!(percentile >= 0.0 && percentile <= 100.0)) {
         throw Error("tone curve: percentile must be in [0, 100], got " +
-                    std::to_string(params.percentile));
+                    std::to_string(percentile));
     }
     validateImage("tone curve", image, false);
+    LuminanceStats stats;
+    stats.percentile = percentile;
 
     // Luminance of the lit pixels (NaN, infinity and black excluded), in pixel order.
     const std::size_t n = pixelCount(image.width, image.height);
@@ -390,32 +433,39 @@ ToneCurve computeToneCurve(const Image& image, const ToneParams& params)
         const double L = luminance(p[0], p[1], p[2]);
         if (L > 0.0 && std::isfinite(L)) Y.push_back(L);
     }
-    if (Y.empty()) return curve; // black frame: white 1, gamma 1
+    stats.lit = Y.size();
+    if (Y.empty()) return stats; // black frame
 
     // White point: nearest-rank percentile, the smallest Y with at least p% of Y <= it.
     std::vector<double> sorted = Y;
-    const double rank = std::ceil(params.percentile * double(sorted.size()) / 100.0 - 1e-9);
+    const double rank = std::ceil(percentile * double(sorted.size()) / 100.0 - 1e-9);
     const std::size_t k = std::size_t(std::clamp(rank - 1.0, 0.0, double(sorted.size() - 1)));
     std::nth_element(sorted.begin(), sorted.begin() + std::ptrdiff_t(k), sorted.end());
-    const double white = sorted[k];
+    stats.white = sorted[k];
 
     // Log-mean over the pixels above 1e-6 white, summed in pixel order (deterministic).
     double sumLog = 0.0;
     std::size_t count = 0;
     for (double L : Y) {
-        if (L > 1e-6 * white) {
+        if (L > 1e-6 * stats.white) {
             sumLog += std::log(L);
             ++count;
         }
     }
-    const double L_avg = std::exp(sumLog / double(count)); // count >= 1: white itself
+    stats.logMean = std::exp(sumLog / double(count)); // count >= 1: white itself
+    return stats;
+}
 
+ToneCurve toneCurveFromStats(const LuminanceStats& stats)
+{
+    ToneCurve curve; // a black frame: white 1, gamma 1
+    if (!(stats.white > 0.0) || !std::isfinite(stats.white)) return curve;
     // gamma maps the log-mean to the photographic key, linear display 0.18 (sRGB ~0.46):
     // (L_avg / white)^gamma = 0.18; clamped so that dark frames are not flattened.
-    curve.white = white;
-    curve.gamma = 1.0;
-    if (L_avg < white) {
-        curve.gamma = std::clamp(std::log(TONE_KEY) / std::log(L_avg / white), TONE_MIN_GAMMA, 1.0);
+    curve.white = stats.white;
+    if (stats.logMean > 0.0 && stats.logMean < stats.white) {
+        curve.gamma = std::clamp(std::log(TONE_KEY) / std::log(stats.logMean / stats.white),
+                                 TONE_MIN_GAMMA, 1.0);
     }
     return curve;
 }
@@ -431,10 +481,16 @@ double srgbEncode(double linear)
 // ---- PNG ------------------------------------------------------------------------------------
 
 void writePng(AtomicFile& file, const Image& image, const ToneCurve& curve,
-              const std::map<std::string, std::string>& text)
+              const std::map<std::string, std::string>& text, int bitDepth)
 {
     const std::string& path = file.path();
     validateImage(path, image, false);
+    if (bitDepth != 8 && bitDepth != 16) {
+        throw Error(path + ": PNG bit depth must be 8 or 16, got " + std::to_string(bitDepth));
+    }
+    if (!image.inView.empty() && image.inView.size() != pixelCount(image.width, image.height)) {
+        throw Error(path + ": the image's in-view mask does not match its size");
+    }
     if (!(curve.white > 0.0) || !std::isfinite(curve.white) || !(curve.gamma > 0.0) ||
         !std::isfinite(curve.gamma)) {
         throw Error(path + ": invalid tone curve (white " + std::to_string(curve.white) +
@@ -450,9 +506,20 @@ void writePng(AtomicFile& file, const Image& image, const ToneCurve& curve,
 
     // The tone curve acts on luminance and scales R,G,B alike, so hues survive (a per-channel
     // curve would push the blue of a hot star's halo to white); a colour brighter than
-    // display white is scaled down as a whole. Then sRGB; alpha opaque.
+    // display white is scaled down as a whole. Then sRGB.
     const std::size_t n = pixelCount(image.width, image.height);
-    std::vector<png_byte> pixels(n * 4);
+    const std::size_t bytes = bitDepth / 8; // per sample; 16-bit samples are big-endian
+    const double maxValue = bitDepth == 16 ? 65535.0 : 255.0;
+    std::vector<png_byte> pixels(n * 4 * bytes);
+    const auto put = [&](std::size_t sample, double v) { // v in [0, 1]
+        const long q = std::lround(v * maxValue);
+        if (bytes == 2) {
+            pixels[2 * sample] = png_byte(q >> 8);
+            pixels[2 * sample + 1] = png_byte(q & 0xff);
+        } else {
+            pixels[sample] = png_byte(q);
+        }
+    };
     const double invWhite = 1.0 / curve.white;
     for (std::size_t i = 0; i < n; ++i) {
         double rgb[3];
@@ -465,14 +532,21 @@ void writePng(AtomicFile& file, const Image& image, const ToneCurve& curve,
         const double peak = std::max({rgb[0], rgb[1], rgb[2]}) * scale;
         const double fit = peak > 1.0 ? 1.0 / peak : 1.0;
         for (int c = 0; c < 3; ++c) {
-            const double display = srgbEncode(std::min(1.0, rgb[c] * scale * fit));
-            pixels[4 * i + c] = png_byte(std::lround(display * 255.0));
+            put(4 * i + std::size_t(c), srgbEncode(std::min(1.0, rgb[c] * scale * fit)));
         }
-        pixels[4 * i + 3] = 255;
+        // Space is black and opaque; a pixel outside the camera's view (a dome master's
+        // corners) is transparent black.
+        const bool outside = !image.inView.empty() && image.inView[i] == 0;
+        if (outside) {
+            for (int c = 0; c < 3; ++c)
+                put(4 * i + std::size_t(c), 0.0);
+        }
+        put(4 * i + 3, outside ? 0.0 : 1.0);
     }
     std::vector<png_bytep> rows(std::size_t(image.height));
     for (int y = 0; y < image.height; ++y) {
-        rows[std::size_t(y)] = pixels.data() + std::size_t(y) * std::size_t(image.width) * 4;
+        rows[std::size_t(y)] =
+            pixels.data() + std::size_t(y) * std::size_t(image.width) * 4 * bytes;
     }
 
     // tEXt for ASCII values, iTXt (UTF-8) otherwise. libpng copies the strings.
@@ -499,7 +573,8 @@ void writePng(AtomicFile& file, const Image& image, const ToneCurve& curve,
         std::snprintf(err.message, sizeof err.message, "out of memory");
     } else {
         ok = pngWriteAll(png, info, &file.stream(), png_uint_32(image.width),
-                         png_uint_32(image.height), rows.data(), chunks.data(), int(chunks.size()));
+                         png_uint_32(image.height), bitDepth, rows.data(), chunks.data(),
+                         int(chunks.size()));
     }
     if (png) png_destroy_write_struct(&png, info ? &info : nullptr);
     if (!ok && file.stream()) {
@@ -511,10 +586,10 @@ void writePng(AtomicFile& file, const Image& image, const ToneCurve& curve,
 }
 
 void writePng(const std::string& path, const Image& image, const ToneCurve& curve,
-              const std::map<std::string, std::string>& text)
+              const std::map<std::string, std::string>& text, int bitDepth)
 {
     AtomicFile file(path);
-    writePng(file, image, curve, text);
+    writePng(file, image, curve, text, bitDepth);
     file.commit();
 }
 

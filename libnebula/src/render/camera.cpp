@@ -4,59 +4,207 @@
 #include "nebula/core/format.h"
 #include "nebula/core/units.h"
 
+#include <algorithm>
 #include <cmath>
 
 namespace nebula {
 
-PinholeProjection::PinholeProjection(const Camera& c)
-    : mEye(c.eye), mWidth(c.width), mHeight(c.height)
+std::string toString(CameraModel model)
 {
-    mForward = (c.lookAt - c.eye).normalized();
-    mRight = mForward.cross(c.up).normalized();
-    mUp = mRight.cross(mForward);
-    mTanH = std::tan(0.5 * c.fovDeg * PI / 180.0);
+    switch (model) {
+    case CameraModel::Fisheye: return "fisheye";
+    case CameraModel::Equirect: return "equirect";
+    case CameraModel::Perspective: break;
+    }
+    return "perspective";
 }
 
-Vec3 PinholeProjection::direction(double px, double py) const
+CameraModel cameraModelFromString(const std::string& name)
 {
-    const double sx = (2.0 * px / mWidth - 1.0) * mTanH;
-    const double sy = (1.0 - 2.0 * py / mHeight) * mTanH * mHeight / mWidth;
-    return (mForward + mRight * sx + mUp * sy).normalized();
+    for (const auto m : {CameraModel::Perspective, CameraModel::Fisheye, CameraModel::Equirect}) {
+        if (name == toString(m)) return m;
+    }
+    throw UsageError("--camera must be perspective, fisheye or equirect, got \"" +
+                     detail::printable(name, 40) + "\"");
 }
 
-double PinholeProjection::pixelSolidAngle(double px, double py) const
+namespace {
+
+constexpr double DEG = PI / 180.0;
+
+/// The solid angle of the rectangle [0, x] x [0, y] (signed) on the plane at distance 1.
+double cornerSolidAngle(double x, double y)
 {
-    const double du = 2.0 * mTanH / mWidth; // square pixels on the image plane at distance 1
-    const double sx = (2.0 * px / mWidth - 1.0) * mTanH;
-    const double sy = (1.0 - 2.0 * py / mHeight) * mTanH * mHeight / mWidth;
-    const double cosTheta = 1.0 / std::sqrt(1.0 + sx * sx + sy * sy);
-    return du * du * cosTheta * cosTheta * cosTheta;
+    return std::atan(x * y / std::sqrt(1.0 + x * x + y * y));
 }
 
-bool PinholeProjection::project(const Vec3& p, double& px, double& py) const
+} // namespace
+
+Projection::Projection(const Camera& c)
+    : mModel(c.model), mEye(c.eye), mWidth(c.width), mHeight(c.height)
+{
+    const Vec3 f = (c.lookAt - c.eye).normalized();
+    Vec3 r = f.cross(c.up).normalized();
+    Vec3 u = r.cross(f);
+    if (c.rollDeg != 0.0) { // the camera turns clockwise as seen from behind it
+        const double cr = std::cos(c.rollDeg * DEG), sr = std::sin(c.rollDeg * DEG);
+        const Vec3 r2 = r * cr - u * sr, u2 = u * cr + r * sr;
+        r = r2;
+        u = u2;
+    }
+    mForward = f;
+    mRight = r;
+    mUp = u;
+    if (mModel == CameraModel::Fisheye && std::isfinite(c.domeTiltDeg)) {
+        // A dome tilted by T: the axis is up tipped T towards the view, the front (the view
+        // direction) at the bottom of the image; right stays right (axis x top = right).
+        const double ct = std::cos(c.domeTiltDeg * DEG), st = std::sin(c.domeTiltDeg * DEG);
+        mForward = (u * ct + f * st).normalized();
+        mUp = (u * st - f * ct).normalized();
+    }
+    mTanH = std::tan(0.5 * c.fovDeg * DEG);
+    mThetaMax = 0.5 * c.fovDeg * DEG;
+}
+
+bool Projection::direction(double px, double py, Vec3& d) const
+{
+    switch (mModel) {
+    case CameraModel::Perspective: {
+        const double sx = (2.0 * px / mWidth - 1.0) * mTanH;
+        const double sy = (1.0 - 2.0 * py / mHeight) * mTanH * mHeight / mWidth;
+        d = (mForward + mRight * sx + mUp * sy).normalized();
+        return true;
+    }
+    case CameraModel::Fisheye: {
+        const double u = 2.0 * px / mWidth - 1.0, v = 1.0 - 2.0 * py / mHeight;
+        const double r = std::sqrt(u * u + v * v);
+        if (r > 1.0) return false;
+        const double theta = r * mThetaMax;
+        if (r == 0.0) {
+            d = mForward;
+            return true;
+        }
+        const double s = std::sin(theta) / r;
+        d = (mForward * std::cos(theta) + mRight * (s * u) + mUp * (s * v)).normalized();
+        return true;
+    }
+    case CameraModel::Equirect: {
+        const double lon = (px / mWidth - 0.5) * 2.0 * PI;
+        const double lat = (0.5 - py / mHeight) * PI;
+        const double cl = std::cos(lat);
+        d = (mForward * (cl * std::cos(lon)) + mRight * (cl * std::sin(lon)) + mUp * std::sin(lat))
+                .normalized();
+        return true;
+    }
+    }
+    return false;
+}
+
+Vec3 Projection::direction(double px, double py) const
+{
+    Vec3 d = mForward;
+    direction(px, py, d);
+    return d;
+}
+
+bool Projection::inView(double px, double py) const
+{
+    Vec3 d;
+    return direction(px, py, d);
+}
+
+double Projection::fisheyeJacobian(double u, double v) const
+{
+    // dOmega = sin(theta) dtheta dphi with theta = r thetaMax; dA = r dr dphi.
+    const double r = std::sqrt(u * u + v * v);
+    if (r > 1.0) return 0.0;
+    if (r < 1e-12) return mThetaMax * mThetaMax;
+    return mThetaMax * std::sin(r * mThetaMax) / r;
+}
+
+double Projection::pixelSolidAngle(double px, double py) const
+{
+    switch (mModel) {
+    case CameraModel::Perspective: {
+        // Exact: the signed corner solid angles of the pixel's rectangle on the image plane.
+        const double sx = 2.0 * mTanH / mWidth, sy = 2.0 * mTanH * mHeight / mWidth / mHeight;
+        const double x0 = (px - 0.5) * sx - mTanH, x1 = x0 + sx;
+        const double yTop = mTanH * mHeight / mWidth;
+        const double y0 = yTop - (py + 0.5) * sy, y1 = y0 + sy;
+        return cornerSolidAngle(x1, y1) - cornerSolidAngle(x0, y1) - cornerSolidAngle(x1, y0) +
+               cornerSolidAngle(x0, y0);
+    }
+    case CameraModel::Fisheye: {
+        constexpr int N = 16;
+        const double du = 2.0 / mWidth, dv = 2.0 / mHeight;
+        const double u0 = 2.0 * (px - 0.5) / mWidth - 1.0, v0 = 1.0 - 2.0 * (py - 0.5) / mHeight;
+        double sum = 0.0;
+        for (int j = 0; j < N; ++j)
+            for (int i = 0; i < N; ++i)
+                sum += fisheyeJacobian(u0 + (i + 0.5) * du / N, v0 - (j + 0.5) * dv / N);
+        return sum * du * dv / (N * N);
+    }
+    case CameraModel::Equirect: {
+        const double latTop = (0.5 - (py - 0.5) / mHeight) * PI;
+        const double latBottom = (0.5 - (py + 0.5) / mHeight) * PI;
+        return 2.0 * PI / mWidth *
+               (std::sin(std::min(latTop, 0.5 * PI)) - std::sin(std::max(latBottom, -0.5 * PI)));
+    }
+    }
+    return 0.0;
+}
+
+bool Projection::project(const Vec3& p, double& px, double& py) const
 {
     const Vec3 v = p - mEye;
-    const double z = v.dot(mForward);
-    if (z <= 0.0) return false;
-    const double sx = v.dot(mRight) / z, sy = v.dot(mUp) / z;
-    px = (sx / mTanH + 1.0) * 0.5 * mWidth;
-    py = (1.0 - sy / (mTanH * mHeight / mWidth)) * 0.5 * mHeight;
-    return true;
+    switch (mModel) {
+    case CameraModel::Perspective: {
+        const double z = v.dot(mForward);
+        if (z <= 0.0) return false;
+        const double sx = v.dot(mRight) / z, sy = v.dot(mUp) / z;
+        px = (sx / mTanH + 1.0) * 0.5 * mWidth;
+        py = (1.0 - sy / (mTanH * mHeight / mWidth)) * 0.5 * mHeight;
+        return true;
+    }
+    case CameraModel::Fisheye: {
+        const double len = v.length();
+        if (!(len > 0.0)) return false;
+        const Vec3 d = v * (1.0 / len);
+        const double theta = std::acos(std::clamp(d.dot(mForward), -1.0, 1.0));
+        if (theta > mThetaMax) return false;
+        const double phi = std::atan2(d.dot(mUp), d.dot(mRight));
+        const double r = theta / mThetaMax;
+        px = (1.0 + r * std::cos(phi)) * 0.5 * mWidth;
+        py = (1.0 - r * std::sin(phi)) * 0.5 * mHeight;
+        return true;
+    }
+    case CameraModel::Equirect: {
+        const double len = v.length();
+        if (!(len > 0.0)) return false;
+        const Vec3 d = v * (1.0 / len);
+        const double lon = std::atan2(d.dot(mRight), d.dot(mForward));
+        const double lat = std::asin(std::clamp(d.dot(mUp), -1.0, 1.0));
+        px = (lon / (2.0 * PI) + 0.5) * mWidth;
+        py = (0.5 - lat / PI) * mHeight;
+        return true;
+    }
+    }
+    return false;
 }
 
 Vec3 Camera::direction(double px, double py) const
 {
-    return PinholeProjection(*this).direction(px, py);
+    return Projection(*this).direction(px, py);
 }
 
 double Camera::pixelSolidAngle(double px, double py) const
 {
-    return PinholeProjection(*this).pixelSolidAngle(px, py);
+    return Projection(*this).pixelSolidAngle(px, py);
 }
 
 bool Camera::project(const Vec3& p, double& px, double& py) const
 {
-    return PinholeProjection(*this).project(p, px, py);
+    return Projection(*this).project(p, px, py);
 }
 
 namespace {
@@ -92,6 +240,47 @@ void validateCamera(const Camera& c)
     if (!(f.length() > 0.0)) throw UsageError("--eye and --look-at must differ");
     if (!(c.up.length() > 0.0) || !(f.normalized().cross(c.up.normalized()).length() > 1e-6)) {
         throw UsageError("--up must be non-zero and not parallel to the view direction");
+    }
+    if (!(std::fabs(c.rollDeg) <= 360.0)) {
+        throw UsageError("--roll must be in [-360, 360] degrees, got " +
+                         detail::numberText(c.rollDeg));
+    }
+    const std::string res = std::to_string(c.width) + "x" + std::to_string(c.height);
+    switch (c.model) {
+    case CameraModel::Perspective:
+        if (!(c.fovDeg > 0.0 && c.fovDeg <= 179.0)) {
+            throw UsageError("--fov must be in (0, 179] degrees for the perspective camera, got " +
+                             detail::numberText(c.fovDeg) +
+                             " (wider views: --camera fisheye or equirect)");
+        }
+        break;
+    case CameraModel::Fisheye:
+        if (!(c.fovDeg > 0.0 && c.fovDeg <= 360.0)) {
+            throw UsageError("--fov must be in (0, 360] degrees for the fisheye camera, got " +
+                             detail::numberText(c.fovDeg));
+        }
+        if (c.width != c.height) {
+            throw UsageError("--camera fisheye makes a square dome master: --res " + res +
+                             " must be square, e.g. " + std::to_string(c.height) + "x" +
+                             std::to_string(c.height));
+        }
+        break;
+    case CameraModel::Equirect:
+        if (c.width != 2 * c.height) {
+            throw UsageError("--camera equirect makes a 2:1 panorama: --res " + res +
+                             " must be twice as wide as high, e.g. " +
+                             std::to_string(2 * c.height) + "x" + std::to_string(c.height));
+        }
+        break;
+    }
+    if (!std::isnan(c.domeTiltDeg)) {
+        if (c.model != CameraModel::Fisheye) {
+            throw UsageError("--dome-tilt is for --camera fisheye");
+        }
+        if (!(c.domeTiltDeg >= 0.0 && c.domeTiltDeg <= 90.0)) {
+            throw UsageError("--dome-tilt must be in [0, 90] degrees, got " +
+                             detail::numberText(c.domeTiltDeg));
+        }
     }
 }
 

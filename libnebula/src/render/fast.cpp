@@ -103,7 +103,7 @@ public:
     {
         const std::size_t S = mScene.stars.size();
         RayState ray;
-        ray.dW = mCam.direction(px + 0.5, py + 0.5);
+        if (!mCam.direction(px + 0.5, py + 0.5, ray.dW)) return; // outside the view: black
         std::fill(sc.starL.begin(), sc.starL.end(), 0.0);
         std::fill(sc.nextT.begin(), sc.nextT.end(), -std::numeric_limits<double>::infinity());
         sc.stats.rays +=
@@ -270,7 +270,7 @@ private:
     const RenderScene& mScene;
     const RenderOptions& mOpts;
     const ChannelDust& mDust;
-    const PinholeProjection mCam;
+    const Projection mCam;
     const Marcher mLevel0;
     std::vector<LevelMap> mLevels;
     double mRmin2 = 0.0;

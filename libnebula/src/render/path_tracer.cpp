@@ -232,7 +232,7 @@ Image renderPathTraced(const RenderScene& scene, const RenderOptions& opts, cons
     const Camera& view = opts.camera;
     if (view.width <= 0 || view.height <= 0) throw UsageError("--res must be WxH with W, H > 0");
     if (opts.spp <= 0) throw UsageError("--spp must be > 0, got " + std::to_string(opts.spp));
-    const PinholeProjection cam(view);
+    const Projection cam(view);
     const int W = view.width, H = view.height;
     const std::size_t S = scene.stars.size();
     const PathScene ps = buildPathScene(scene, opts);
@@ -251,7 +251,8 @@ Image renderPathTraced(const RenderScene& scene, const RenderOptions& opts, cons
             for (int py = y0; py < y1; ++py) {
                 for (int px = 0; px < W; ++px) {
                     const std::size_t pix = std::size_t(py) * W + px;
-                    const Vec3 d = cam.direction(px + 0.5, py + 0.5);
+                    Vec3 d;
+                    if (!cam.direction(px + 0.5, py + 0.5, d)) continue; // not in view
                     double mean[3] = {0, 0, 0}, m2[3] = {0, 0, 0}, trans[3] = {0, 0, 0};
                     std::fill(starSum.begin(), starSum.end(), 0.0);
                     for (int sample = 0; sample < opts.spp; ++sample) {

@@ -388,7 +388,7 @@ public:
     void renderPixel(int px, int py, SpectralScratch& sc, Image& img) const
     {
         SpectralRay ray;
-        ray.dW = mCam.direction(px + 0.5, py + 0.5);
+        if (!mCam.direction(px + 0.5, py + 0.5, ray.dW)) return; // outside the view: black
         ray.dI = mLevel0.w2i.applyLinear(ray.dW);
         std::fill(sc.Cstar.begin(), sc.Cstar.end(), 0.0);
         std::fill(sc.Cgas.begin(), sc.Cgas.end(), 0.0);
@@ -692,7 +692,7 @@ private:
     const DustParams& mDust;
     const ExtinctionTable mLambda;
     const ContinuumNodes mNodes;
-    const PinholeProjection mCam;
+    const Projection mCam;
     const Marcher mLevel0;
     std::vector<double> mStarSpec;    ///< [s][j]
     double mLayerWidth = 0.0;         ///< [nm]

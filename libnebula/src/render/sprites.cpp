@@ -36,7 +36,7 @@ void drawStarSprites(Image& img, const RenderScene& scene, const RenderOptions& 
                      const std::function<std::array<double, 3>(std::size_t, double)>& colour,
                      const std::function<void(std::size_t, std::size_t, double)>& footprint)
 {
-    const PinholeProjection cam(opts.camera);
+    const Projection cam(opts.camera);
     const int W = opts.camera.width, H = opts.camera.height;
     const std::size_t S = scene.stars.size();
     const DenseVolume& vol = scene.fields;
@@ -88,9 +88,12 @@ void drawStarSprites(Image& img, const RenderScene& scene, const RenderOptions& 
             std::size_t wi = 0;
             for (int y = cy - R; y <= cy + R; ++y)
                 for (int x = cx - R; x <= cx + R; ++x, ++wi) {
-                    if (x < 0 || y < 0 || x >= W || y >= H) continue;
-                    const double omega = cam.pixelSolidAngle(x + 0.5, y + 0.5);
-                    const std::size_t pix = std::size_t(y) * W + x;
+                    // A panorama wraps around: its column W is column 0.
+                    const int xi = cam.wrapsHorizontally() ? ((x % W) + W) % W : x;
+                    if (xi < 0 || y < 0 || xi >= W || y >= H) continue;
+                    if (!cam.inView(xi + 0.5, y + 0.5)) continue; // outside a dome's circle
+                    const double omega = cam.pixelSolidAngle(xi + 0.5, y + 0.5);
+                    const std::size_t pix = std::size_t(y) * W + xi;
                     if (footprint) footprint(s, pix, w[wi] / wsum / omega / (4.0 * PI * d2));
                     for (int c = 0; c < 3; ++c) {
                         const float Lpix = float(F[std::size_t(c)] * w[wi] / wsum / omega);

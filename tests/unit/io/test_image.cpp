@@ -585,3 +585,23 @@ TEST_F(ImageTest, ExrSingleChannelsRoundTrip)
     EXPECT_THROW(nebula::writeExr(file("bad.exr"), image, {}), nebula::Error);
     EXPECT_FALSE(std::filesystem::exists(file("bad.exr")));
 }
+
+// Pixels outside the camera's view (Image::inView, a dome master's corners) are transparent
+// black in the PNG, whatever their values; every other pixel is opaque.
+TEST_F(ImageTest, PixelsOutOfViewAreTransparentInThePng)
+{
+    nebula::Image image(3, 1);
+    for (std::size_t i = 0; i < 3; ++i)
+        setGrey(image, i, 0.5f);
+    image.inView = {1, 0, 1};
+    const std::string path = file("dome.png");
+    nebula::writePng(path, image, nebula::ToneCurve{}, {});
+    PngReadback png;
+    ASSERT_TRUE(readPng(path, &png));
+    ASSERT_EQ(png.rgba.size(), 12u);
+    EXPECT_EQ(png.rgba[3], 255);
+    EXPECT_GT(png.rgba[0], 0);
+    for (int c = 4; c < 8; ++c)
+        EXPECT_EQ(png.rgba[std::size_t(c)], 0) << c;
+    EXPECT_EQ(png.rgba[11], 255);
+}

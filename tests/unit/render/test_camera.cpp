@@ -1,5 +1,6 @@
-// Cameras (render/camera.h): the pinhole projection's geometry, the Camera convenience
-// functions against PinholeProjection, and validateCamera().
+// Cameras (render/camera.h): the perspective, fisheye and equirect projections' geometry
+// (round trips, orientation, exact pixel solid angles), the Camera convenience functions
+// against Projection, and validateCamera().
 #include "nebula/render/camera.h"
 
 #include "nebula/core/error.h"
@@ -7,6 +8,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <string>
 #include <utility>
@@ -34,10 +36,10 @@ TEST(Render, CameraProjectionAndSolidAngle)
             omega += c.pixelSolidAngle(x + 0.5, y + 0.5);
     const double a = std::tan(25 * PI / 180), b = a * 60 / 80;
     const double pyramid = 4 * std::asin(a * b / std::sqrt((1 + a * a) * (1 + b * b)));
-    EXPECT_NEAR(omega, pyramid, 1e-3 * pyramid);
+    EXPECT_NEAR(omega, pyramid, 1e-12 * pyramid); // each pixel's solid angle is exact
 }
 
-// The Camera's functions are PinholeProjection's; direction() is unit length, the centre
+// The Camera's functions are Projection's; direction() is unit length, the centre
 // of the frame looks at lookAt, the top row is up and the right column right, and the
 // horizontal field of view spans fovDeg.
 TEST(Camera, PinholeBasisAndFieldOfView)
@@ -49,7 +51,7 @@ TEST(Camera, PinholeBasisAndFieldOfView)
     c.width = 100;
     c.height = 50;
     c.fovDeg = 60;
-    const PinholeProjection p(c);
+    const Projection p(c);
     EXPECT_EQ(p.eye().z, -10.0);
     for (const auto& [x, y] :
          {std::pair{0.5, 0.5}, std::pair{50.0, 25.0}, std::pair{99.5, 12.25}}) {
@@ -126,4 +128,210 @@ TEST(Camera, ValidateNamesTheOptionOfAHugeOrNonFiniteVector)
     Camera edge;
     edge.eye = Vec3(MAX_CAMERA_COORDINATE, 0, -MAX_CAMERA_COORDINATE);
     EXPECT_NO_THROW(validateCamera(edge));
+}
+
+namespace {
+
+Camera model(CameraModel m, int w, int h, double fov)
+{
+    Camera c;
+    c.eye = Vec3(1, -2, 3);
+    c.lookAt = Vec3(4, 0, -1);
+    c.up = Vec3(0, 0, 1);
+    c.model = m;
+    c.width = w;
+    c.height = h;
+    c.fovDeg = fov;
+    return c;
+}
+
+double totalSolidAngle(const Camera& c)
+{
+    const Projection p(c);
+    double omega = 0.0;
+    for (int y = 0; y < c.height; ++y)
+        for (int x = 0; x < c.width; ++x)
+            omega += p.pixelSolidAngle(x + 0.5, y + 0.5);
+    return omega;
+}
+
+double angle(const Vec3& a, const Vec3& b)
+{
+    return std::acos(std::clamp(a.normalized().dot(b.normalized()), -1.0, 1.0));
+}
+
+} // namespace
+
+// The pixels' solid angles add up to the whole view: a fisheye's circle of full angle F
+// covers 2 pi (1 - cos(F/2)) (the whole sphere at 360), an equirect panorama 4 pi. Equirect
+// is exact; the fisheye's rim pixels are integrated on 16 x 16 midpoints (error ~ 1e-4).
+TEST(Camera, SolidAnglesAddUpToTheView)
+{
+    EXPECT_NEAR(totalSolidAngle(model(CameraModel::Equirect, 64, 32, 0)), 4 * PI, 1e-12);
+    for (const double fov : {60.0, 180.0, 250.0, 360.0}) {
+        const double cap = 2 * PI * (1 - std::cos(fov * PI / 360));
+        EXPECT_NEAR(totalSolidAngle(model(CameraModel::Fisheye, 96, 96, fov)), cap, 2e-4 * cap)
+            << "fov " << fov;
+    }
+}
+
+// project() inverts direction() in every model, and every direction is unit length.
+TEST(Camera, ProjectInvertsDirectionInEveryModel)
+{
+    for (const auto& c :
+         {model(CameraModel::Perspective, 80, 60, 70), model(CameraModel::Fisheye, 90, 90, 180),
+          model(CameraModel::Fisheye, 90, 90, 330), model(CameraModel::Equirect, 120, 60, 0)}) {
+        const Projection p(c);
+        int checked = 0;
+        for (double y = 0.75; y < c.height; y += 3.1)
+            for (double x = 0.25; x < c.width; x += 2.7) {
+                Vec3 d;
+                if (!p.direction(x, y, d)) continue;
+                EXPECT_NEAR(d.length(), 1.0, 1e-12);
+                double px, py;
+                ASSERT_TRUE(p.project(c.eye + d * 3.5, px, py)) << toString(c.model);
+                EXPECT_NEAR(px, x, 1e-6) << toString(c.model) << " at " << x << "," << y;
+                EXPECT_NEAR(py, y, 1e-6) << toString(c.model) << " at " << x << "," << y;
+                ++checked;
+            }
+        EXPECT_GT(checked, 300) << toString(c.model);
+    }
+}
+
+// Fisheye: the centre looks at lookAt; the angle from the axis is proportional to the
+// distance from the centre (azimuthal equidistant): the circle's edge is fov/2 away; up is
+// at the top and right at the right, as in the perspective image; the corners are out of
+// view and have no solid angle.
+TEST(Camera, FisheyeIsAzimuthalEquidistant)
+{
+    Camera c = model(CameraModel::Fisheye, 100, 100, 200);
+    c.eye = Vec3(0, 0, 0);
+    c.lookAt = Vec3(0, 0, 5);
+    c.up = Vec3(0, 1, 0);
+    const Projection p(c);
+    const Vec3 forward(0, 0, 1);
+    EXPECT_NEAR(angle(p.direction(50, 50), forward), 0.0, 1e-12);
+    for (const double r : {0.1, 0.4, 0.75, 1.0}) {
+        EXPECT_NEAR(angle(p.direction(50 + 50 * r, 50), forward), r * 100 * PI / 180, 1e-12);
+        EXPECT_NEAR(angle(p.direction(50, 50 - 50 * r), forward), r * 100 * PI / 180, 1e-12);
+    }
+    EXPECT_GT(p.direction(50, 10).y, 0.0); // top: up
+    Camera persp = c;
+    persp.model = CameraModel::Perspective;
+    persp.fovDeg = 90;
+    EXPECT_GT(p.direction(90, 50).x * persp.direction(90, 50).x, 0.0); // right: right
+    Vec3 d;
+    EXPECT_FALSE(p.direction(2, 2, d));
+    EXPECT_FALSE(p.inView(0.5, 0.5));
+    EXPECT_TRUE(p.inView(50, 50));
+    EXPECT_EQ(p.pixelSolidAngle(0.5, 0.5), 0.0);
+    // Beyond half the full angle: not in view; behind the eye but within 100 degrees: in view.
+    double px, py;
+    EXPECT_FALSE(p.project(Vec3(0, 0, -5), px, py));
+    EXPECT_TRUE(p.project(Vec3(5, 0, -0.5), px, py));
+    // The centre pixel subtends (angular pixel size)^2.
+    const double pixel = 200.0 * PI / 180.0 / 100.0;
+    EXPECT_NEAR(p.pixelSolidAngle(50.5, 50.5), pixel * pixel, 1e-3 * pixel * pixel);
+}
+
+// Dome tilt: T = 0 is a horizontal planetarium dome, its centre straight up, the look-at
+// point on the bottom edge of the circle (the front of a dome master); T = 90 is the
+// untilted fisheye; in between, the look-at point is 90 - T degrees below the centre.
+TEST(Camera, DomeTiltTurnsTheAxisFromUpTowardsTheView)
+{
+    Camera c = model(CameraModel::Fisheye, 100, 100, 180);
+    c.eye = Vec3(0, 0, 0);
+    c.lookAt = Vec3(0, 0, 5);
+    c.up = Vec3(0, 1, 0);
+    double px, py;
+    c.domeTiltDeg = 0;
+    EXPECT_NEAR(angle(Projection(c).direction(50, 50), Vec3(0, 1, 0)), 0.0, 1e-12);
+    ASSERT_TRUE(Projection(c).project(Vec3(0, 0, 5), px, py));
+    EXPECT_NEAR(px, 50.0, 1e-9);
+    EXPECT_NEAR(py, 100.0, 1e-9);
+    c.domeTiltDeg = 30;
+    ASSERT_TRUE(Projection(c).project(Vec3(0, 0, 5), px, py));
+    EXPECT_NEAR(px, 50.0, 1e-9);
+    EXPECT_NEAR(py, 50.0 + 50.0 * 60.0 / 90.0, 1e-9); // 60 degrees below the centre
+    EXPECT_GT(Projection(c).direction(90, 50).x * Projection(c).direction(90, 60).x, 0.0);
+    c.domeTiltDeg = 90;
+    Camera untilted = c;
+    untilted.domeTiltDeg = std::nan("");
+    for (const auto& [x, y] : {std::pair{10.5, 40.5}, std::pair{77.0, 23.0}})
+        EXPECT_NEAR((Projection(c).direction(x, y) - Projection(untilted).direction(x, y)).length(),
+                    0.0, 1e-12);
+}
+
+// Equirect: the view direction at the centre, longitude growing to the right (camera right
+// at 3/4 of the width, behind at the left and right edges), the camera's up at the top row;
+// each pixel subtends (2 pi / W)(sin lat_top - sin lat_bottom).
+TEST(Camera, EquirectOrientationAndSolidAngle)
+{
+    Camera c = model(CameraModel::Equirect, 200, 100, 0);
+    c.eye = Vec3(0, 0, 0);
+    c.lookAt = Vec3(0, 0, 5);
+    c.up = Vec3(0, 1, 0);
+    const Projection p(c);
+    EXPECT_NEAR(angle(p.direction(100, 50), Vec3(0, 0, 1)), 0.0, 1e-12);
+    EXPECT_NEAR(angle(p.direction(150, 50), p.right()), 0.0, 1e-12);
+    EXPECT_NEAR(p.right().x, -1.0, 1e-12); // as the perspective camera's right
+    EXPECT_NEAR(angle(p.direction(0, 50), Vec3(0, 0, -1)), 0.0, 1e-12);
+    EXPECT_NEAR(angle(p.direction(200, 50), Vec3(0, 0, -1)), 0.0, 1e-12);
+    EXPECT_NEAR(angle(p.direction(100, 0), Vec3(0, 1, 0)), 0.0, 1e-12);
+    EXPECT_NEAR(angle(p.direction(37, 100), Vec3(0, -1, 0)), 0.0, 1e-12);
+    EXPECT_TRUE(p.wrapsHorizontally());
+    const double lat0 = PI / 2 - 10 * PI / 100, lat1 = lat0 - PI / 100;
+    EXPECT_NEAR(p.pixelSolidAngle(3.5, 10.5), 2 * PI / 200 * (std::sin(lat0) - std::sin(lat1)),
+                1e-15);
+}
+
+// Roll turns the camera clockwise about its view direction: at +90 the top of the picture
+// looks towards what was the right.
+TEST(Camera, RollTurnsTheCamera)
+{
+    Camera c;
+    c.eye = Vec3(0, 0, 0);
+    c.lookAt = Vec3(0, 0, 5);
+    c.up = Vec3(0, 1, 0);
+    c.width = c.height = 100;
+    c.fovDeg = 60;
+    const Vec3 right = Projection(c).right();
+    c.rollDeg = 90;
+    const Projection p(c);
+    EXPECT_NEAR((p.upward() - right).length(), 0.0, 1e-12);
+    EXPECT_NEAR(angle(p.direction(50, 50), Vec3(0, 0, 1)), 0.0, 1e-12);
+}
+
+// Each model's image shape and field of view, and --dome-tilt only for the fisheye.
+TEST(Camera, ValidateChecksTheModelsShapeAndAngles)
+{
+    Camera c;
+    c.fovDeg = 200;
+    EXPECT_THROW(validateCamera(c), UsageError); // perspective: at most 179
+    c.model = CameraModel::Fisheye;
+    EXPECT_NO_THROW(validateCamera(c));
+    c.fovDeg = 361;
+    EXPECT_THROW(validateCamera(c), UsageError);
+    c.fovDeg = 180;
+    c.width = 600;
+    try {
+        validateCamera(c);
+        ADD_FAILURE() << "no UsageError";
+    } catch (const UsageError& e) {
+        EXPECT_NE(std::string(e.what()).find("--res 600x512 must be square"), std::string::npos)
+            << e.what();
+    }
+    c.width = 512;
+    c.domeTiltDeg = 95;
+    EXPECT_THROW(validateCamera(c), UsageError);
+    c.domeTiltDeg = 20;
+    EXPECT_NO_THROW(validateCamera(c));
+    c.model = CameraModel::Equirect;
+    EXPECT_THROW(validateCamera(c), UsageError); // --dome-tilt is for the fisheye
+    c.domeTiltDeg = std::nan("");
+    EXPECT_THROW(validateCamera(c), UsageError); // 512x512 is not 2:1
+    c.width = 1024;
+    EXPECT_NO_THROW(validateCamera(c));
+    EXPECT_EQ(cameraModelFromString("equirect"), CameraModel::Equirect);
+    EXPECT_THROW(cameraModelFromString("cube"), UsageError);
 }

@@ -8,6 +8,7 @@
 
 #include <gtest/gtest.h>
 
+#include <array>
 #include <cmath>
 #include <random>
 
@@ -366,6 +367,33 @@ TEST(SpectralRender, AgreesWithRgbModeForGreyDustAndABlackBodyStar)
             }
         }
     }
+}
+
+// The spectral mode renders every camera model: a fisheye's centre pixel looks where a
+// perspective camera's centre pixel does and gets the same colour; its corners stay black.
+TEST(SpectralRender, FisheyeAndEquirectCameras)
+{
+    const auto none = [](int, int, int) { return 0.0; };
+    const auto gas = [](int, int, int) { return 1.0; };
+    const auto still = [](int, int, int) { return std::array<double, 3>{0, 0, 0}; };
+    const SpectralScene scene = makeScene(none, gas, still, {}, oneLine(656.3));
+    RenderOptions o = zCamera(5, 10.0);
+    const Image persp = renderSpectral(scene, o);
+    o.camera.model = CameraModel::Fisheye;
+    o.camera.fovDeg = 180;
+    const Image dome = renderSpectral(scene, o);
+    const std::size_t centre = (2 * 5 + 2) * 4;
+    for (int c = 0; c < 3; ++c)
+        EXPECT_NEAR(dome.rgba[centre + c], persp.rgba[centre + c],
+                    1e-6 * std::abs(persp.rgba[centre + c]) + 1e-12);
+    EXPECT_GT(std::abs(dome.rgba[centre]), 0.0f);
+    EXPECT_EQ(dome.rgba[0], 0.0f);
+    o.camera.model = CameraModel::Equirect;
+    o.camera.width = 90;
+    o.camera.height = 45;
+    const Image pano = renderSpectral(scene, o);
+    const std::size_t front = (22 * 90 + 44) * 4; // 2 degrees left of the view direction
+    EXPECT_NEAR(pano.rgba[front], persp.rgba[centre], 2e-2 * std::abs(persp.rgba[centre]));
 }
 
 } // namespace

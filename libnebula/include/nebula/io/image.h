@@ -5,6 +5,7 @@
 
 #include "nebula/core/atomic_file.h"
 
+#include <cstddef>
 #include <map>
 #include <string>
 #include <vector>
@@ -33,6 +34,9 @@ struct Image
     std::vector<float> rgba;            ///< width * height * 4, row-major, top row first
     std::vector<ImageLayer> layers;     ///< e.g. "star.<name>"
     std::vector<ImageChannel> channels; ///< single channels, e.g. spectral bands
+    /// width * height: 1 where the pixel is in the camera's view, 0 outside it (a fisheye's
+    /// corners: black, and transparent in the PNG). Empty: every pixel is in view.
+    std::vector<unsigned char> inView;
 
     Image() = default;
     Image(int w, int h) : width(w), height(h), rgba(std::size_t(w) * h * 4, 0.0f) {}
@@ -48,6 +52,9 @@ void writeExr(const std::string& path, const Image& image,
 /// committed together (commitAll()).
 void writeExr(AtomicFile& file, const Image& image,
               const std::map<std::string, std::string>& attributes);
+
+/// Reads only the string attributes of an EXR (its header). Throws Error on failure.
+std::map<std::string, std::string> readExrAttributes(const std::string& path);
 
 /// Reads an EXR written by writeExr (R,G,B,A and layers) and its string attributes; for
 /// tests and tools that post-process frames. Layers are every "<name>.R/G/B" triple, in
@@ -86,20 +93,43 @@ constexpr double TONE_MIN_GAMMA = 0.3;
 /// an invalid parameter.
 ToneCurve computeToneCurve(const Image& image, const ToneParams& params);
 
+/// What the automatic tone curve reads from a frame (recorded in nebrender's EXRs as
+/// nebula:luminance, so that a sequence's curve can be computed from all its frames).
+struct LuminanceStats
+{
+    double percentile = 99.5; ///< the white point's luminance percentile
+    double white = 0.0;       ///< that percentile of the lit pixels' luminance (0: black)
+    double logMean = 0.0;     ///< log-mean luminance of the pixels above 1e-6 white
+    std::size_t lit = 0;      ///< pixels with finite luminance > 0
+};
+
+/// The statistics of @p image (see computeToneCurve()). Throws Error for a percentile
+/// outside [0, 100].
+LuminanceStats luminanceStats(const Image& image, double percentile);
+
+/// The automatic curve of @p stats: white = stats.white, gamma such that the log-mean maps
+/// to TONE_KEY, clamped to [TONE_MIN_GAMMA, 1]; white 1, gamma 1 for a black frame. A
+/// sequence's curve is this of its smoothed statistics.
+ToneCurve toneCurveFromStats(const LuminanceStats& stats);
+
 /// IEC 61966-2-1 sRGB encoding of a linear value in [0, 1].
 double srgbEncode(double linear);
 
-/// Writes an 8-bit RGBA sRGB PNG after applying @p curve to the premultiplied RGB (alpha
-/// written as 255: the background is black space). The curve maps the pixel's luminance
-/// Y/white to (Y/white)^gamma and scales R,G,B by the same factor, so hues are kept; a
-/// colour whose largest channel would exceed display white is scaled down as a whole. Text chunks
-/// from @p text ("Software", "Comment", ...): keys are PNG keywords (1-79 printable ASCII),
-/// non-ASCII values are written as UTF-8 iTXt. Carries an sRGB chunk. Atomic. Throws Error on
-/// failure.
+/// The EXR channel that holds Image::inView (1 in view, 0 outside), written only for images
+/// that have pixels outside the view.
+inline constexpr const char* EXR_IN_VIEW_CHANNEL = "inview";
+
+/// Writes an 8-bit (or @p bitDepth 16-bit) RGBA sRGB PNG after applying @p curve to the
+/// premultiplied RGB (alpha written as 255: the background is black space; 0 for pixels not in
+/// view, Image::inView). The curve maps the pixel's luminance Y/white to (Y/white)^gamma and scales
+/// R,G,B by the same factor, so hues are kept; a colour whose largest channel would exceed display
+/// white is scaled down as a whole. Text chunks from @p text ("Software", "Comment", ...): keys are
+/// PNG keywords (1-79 printable ASCII), non-ASCII values are written as UTF-8 iTXt. Carries an sRGB
+/// chunk. Atomic. Throws Error on failure.
 void writePng(const std::string& path, const Image& image, const ToneCurve& curve,
-              const std::map<std::string, std::string>& text);
+              const std::map<std::string, std::string>& text, int bitDepth = 8);
 /// writePng() into an open AtomicFile, finished but not committed (see writeExr()).
 void writePng(AtomicFile& file, const Image& image, const ToneCurve& curve,
-              const std::map<std::string, std::string>& text);
+              const std::map<std::string, std::string>& text, int bitDepth = 8);
 
 } // namespace nebula

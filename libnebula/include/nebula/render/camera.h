@@ -1,51 +1,96 @@
 #pragma once
 /// @file camera.h
 /// Cameras (DESIGN §8): the view a user sets (Camera) and the projection an integrator uses
-/// for every pixel, with its basis computed once (PinholeProjection). A new projection (dome,
-/// 360 degrees) is a new class with the same three functions, chosen from the Camera.
+/// for every pixel, its basis computed once (Projection). Three models:
+///  - perspective: a pinhole, --fov the horizontal angle;
+///  - fisheye: the azimuthal-equidistant dome master of fulldome production: a square image
+///    whose inscribed circle holds the view, the distance from its centre proportional to the
+///    angle from the dome's axis (--fov the full angle, 180 by default, up to 360); pixels
+///    outside the circle are not in view;
+///  - equirect: a 360 x 180 degree latitude-longitude panorama (width = 2 x height), the view
+///    direction at the centre, the camera's up at the top, longitude growing to the right.
+/// Every pixel carries its true solid angle (pixelSolidAngle()), so radiance times solid
+/// angle summed over pixels is the flux in every projection.
 
 #include "nebula/volume/volume.h"
 
-#include <array>
+#include <limits>
+#include <string>
 
 namespace nebula {
 
-/// Perspective pinhole camera (world space, pc).
+enum class CameraModel { Perspective, Fisheye, Equirect };
+
+/// "perspective", "fisheye", "equirect".
+std::string toString(CameraModel model);
+/// The inverse of toString(); throws UsageError naming --camera otherwise.
+CameraModel cameraModelFromString(const std::string& name);
+
+/// A camera (world space, pc).
 struct Camera
 {
     Vec3 eye{4, 3, -19};
     Vec3 lookAt{0, 0, 0};
     Vec3 up{0, 1, 0};
-    double fovDeg = 36.0; ///< horizontal field of view [degrees]
+    double fovDeg = 36.0; ///< perspective: horizontal; fisheye: the full angle of the circle
     int width = 512;
     int height = 512;
+    CameraModel model = CameraModel::Perspective;
+    double rollDeg = 0.0; ///< turns the image about the view direction, clockwise as seen
+    /// Fisheye only. NaN (the default): the dome's axis (the image centre) is the view
+    /// direction, a fisheye lens pointed at --look-at. A number T in [0, 90]: a planetarium
+    /// dome tilted by T degrees, the audience facing --look-at: the axis is the camera's up
+    /// tipped T degrees towards the view direction (0: a horizontal dome, the look-at point
+    /// on the bottom edge of the circle; 90: the same as NaN), and the front of the dome is
+    /// at the bottom of the image, as in a dome master.
+    double domeTiltDeg = std::numeric_limits<double>::quiet_NaN();
 
-    /// Convenience: the same as PinholeProjection(*this).direction() etc.; integrators build
-    /// the projection once and use it for every pixel.
+    /// Convenience: the same as Projection(*this).direction() etc.; integrators build the
+    /// projection once and use it for every pixel.
     Vec3 direction(double px, double py) const;
     double pixelSolidAngle(double px, double py) const;
     bool project(const Vec3& p, double& px, double& py) const;
 };
 
-/// The perspective pinhole projection of a Camera, its orthonormal basis precomputed.
-class PinholeProjection
+/// The projection of a Camera, its orthonormal basis precomputed.
+class Projection
 {
 public:
-    explicit PinholeProjection(const Camera& camera);
+    explicit Projection(const Camera& camera);
 
-    /// Unit world direction through the image point (px, py) [pixels] (py = 0 is the top
-    /// row; pixel centres at +0.5).
+    CameraModel model() const { return mModel; }
+
+    /// The unit world direction through the image point (px, py) [pixels] (py = 0 is the top
+    /// edge; pixel centres at +0.5) into @p d; false (d untouched) if the point is not in
+    /// view: outside a fisheye's circle.
+    bool direction(double px, double py, Vec3& d) const;
+    /// direction() for a point in view; for one that is not, the view direction.
     Vec3 direction(double px, double py) const;
-    /// Solid angle [sr] of the pixel centred at (px, py).
+    /// Whether the centre of pixel (px, py) is in view (the integrators render only those).
+    bool inView(double px, double py) const;
+    /// Solid angle [sr] of the pixel centred at (px, py): exact for perspective and
+    /// equirect; for fisheye the integral of the projection's Jacobian over the part of the
+    /// pixel inside the circle (16 x 16 midpoints), 0 for a pixel wholly outside.
     double pixelSolidAngle(double px, double py) const;
-    /// Projects world point @p p [pc] to pixel coordinates; false if behind the eye.
+    /// Projects world point @p p [pc] to image coordinates; false if it is not in view
+    /// (behind a perspective eye, beyond a fisheye's angle, or at the eye).
     bool project(const Vec3& p, double& px, double& py) const;
+    /// Whether the image wraps around horizontally (equirect: column W is column 0).
+    bool wrapsHorizontally() const { return mModel == CameraModel::Equirect; }
 
     const Vec3& eye() const { return mEye; }
+    /// The axis (image centre), the image's right and up directions in the world.
+    const Vec3& forward() const { return mForward; }
+    const Vec3& right() const { return mRight; }
+    const Vec3& upward() const { return mUp; }
 
 private:
+    double fisheyeJacobian(double u, double v) const;
+
+    CameraModel mModel;
     Vec3 mEye, mForward, mRight, mUp;
-    double mTanH; ///< tan of half the horizontal field of view
+    double mTanH = 0.0;     ///< perspective: tan of half the horizontal field of view
+    double mThetaMax = 0.0; ///< fisheye: half the full angle [rad]
     int mWidth, mHeight;
 };
 
@@ -55,7 +100,9 @@ inline constexpr double MAX_CAMERA_COORDINATE = 1e150;
 
 /// Throws UsageError naming the option unless --eye, --look-at and --up are finite with
 /// coordinates of at most MAX_CAMERA_COORDINATE in magnitude, the eye differs from the
-/// look-at point and up is not parallel to the view direction.
+/// look-at point and up is not parallel to the view direction; and unless --fov, --roll,
+/// --dome-tilt and --res suit the model (fisheye: square, fov in (0, 360], tilt in [0, 90];
+/// equirect: width = 2 x height; perspective: fov in (0, 179]).
 void validateCamera(const Camera& camera);
 
 } // namespace nebula
