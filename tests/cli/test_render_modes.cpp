@@ -135,3 +135,101 @@ TEST_F(RenderModes, BadCombinationsAndMissingLevels)
         run("nebrender -i pyr.vdb --phase old.vdb --phase-use replace --res 8x8 -o ok.exr").code,
         0);
 }
+
+// --camera fisheye and equirect end to end: the dome master's corners are black and
+// transparent (EXR alpha 0, PNG alpha 0), the panorama is 2:1 by default, the EXR records
+// the projection; shapes and options that do not fit the model are refused.
+TEST_F(RenderModes, DomeAndPanoramaCameras)
+{
+    makeLit();
+    Result r = run("nebrender -i lit.vdb --camera fisheye --dome-tilt 20 --eye 0,0,-1 "
+                   "--res 32x32 -o dome.exr");
+    ASSERT_EQ(r.code, 0) << r.err;
+    std::map<std::string, std::string> attrs;
+    const nebula::Image dome = nebula::readExr(path("dome.exr"), &attrs);
+    ASSERT_EQ(dome.width, 32);
+    for (int c = 0; c < 4; ++c)
+        EXPECT_EQ(dome.rgba[std::size_t(c)], 0.0f);
+    EXPECT_GT(dome.rgba[(16 * 32 + 16) * 4 + 1], 0.0f);
+    EXPECT_NE(attrs["nebula:camera"].find("\"projection\":\"fisheye\""), std::string::npos)
+        << attrs["nebula:camera"];
+    EXPECT_NE(attrs["nebula:camera"].find("\"dome_tilt_deg\":20"), std::string::npos)
+        << attrs["nebula:camera"];
+    EXPECT_NE(attrs["nebula:camera"].find("\"fov_deg\":180"), std::string::npos)
+        << attrs["nebula:camera"];
+    ASSERT_EQ(run("nebrender -i lit.vdb --camera equirect --eye 0,0,-1 --no-png -o pano.exr").code,
+              0);
+    const nebula::Image pano = nebula::readExr(path("pano.exr"), nullptr);
+    EXPECT_EQ(pano.width, 1024);
+    EXPECT_EQ(pano.height, 512);
+    ASSERT_EQ(run("nebrender -i lit.vdb --camera equirect --integrator path --spp 2 --res 16x8 "
+                  "--eye 0,0,-1 -o pano-path.exr")
+                  .code,
+              0);
+    expectFailure("nebrender -i lit.vdb --camera fisheye --res 32x16 -o bad.exr", 2,
+                  "must be square");
+    expectFailure("nebrender -i lit.vdb --camera equirect --res 32x32 -o bad.exr", 2,
+                  "twice as wide as high");
+    expectFailure("nebrender -i lit.vdb --dome-tilt 10 -o bad.exr", 2,
+                  "--dome-tilt is for --camera fisheye");
+    expectFailure("nebrender -i lit.vdb --fov 200 -o bad.exr", 2, "(0, 179]");
+    expectFailure("nebrender -i lit.vdb --camera cube -o bad.exr", 2, "--camera");
+}
+
+// --camera-path: many frames in one process with a frame pattern, one frame per process
+// (the same pixels), the frame and time recorded, --skip-existing resuming a batch, and the
+// mistakes a batch script makes refused before anything renders.
+TEST_F(RenderModes, CameraPathFramesAndResume)
+{
+    makeLit();
+    {
+        std::ofstream f(path("flight.json"));
+        f << R"({"fps": 4, "keyframes": [
+            {"time": 0, "eye": [0, 0, -6], "look_at": [0, 0, 0], "fov": 40},
+            {"time": 0.5, "eye": [2, 1, -3], "look_at": [0, 0, 0]},
+            {"time": 1, "eye": [3, 0, 0], "look_at": [0, 0, 0], "fov": 60}]})";
+    }
+    const std::string common = "nebrender -i lit.vdb --camera-path flight.json --res 16x16 ";
+    Result r = run(common + "--frames 1-5:2 -o 'f.####.exr' -v");
+    ASSERT_EQ(r.code, 0) << r.err;
+    for (const char* name : {"f.0001.exr", "f.0001.png", "f.0003.exr", "f.0005.png"})
+        EXPECT_TRUE(fs::exists(path(name))) << name;
+    EXPECT_FALSE(fs::exists(path("f.0002.exr")));
+    std::map<std::string, std::string> attrs;
+    const nebula::Image third = nebula::readExr(path("f.0003.exr"), &attrs);
+    EXPECT_NE(attrs["nebula:frame"].find("\"frame\":3"), std::string::npos)
+        << attrs["nebula:frame"];
+    EXPECT_NE(attrs["nebula:frame"].find("\"time_s\":0.5"), std::string::npos)
+        << attrs["nebula:frame"];
+    EXPECT_NE(attrs["nebula:camera"].find("\"eye\":[2.0,1.0,-3.0]"), std::string::npos)
+        << attrs["nebula:camera"];
+    // One frame per process gives the same pixels as the batch.
+    ASSERT_EQ(run(common + "--frame 3 -o single.exr").code, 0);
+    EXPECT_EQ(nebula::readExr(path("single.exr"), nullptr).rgba, third.rgba);
+    // --skip-existing: frames already there are skipped; a missing one is rendered.
+    const auto before = fs::last_write_time(path("f.0001.exr"));
+    fs::remove(path("f.0003.exr"));
+    r = run(common + "--frames 1-5:2 --skip-existing -o 'f.%04d.exr' -v");
+    ASSERT_EQ(r.code, 0) << r.err;
+    EXPECT_NE(r.err.find("frame 1: f.0001.exr exists, skipped"), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("2 of 3 frames existed"), std::string::npos) << r.err;
+    EXPECT_EQ(fs::last_write_time(path("f.0001.exr")), before);
+    EXPECT_EQ(nebula::readExr(path("f.0003.exr"), nullptr).rgba, third.rgba);
+    // All frames by default: 0..1 s at 4 fps is 5 frames.
+    ASSERT_EQ(run("mkdir all && " + common + "--no-png -o 'all/a.##.exr'").code, 0);
+    EXPECT_TRUE(fs::exists(path("all/a.05.exr")));
+    EXPECT_FALSE(fs::exists(path("all/a.06.exr")));
+    expectFailure(common + "--frames 1-3 -o nopattern.exr", 2, "need a frame pattern");
+    expectFailure(common + "--frames 4-9 -o 'x.####.exr'", 2,
+                  "frame 6 is beyond the end of flight.json, which has 5 frames at 4 fps");
+    expectFailure("nebrender -i lit.vdb --frame 2 -o x.exr", 2, "need a --camera-path");
+    expectFailure(common + "--frames 3-1 -o 'x.####.exr'", 2, "--frames \"3-1\"");
+    {
+        std::ofstream f(path("bad.json"));
+        f << R"({"fps": 4, "keyframes": [{"time": 0, "eye": [0, 0, 0], "look_at": [0, 0, 0]}]})";
+    }
+    expectFailure("nebrender -i lit.vdb --camera-path bad.json -o 'x.####.exr'", 1,
+                  "bad.json: keyframe 1: --eye and --look-at must differ");
+    expectFailure("nebrender -i lit.vdb --camera-path flight.json -o flight.json", 2,
+                  "flight.json");
+}

@@ -39,7 +39,7 @@ TOOLS_DIR=$(cd "$TOOLS_DIR" && pwd)
 
 # Each tool's directory, first on PATH.
 TOOL_PATH=
-for tool in nebgen nebillum nebphase nebpyramid nebrender; do
+for tool in nebgen nebillum nebphase nebpyramid nebrender nebtone; do
     found=
     for exe in "$TOOLS_DIR/$tool" "$TOOLS_DIR/$tool/$tool" "$TOOLS_DIR/../$tool/$tool"; do
         if [[ -f $exe && -x $exe ]]; then found=$exe; break; fi
@@ -58,6 +58,8 @@ elif [[ -n $(ls -A "$WORK_DIR") ]]; then
     fail "$WORK_DIR is not empty and not an earlier run's folder (no .readme-test): give an empty or new folder"
 fi
 : >"$WORK_DIR/.readme-test"
+# The README speaks from the top of a checkout: its examples/ folder (camera paths) is there.
+ln -s "$(dirname "$README")/examples" "$WORK_DIR/examples"
 LOGS=$WORK_DIR/.readme-test-logs
 mkdir -p "$LOGS"
 

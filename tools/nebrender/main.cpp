@@ -2,11 +2,16 @@
 #include "nebula/cli/cli.h"
 #include "nebula/cli/options.h"
 #include "nebula/core/error.h"
+#include "nebula/core/frames.h"
 #include "nebula/io/phase_table_vdb.h"
 #include "nebula/stages/render.h"
 
+#include <fmt/format.h>
+
 #include <cstdint>
 #include <cstdio>
+#include <fstream>
+#include <sstream>
 
 int main(int argc, char** argv)
 {
@@ -26,6 +31,8 @@ int main(int argc, char** argv)
         "  nebrender -i lit.vdb --rv 5 --albedo 0.6 --g 0.6 -o rv5.exr\n"
         "  nebphase -i lit.vdb -o phase.vdb && nebrender -i lit.vdb --phase phase.vdb -o f.exr\n"
         "  nebrender -i lit.vdb --integrator path --spp 256 -o reference.exr\n"
+        "  nebrender -i lit.vdb --camera fisheye --eye 0,0,-5 --res 1024x1024 -o dome.exr\n"
+        "  nebrender -i lit.vdb --camera equirect --eye 0,0,-5 --res 2048x1024 -o 360.exr\n"
         "  nebrender -i lit.vdb --spectral -o spectral.exr      # lines, black bodies, Doppler\n"
         "  nebrender -i shell.vdb --spectral --exaggerate-velocity 50 --spectral-layers 47 -o "
         "d.exr\n"
@@ -45,15 +52,53 @@ int main(int argc, char** argv)
     app.add_option("-o,--output", out.exr, "Output EXR file")->required();
     app.add_option("--png", out.png, "Output PNG (default: the EXR name with .png)");
     app.add_flag("--no-png", noPng, "Write no PNG");
+    app.add_option("--png-bits", out.pngBits, "PNG bit depth: 8 or 16")
+        ->check(CLI::IsMember({8, 16}))
+        ->capture_default_str();
     nebula::cli::addVec3(app, "--eye", opts.camera.eye, "Camera position [pc]");
     nebula::cli::addVec3(app, "--look-at", opts.camera.lookAt, "Point the camera looks at [pc]");
     nebula::cli::addVec3(app, "--up", opts.camera.up, "Up direction");
-    app.add_option("--fov", opts.camera.fovDeg, "Horizontal field of view [degrees]")
+    std::string cameraModel = "perspective";
+    app.add_option("--camera", cameraModel,
+                   "perspective; fisheye: an azimuthal-equidistant dome master (square, the\n"
+                   "view inside the circle, --fov the full angle); equirect: a 360 x 180\n"
+                   "latitude-longitude panorama (2:1), the view direction at the centre")
+        ->check(CLI::IsMember({"perspective", "fisheye", "equirect"}))
+        ->capture_default_str();
+    auto* fovOpt = app.add_option("--fov", opts.camera.fovDeg,
+                                  "Field of view [degrees]: perspective: horizontal, in (0, 179]\n"
+                                  "(default 36); fisheye: the circle's full angle, up to 360\n"
+                                  "(default 180); equirect: always 360 x 180")
+                       ->check(nebula::cli::numberIn(0.01, 360.0));
+    app.add_option("--roll", opts.camera.rollDeg,
+                   "Turn the camera about its view direction [degrees], clockwise as seen\n"
+                   "from behind it (the picture turns counter-clockwise)")
         ->capture_default_str()
-        ->check(nebula::cli::numberIn(0.01, 179.0));
+        ->check(nebula::cli::numberIn(-360.0, 360.0));
+    app.add_option("--dome-tilt", opts.camera.domeTiltDeg,
+                   "Fisheye: a planetarium dome tilted T degrees, the audience facing\n"
+                   "--look-at: the dome's centre is --up tipped T towards the view direction\n"
+                   "(0 a horizontal dome: the look-at point on the bottom edge; 90 the same as\n"
+                   "no tilt: the centre at --look-at)")
+        ->check(nebula::cli::numberIn(0.0, 90.0));
+    std::string pathFile, frameText, framesText;
+    auto* pathOpt = app.add_option("--camera-path", pathFile,
+                                   "Keyframed camera path (JSON: fps, keyframes of time, eye,\n"
+                                   "look_at, up, fov, roll; see the README); renders its frames,\n"
+                                   "all of them unless --frame or --frames");
+    auto* frameOpt =
+        app.add_option("--frame", frameText, "With --camera-path: render frame N (1 = time 0)");
+    app.add_option("--frames", framesText,
+                   "With --camera-path: render frames A-B[:STEP] in one process (the scene is\n"
+                   "loaded once); -o (and --png) then need a frame pattern: f.####.exr or\n"
+                   "f.%04d.exr")
+        ->excludes(frameOpt);
+    app.add_flag("--skip-existing", out.skipExisting,
+                 "Skip frames whose EXR (and PNG) exist and read back whole: a killed batch\n"
+                 "resumes where it stopped");
     app.add_option("--res", res,
-                   "Image size WxH, each in [1, 65536] (default 512x512), as far as the image "
-                   "fits in memory");
+                   "Image size WxH, each in [1, 65536] (default 512x512; equirect 1024x512), as\n"
+                   "far as the image fits in memory");
     app.add_option("--step", opts.step,
                    "Ray step [voxels]; at most 1e6 steps across the grid's diagonal")
         ->capture_default_str()
@@ -196,8 +241,47 @@ int main(int argc, char** argv)
 
     return nebula::cli::run(app, "nebrender", common, argc, argv, [&](nebula::Run& run) {
         nebula::cli::refuseSharedStream({{"-i", common.input}, {"--phase", phaseFile}}, "stdin");
+        opts.camera.model = nebula::cameraModelFromString(cameraModel);
+        if (fovOpt->count() == 0 && opts.camera.model == nebula::CameraModel::Fisheye) {
+            opts.camera.fovDeg = 180.0;
+        }
+        if (!res.empty()) {
+            nebula::cli::parseResolution(res, opts.camera.width, opts.camera.height);
+        } else if (opts.camera.model == nebula::CameraModel::Equirect) {
+            opts.camera.width = 2 * opts.camera.height;
+        }
         nebula::validateCamera(opts.camera);
-        if (!res.empty()) nebula::cli::parseResolution(res, opts.camera.width, opts.camera.height);
+        if (pathOpt->count() > 0) {
+            std::ifstream in(pathFile, std::ios::binary);
+            if (!in) throw nebula::Error(pathFile + " (--camera-path): cannot open file");
+            std::ostringstream text;
+            text << in.rdbuf();
+            if (!in.good() && !in.eof()) throw nebula::Error(pathFile + ": cannot read file");
+            auto path = std::make_shared<nebula::CameraPath>(
+                nebula::parseCameraPath(text.str(), pathFile, opts.camera));
+            if (!frameText.empty()) {
+                out.frames = nebula::parseFrameRange(frameText, "--frame").frames();
+                if (frameText.find_first_not_of("0123456789") != std::string::npos) {
+                    throw nebula::UsageError("--frame takes one frame number; for a range use "
+                                             "--frames A-B[:STEP]");
+                }
+            } else if (!framesText.empty()) {
+                out.frames = nebula::parseFrameRange(framesText, "--frames").frames();
+            } else {
+                out.frames = nebula::FrameRange{1, path->frameCount(), 1}.frames();
+            }
+            for (const long f : out.frames) {
+                if (f > path->frameCount()) {
+                    throw nebula::UsageError("frame " + std::to_string(f) +
+                                             " is beyond the end of " + pathFile + ", which has " +
+                                             std::to_string(path->frameCount()) + " frames at " +
+                                             fmt::format("{:g}", path->fps) + " fps");
+                }
+            }
+            out.path = path;
+        } else if (!frameText.empty() || !framesText.empty()) {
+            throw nebula::UsageError("--frame and --frames need a --camera-path");
+        }
         opts.drawStars = !noStars;
         if (bandsOpt->count() > 0) sp.enabled = true;
         nebula::cli::requireMode(spectralOnly, sp.enabled, "--spectral");

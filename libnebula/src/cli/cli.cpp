@@ -195,7 +195,8 @@ bool sameFile(const std::string& a, const std::string& b)
 void checkFileOptions(const CLI::App& app, const CommonOptions& opts)
 {
     const auto outputs = givenFileOptions(app, {"--output", "--png", "--json"});
-    const auto inputs = givenFileOptions(app, {"--input", "--phase", "--stars", "--config"});
+    const auto inputs =
+        givenFileOptions(app, {"--input", "--phase", "--stars", "--config", "--camera-path"});
     for (std::size_t i = 0; i < outputs.size(); ++i) {
         for (std::size_t j = i + 1; j < outputs.size(); ++j) {
             if (sameFile(outputs[i].path, outputs[j].path)) {

@@ -2,6 +2,7 @@
 
 #include "nebula/core/atomic_file.h"
 #include "nebula/core/error.h"
+#include "nebula/core/frames.h"
 #include "nebula/io/grid_names.h"
 #include "nebula/io/image_check.h"
 #include "nebula/render/fast.h"
@@ -12,6 +13,8 @@
 #include <nlohmann/json.hpp>
 
 #include <chrono>
+#include <cmath>
+#include <filesystem>
 #include <optional>
 
 namespace nebula {
@@ -112,11 +115,12 @@ std::map<std::string, std::string> exrAttributes(const GridSet& grids, const Ren
     const auto vec = [](const Vec3& v) { return nlohmann::json::array({v.x, v.y, v.z}); };
     const nlohmann::json tone = {
         {"white", curve.white}, {"gamma", curve.gamma}, {"automatic", out.tone.automatic}};
-    const nlohmann::json cam = {{"eye", vec(opts.camera.eye)},
-                                {"look_at", vec(opts.camera.lookAt)},
-                                {"up", vec(opts.camera.up)},
-                                {"fov_deg", opts.camera.fovDeg},
-                                {"projection", "perspective"}};
+    nlohmann::json cam = {
+        {"eye", vec(opts.camera.eye)},     {"look_at", vec(opts.camera.lookAt)},
+        {"up", vec(opts.camera.up)},       {"fov_deg", opts.camera.fovDeg},
+        {"roll_deg", opts.camera.rollDeg}, {"projection", toString(opts.camera.model)}};
+    if (opts.camera.model == CameraModel::Equirect) cam.erase("fov_deg");
+    if (!std::isnan(opts.camera.domeTiltDeg)) cam["dome_tilt_deg"] = opts.camera.domeTiltDeg;
     std::map<std::string, std::string> attrs{
         {"comments",
          path ? "nebula reference path-traced render (DESIGN section 6); linear radiance"
@@ -158,48 +162,149 @@ std::map<std::string, std::string> exrAttributes(const GridSet& grids, const Ren
 
 } // namespace
 
-void renderToFiles(const GridSet& grids, const RenderOptions& opts, const DustParams& dust,
-                   const RenderOutput& out, const Run& run)
-{
-    const std::string png = pngPath(out);
-    // Fail before the slow part if an output folder is not writable.
-    checkOutputWritable(out.exr, "EXR");
-    if (!png.empty()) checkOutputWritable(png, "PNG");
-    checkIntegratorOptions(grids, opts, run);
+namespace {
 
-    const auto start = std::chrono::steady_clock::now();
-    SpectralScene sscene; // the spectral scene, or just its RGB base
-    if (opts.spectral.enabled) {
-        sscene = buildSpectralScene(grids, opts, dust);
-    } else {
-        sscene.base = buildScene(grids, opts, dust);
+/// Whether the frame's outputs are already there, whole: the EXR reads back (our writes are
+/// atomic, so a file under the final name is complete unless something else damaged it).
+bool frameExists(const std::string& exr, const std::string& png)
+{
+    std::error_code ec;
+    if (!std::filesystem::is_regular_file(exr, ec)) return false;
+    if (!png.empty() && !std::filesystem::is_regular_file(png, ec)) return false;
+    try {
+        readExr(exr, nullptr);
+    } catch (const Error&) {
+        return false;
     }
-    const auto built = std::chrono::steady_clock::now();
+    return true;
+}
+
+/// Renders one frame with @p opts' camera and writes its EXR and PNG, both or neither.
+void renderOneFrame(const GridSet& grids, const RenderOptions& opts, const DustParams& dust,
+                    const SpectralScene& sscene, const RenderOutput& out, const std::string& exr,
+                    const std::string& png, const std::map<std::string, std::string>& extra,
+                    double tBuild, const Run& run)
+{
+    const auto start = std::chrono::steady_clock::now();
     RenderStats stats;
     const Image img = opts.spectral.enabled ? renderSpectral(sscene, opts, &run, &stats)
                       : opts.integrator == Integrator::Path
                           ? renderPathTraced(sscene.base, opts, &run, &stats)
                           : renderFrame(sscene.base, opts, &run, &stats);
     const auto done = std::chrono::steady_clock::now();
-    reportStats(opts, sscene, stats, std::chrono::duration<double>(built - start).count(),
-                std::chrono::duration<double>(done - built).count(), run);
+    reportStats(opts, sscene, stats, tBuild, std::chrono::duration<double>(done - start).count(),
+                run);
 
-    requireFinitePixels(img, out.exr);
+    requireFinitePixels(img, exr);
     const ToneCurve curve = computeToneCurve(img, out.tone);
+    auto attrs = exrAttributes(grids, opts, dust, sscene.base, curve, out, run);
+    for (const auto& [k, v] : extra)
+        attrs[k] = v;
+    // What the automatic tone curve reads, so that nebtone can tone a whole sequence.
+    const LuminanceStats lum = luminanceStats(img, out.tone.percentile);
+    attrs["nebula:luminance"] = nlohmann::json({{"percentile", lum.percentile},
+                                                {"white", lum.white},
+                                                {"log_mean", lum.logMean},
+                                                {"lit_pixels", lum.lit}})
+                                    .dump();
     // Both outputs or neither: each is written and fsynced before either replaces its target.
-    AtomicFile exrFile(out.exr);
-    writeExr(exrFile, img, exrAttributes(grids, opts, dust, sscene.base, curve, out, run));
+    AtomicFile exrFile(exr);
+    writeExr(exrFile, img, attrs);
     std::optional<AtomicFile> pngFile;
     if (!png.empty()) {
         pngFile.emplace(png);
         writePng(*pngFile, img, curve,
                  {{"Software", std::string("nebrender ") + NEBULA_VERSION_STRING},
-                  {"Comment", run.command()}});
+                  {"Comment", run.command()}},
+                 out.pngBits);
         commitAll({&exrFile, &*pngFile});
     } else {
         exrFile.commit();
     }
-    run.info("wrote " + out.exr + (png.empty() ? std::string() : " and " + png));
+    run.info("wrote " + exr + (png.empty() ? std::string() : " and " + png));
+}
+
+} // namespace
+
+void renderToFiles(const GridSet& grids, const RenderOptions& opts, const DustParams& dust,
+                   const RenderOutput& out, const Run& run)
+{
+    const std::string png = pngPath(out);
+    std::vector<long> frames = out.frames;
+    if (out.path && frames.empty()) {
+        throw UsageError("--camera-path needs the frames to render: --frame N or --frames A-B");
+    }
+    if (!out.path && !frames.empty()) {
+        throw UsageError("--frame and --frames need a --camera-path");
+    }
+    if (frames.size() > 1) {
+        if (!hasFramePattern(out.exr)) {
+            throw UsageError("-o " + out.exr + ": " + std::to_string(frames.size()) +
+                             " frames need a frame pattern in the name, e.g. frames/f.####.exr "
+                             "or frames/f.%04d.exr");
+        }
+        if (!png.empty() && !hasFramePattern(png)) {
+            throw UsageError("--png " + png + ": " + std::to_string(frames.size()) +
+                             " frames need a frame pattern in the name, e.g. f.####.png");
+        }
+    }
+    if (frames.empty()) frames.push_back(0); // one frame, no path: the names as given
+    // Fail before the slow part if an output folder is not writable.
+    for (const long f : {frames.front(), frames.back()}) {
+        checkOutputWritable(expandFramePattern(out.exr, f), "EXR");
+        if (!png.empty()) checkOutputWritable(expandFramePattern(png, f), "PNG");
+    }
+    checkIntegratorOptions(grids, opts, run);
+    RenderOptions frameOpts = opts;
+    if (out.path) { // every frame's camera, checked before the scene is built
+        for (const long f : frames) {
+            frameOpts.camera = out.path->at(out.path->frameTime(f), opts.camera);
+            try {
+                validateCamera(frameOpts.camera);
+            } catch (const UsageError& e) {
+                throw UsageError(out.path->source + ": frame " + std::to_string(f) + ": " +
+                                 e.what());
+            }
+        }
+    }
+
+    const auto start = std::chrono::steady_clock::now();
+    SpectralScene sscene; // the spectral scene, or just its RGB base: built once
+    if (opts.spectral.enabled) {
+        sscene = buildSpectralScene(grids, opts, dust);
+    } else {
+        sscene.base = buildScene(grids, opts, dust);
+    }
+    const double tBuild =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    std::size_t skipped = 0;
+    for (const long f : frames) {
+        const std::string exr = out.path ? expandFramePattern(out.exr, f) : out.exr;
+        const std::string framePng = out.path && !png.empty() ? expandFramePattern(png, f) : png;
+        if (out.skipExisting && frameExists(exr, framePng)) {
+            run.info("frame " + std::to_string(f) + ": " + exr + " exists, skipped");
+            ++skipped;
+            continue;
+        }
+        std::map<std::string, std::string> extra;
+        if (out.path) {
+            const double t = out.path->frameTime(f);
+            frameOpts.camera = out.path->at(t, opts.camera);
+            extra["nebula:frame"] = nlohmann::json({{"frame", f},
+                                                    {"time_s", t},
+                                                    {"fps", out.path->fps},
+                                                    {"camera_path", out.path->source}})
+                                        .dump();
+            if (frames.size() > 1)
+                run.info("frame " + std::to_string(f) + " (t = " + fmt::format("{:.4g}", t) +
+                         " s)");
+        }
+        renderOneFrame(grids, frameOpts, dust, sscene, out, exr, framePng, extra, tBuild, run);
+    }
+    if (skipped > 0) {
+        run.info(std::to_string(skipped) + " of " + std::to_string(frames.size()) +
+                 " frames existed and were skipped (--skip-existing)");
+    }
 }
 
 } // namespace nebula

@@ -5,9 +5,12 @@
 #include "nebula/core/run.h"
 #include "nebula/io/grid_io.h"
 #include "nebula/io/image.h"
+#include "nebula/render/camera_path.h"
 #include "nebula/render/options.h"
 
+#include <memory>
 #include <string>
+#include <vector>
 
 namespace nebula {
 
@@ -17,10 +20,19 @@ struct RenderOutput
     std::string exr; ///< EXR path (required)
     std::string png; ///< PNG path ("" = the EXR's name with .png; "none" = no PNG)
     ToneParams tone;
+    int pngBits = 8; ///< PNG bit depth: 8 or 16
+    /// A camera path (--camera-path): each frame's view comes from it at time (N - 1) / fps.
+    std::shared_ptr<const CameraPath> path;
+    /// The frames of the path to render (1-based); the EXR and PNG names then hold a frame
+    /// pattern (#### or %04d) when there is more than one. Empty without a path.
+    std::vector<long> frames;
+    /// Skip a frame whose EXR (and PNG) already exist and read back whole.
+    bool skipExisting = false;
 };
 
 /// nebrender's entry point: builds the scene from @p grids (dust from nebula:dust with
-/// @p dustOverride applied), renders, and writes the EXR and PNG atomically.
+/// @p dustOverride applied) once, renders the frame (or each of out.frames along out.path),
+/// and writes each frame's EXR and PNG atomically, both or neither.
 void renderToFiles(const GridSet& grids, const RenderOptions& opts, const DustParams& dust,
                    const RenderOutput& out, const Run& run);
 

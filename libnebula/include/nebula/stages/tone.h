@@ -1,0 +1,49 @@
+#pragma once
+/// @file tone.h
+/// nebtone's stage: display frames of an EXR sequence with one tone curve that changes
+/// slowly over time (DESIGN §8), so that a fly-through does not flicker as the automatic
+/// per-frame curve of each PNG would.
+
+#include "nebula/core/run.h"
+#include "nebula/io/image.h"
+
+#include <string>
+#include <vector>
+
+namespace nebula {
+
+/// nebtone's settings.
+struct ToneSequenceOptions
+{
+    std::string input;        ///< EXR names with a frame pattern (f.####.exr)
+    std::string output;       ///< PNG names with a frame pattern
+    std::vector<long> frames; ///< frames to tone; empty: every frame of the pattern on disk
+    /// Smoothing window [s]: each frame's curve comes from the luminance statistics of the
+    /// frames around it, Gaussian weights of standard deviation window / 2 (truncated at 3
+    /// standard deviations); 0: each frame its own curve.
+    double window = 1.0;
+    bool whole = false;       ///< one curve for the whole sequence (window "all")
+    double fps = 0.0;         ///< frames per second; 0: the EXRs' nebula:frame, else 24
+    int bits = 8;             ///< PNG bit depth, 8 or 16
+    double percentile = 99.5; ///< white point, for EXRs without nebula:luminance
+    bool skipExisting = false;
+};
+
+/// The curve of every frame from the frames' statistics @p stats at times @p times [s]: the
+/// logarithms of white and log-mean luminance averaged with Gaussian weights of standard
+/// deviation window / 2 over the lit frames within 3 standard deviations (all frames if
+/// @p whole), then toneCurveFromStats(). Frames with the same statistics get the same curve;
+/// a constant sequence a constant curve.
+std::vector<ToneCurve> sequenceToneCurves(const std::vector<double>& times,
+                                          const std::vector<LuminanceStats>& stats, double window,
+                                          bool whole);
+
+/// The frames of @p pattern that exist (files whose names match it), in order. Throws
+/// UsageError if @p pattern has no frame pattern or it is in a folder name.
+std::vector<long> framesOnDisk(const std::string& pattern);
+
+/// nebtone: reads each frame's statistics (nebula:luminance, or its pixels), computes the
+/// curves (sequenceToneCurves()) and writes each PNG atomically.
+void toneSequence(const ToneSequenceOptions& opts, const Run& run);
+
+} // namespace nebula
