@@ -111,7 +111,8 @@ TEST(StarOption, BadValuesAreUsageErrorsNamingTheOption)
         {"alpha:0,0,0:10:1e999", "temperature [K] must be a finite number"}, // out of range
     };
     for (const auto& [text, mention] : values) {
-        const std::string msg = usageMessage([&] { nebula::cli::parseStarOption(text); });
+        const std::string& value = text; // (a structured binding cannot be captured in C++17)
+        const std::string msg = usageMessage([&] { nebula::cli::parseStarOption(value); });
         EXPECT_EQ(msg.rfind("--star", 0), 0u) << text << ": " << msg;
         EXPECT_TRUE(contains(msg, mention)) << text << ": " << msg;
     }

@@ -12,6 +12,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <iostream>
 #include <string>
 
 using namespace nebula;
@@ -346,6 +347,8 @@ TEST(Render, EveryCameraSeesTheSameFlux)
         face.camera.up = std::abs(a.y) > 0.5 ? Vec3(1, 0, 0) : Vec3(0, 1, 0);
         faces += fluxOf(renderFrame(scene, face), face.camera);
     }
+    std::cout << "[ flux ] equirect / cube map - 1 = " << equirect / faces - 1
+              << ", fisheye 360 / cube map - 1 = " << fisheye / faces - 1 << "\n";
     EXPECT_NEAR(equirect, faces, 5e-3 * faces);
     EXPECT_NEAR(fisheye, faces, 5e-3 * faces);
     auto dome = centreCamera(CameraModel::Fisheye, 128, 128, 180);

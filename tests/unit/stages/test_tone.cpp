@@ -8,6 +8,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <iostream>
 #include <random>
 
 using namespace nebula;
@@ -67,6 +68,8 @@ TEST(ToneSequence, SmoothingRemovesJumpsAndJitter)
         worstRaw = std::max(worstRaw, std::fabs(std::log(raw[i].white / raw[i - 1].white)));
         EXPECT_DOUBLE_EQ(raw[i].white, s[i].white);
     }
+    std::cout << "[ flicker ] largest frame-to-frame white-point ratio: per frame "
+              << std::exp(worstRaw) << ", smoothed (1 s window) " << std::exp(worstSmooth) << "\n";
     EXPECT_GT(worstRaw, std::log(4.0));
     EXPECT_LT(worstSmooth, std::log(1.12)); // at most 12 % from one frame to the next
     EXPECT_NEAR(std::log(smooth[5].white), std::log(1.0), 0.25);
