@@ -168,5 +168,7 @@ TEST_F(Cli, PhaseTableAttributeIsValidJson)
     EXPECT_DOUBLE_EQ(table.at("albedo").get<double>(), 0.6);
     const auto camera = nlohmann::json::parse(attrs.at("nebula:camera"));
     EXPECT_EQ(camera.at("eye").size(), 3u);
-    EXPECT_NO_THROW(static_cast<void>(nlohmann::json::parse(attrs.at("nebula:exposure"))));
+    nlohmann::json exposure;
+    EXPECT_NO_THROW(exposure = nlohmann::json::parse(attrs.at("nebula:exposure")));
+    EXPECT_TRUE(exposure.contains("white")) << attrs.at("nebula:exposure");
 }
