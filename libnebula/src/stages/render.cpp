@@ -255,14 +255,15 @@ void renderToFiles(const GridSet& grids, const RenderOptions& opts, const DustPa
         if (!png.empty()) checkOutputWritable(expandFramePattern(png, f), "PNG");
     }
     checkIntegratorOptions(grids, opts, run);
-    RenderOptions frameOpts = opts;
-    if (out.path) { // every frame's camera, checked before the scene is built
-        for (const long f : frames) {
-            frameOpts.camera = out.path->at(out.path->frameTime(f), opts.camera);
+    // Every frame's camera, computed once and checked before the scene is built.
+    std::vector<Camera> cameras(frames.size(), opts.camera);
+    if (out.path) {
+        for (std::size_t i = 0; i < frames.size(); ++i) {
+            cameras[i] = out.path->at(out.path->frameTime(frames[i]), opts.camera);
             try {
-                validateCamera(frameOpts.camera);
+                validateCamera(cameras[i]);
             } catch (const UsageError& e) {
-                throw UsageError(out.path->source + ": frame " + std::to_string(f) + ": " +
+                throw UsageError(out.path->source + ": frame " + std::to_string(frames[i]) + ": " +
                                  e.what());
             }
         }
@@ -278,7 +279,9 @@ void renderToFiles(const GridSet& grids, const RenderOptions& opts, const DustPa
     const double tBuild =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     std::size_t skipped = 0;
-    for (const long f : frames) {
+    RenderOptions frameOpts = opts;
+    for (std::size_t i = 0; i < frames.size(); ++i) {
+        const long f = frames[i];
         const std::string exr = out.path ? expandFramePattern(out.exr, f) : out.exr;
         const std::string framePng = out.path && !png.empty() ? expandFramePattern(png, f) : png;
         if (out.skipExisting && frameExists(exr, framePng)) {
@@ -289,7 +292,6 @@ void renderToFiles(const GridSet& grids, const RenderOptions& opts, const DustPa
         std::map<std::string, std::string> extra;
         if (out.path) {
             const double t = out.path->frameTime(f);
-            frameOpts.camera = out.path->at(t, opts.camera);
             extra["nebula:frame"] = nlohmann::json({{"frame", f},
                                                     {"time_s", t},
                                                     {"fps", out.path->fps},
@@ -299,6 +301,7 @@ void renderToFiles(const GridSet& grids, const RenderOptions& opts, const DustPa
                 run.info("frame " + std::to_string(f) + " (t = " + fmt::format("{:.4g}", t) +
                          " s)");
         }
+        frameOpts.camera = cameras[i];
         renderOneFrame(grids, frameOpts, dust, sscene, out, exr, framePng, extra, tBuild, run);
     }
     if (skipped > 0) {
