@@ -55,6 +55,9 @@ void validateImage(const std::string& where, const Image& image, bool withLayers
                     " floats, expected " + std::to_string(n * 4) + " for " +
                     std::to_string(image.width) + " x " + std::to_string(image.height));
     }
+    if (!image.inView.empty() && image.inView.size() != n) {
+        throw Error(where + ": the image's in-view mask does not match its size");
+    }
     if (!withLayers) return;
     std::set<std::string> names;
     for (const ImageLayer& layer : image.layers) {
@@ -242,11 +245,8 @@ void writeExr(AtomicFile& file, const Image& image,
             fb.insert(ch.name, Imf::Slice(Imf::FLOAT, sliceBase(ch.values.data()), sizeof(float),
                                           sizeof(float) * std::size_t(image.width)));
         }
-        std::vector<float> inView; // 1 in view, 0 outside (a dome master's corners)
-        if (!image.inView.empty()) {
-            if (image.inView.size() != pixelCount(image.width, image.height)) {
-                throw Error(path + ": the image's in-view mask does not match its size");
-            }
+        std::vector<float> inView;   // 1 in view, 0 outside (a dome master's corners)
+        if (!image.inView.empty()) { // its size checked by validateImage()
             inView.assign(image.inView.begin(), image.inView.end());
             header.channels().insert(EXR_IN_VIEW_CHANNEL, Imf::Channel(Imf::FLOAT));
             fb.insert(EXR_IN_VIEW_CHANNEL,
@@ -487,9 +487,6 @@ void writePng(AtomicFile& file, const Image& image, const ToneCurve& curve,
     validateImage(path, image, false);
     if (bitDepth != 8 && bitDepth != 16) {
         throw Error(path + ": PNG bit depth must be 8 or 16, got " + std::to_string(bitDepth));
-    }
-    if (!image.inView.empty() && image.inView.size() != pixelCount(image.width, image.height)) {
-        throw Error(path + ": the image's in-view mask does not match its size");
     }
     if (!(curve.white > 0.0) || !std::isfinite(curve.white) || !(curve.gamma > 0.0) ||
         !std::isfinite(curve.gamma)) {
