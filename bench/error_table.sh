@@ -1,21 +1,28 @@
 #!/usr/bin/env bash
-# The error of the fast method against the reference path tracer (DESIGN §5-6).
+# The error of the fast methods against the reference path tracer (DESIGN §5, 5b, 6).
 #
 #   bench/error_table.sh                 # prints a markdown table; figures to examples/
-#   RES=64 IMAGE=96x96 THIN_SPP=8192 SPP=1024 THICK_SPP=512 LEVELS="3 5" KEEP=1 bench/error_table.sh
+#   RES=64 IMAGE=96x96 SPP=1024 THICK_SPP=512 PACKETS=2000000 SCENES="moderate side" KEEP=1 bench/error_table.sh
 #
-# Three nebulae from nebgen (the example's shape, no gas emission) at three densities:
-#   thin      --density 600     (peak voxel tau_V ~0.04, whole cloud tau_V < 0.3)
-#   moderate  --density 16000   (tau_V ~3 through the centre)
-#   thick     --density 160000  (tau_V ~30 through the centre)
+# Five nebulae from nebgen (the example's shape, no gas emission):
+#   thin       --density 600     (peak voxel tau_V ~0.04, whole cloud tau_V < 0.3)
+#   moderate   --density 16000   (tau_V ~3 through the centre)
+#   thick      --density 160000  (tau_V ~30 through the centre)
+#   side       --density 16000, one B star outside the cloud lighting it from the side
+#   filaments  --density 60000 --exponent 3 --contrast 4 --frequency 2.5: dense filaments
+#              casting deep shadows
 # each rendered (star sprites off: scattered light only) by the reference path tracer
-# (--integrator path, SPP walks per pixel and channel) and by the fast integrator with single
-# scattering only, with the phase table (gain), and with the table plus LEVELS pyramid levels.
+# (--integrator path, SPP walks per pixel and channel) and by the fast integrator: single
+# scattering; the seed's method (phase table + LEVELS pyramid levels); and nebscatter's field
+# at order L = 1, 2, 3 on cells of 2 voxels (level 1, the default), and at L = 2 on full
+# resolution (level 0) and cells of 4 voxels (level 2), PACKETS packets each.
 # For each: relative error of the total scattered flux (luminance Y), and the relative RMS
 # error over the pixels where the reference is above 1 % of its maximum: as measured, and
 # with the reference's own noise (its variance layer) taken out, sqrt(RMS^2 - noise^2)
-# (bench/exr_compare); "< noise" where the error is below the reference's noise. Figures: examples/error-<scene>.png,
-# side by side: reference | single scattering | table | table + most levels (same exposure).
+# (bench/exr_compare); "< noise" where the error is below the reference's noise; the
+# precompute's wall time and peak RSS (nebscatter, or nebpyramid + nebphase), and the render's.
+# Figures: examples/error-<scene>.png, side by side: reference | single scattering | seed's
+# method | field (L = 2, level 1), at the reference's exposure.
 set -euo pipefail
 SCRIPT=error_table.sh
 here=$(cd "$(dirname "$0")" && pwd)
@@ -26,53 +33,76 @@ COMPARE=${COMPARE:-$root/build/bench/exr_compare}
 RES=${RES:-64}
 IMAGE=${IMAGE:-96x96}
 SPP=${SPP:-1024}
-THICK_SPP=${THICK_SPP:-512}  # the thick reference's walks are long
-THIN_SPP=${THIN_SPP:-8192}   # few walks scatter in the thin cloud: noisy, but cheap
-LEVELS=${LEVELS:-"3 5"}
+THICK_SPP=${THICK_SPP:-512} # the thick reference's walks are long
+THIN_SPP=${THIN_SPP:-8192}  # few walks scatter in the thin cloud: noisy, but cheap
+LEVELS=${LEVELS:-5}
+PACKETS=${PACKETS:-2000000}
+SCENES=${SCENES:-"thin moderate thick side filaments"}
 FIGURES=${FIGURES:-$root/examples}
-bench_require "$BIN/nebgen" "$BIN/nebillum" "$BIN/nebpyramid" "$BIN/nebphase" "$BIN/nebrender" "$COMPARE"
+bench_require "$BIN/nebgen" "$BIN/nebillum" "$BIN/nebpyramid" "$BIN/nebphase" "$BIN/nebscatter" \
+    "$BIN/nebrender" "$COMPARE"
 bench_tmpdir
 
-maxLevel=0
-for L in $LEVELS; do (( L > maxLevel )) && maxLevel=$L; done
 timed phase "$BIN/nebphase" -o phase.vdb
-echo "| scene | centre tau_V | mode | flux error | pixel RMS error (measured / noise removed) | render time |"
-echo "|---|---|---|---|---|---|"
-for scene in "thin 600" "moderate 16000" "thick 160000"; do
-    set -- $scene
-    name=$1 density=$2
-    timed gen "$BIN/nebgen" --res "$RES" --emission 0 --density "$density" -o "$name.vdb"
+echo "| scene | centre tau_V | method | flux error | pixel RMS error (measured / noise removed) | precompute | peak RSS | render |"
+echo "|---|---|---|---|---|---|---|---|"
+for name in $SCENES; do
+    case $name in
+        thin) gen=(--density 600) ;;
+        moderate) gen=(--density 16000) ;;
+        thick) gen=(--density 160000) ;;
+        side) gen=(--density 16000 --star "side:-9,1.5,0:40000:B1V") ;;
+        filaments) gen=(--density 60000 --exponent 3 --contrast 4 --frequency 2.5) ;;
+        *) echo "$SCRIPT: error: unknown scene $name" >&2; exit 1 ;;
+    esac
+    timed gen "$BIN/nebgen" --res "$RES" --emission 0 "${gen[@]}" -o "$name.vdb"
     timed illum "$BIN/nebillum" -i "$name.vdb" -o "$name-lit.vdb"
-    timed pyr "$BIN/nebpyramid" -i "$name-lit.vdb" --levels "$maxLevel" -o "$name-pyr.vdb"
-    common=(-i "$name-pyr.vdb" --no-stars --res "$IMAGE")
+    timed "$name-pyr" "$BIN/nebpyramid" -i "$name-lit.vdb" --levels "$LEVELS" -o "$name-pyr.vdb"
     spp=$SPP
     [[ $name == thick ]] && spp=$THICK_SPP
     [[ $name == thin ]] && spp=$THIN_SPP
-    timed "$name-ref" "$BIN/nebrender" "${common[@]}" --integrator path --spp "$spp" \
-        -o "$name-ref.exr" --png "$name-ref.png"
+    timed "$name-ref" "$BIN/nebrender" -i "$name-lit.vdb" --no-stars --res "$IMAGE" \
+        --integrator path --spp "$spp" -o "$name-ref.exr" --png "$name-ref.png"
     # One exposure for all the figures: the reference's automatic tone curve.
     white=$(strings "$name-ref.exr" | grep -o '"white": [0-9.e+-]*' | head -1 | awk '{print $2}')
     gamma=$(strings "$name-ref.exr" | grep -o '"gamma": [0-9.e+-]*' | head -1 | awk '{print $2}')
     exposure=$(awk -v w="$white" 'BEGIN { print -log(w) / log(2) }')
     tone=(--exposure "$exposure" --gamma "$gamma")
     tau=$("$COMPARE" "$name-ref.exr" "$name-ref.exr" | awk '/centre pixel optical depth/ { print $(NF-1) }')
-    modes=("single::" "table:--phase phase.vdb --levels 0:")
-    for L in $LEVELS; do modes+=("table + $L levels:--phase phase.vdb --levels $L:"); done
+    # label : precompute (nebscatter flags, or "pyr" / "none") : render input : render flags
+    modes=("single:none:$name-lit.vdb:"
+           "table + $LEVELS levels:pyr:$name-pyr.vdb:--phase phase.vdb --levels $LEVELS"
+           "field L=1:--order 1::" "field L=2:--order 2::" "field L=3:--order 3::"
+           "field L=2 level 0:--order 2 --field-level 0::"
+           "field L=2 level 2:--order 2 --field-level 2::")
     pngs=("$name-ref.png")
     for m in "${modes[@]}"; do
-        label=${m%%:*}; rest=${m#*:}; flags=${rest%%:*}
+        IFS=: read -r label pre input flags <<<"$m"
         tag=$(echo "$label" | tr -c 'a-z0-9' '_')
+        precompute="" rss=""
+        if [[ $pre == pyr ]]; then
+            precompute="$(awk -v a="$(wall "$name-pyr")" -v b="$(wall phase)" 'BEGIN { printf "%.3g", a + b }') s"
+            rss="$(( $(maxrss "$name-pyr") / 1024 )) MiB"
+        elif [[ $pre != none ]]; then
+            input="$name-$tag.vdb"
+            # shellcheck disable=SC2086
+            timed "$name-$tag-scatter" "$BIN/nebscatter" -i "$name-lit.vdb" --packets "$PACKETS" \
+                $pre -o "$input"
+            precompute="$(wall "$name-$tag-scatter") s"
+            rss="$(( $(maxrss "$name-$tag-scatter") / 1024 )) MiB"
+        fi
         # shellcheck disable=SC2086
-        timed "$name-$tag" "$BIN/nebrender" "${common[@]}" $flags "${tone[@]}" \
-            -o "$name-$tag.exr" --png "$name-$tag.png"
-        [[ $label == "single" || $label == "table" || $label == "table + $maxLevel levels" ]] && pngs+=("$name-$tag.png")
+        timed "$name-$tag" "$BIN/nebrender" -i "$input" --no-stars --res "$IMAGE" $flags \
+            "${tone[@]}" -o "$name-$tag.exr" --png "$name-$tag.png"
+        [[ $label == "single" || $label == "table + $LEVELS levels" || $label == "field L=2" ]] &&
+            pngs+=("$name-$tag.png")
         line=$("$COMPARE" "$name-ref.exr" "$name-$tag.exr" | awk '$1 == "Y"')
         flux=$(awk '{ printf "%+.1f %%", 100 * $4 }' <<<"$line")
         rms=$(awk '{ if ($8 > 0) printf "%.1f %% / %.1f %%", 100 * $5, 100 * $8;
                      else printf "%.1f %% / < noise", 100 * $5 }' <<<"$line")
-        echo "| $name | $tau | $label | $flux | $rms | $(wall "$name-$tag") s |"
+        echo "| $name | $tau | $label | $flux | $rms | $precompute | $rss | $(wall "$name-$tag") s |"
     done
     noise=$("$COMPARE" "$name-ref.exr" "$name-ref.exr" | awk '$1 == "Y" { printf "%.1f %%", 100 * $7 }')
-    echo "| $name | $tau | reference ($spp spp) | | noise $noise | $(wall "$name-ref") s |"
+    echo "| $name | $tau | reference ($spp spp) | | noise $noise | | | $(wall "$name-ref") s |"
     python3 "$here/tile_png.py" "$FIGURES/error-$name.png" "${pngs[@]}"
 done

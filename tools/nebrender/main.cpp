@@ -27,6 +27,7 @@ int main(int argc, char** argv)
         "nebrender - render a nebula: starlight scattered by dust, plus gas emission\n\n"
         "Examples:\n"
         "  nebrender -i lit.vdb -o frame.exr                 # also writes frame.png\n"
+        "  nebscatter -i lit.vdb -o s.vdb && nebrender -i s.vdb -o f.exr  # all orders\n"
         "  nebrender -i lit.vdb --eye 0,0,-25 --look-at 0,0,0 --fov 40 --res 1024x768 -o f.exr\n"
         "  nebrender -i lit.vdb --rv 5 --albedo 0.6 --g 0.6 -o rv5.exr\n"
         "  nebphase -i lit.vdb -o phase.vdb && nebrender -i lit.vdb --phase phase.vdb -o f.exr\n"
@@ -38,7 +39,9 @@ int main(int argc, char** argv)
         "d.exr\n"
         "  nebgen -o - | nebillum -i - -o - | nebrender -i - -o frame.exr\n\n"
         "Needs the density grid, the tau.<star> grids from nebillum and nebula:stars;\n"
-        "uses the emission grid if present. EXR: linear radiance [L_sun pc^-2 sr^-1], R,G,B,A\n"
+        "uses the emission grid if present, and nebscatter's scattered-light field if present\n"
+        "(the light scattered more than once, right at every optical depth). EXR: linear radiance "
+        "[L_sun pc^-2 sr^-1], R,G,B,A\n"
         "(A = 1 - transmittance), layers star.<name>.R/G/B and transmittance.R/G/B (and\n"
         "variance.R/G/B, the squared standard error of each pixel, with --integrator path).\n"
         "PNG: sRGB after the automatic exposure and tone curve (or --exposure).\n"
@@ -139,6 +142,10 @@ int main(int argc, char** argv)
                    "the change of the voxel scattering as the voxel doubles (default: with\n"
                    "--phase, every level the input has; 0: none)")
         ->check(nebula::cli::integerIn(0, 16));
+    bool noScatterField = false;
+    app.add_flag("--no-scatter-field", noScatterField,
+                 "Ignore the input's scattered-light field (nebscatter): single scattering,\n"
+                 "or --phase and --levels");
     std::string integrator = "fast";
     app.add_option("--integrator", integrator,
                    "fast: ray caster (single scattering, or --phase); path: reference Monte\n"
@@ -283,6 +290,7 @@ int main(int argc, char** argv)
             throw nebula::UsageError("--frame and --frames need a --camera-path");
         }
         opts.drawStars = !noStars;
+        opts.scatterField = !noScatterField;
         if (bandsOpt->count() > 0) sp.enabled = true;
         nebula::cli::requireMode(spectralOnly, sp.enabled, "--spectral");
         opts.integrator =

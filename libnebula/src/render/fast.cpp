@@ -11,6 +11,7 @@
 
 #include "nebula/core/error.h"
 #include "nebula/core/units.h"
+#include "nebula/physics/spherical_harmonics.h"
 #include "nebula/render/sprites.h"
 #include "nebula/volume/block_walk.h"
 
@@ -35,6 +36,7 @@ struct LevelMap
 struct Scratch
 {
     std::vector<float> f, fk;  ///< field samples at level 0 and at a pyramid level
+    std::vector<float> fs;     ///< the scattered-light field's moments at a sample
     std::vector<double> starL; ///< per star and channel: the pixel's scattered light
     /// Per level, star and channel: the level's term (phase-factor change times the star's
     /// irradiance factor at that level), resampled every half level-k voxel along the ray
@@ -48,6 +50,8 @@ struct Scratch
 struct RayState
 {
     Vec3 dW; ///< world direction
+    /// a p_l Y_lm(-dW) per moment: the scattered-light field's weights towards the eye
+    double fieldWeight[shCount(SH_MAX_DEGREE)] = {};
     double T[3] = {1, 1, 1};
     double L[3] = {0, 0, 0};
 };
@@ -79,6 +83,15 @@ public:
         mLogTMax = mTable ? std::log(mTable->tMax) : 0.0;
         for (int c = 0; c < 3; ++c)
             mOff0[c] = mTable ? logTOffset(mLevel0.voxelWorld, c) : 0.0;
+        if (scene.scatter.order >= 0) {
+            mField = &scene.scatter.moments;
+            mFieldW2I = mField->indexToWorld.inverse();
+            mFieldMoments = shCount(scene.scatter.order);
+            const auto p = phaseLegendreMoments(mDust.phase, mDust.g, scene.scatter.order);
+            for (int l = 0; l <= scene.scatter.order; ++l)
+                for (int m = -l; m <= l; ++m)
+                    mFieldPl[shIndex(l, m)] = mDust.albedo * p[std::size_t(l)];
+        }
         mOffLevel.resize(mLevels.size());
         for (std::size_t k = 0; k < mLevels.size(); ++k)
             for (int c = 0; c < 3; ++c)
@@ -91,6 +104,7 @@ public:
         const std::size_t S = mScene.stars.size();
         Scratch s;
         s.f.resize(C);
+        if (mField) s.fs.resize(std::size_t(mField->channels()));
         s.fk.resize(C);
         s.starL.resize(S * 3);
         s.held.resize(mLevels.size() * S * 3);
@@ -104,6 +118,13 @@ public:
         const std::size_t S = mScene.stars.size();
         RayState ray;
         if (!mCam.direction(px + 0.5, py + 0.5, ray.dW)) return; // outside the view: black
+        if (mField) {
+            // Scattered towards the eye: Y_lm of the light's travel direction, -dW.
+            double Y[shCount(SH_MAX_DEGREE)];
+            realSphericalHarmonics(-ray.dW, mScene.scatter.order, Y);
+            for (int k = 0; k < mFieldMoments; ++k)
+                ray.fieldWeight[k] = mFieldPl[k] * Y[k];
+        }
         std::fill(sc.starL.begin(), sc.starL.end(), 0.0);
         std::fill(sc.nextT.begin(), sc.nextT.end(), -std::numeric_limits<double>::infinity());
         sc.stats.rays +=
@@ -232,6 +253,20 @@ private:
         }
     }
 
+    /// The light scattered at least once before (nebscatter's field, DESIGN §5b) scattered
+    /// towards the eye at xW: k a sum_l p_l sum_m c_lm Y_lm(-d), the k cancelled by the
+    /// segment's (1 - e^-x) / k. A negative sum (noise, truncation) counts as none.
+    void scatterField(const Vec3& xW, const double* oneMinus, RayState& ray, Scratch& sc) const
+    {
+        mField->sample(mFieldW2I.apply(xW), sc.fs.data());
+        for (int c = 0; c < 3; ++c) {
+            double src = 0.0;
+            for (int k = 0; k < mFieldMoments; ++k)
+                src += ray.fieldWeight[k] * double(sc.fs[std::size_t(k * 3 + c)]);
+            if (src > 0.0) ray.L[c] += ray.T[c] * src * oneMinus[c];
+        }
+    }
+
     /// One ray step: the sample at index point @p pI, ray distance @p tm, length @p seg [pc].
     /// Returns false once the ray is opaque in every channel.
     bool step(const Vec3& pI, double tm, double seg, RayState& ray, Scratch& sc) const
@@ -260,6 +295,7 @@ private:
                 resampleLevels(xW, tm, ray.dW, sc);
             }
             scatterStars(xW, &sc.f[2], oneMinus, tPos, ray, sc);
+            if (mField) scatterField(xW, oneMinus, ray, sc);
         }
         for (int c = 0; c < 3; ++c)
             ray.T[c] *= 1.0 - oneMinus[c];
@@ -282,6 +318,10 @@ private:
     double mLogTMax = 0.0;
     double mOff0[3] = {0, 0, 0};
     std::vector<std::array<double, 3>> mOffLevel;
+    const DenseVolume* mField = nullptr; ///< the scattered-light field, if any
+    Affine mFieldW2I;
+    int mFieldMoments = 0;
+    double mFieldPl[shCount(SH_MAX_DEGREE)] = {}; ///< a p_l per moment index
 };
 
 } // namespace

@@ -2,10 +2,13 @@
 
 #include "nebula/core/error.h"
 #include "nebula/core/format.h"
+#include "nebula/core/units.h"
 #include "nebula/io/grid_io.h"
 #include "nebula/io/grid_names.h"
 #include "nebula/io/volume_vdb.h"
 #include "nebula/physics/colour.h"
+#include "nebula/physics/spherical_harmonics.h"
+#include "nebula/render/scatter_field.h"
 
 #include <fmt/format.h>
 
@@ -121,6 +124,218 @@ RenderLevel readLevel(const GridSet& grids, const RenderOptions& opts,
     return level;
 }
 
+/// "a, b, c" of three numbers.
+std::string tripleText(const nlohmann::json& v)
+{
+    std::string t;
+    for (const auto& x : v)
+        t += (t.empty() ? "" : ", ") + numberText(x.get<double>());
+    return t;
+}
+
+bool close(double a, double b, double rel = 1e-9)
+{
+    return std::abs(a - b) <= rel * std::max({std::abs(a), std::abs(b), 1e-300});
+}
+
+/// Reads nebscatter's field (DESIGN §5b) into scene.scatter, checking that it was made for
+/// this scene; see buildScene().
+void readScatterField(const GridSet& grids, const RenderOptions& opts, const DustParams& dust,
+                      RenderScene& scene)
+{
+    const std::string metaText = grids.metaString(META_SCATTER);
+    if (metaText.empty()) {
+        for (const auto& g : grids.grids)
+            if (g->getName().rfind("scatter.", 0) == 0) {
+                throw Error(grids.source + ": grid \"" + g->getName() +
+                            "\" looks like a scattered-light field but the file has no " +
+                            META_SCATTER +
+                            " metadata saying what it was made for; rerun "
+                            "nebscatter, or pass --no-scatter-field");
+            }
+        return;
+    }
+    const std::string what = grids.source + ": the scattered-light field (nebscatter)";
+    const std::string rerun = "; rerun nebscatter on this scene, or pass --no-scatter-field";
+    nlohmann::json meta;
+    int order = 0, level = 0;
+    std::vector<std::string> sources;
+    std::vector<Star> fieldStars;
+    DustParams fieldDust;
+    std::array<double, 3> wl{};
+    std::array<double, 12> a0{};
+    double minStar = 0.0;
+    std::string densityName, emissionName;
+    try {
+        meta = nlohmann::json::parse(metaText);
+        order = meta.at("order").get<int>();
+        level = meta.at("level").get<int>();
+        for (const auto& src : meta.at("sources"))
+            sources.push_back(src.at("name").get<std::string>());
+        fieldStars = parseStars(meta.at("stars").dump(), grids.source + " (" + META_SCATTER + ")");
+        fieldDust =
+            DustParams::fromJson(meta.at("dust").dump(), grids.source + " (" + META_SCATTER + ")");
+        wl = meta.at("wavelengths").get<std::array<double, 3>>();
+        a0 = meta.at("index_to_world").get<std::array<double, 12>>();
+        minStar = meta.at("min_star_distance").get<double>();
+        densityName = meta.at("density_grid").get<std::string>();
+        emissionName = meta.at("emission_grid").get<std::string>();
+    } catch (const nlohmann::json::exception& e) {
+        throw Error(grids.source + ": " + META_SCATTER +
+                    " metadata is not nebscatter's: " + e.what());
+    }
+    if (order < 0 || order > SH_MAX_DEGREE || level < 0 || level > 16) {
+        throw Error(grids.source + ": " + META_SCATTER + " has order " + std::to_string(order) +
+                    " and level " + std::to_string(level) + "; expected 0..4 and 0..16");
+    }
+    if (opts.phaseTable || opts.levels > 0) {
+        throw UsageError(grids.source +
+                         " has a scattered-light field (nebscatter), which "
+                         "already holds the multiply scattered light that --phase and --levels "
+                         "approximate: together they would count it twice. Pass "
+                         "--no-scatter-field to use the table and levels instead");
+    }
+    // Dust.
+    const bool sameDust = close(fieldDust.albedo, dust.albedo) && close(fieldDust.g, dust.g) &&
+                          fieldDust.phase == dust.phase && close(fieldDust.kappa_V, dust.kappa_V) &&
+                          fieldDust.curve == dust.curve && close(fieldDust.R_V, dust.R_V);
+    if (!sameDust) {
+        throw Error(what + " was made for other dust: " + fieldDust.toJson() +
+                    ", but the scene's is " + dust.toJson() + rerun);
+    }
+    for (int c = 0; c < 3; ++c) {
+        if (!close(wl[std::size_t(c)], opts.wavelengths[std::size_t(c)])) {
+            throw Error(what + " was made for channel wavelengths " +
+                        tripleText(meta.at("wavelengths")) + " nm, but --wavelengths is " +
+                        numberText(opts.wavelengths[0]) + ", " + numberText(opts.wavelengths[1]) +
+                        ", " + numberText(opts.wavelengths[2]) + rerun);
+        }
+    }
+    if (!close(minStar, opts.minStarDistance)) {
+        throw Error(what + " was made with --min-star-distance " + numberText(minStar) +
+                    ", but this render uses " + numberText(opts.minStarDistance) + rerun);
+    }
+    if (densityName != opts.densityGrid || emissionName != opts.emissionGrid) {
+        throw Error(what + " was made from the grids \"" + densityName + "\" and \"" +
+                    emissionName + "\", but this render uses \"" + opts.densityGrid + "\" and \"" +
+                    opts.emissionGrid + "\"" + rerun);
+    }
+    // Stars: the same ones in the same places and colours; a summed field also needs the
+    // same luminosities, a per-star field is scaled to the scene's.
+    const bool perStar = meta.value("per_star", false);
+    std::string starDiff;
+    if (fieldStars.size() != scene.stars.size()) {
+        starDiff = std::to_string(fieldStars.size()) + " stars, the scene has " +
+                   std::to_string(scene.stars.size());
+    } else {
+        for (std::size_t s = 0; s < fieldStars.size() && starDiff.empty(); ++s) {
+            const Star& a = fieldStars[s];
+            const Star& b = scene.stars[s];
+            if (a.name != b.name) {
+                starDiff = "star " + std::to_string(s + 1) + " \"" + a.name +
+                           "\", the scene's is \"" + b.name + "\"";
+            } else if (!close(a.position[0], b.position[0]) ||
+                       !close(a.position[1], b.position[1]) ||
+                       !close(a.position[2], b.position[2])) {
+                starDiff = "star \"" + a.name + "\" at another position";
+            } else if (!close(a.temperature, b.temperature)) {
+                starDiff = "star \"" + a.name + "\" at " + numberText(a.temperature) +
+                           " K, the scene's at " + numberText(b.temperature) + " K";
+            } else if (!perStar && !close(a.luminosity, b.luminosity)) {
+                starDiff = "star \"" + a.name + "\" of luminosity " + numberText(a.luminosity) +
+                           " L_sun, the scene's is " + numberText(b.luminosity) +
+                           " (nebscatter --per-star makes a field that follows the luminosity)";
+            }
+        }
+    }
+    if (!starDiff.empty()) throw Error(what + " was made for other stars: " + starDiff + rerun);
+    // Transform: level 0's, and each grid on the field level's.
+    const Affine& s0 = scene.fields.indexToWorld;
+    const double row[12] = {s0.m[0], s0.m[1], s0.m[2], s0.t.x,  s0.m[3], s0.m[4],
+                            s0.m[5], s0.t.y,  s0.m[6], s0.m[7], s0.m[8], s0.t.z};
+    double worst = 0.0, size = 0.0;
+    for (int i = 0; i < 12; ++i) {
+        worst = std::max(worst, std::abs(row[i] - a0[std::size_t(i)]));
+        size = std::max(size, std::abs(row[i]));
+    }
+    if (worst > 1e-9 * std::max(size, 1e-300)) {
+        throw Error(what +
+                    " was made for a grid with another transform (voxel size, "
+                    "orientation or position) than \"" +
+                    opts.densityGrid + "\"" + rerun);
+    }
+    const Affine expected = fieldLevelMap(s0, level);
+
+    const int nm = shCount(order);
+    std::vector<openvdb::FloatGrid::ConstPtr> jGrids;
+    std::vector<std::vector<openvdb::FloatGrid::ConstPtr>> perSource;
+    for (const auto& src : sources) {
+        std::vector<openvdb::FloatGrid::ConstPtr> list;
+        for (int l = 0; l <= order; ++l)
+            for (int m = -l; m <= l; ++m)
+                for (int c = 0; c < 3; ++c) {
+                    const std::string name = scatterGridName(src, l, m, c);
+                    const auto base = grids.find(name);
+                    if (!base) throw Error(what + " lacks its grid \"" + name + "\"" + rerun);
+                    const auto g = grids.floatGrid(name, "");
+                    const Affine a = affineFromTransform(g->transform());
+                    double off = 0.0, norm = 0.0;
+                    for (std::size_t i = 0; i < 9; ++i) {
+                        off = std::max(off, std::abs(a.m[i] - expected.m[i]));
+                        norm = std::max(norm, std::abs(expected.m[i]));
+                    }
+                    off =
+                        std::max({off, std::abs(a.t.x - expected.t.x),
+                                  std::abs(a.t.y - expected.t.y), std::abs(a.t.z - expected.t.z)});
+                    if (off > 1e-6 * norm) {
+                        throw Error(what + ": grid \"" + name + "\" is not on field level " +
+                                    std::to_string(level) + "'s transform (cells of " +
+                                    std::to_string(1 << level) + " voxels of \"" +
+                                    opts.densityGrid + "\")" + rerun);
+                    }
+                    if (l == 0) jGrids.push_back(g);
+                    list.push_back(g);
+                }
+        perSource.push_back(std::move(list));
+    }
+    if (sources.empty()) return;
+    const auto bounds = activeBounds(jGrids, 1);
+    SceneScatterField& out = scene.scatter;
+    out.order = order;
+    out.level = level;
+    const double c00 = 4.0 * PI * (0.5 / std::sqrt(PI)); // J -> c_00
+    for (std::size_t si = 0; si < sources.size(); ++si) {
+        const DenseVolume v = denseFromGrids(perSource[si], bounds, grids.source);
+        if (si == 0) {
+            out.moments = DenseVolume(v.lo(), v.dims(), nm * 3);
+            out.moments.indexToWorld = v.indexToWorld;
+        }
+        // Each channel's factor: a star's luminosity ratio, the emission's scale and colour.
+        std::array<double, 3> factor{1, 1, 1};
+        const std::string& src = sources[si];
+        if (src == "emission") {
+            for (int c = 0; c < 3; ++c)
+                factor[std::size_t(c)] = opts.emissionScale * opts.emissionColor[std::size_t(c)];
+        } else if (src.rfind("star_", 0) == 0) {
+            for (std::size_t s = 0; s < scene.stars.size(); ++s)
+                if ("star_" + scene.stars[s].name == src)
+                    factor.fill(scene.stars[s].luminosity / fieldStars[s].luminosity);
+        }
+        for (std::size_t i = 0; i < v.voxelCount(); ++i) {
+            const float* a = v.voxel(i);
+            float* b = out.moments.voxel(i);
+            for (int q = 0; q < nm * 3; ++q)
+                b[q] += float(factor[std::size_t(q % 3)] * a[q] * (q < 3 ? c00 : 1.0));
+        }
+    }
+    std::string names;
+    for (const auto& s : sources)
+        names += (names.empty() ? "" : ", ") + s;
+    out.description = fmt::format("scattered-light field: order {}, level {} (cells of {}^3 "
+                                  "voxels), sources {}",
+                                  order, level, 1 << level, names);
+}
+
 } // namespace
 
 RenderScene buildScene(const GridSet& grids, const RenderOptions& opts, const DustParams& dust)
@@ -165,6 +380,9 @@ RenderScene buildScene(const GridSet& grids, const RenderOptions& opts, const Du
     requireTableForDust(grids, opts, dust);
     scene.buildOccupancy();
 
+    if (opts.scatterField && opts.integrator == Integrator::Fast && !opts.spectral.enabled) {
+        readScatterField(grids, opts, dust, scene);
+    }
     const int levels = levelCount(grids, opts);
     for (int k = 1; k <= levels; ++k) {
         scene.levels.push_back(readLevel(grids, opts, scene.stars, k, scene.fields.indexToWorld));

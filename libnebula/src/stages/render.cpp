@@ -52,7 +52,15 @@ void checkIntegratorOptions(const GridSet& grids, const RenderOptions& opts, con
         throw UsageError("--levels needs a phase table (--phase): each level adds the change "
                          "of the per-voxel scattering Phi as the voxel doubles");
     }
-    if (opts.levels < 0 && !opts.phaseTable && !opts.spectral.enabled &&
+    const bool field = opts.scatterField && !grids.metaString(META_SCATTER).empty();
+    if (field && (path || opts.spectral.enabled)) {
+        run.warn(grids.source + " has a scattered-light field (nebscatter), which " +
+                 (path ? std::string("--integrator path does not need: it simulates every "
+                                     "order of scattering itself")
+                       : std::string("--spectral does not use yet: this image is single "
+                                     "scattering")));
+    }
+    if (opts.levels < 0 && !opts.phaseTable && !opts.spectral.enabled && !field &&
         grids.find(levelGridName(opts.densityGrid, 1))) {
         run.warn(grids.source + " has pyramid levels (" + levelGridName(opts.densityGrid, 1) +
                  ", ...), which only a phase table uses: this image is single scattering. "
@@ -139,7 +147,8 @@ std::map<std::string, std::string> exrAttributes(const GridSet& grids, const Ren
                     : std::string("spectral, piecewise-linear")) +
                    ", exaggerate-velocity " + std::to_string(opts.spectral.exaggerateVelocity) +
                    (opts.spectral.relativistic ? ", relativistic Doppler" : ", first-order Doppler")
-         : opts.phaseTable ? std::string("effective phase function (") +
+         : !scene.scatter.description.empty() ? "single scattering + " + scene.scatter.description
+         : opts.phaseTable                    ? std::string("effective phase function (") +
                                  (opts.phaseUse == PhaseUse::Gain ? "gain" : "replace") +
                                  "), levels " + std::to_string(scene.levels.size())
                            : "single-scattering"},
@@ -278,6 +287,9 @@ void renderToFiles(const GridSet& grids, const RenderOptions& opts, const DustPa
     }
     const double tBuild =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    if (!sscene.base.scatter.description.empty()) {
+        run.info("using the " + sscene.base.scatter.description + " (--no-scatter-field: off)");
+    }
     std::size_t skipped = 0;
     RenderOptions frameOpts = opts;
     for (std::size_t i = 0; i < frames.size(); ++i) {

@@ -18,6 +18,9 @@ inline constexpr const char* META_HISTORY = "nebula:history";
 inline constexpr const char* META_CHECKSUMS = "nebula:checksums";
 inline constexpr const char* META_STARS = "nebula:stars"; ///< JSON array of stars
 inline constexpr const char* META_DUST = "nebula:dust";   ///< JSON object of dust parameters
+/// JSON object: what nebscatter's field was made for (order, level, sources, dust, stars,
+/// wavelengths, transform; DESIGN §5b).
+inline constexpr const char* META_SCATTER = "nebula:scatter";
 /// Grid metadata: the spectral lines an emission grid emits ("NAME:STRENGTH,...").
 inline constexpr const char* META_LINES = "nebula:lines";
 
@@ -31,6 +34,17 @@ inline std::string tauGridName(const std::string& star)
 inline std::string levelGridName(const std::string& base, int level)
 {
     return base + ".L" + std::to_string(level);
+}
+
+/// nebscatter's grid of moment (@p l, @p m) of RGB channel @p channel (0, 1, 2) of source
+/// @p source ("stars", "star_<name>", "emission"): "scatter.<source>.J.<R|G|B>" for l = 0
+/// (the mean intensity J), else "scatter.<source>.c<l>_<m>.<R|G|B>" (DESIGN §5b).
+inline std::string scatterGridName(const std::string& source, int l, int m, int channel)
+{
+    static const char* const CH[3] = {"R", "G", "B"};
+    const std::string moment =
+        l == 0 ? std::string("J") : "c" + std::to_string(l) + "_" + std::to_string(m);
+    return "scatter." + source + "." + moment + "." + CH[channel];
 }
 
 } // namespace nebula

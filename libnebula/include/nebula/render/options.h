@@ -79,6 +79,9 @@ struct RenderOptions
     /// -1 (auto): with a phase table, every level the input has (L1, L2, ... while they
     /// last); without one, none.
     int levels = -1;
+    /// Use nebscatter's scattered-light field (DESIGN §5b) when the input has one
+    /// (--no-scatter-field: false).
+    bool scatterField = true;
     SpectralOptions spectral;
 };
 

@@ -12,6 +12,7 @@
 
 #include <array>
 #include <cstdint>
+#include <string>
 #include <vector>
 
 namespace nebula {
@@ -34,6 +35,18 @@ struct ChannelDust : DustParams
     std::array<double, 3> r{1, 1, 1}; ///< A(lambda_c)/A_V of channel c (DustParams::curve)
 };
 
+/// nebscatter's field as the fast integrator adds it (DESIGN §5b): the moments of every
+/// source summed (each star's scaled to the scene's luminosity, the emission's by
+/// --emission-scale and colour), channel shIndex(l, m) * 3 + c holding c_lm of channel c
+/// [L_sun pc^-2], on the field level's lattice. order -1: no field.
+struct SceneScatterField
+{
+    int order = -1;
+    int level = 0;
+    DenseVolume moments;
+    std::string description; ///< what it is, for -v and the EXR
+};
+
 /// What the kernel renders: compact fields plus the stars and dust.
 struct RenderScene
 {
@@ -52,6 +65,9 @@ struct RenderScene
 
     /// Pyramid levels 1..K (empty without RenderOptions::levels).
     std::vector<RenderLevel> levels;
+
+    /// The scattered-light field, if the input has one and RenderOptions::scatterField.
+    SceneScatterField scatter;
 };
 
 /// Builds the scene from nebillum's output: density (opts.densityGrid), emission (optional) and
@@ -60,6 +76,11 @@ struct RenderScene
 /// if opts.phaseTable was made for another albedo, g or phase model than @p dust (unless
 /// opts.phaseIgnoreDust). With opts.levels = K, also reads density.L<k> and tau.<star>.L<k>
 /// for k = 1..K and throws Error if one is missing or its voxels are not 2^k times level 0's.
+/// With opts.scatterField and an input holding nebscatter's field (nebula:scatter), reads it
+/// into RenderScene::scatter; throws Error if it was made for other dust, stars (a summed
+/// field: also their luminosity), wavelengths, star distance clamp, density or emission grid
+/// or grid transform, or if a field grid is missing or not a FloatGrid on the field level's
+/// transform; UsageError if it would be combined with a phase table or pyramid levels.
 RenderScene buildScene(const GridSet& grids, const RenderOptions& opts, const DustParams& dust);
 
 /// The most ray-march steps a ray may take across a scene's lattice (corner to corner).

@@ -1,0 +1,94 @@
+#pragma once
+/// @file scatter_field.h
+/// The scattered-light field (DESIGN §5b): the angular moments of the radiance of light
+/// scattered at least once (the collided light), computed once per scene by Monte Carlo
+/// packets (nebscatter) and added by the fast integrator to its exact single scattering.
+///
+/// Radiance splits into direct starlight, exact through tau.<star>, and collided light.
+/// Packets start from the first-scattering source, known exactly from the tau grids (a point
+/// drawn in proportion to k a E, a direction from the phase function around the star's
+/// light), and from the gas emission (tallied only after its first collision). Every flight
+/// is walked through the half-voxel lattice with the optical depth of each piece exact
+/// (Simpson's rule on the trilinear density); it tallies its expected track length,
+/// integral of w e^-tau dl, into the field cell of each piece, times the real spherical
+/// harmonics of its direction; then it collides inside the walked part for certain (its
+/// weight times the probability of colliding), scatters with the albedo, and goes on until
+/// Russian roulette ends it. One walk serves the three channels (coloured dust): the
+/// collision point is drawn from the mixture of the channels' distributions and each
+/// channel's weight carries its own ratio. Tallies are fixed-point integers added
+/// atomically (stochastic rounding from the packet's own random stream), so the field is
+/// the same bit for bit whatever the thread count.
+
+#include "nebula/core/run.h"
+#include "nebula/render/options.h"
+#include "nebula/render/scene.h"
+
+#include <array>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace nebula {
+
+/// What nebscatter computes and how hard it tries.
+struct ScatterOptions
+{
+    int order = 2;      ///< L: real spherical harmonics of degree 0..L, (L + 1)^2 moments
+    int fieldLevel = 1; ///< field cells of 2^k x 2^k x 2^k voxels (nebpyramid's level k layout)
+    /// Packets per source: all stars together (or each star with perStar), and the emission.
+    std::uint64_t packets = 2000000;
+    std::uint64_t seed = 1;
+    bool perStar = false; ///< one field per star instead of their sum
+    bool emission = true; ///< also the gas emission's collided light (if the scene emits)
+};
+
+/// One source's field.
+struct ScatterSourceField
+{
+    std::string name; ///< "stars", a star's name (perStar) or "emission"
+    /// Moments on the field lattice: channel k * 3 + c is c_lm of RGB channel c,
+    /// k = shIndex(l, m), c_lm = integral of L(w) Y_lm(w) dw [L_sun pc^-2] (the l = 0
+    /// moment is 4 pi Y_00 J = 2 sqrt(pi) J). The emission's is per unit --emission-scale
+    /// and colour (1, 1, 1). Its indexToWorld is fieldLevelMap() of level 0's.
+    DenseVolume moments;
+    std::array<double, 3> power{0, 0, 0};    ///< first-scattered (or emitted) power [L_sun]
+    std::array<double, 3> escaped{0, 0, 0};  ///< collided power leaving the grid [L_sun]
+    std::array<double, 3> absorbed{0, 0, 0}; ///< collided power absorbed [L_sun]
+    /// Relative standard error of J (green) per field cell, averaged with weights n_H J V
+    /// (each cell's share of the scattered light) over the cells holding dust.
+    double relativeError = 0.0;
+    std::uint64_t packets = 0;
+    std::uint64_t flights = 0; ///< straight flights walked (one per scattering order)
+};
+
+/// The whole field: every source's moments on one lattice.
+struct ScatterField
+{
+    int order = 2;
+    int level = 0;
+    std::vector<ScatterSourceField> sources;
+};
+
+/// Field level @p level's index-to-world map from level 0's @p level0: field voxel I covers
+/// level-0 voxels 2^k I ... 2^k I + 2^k - 1, its centre at 2^k I + (2^k - 1) / 2
+/// (nebpyramid's levelTransform()).
+Affine fieldLevelMap(const Affine& level0, int level);
+
+/// Throws UsageError naming the option unless @p opts are usable on @p scene: order in
+/// 0..SH_MAX_DEGREE (--order), packets > 0 (--packets), a field level whose cells are not
+/// larger than the grid (--field-level).
+void validateScatterOptions(const RenderScene& scene, const ScatterOptions& opts);
+
+/// Computes the field of @p scene (its density, emission, tau.<star>, stars and channel
+/// dust; @p ropts: emission grid scale is not used, min star distance is) with @p opts.
+/// Progress and -v reports through @p run (may be null). Same seed, same field, whatever the
+/// thread count.
+ScatterField computeScatterField(const RenderScene& scene, const RenderOptions& ropts,
+                                 const ScatterOptions& opts, const Run* run);
+
+/// The field as the fast integrator adds it (RenderScene::scatter): every source's moments
+/// summed, the emission's times @p opts' emission scale and colour (in memory; nebrender
+/// reads nebscatter's grids in buildScene()).
+SceneScatterField sceneScatterField(const ScatterField& field, const RenderOptions& opts);
+
+} // namespace nebula

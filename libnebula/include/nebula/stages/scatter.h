@@ -1,0 +1,36 @@
+#pragma once
+/// @file scatter.h
+/// nebscatter's entry point: the scattered-light field (DESIGN §5b) as grids.
+
+#include "nebula/core/run.h"
+#include "nebula/io/grid_io.h"
+#include "nebula/render/scatter_field.h"
+
+#include <array>
+#include <string>
+
+namespace nebula {
+
+struct ScatterStageOptions
+{
+    ScatterOptions field;
+    std::string densityGrid = "density";
+    std::string emissionGrid = "emission";
+    /// R, G, B wavelengths [nm]: the channels' extinction (nebrender's --wavelengths).
+    std::array<double, 3> wavelengths{700.0, 546.1, 435.8};
+    double minStarDistance = 0.5; ///< 1/r^2 clamp [voxels] (nebrender's --min-star-distance)
+    bool onlyNew = false;         ///< write only the field grids
+};
+
+/// Computes the field of @p grids (density, emission, tau.<star>, nebula:stars, nebula:dust)
+/// and adds its grids, replacing any earlier field: per source ("stars", or "star_<name>"
+/// with perStar, and "emission" when the input emits) and RGB channel, the FloatGrid
+/// scatter.<source>.J.<c> (mean intensity of the collided light [L_sun pc^-2 sr^-1]) and,
+/// for l = 1..L, scatter.<source>.c<l>_<m>.<c> (c_lm [L_sun pc^-2]), on field level k's
+/// transform (nebpyramid's levelTransform()), active on the cells holding dust and their
+/// neighbours; and the file metadata nebula:scatter (what the field was made for). Throws
+/// Error on input nebrender would refuse (no stars, a tau grid missing) and UsageError on
+/// bad options (validateScatterOptions()).
+ScatterField scatter(GridSet& grids, const ScatterStageOptions& opts, const Run& run);
+
+} // namespace nebula

@@ -1,0 +1,712 @@
+/// @file scatter_field.cpp
+/// nebscatter's Monte Carlo (DESIGN §5b); see scatter_field.h.
+
+#include "nebula/render/scatter_field.h"
+
+#include "nebula/core/error.h"
+#include "nebula/core/rng.h"
+#include "nebula/core/units.h"
+#include "nebula/physics/spherical_harmonics.h"
+#include "nebula/volume/block_walk.h"
+
+#include <fmt/format.h>
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <limits>
+
+namespace nebula {
+
+Affine fieldLevelMap(const Affine& level0, int level)
+{
+    const double s = double(1 << level), off = 0.5 * (s - 1.0);
+    Affine a;
+    for (std::size_t i = 0; i < 9; ++i)
+        a.m[i] = level0.m[i] * s;
+    a.t = level0.apply(Vec3(off, off, off));
+    return a;
+}
+
+void validateScatterOptions(const RenderScene& scene, const ScatterOptions& opts)
+{
+    if (opts.order < 0 || opts.order > SH_MAX_DEGREE) {
+        throw UsageError("--order must be in 0.." + std::to_string(SH_MAX_DEGREE) +
+                         " (the degree of the spherical harmonics), got " +
+                         std::to_string(opts.order));
+    }
+    if (opts.packets == 0) throw UsageError("--packets must be > 0");
+    const auto& d = scene.fields.dims();
+    // The grid's own extent: the dense lattice has a one-voxel zero border on each side.
+    const int extent = std::max({d[0], d[1], d[2]}) - 2;
+    int coarsest = 0;
+    while ((2 << coarsest) <= std::max(extent, 1))
+        ++coarsest;
+    if (opts.fieldLevel < 0 || (1 << std::min(opts.fieldLevel, 30)) > std::max(extent, 1)) {
+        throw UsageError(fmt::format(
+            "--field-level {}: cells of {} voxels are larger than the grid ({}x{}x{} voxels); "
+            "use a level in 0..{}",
+            opts.fieldLevel, opts.fieldLevel < 31 ? std::to_string(1LL << opts.fieldLevel) : "2^k",
+            d[0] - 2, d[1] - 2, d[2] - 2, coarsest));
+    }
+}
+
+namespace {
+
+constexpr double INF = std::numeric_limits<double>::infinity();
+/// Fixed-point quantum of the moment tallies (weight x length in voxels) and of the squared
+/// tallies; of the energy statistics (weight).
+constexpr double QUANTUM = 1.0 / double(1 << 24);
+constexpr double SQ_QUANTUM = 1.0 / double(1 << 16);
+/// A flight stops walking once even the least dimmed channel is below e^-17 (4e-8).
+constexpr double TAU_CUTOFF = 17.0;
+/// Russian roulette below this channel weight (initial weights are about 1).
+constexpr double ROULETTE_WEIGHT = 0.25;
+constexpr std::uint64_t MAX_FLIGHTS = 1000000;
+
+/// Adds @p v / quantum to @p p, rounded up or down at random in proportion (unbiased), as
+/// one atomic integer addition: the sum does not depend on the order of additions.
+inline void addFixed(std::int64_t* p, double scaled, Pcg32& rng)
+{
+    const double f = std::floor(scaled);
+    const auto q = std::int64_t(f) + (double(rng.uniformFloat()) < scaled - f ? 1 : 0);
+    if (q != 0) __atomic_fetch_add(p, q, __ATOMIC_RELAXED);
+}
+
+/// One piece of a flight (a half-voxel cell) with dust: where it starts (world distance),
+/// its length [pc], its constant V extinction [1/pc] and the V optical depth before it.
+struct Piece
+{
+    double t, len, k, tau0;
+};
+
+/// A source: the cells packets start from (lattice cells [i, i+1]^3 given by their lower
+/// corner's linear index), with cumulative weights.
+struct Sampler
+{
+    std::vector<std::uint32_t> cell;
+    std::vector<float> proxy; ///< the cell's weight: mean of eta over its 8 corners
+    std::vector<double> cdf;  ///< inclusive prefix sums of proxy
+    double total = 0.0;
+};
+
+/// Per-voxel source strength eta (summed over channels) -> the sampler of lattice cells.
+Sampler buildSampler(const DenseVolume& lattice, const std::vector<float>& eta)
+{
+    Sampler s;
+    const auto& lo = lattice.lo();
+    const auto& d = lattice.dims();
+    double sum = 0.0;
+    for (int k = lo[2]; k < lo[2] + d[2] - 1; ++k)
+        for (int j = lo[1]; j < lo[1] + d[1] - 1; ++j)
+            for (int i = lo[0]; i < lo[0] + d[0] - 1; ++i) {
+                double m = 0.0;
+                for (int c = 0; c < 8; ++c)
+                    m += eta[lattice.index(i + (c & 1), j + ((c >> 1) & 1), k + (c >> 2))];
+                if (!(m > 0.0)) continue;
+                s.cell.push_back(std::uint32_t(lattice.index(i, j, k)));
+                s.proxy.push_back(float(m / 8.0));
+                sum += double(s.proxy.back());
+                s.cdf.push_back(sum);
+            }
+    s.total = sum;
+    return s;
+}
+
+/// Everything a flight needs, shared by all packets.
+class Transport
+{
+public:
+    Transport(const RenderScene& scene, const RenderOptions& ropts, const ScatterOptions& opts)
+        : mScene(scene), mDust(scene.dust), mOrder(opts.order), mNm(shCount(opts.order)),
+          mScale(1 << opts.fieldLevel)
+    {
+        const DenseVolume& f = scene.fields;
+        mDensity = DenseVolume(f.lo(), f.dims(), 1);
+        mDensity.indexToWorld = f.indexToWorld;
+        for (std::size_t i = 0; i < f.voxelCount(); ++i)
+            mDensity.voxel(i)[0] = f.voxel(i)[0];
+        mW2I = f.indexToWorld.inverse();
+        mVoxel = voxelSize(f.indexToWorld);
+        mRmin2 = std::pow(ropts.minStarDistance * mVoxel, 2);
+        for (int a = 0; a < 3; ++a) {
+            mLo[a] = f.lo()[a];
+            mHi[a] = f.lo()[a] + f.dims()[a] - 1;
+            mFLo[a] = floorDiv(mLo[a]) - 1;
+            mFDims[a] = floorDiv(mHi[a]) + 1 - mFLo[a] + 1;
+        }
+        mRMin = std::min({mDust.r[0], mDust.r[1], mDust.r[2]});
+        // Lattice cells without dust (all 8 corners zero): nothing to sample there.
+        mEmpty.assign(f.voxelCount(), 1);
+        for (int k = mLo[2]; k < mHi[2]; ++k)
+            for (int j = mLo[1]; j < mHi[1]; ++j)
+                for (int i = mLo[0]; i < mHi[0]; ++i) {
+                    bool empty = true;
+                    for (int c = 0; c < 8 && empty; ++c)
+                        empty = !(f.voxel(f.index(i + (c & 1), j + ((c >> 1) & 1),
+                                                  k + (c >> 2)))[0] > 0.0f);
+                    mEmpty[f.index(i, j, k)] = empty ? 1 : 0;
+                }
+        // Field cells the renderer reads: those overlapping dust and their 26 neighbours.
+        std::vector<std::uint8_t> dusty(fieldCells(), 0);
+        for (int k = mLo[2]; k <= mHi[2]; ++k)
+            for (int j = mLo[1]; j <= mHi[1]; ++j)
+                for (int i = mLo[0]; i <= mHi[0]; ++i)
+                    if (f.voxel(f.index(i, j, k))[0] > 0.0f)
+                        dusty[cellIndex(floorDiv(i) - mFLo[0], floorDiv(j) - mFLo[1],
+                                        floorDiv(k) - mFLo[2])] = 1;
+        mActive.assign(fieldCells(), 0);
+        for (int K = 0; K < mFDims[2]; ++K)
+            for (int J = 0; J < mFDims[1]; ++J)
+                for (int I = 0; I < mFDims[0]; ++I) {
+                    if (!dusty[cellIndex(I, J, K)]) continue;
+                    for (int c = 0; c < 27; ++c) {
+                        const int a = I + c % 3 - 1, b = J + (c / 3) % 3 - 1, e = K + c / 9 - 1;
+                        if (a >= 0 && b >= 0 && e >= 0 && a < mFDims[0] && b < mFDims[1] &&
+                            e < mFDims[2])
+                            mActive[cellIndex(a, b, e)] = 1;
+                    }
+                }
+        for (const auto& s : scene.stars)
+            mStarPos.emplace_back(s.position[0], s.position[1], s.position[2]);
+    }
+
+    std::size_t fieldCells() const { return std::size_t(mFDims[0]) * mFDims[1] * mFDims[2]; }
+    int moments() const { return mNm; }
+    int order() const { return mOrder; }
+    const std::array<int, 3>& fieldLo() const { return mFLo; }
+    const std::array<int, 3>& fieldDims() const { return mFDims; }
+    double voxel() const { return mVoxel; }
+    double rmin2() const { return mRmin2; }
+    const std::vector<Vec3>& starPos() const { return mStarPos; }
+    const DenseVolume& density() const { return mDensity; }
+
+    /// Linear index of field cell (I, J, K) (0-based on the field lattice).
+    std::size_t cellIndex(int I, int J, int K) const
+    {
+        return (std::size_t(K) * mFDims[1] + std::size_t(J)) * mFDims[0] + std::size_t(I);
+    }
+    /// Whether field cell @p c is read by the renderer (dust in it or next to it).
+    bool active(std::size_t c) const { return mActive[c] != 0; }
+
+    /// Field cell of level-0 index coordinate @p p along one axis.
+    int floorDiv(double p) const { return int(std::floor((p + 0.5) / mScale)); }
+
+    /// The overlap of field cell @p I with the walked box [lo, hi], in index units^3.
+    double cellVolume(const std::array<int, 3>& I) const
+    {
+        double v = 1.0;
+        for (int a = 0; a < 3; ++a) {
+            const double c0 = double(mScale) * I[a] - 0.5, c1 = c0 + mScale;
+            v *= std::max(0.0, std::min(c1, double(mHi[a])) - std::max(c0, double(mLo[a])));
+        }
+        return v;
+    }
+
+    /// Tallies of one source: moments (cell, k, c) and squared green J per cell, fixed point.
+    struct Tally
+    {
+        std::vector<std::int64_t> sum, sq;
+    };
+
+    /// Walks the flight from world point @p x along unit @p d with channel weights @p w:
+    /// tallies (if @p tally) the expected track length times Y_lm(d) into @p out, and
+    /// records the pieces with dust; returns the V optical depth walked.
+    double walk(const Vec3& x, const Vec3& d, const double* w, bool tally, const double* Y,
+                Tally* out, Pcg32& rng, std::vector<Piece>& pieces) const
+    {
+        pieces.clear();
+        const Vec3 oI = mW2I.apply(x), dI = mW2I.applyLinear(d);
+        double ta = 0.0, tb = INF;
+        for (int a = 0; a < 3; ++a) {
+            if (std::abs(dI[a]) < 1e-300) {
+                if (oI[a] < mLo[a] || oI[a] > mHi[a]) return 0.0;
+                continue;
+            }
+            const double t1 = (mLo[a] - oI[a]) / dI[a], t2 = (mHi[a] - oI[a]) / dI[a];
+            ta = std::max(ta, std::min(t1, t2));
+            tb = std::min(tb, std::max(t1, t2));
+        }
+        if (!(ta < tb)) return 0.0;
+        // Half-voxel cells: q = floor(2 p) along each axis; every such cell lies inside one
+        // lattice cell (the trilinear density is one cubic along the piece: Simpson is
+        // exact) and inside one field cell (boundaries at half-integers).
+        int q[3], step[3];
+        double tNext[3], tDelta[3];
+        const Vec3 p0 = oI + dI * (0.5 * (ta + std::min(tb, ta + 1e-6))); // inside the box
+        for (int a = 0; a < 3; ++a) {
+            q[a] = std::clamp(int(std::floor(2.0 * p0[a])), 2 * mLo[a], 2 * mHi[a] - 1);
+            if (dI[a] > 0.0) {
+                step[a] = 1;
+                tNext[a] = ((q[a] + 1) * 0.5 - oI[a]) / dI[a];
+                tDelta[a] = 0.5 / dI[a];
+            } else if (dI[a] < 0.0) {
+                step[a] = -1;
+                tNext[a] = (q[a] * 0.5 - oI[a]) / dI[a];
+                tDelta[a] = -0.5 / dI[a];
+            } else {
+                step[a] = 0;
+                tNext[a] = INF;
+                tDelta[a] = INF;
+            }
+        }
+        double t = ta, tau = 0.0;
+        float nPrev = mDensity.sample0(oI + dI * ta);
+        double att[3] = {w[0], w[1], w[2]}; // w_c e^-tau_c before the piece
+        double acc[3] = {0, 0, 0};
+        long cell = -1;
+        const double kappa = mDust.kappa_V;
+        while (t < tb) {
+            int a = 0;
+            if (tNext[1] < tNext[a]) a = 1;
+            if (tNext[2] < tNext[a]) a = 2;
+            const double tn = std::min(tNext[a], tb);
+            const double len = tn - t;
+            if (len > 0.0) {
+                // The piece's lattice cell and field cell from its half-voxel cell q.
+                const int li = floorDiv2(q[0]), lj = floorDiv2(q[1]), lk = floorDiv2(q[2]);
+                double dTau = 0.0;
+                if (!mEmpty[mDensity.index(li, lj, lk)]) {
+                    float nm, ne;
+                    mDensity.sampleChannels(oI + dI * (0.5 * (t + tn)), 0, 1, &nm);
+                    mDensity.sampleChannels(oI + dI * tn, 0, 1, &ne);
+                    dTau = kappa * len * (double(nPrev) + 4.0 * nm + ne) / 6.0;
+                    nPrev = ne;
+                } else {
+                    nPrev = 0.0f; // the faces of an empty cell are empty
+                }
+                if (tally) {
+                    const long c = long(
+                        cellIndex(fieldIndex(q[0], 0), fieldIndex(q[1], 1), fieldIndex(q[2], 2)));
+                    if (c != cell) {
+                        flush(cell, acc, Y, out, rng);
+                        cell = mActive[std::size_t(c)] ? c : -1;
+                    }
+                }
+                if (dTau > 0.0) {
+                    for (int ch = 0; ch < 3; ++ch) {
+                        const double xc = mDust.r[ch] * dTau;
+                        const double em1 = -std::expm1(-xc); // 1 - e^-x
+                        if (cell >= 0) {
+                            // integral of w e^-tau over the piece, in voxel lengths
+                            const double frac = xc > 1e-9 ? em1 / xc : 1.0 - 0.5 * xc;
+                            acc[ch] += att[ch] * frac * len / mVoxel;
+                        }
+                        att[ch] *= 1.0 - em1;
+                    }
+                    pieces.push_back({t, len, dTau / len, tau});
+                    tau += dTau;
+                    if (mRMin * tau > TAU_CUTOFF) break;
+                } else if (cell >= 0) {
+                    for (int ch = 0; ch < 3; ++ch)
+                        acc[ch] += att[ch] * len / mVoxel;
+                }
+            }
+            t = tn;
+            tNext[a] += tDelta[a];
+            q[a] += step[a];
+            if (q[a] < 2 * mLo[a] || q[a] > 2 * mHi[a] - 1) break; // left the box
+        }
+        if (tally) flush(cell, acc, Y, out, rng);
+        return tau;
+    }
+
+    const RenderScene& mScene;
+    const ChannelDust& mDust;
+
+private:
+    static int floorDiv2(int q) { return q >= 0 ? q / 2 : -((1 - q) / 2); }
+
+    /// Field cell index (0-based) along axis @p a of half-voxel cell @p q: the cell holding
+    /// level-0 coordinates [q / 2, (q + 1) / 2], i.e. floor((q + 1) / 2^(k+1)).
+    int fieldIndex(int q, int a) const
+    {
+        const int n = q + 1, d = 2 * mScale;
+        const int f = n >= 0 ? n / d : -((d - 1 - n) / d);
+        return std::clamp(f - mFLo[a], 0, mFDims[a] - 1);
+    }
+
+    void flush(long cell, double* acc, const double* Y, Tally* out, Pcg32& rng) const
+    {
+        if (cell < 0 || !(acc[0] > 0.0 || acc[1] > 0.0 || acc[2] > 0.0)) {
+            acc[0] = acc[1] = acc[2] = 0.0;
+            return;
+        }
+        std::int64_t* m = out->sum.data() + std::size_t(cell) * std::size_t(mNm) * 3;
+        for (int k = 0; k < mNm; ++k)
+            for (int c = 0; c < 3; ++c)
+                addFixed(m + k * 3 + c, acc[c] * Y[k] / QUANTUM, rng);
+        addFixed(out->sq.data() + cell, acc[1] * acc[1] / SQ_QUANTUM, rng);
+        acc[0] = acc[1] = acc[2] = 0.0;
+    }
+
+    int mOrder, mNm, mScale;
+    DenseVolume mDensity;
+    Affine mW2I;
+    double mVoxel = 1.0, mRmin2 = 0.0, mRMin = 1.0;
+    std::array<int, 3> mLo{}, mHi{}, mFLo{}, mFDims{};
+    std::vector<Vec3> mStarPos;
+    std::vector<std::uint8_t> mEmpty;  ///< per lattice cell (lower corner's index): no dust
+    std::vector<std::uint8_t> mActive; ///< per field cell: read by the renderer
+};
+
+/// Integer sums of a source's energy statistics (weights, fixed point).
+struct EnergySums
+{
+    std::int64_t power[3] = {0, 0, 0}, escaped[3] = {0, 0, 0}, absorbed[3] = {0, 0, 0};
+    std::atomic<std::uint64_t> flights{0};
+};
+
+/// What a source is: a set of stars (their first-scattering source), or the emission.
+struct SourceSpec
+{
+    std::string name;
+    std::vector<std::size_t> stars; ///< empty: the emission
+};
+
+/// Follows packet @p index of @p src through every order of scattering.
+void runPacket(const Transport& tr, const SourceSpec& src, const Sampler& sampler,
+               std::uint64_t index, std::uint64_t seed, std::uint64_t sourceIndex,
+               Transport::Tally& tally, EnergySums& energy, std::vector<Piece>& pieces,
+               std::vector<double>& etaS)
+{
+    const RenderScene& scene = tr.mScene;
+    const ChannelDust& dust = tr.mDust;
+    Pcg32 rng(index, seed ^ (0x9E3779B97F4A7C15ULL * (sourceIndex + 1)));
+    // The starting cell and point.
+    const double u = rng.uniformDouble() * sampler.total;
+    auto it = std::upper_bound(sampler.cdf.begin(), sampler.cdf.end(), u);
+    if (it == sampler.cdf.end()) --it;
+    const std::size_t ci = std::size_t(it - sampler.cdf.begin());
+    const DenseVolume& f = scene.fields;
+    std::size_t lin = sampler.cell[ci];
+    const auto& lo = f.lo();
+    const auto& dims = f.dims();
+    const int i = int(lin % std::size_t(dims[0])) + lo[0];
+    lin /= std::size_t(dims[0]);
+    const int j = int(lin % std::size_t(dims[1])) + lo[1];
+    const int k = int(lin / std::size_t(dims[1])) + lo[2];
+    const Vec3 pI(i + rng.uniformDouble(), j + rng.uniformDouble(), k + rng.uniformDouble());
+    Vec3 x = f.indexToWorld.apply(pI);
+    std::vector<float> fv(std::size_t(f.channels()));
+    f.sample(pI, fv.data());
+    const double norm = 3.0 / double(sampler.proxy[ci]); // w_c = 3 eta_c(x) / proxy(cell)
+    double w[3];
+    Vec3 d;
+    const bool fromStars = !src.stars.empty();
+    if (fromStars) {
+        // eta_{s,c} = k_c a E_{s,c}; the star is drawn in proportion to its eta, the
+        // direction from its phase function; the weight is the mixture's exact ratio.
+        const std::size_t S = src.stars.size();
+        etaS.assign(S * 3, 0.0);
+        double etaTot = 0.0;
+        std::vector<double> etaSum(S, 0.0);
+        const double n = fv[0];
+        for (std::size_t q = 0; q < S; ++q) {
+            const std::size_t s = src.stars[q];
+            const Vec3 v = x - tr.starPos()[s];
+            const double r2 = std::max(v.dot(v), tr.rmin2());
+            for (int c = 0; c < 3; ++c) {
+                const double e = dust.kappa_V * dust.r[c] * n * dust.albedo *
+                                 scene.starColor[s][c] / (4.0 * PI * r2) *
+                                 std::exp(-dust.r[c] * double(fv[2 + s]));
+                etaS[q * 3 + c] = e;
+                etaSum[q] += e;
+            }
+            etaTot += etaSum[q];
+        }
+        if (!(etaTot > 0.0)) return;
+        double pick = rng.uniformDouble() * etaTot;
+        std::size_t chosen = 0;
+        while (chosen + 1 < S && pick >= etaSum[chosen]) {
+            pick -= etaSum[chosen];
+            ++chosen;
+        }
+        const Vec3 from = x - tr.starPos()[src.stars[chosen]];
+        const double r = from.length();
+        const Vec3 in = r > 0.0 ? from * (1.0 / r) : Vec3(0, 0, 1);
+        const double mu = samplePhaseCosine(dust.phase, dust.g, rng.uniformDouble());
+        const double inA[3] = {in.x, in.y, in.z};
+        double out[3];
+        sampleDirection(mu, 2.0 * PI * rng.uniformDouble(), inA, out);
+        d = Vec3(out[0], out[1], out[2]).normalized();
+        if (S == 1) {
+            for (int c = 0; c < 3; ++c)
+                w[c] = norm * etaS[c];
+        } else {
+            double num[3] = {0, 0, 0}, den = 0.0;
+            for (std::size_t q = 0; q < S; ++q) {
+                const Vec3 fq = x - tr.starPos()[src.stars[q]];
+                const double rq = fq.length();
+                const double p = phaseFunction(dust.phase, rq > 0.0 ? fq.dot(d) / rq : 1.0, dust.g);
+                for (int c = 0; c < 3; ++c)
+                    num[c] += etaS[q * 3 + c] * p;
+                den += etaSum[q] / etaTot * p;
+            }
+            for (int c = 0; c < 3; ++c)
+                w[c] = den > 0.0 ? norm * num[c] / den : 0.0;
+        }
+        for (int c = 0; c < 3; ++c)
+            addFixed(&energy.power[c], w[c] / QUANTUM, rng);
+    } else {
+        const double e = 4.0 * PI * double(fv[1]);
+        for (int c = 0; c < 3; ++c)
+            w[c] = norm * e;
+        const double mu = 2.0 * rng.uniformDouble() - 1.0;
+        const double phi = 2.0 * PI * rng.uniformDouble();
+        const double st = std::sqrt(std::max(0.0, 1.0 - mu * mu));
+        d = Vec3(st * std::cos(phi), st * std::sin(phi), mu);
+    }
+    if (!(w[0] > 0.0 || w[1] > 0.0 || w[2] > 0.0)) return;
+
+    bool tallyOn = fromStars; // the emission's first flight is uncollided light
+    double Y[shCount(SH_MAX_DEGREE)];
+    double esc[3] = {0, 0, 0}, abs_[3] = {0, 0, 0}, pow_[3] = {0, 0, 0};
+    std::uint64_t flights = 0;
+    for (; flights < MAX_FLIGHTS; ++flights) {
+        if (tallyOn) realSphericalHarmonics(d, tr.order(), Y);
+        const double tau = tr.walk(x, d, w, tallyOn, Y, &tally, rng, pieces);
+        double oneMinusT[3];
+        for (int c = 0; c < 3; ++c) {
+            oneMinusT[c] = -std::expm1(-dust.r[c] * tau);
+            if (tallyOn) {
+                esc[c] += w[c] * (1.0 - oneMinusT[c]);
+                abs_[c] += w[c] * oneMinusT[c] * (1.0 - dust.albedo);
+            } else {
+                pow_[c] += w[c] * oneMinusT[c] * dust.albedo; // becomes collided light
+            }
+        }
+        if (pieces.empty() || !(tau > 0.0)) break;
+        // Collide inside the walked part for certain: a channel at random, a V optical
+        // depth from its truncated exponential, the mixture's pdf for the weights.
+        const int cs = std::min(2, int(3.0 * rng.uniformDouble()));
+        const double target =
+            -std::log1p(-rng.uniformDouble() * oneMinusT[cs]) / dust.r[cs]; // V optical depth
+        auto pit = std::upper_bound(pieces.begin(), pieces.end(), target,
+                                    [](double v, const Piece& p) { return v < p.tau0; });
+        const Piece& pc = *(pit == pieces.begin() ? pit : pit - 1);
+        const double s = pc.t + std::min(pc.len, std::max(0.0, (target - pc.tau0) / pc.k));
+        double fc[3], pdf = 0.0;
+        for (int c = 0; c < 3; ++c) {
+            fc[c] = dust.r[c] * pc.k * std::exp(-dust.r[c] * target);
+            pdf += fc[c] / oneMinusT[c] / 3.0;
+        }
+        if (!(pdf > 0.0)) break;
+        for (int c = 0; c < 3; ++c)
+            w[c] *= dust.albedo * fc[c] / pdf;
+        x = x + d * s;
+        tallyOn = true;
+        const double mu = samplePhaseCosine(dust.phase, dust.g, rng.uniformDouble());
+        const double inA[3] = {d.x, d.y, d.z};
+        double out[3];
+        sampleDirection(mu, 2.0 * PI * rng.uniformDouble(), inA, out);
+        d = Vec3(out[0], out[1], out[2]).normalized();
+        const double wmax = std::max({w[0], w[1], w[2]});
+        if (!(wmax > 0.0)) break;
+        if (wmax < ROULETTE_WEIGHT) {
+            const double q = wmax / ROULETTE_WEIGHT;
+            if (rng.uniformDouble() >= q) break;
+            for (double& wc : w)
+                wc /= q;
+        }
+    }
+    for (int c = 0; c < 3; ++c) {
+        addFixed(&energy.escaped[c], esc[c] / QUANTUM, rng);
+        addFixed(&energy.absorbed[c], abs_[c] / QUANTUM, rng);
+        if (!fromStars) addFixed(&energy.power[c], pow_[c] / QUANTUM, rng);
+    }
+    energy.flights.fetch_add(flights + 1, std::memory_order_relaxed);
+}
+
+} // namespace
+
+ScatterField computeScatterField(const RenderScene& scene, const RenderOptions& ropts,
+                                 const ScatterOptions& opts, const Run* run)
+{
+    validateScatterOptions(scene, opts);
+    const Transport tr(scene, ropts, opts);
+    const DenseVolume& f = scene.fields;
+    const std::size_t S = scene.stars.size();
+    const double detA = std::pow(voxelSize(f.indexToWorld), 3); // world volume of a voxel
+
+    std::vector<SourceSpec> specs;
+    if (opts.perStar) {
+        for (std::size_t s = 0; s < S; ++s)
+            specs.push_back({"star_" + scene.stars[s].name, {s}});
+    } else if (S > 0) {
+        SourceSpec all{"stars", {}};
+        for (std::size_t s = 0; s < S; ++s)
+            all.stars.push_back(s);
+        specs.push_back(all);
+    }
+    bool hasEmission = false;
+    for (std::size_t i = 0; i < f.voxelCount() && !hasEmission; ++i)
+        hasEmission = f.voxel(i)[1] > 0.0f;
+    if (opts.emission && hasEmission) specs.push_back({"emission", {}});
+
+    ScatterField field;
+    field.order = opts.order;
+    field.level = opts.fieldLevel;
+    const auto& fLo = tr.fieldLo();
+    const auto& fDims = tr.fieldDims();
+    const std::size_t cells = tr.fieldCells();
+    const int nm = tr.moments();
+    const Affine fieldMap = fieldLevelMap(f.indexToWorld, opts.fieldLevel);
+    const auto& dust = scene.dust;
+    const double rmin2 = tr.rmin2();
+
+    // Dust per field cell (for the noise report's weights).
+    std::vector<double> cellDust(cells, 0.0);
+    for (int k = f.lo()[2]; k < f.lo()[2] + f.dims()[2]; ++k)
+        for (int j = f.lo()[1]; j < f.lo()[1] + f.dims()[1]; ++j)
+            for (int i = f.lo()[0]; i < f.lo()[0] + f.dims()[0]; ++i) {
+                const float n = f.voxel(f.index(i, j, k))[0];
+                if (!(n > 0.0f)) continue;
+                const std::size_t c = (std::size_t(tr.floorDiv(k) - fLo[2]) * fDims[1] +
+                                       std::size_t(tr.floorDiv(j) - fLo[1])) *
+                                          fDims[0] +
+                                      std::size_t(tr.floorDiv(i) - fLo[0]);
+                cellDust[c] += n;
+            }
+
+    for (std::size_t si = 0; si < specs.size(); ++si) {
+        const SourceSpec& spec = specs[si];
+        // Source strength per voxel, summed over channels: eta = k_c a E_c (stars) or
+        // 4 pi j (emission, colour 1, 1, 1).
+        std::vector<float> eta(f.voxelCount(), 0.0f);
+        for (int k = f.lo()[2]; k < f.lo()[2] + f.dims()[2]; ++k)
+            for (int j = f.lo()[1]; j < f.lo()[1] + f.dims()[1]; ++j)
+                for (int i = f.lo()[0]; i < f.lo()[0] + f.dims()[0]; ++i) {
+                    const std::size_t v = f.index(i, j, k);
+                    const float* fv = f.voxel(v);
+                    double e = 0.0;
+                    if (spec.stars.empty()) {
+                        e = 3.0 * 4.0 * PI * double(fv[1]);
+                    } else if (fv[0] > 0.0f) {
+                        const Vec3 xw = f.indexToWorld.apply(Vec3(i, j, k));
+                        for (const std::size_t s : spec.stars) {
+                            const Vec3 dv = xw - tr.starPos()[s];
+                            const double r2 = std::max(dv.dot(dv), rmin2);
+                            for (int c = 0; c < 3; ++c)
+                                e += dust.kappa_V * dust.r[c] * fv[0] * dust.albedo *
+                                     scene.starColor[s][c] / (4.0 * PI * r2) *
+                                     std::exp(-dust.r[c] * double(fv[2 + s]));
+                        }
+                    }
+                    eta[v] = float(e);
+                }
+        const Sampler sampler = buildSampler(f, eta);
+        eta = {};
+
+        ScatterSourceField out;
+        out.name = spec.name;
+        out.packets = opts.packets;
+        out.moments = DenseVolume(fLo, fDims, nm * 3);
+        out.moments.indexToWorld = fieldMap;
+        if (sampler.total > 0.0) {
+            Transport::Tally tally;
+            tally.sum.assign(cells * std::size_t(nm) * 3, 0);
+            tally.sq.assign(cells, 0);
+            EnergySums energy;
+            {
+                Progress bar(run, "nebscatter " + spec.name, opts.packets);
+                tbb::parallel_for(tbb::blocked_range<std::uint64_t>(0, opts.packets, 4096),
+                                  [&](const tbb::blocked_range<std::uint64_t>& r) {
+                                      std::vector<Piece> pieces;
+                                      std::vector<double> etaS;
+                                      pieces.reserve(1024);
+                                      for (std::uint64_t p = r.begin(); p != r.end(); ++p)
+                                          runPacket(tr, spec, sampler, p, opts.seed, si, tally,
+                                                    energy, pieces, etaS);
+                                      bar.add(r.size());
+                                  });
+            }
+            // Unit of the weights: the source's power over 3N (w_c is about 1).
+            const double U = sampler.total * detA / (3.0 * double(opts.packets));
+            for (int c = 0; c < 3; ++c) {
+                out.power[c] = double(energy.power[c]) * QUANTUM * U;
+                out.escaped[c] = double(energy.escaped[c]) * QUANTUM * U;
+                out.absorbed[c] = double(energy.absorbed[c]) * QUANTUM * U;
+            }
+            out.flights = energy.flights.load();
+            // c_lm = sum (w U) (length) Y_lm / V over the cell.
+            double errW = 0.0, errSum = 0.0;
+            for (int K = 0; K < fDims[2]; ++K)
+                for (int J = 0; J < fDims[1]; ++J)
+                    for (int I = 0; I < fDims[0]; ++I) {
+                        const std::size_t c = (std::size_t(K) * fDims[1] + J) * fDims[0] + I;
+                        const double vol =
+                            tr.cellVolume({I + fLo[0], J + fLo[1], K + fLo[2]}) * detA;
+                        if (!(vol > 0.0)) continue;
+                        const double scale = QUANTUM * U * tr.voxel() / vol;
+                        float* m = out.moments.voxel(c);
+                        const std::int64_t* t = tally.sum.data() + c * std::size_t(nm) * 3;
+                        for (int q = 0; q < nm * 3; ++q)
+                            m[q] = float(double(t[q]) * scale);
+                        const double s1 = double(t[1]) * QUANTUM;
+                        if (cellDust[c] > 0.0 && s1 > 0.0) {
+                            // Y_00 folded out: the green J tally is t[1] / Y_00.
+                            const double sq = double(tally.sq[c]) * SQ_QUANTUM;
+                            const double rel = std::sqrt(sq) / (s1 / (0.5 / std::sqrt(PI)));
+                            const double wgt = cellDust[c] * s1 / vol;
+                            errW += wgt;
+                            errSum += wgt * rel;
+                        }
+                    }
+            out.relativeError = errW > 0.0 ? errSum / errW : 0.0;
+            // The border cells (outside the walked box) copy their nearest cell, so the
+            // trilinear field does not fall towards zero at the grid's edge.
+            for (int K = 0; K < fDims[2]; ++K)
+                for (int J = 0; J < fDims[1]; ++J)
+                    for (int I = 0; I < fDims[0]; ++I) {
+                        const int I2 = std::clamp(I, 1, fDims[0] - 2);
+                        const int J2 = std::clamp(J, 1, fDims[1] - 2);
+                        const int K2 = std::clamp(K, 1, fDims[2] - 2);
+                        if (I2 == I && J2 == J && K2 == K) continue;
+                        const float* src = out.moments.voxel(
+                            out.moments.index(I2 + fLo[0], J2 + fLo[1], K2 + fLo[2]));
+                        float* dst = out.moments.voxel(
+                            out.moments.index(I + fLo[0], J + fLo[1], K + fLo[2]));
+                        std::copy(src, src + nm * 3, dst);
+                    }
+        }
+        if (run) {
+            run->info(fmt::format(
+                "{}: {} packets, {} flights ({:.3g} per packet); collided power R,G,B {:.4g} "
+                "{:.4g} {:.4g} L_sun: escaped {:.4g} {:.4g} {:.4g}, absorbed {:.4g} {:.4g} "
+                "{:.4g}; noise of J {:.2g} % (mean relative standard error per field cell, "
+                "weighted by its scattered light)",
+                out.name, out.packets, out.flights, double(out.flights) / double(out.packets),
+                out.power[0], out.power[1], out.power[2], out.escaped[0], out.escaped[1],
+                out.escaped[2], out.absorbed[0], out.absorbed[1], out.absorbed[2],
+                100.0 * out.relativeError));
+        }
+        field.sources.push_back(std::move(out));
+    }
+    return field;
+}
+
+SceneScatterField sceneScatterField(const ScatterField& field, const RenderOptions& opts)
+{
+    SceneScatterField out;
+    if (field.sources.empty()) return out;
+    out.order = field.order;
+    out.level = field.level;
+    out.moments = field.sources[0].moments;
+    std::fill(out.moments.data().begin(), out.moments.data().end(), 0.0f);
+    for (const auto& src : field.sources) {
+        const bool emission = src.name == "emission";
+        const auto& a = src.moments.data();
+        auto& b = out.moments.data();
+        for (std::size_t i = 0; i < a.size(); ++i) {
+            const std::size_t c = i % 3; // channel k * 3 + c: 3 divides the channel count
+            b[i] += emission ? float(opts.emissionScale * opts.emissionColor[c] * a[i]) : a[i];
+        }
+    }
+    out.description = "scattered-light field (in memory)";
+    return out;
+}
+
+} // namespace nebula

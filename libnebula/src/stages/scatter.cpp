@@ -1,0 +1,145 @@
+#include "nebula/stages/scatter.h"
+
+#include "nebula/core/error.h"
+#include "nebula/core/units.h"
+#include "nebula/io/grid_names.h"
+#include "nebula/physics/spherical_harmonics.h"
+#include "nebula/render/scene.h"
+#include "nebula/stages/pyramid.h"
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include <chrono>
+#include <cmath>
+
+namespace nebula {
+
+namespace {
+
+/// Which field cells get active values: those overlapping a voxel with dust, and their 26
+/// neighbours (the renderer interpolates trilinearly).
+std::vector<std::uint8_t> activeCells(const DenseVolume& fields, const DenseVolume& moments,
+                                      int level)
+{
+    const auto& lo = moments.lo();
+    const auto& d = moments.dims();
+    std::vector<std::uint8_t> dusty(moments.voxelCount(), 0), active(moments.voxelCount(), 0);
+    const auto cellOf = [level](int i) { return int(std::floor((i + 0.5) / double(1 << level))); };
+    for (int k = fields.lo()[2]; k < fields.lo()[2] + fields.dims()[2]; ++k)
+        for (int j = fields.lo()[1]; j < fields.lo()[1] + fields.dims()[1]; ++j)
+            for (int i = fields.lo()[0]; i < fields.lo()[0] + fields.dims()[0]; ++i) {
+                if (!(fields.voxel(fields.index(i, j, k))[0] > 0.0f)) continue;
+                const int I = cellOf(i), J = cellOf(j), K = cellOf(k);
+                if (moments.contains(I, J, K)) dusty[moments.index(I, J, K)] = 1;
+            }
+    for (int K = lo[2]; K < lo[2] + d[2]; ++K)
+        for (int J = lo[1]; J < lo[1] + d[1]; ++J)
+            for (int I = lo[0]; I < lo[0] + d[0]; ++I) {
+                if (!dusty[moments.index(I, J, K)]) continue;
+                for (int c = 0; c < 27; ++c) {
+                    const int a = I + c % 3 - 1, b = J + (c / 3) % 3 - 1, e = K + c / 9 - 1;
+                    if (moments.contains(a, b, e)) active[moments.index(a, b, e)] = 1;
+                }
+            }
+    return active;
+}
+
+} // namespace
+
+ScatterField scatter(GridSet& grids, const ScatterStageOptions& opts, const Run& run)
+{
+    const DustParams dust = grids.dust(run);
+    RenderOptions ropts;
+    ropts.densityGrid = opts.densityGrid;
+    ropts.emissionGrid = opts.emissionGrid;
+    ropts.wavelengths = opts.wavelengths;
+    ropts.minStarDistance = opts.minStarDistance;
+    ropts.levels = 0;
+    const RenderScene scene = buildScene(grids, ropts, dust);
+    validateScatterOptions(scene, opts.field);
+    const auto d = scene.fields.dims();
+    run.info(fmt::format("density {}x{}x{} voxels, {} stars; field level {} (cells of {}^3 "
+                         "voxels), order L = {} ({} moments per channel), {} packets per source",
+                         d[0], d[1], d[2], scene.stars.size(), opts.field.fieldLevel,
+                         1 << opts.field.fieldLevel, opts.field.order, shCount(opts.field.order),
+                         opts.field.packets));
+
+    const auto t0 = std::chrono::steady_clock::now();
+    ScatterField field = computeScatterField(scene, ropts, opts.field, &run);
+    const double seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    run.info(fmt::format("field computed in {:.3g} s", seconds));
+
+    // Replace any earlier field.
+    if (opts.onlyNew) grids.grids.clear();
+    openvdb::GridPtrVec kept;
+    for (auto& g : grids.grids)
+        if (g->getName().rfind("scatter.", 0) != 0) kept.push_back(g);
+    grids.grids = kept;
+
+    const auto density = grids.find(opts.densityGrid);
+    const auto xform = levelTransform(density->transform(), field.level);
+    const int L = field.order;
+    nlohmann::json sources = nlohmann::json::array();
+    for (const auto& src : field.sources) {
+        const DenseVolume& m = src.moments;
+        const auto active = activeCells(scene.fields, m, field.level);
+        const double j0 = 0.5 / std::sqrt(PI); // Y_00: J = c_00 / (4 pi Y_00)
+        for (int l = 0; l <= L; ++l)
+            for (int mm = -l; mm <= l; ++mm)
+                for (int c = 0; c < 3; ++c) {
+                    const int ch = shIndex(l, mm) * 3 + c;
+                    const double scale = l == 0 ? 1.0 / (4.0 * PI * j0) : 1.0;
+                    auto grid = openvdb::FloatGrid::create(0.0f);
+                    auto acc = grid->getAccessor();
+                    for (int K = m.lo()[2]; K < m.lo()[2] + m.dims()[2]; ++K)
+                        for (int J = m.lo()[1]; J < m.lo()[1] + m.dims()[1]; ++J)
+                            for (int I = m.lo()[0]; I < m.lo()[0] + m.dims()[0]; ++I) {
+                                const std::size_t v = m.index(I, J, K);
+                                if (!active[v]) continue;
+                                acc.setValue(openvdb::Coord(I, J, K),
+                                             float(m.voxel(v)[ch] * scale));
+                            }
+                    grid->setTransform(xform->copy());
+                    grid->setName(scatterGridName(src.name, l, mm, c));
+                    grid->setGridClass(openvdb::GRID_UNKNOWN);
+                    grid->insertMeta("units", openvdb::StringMetadata(
+                                                  l == 0 ? "L_sun pc^-2 sr^-1 (mean intensity J)"
+                                                         : "L_sun pc^-2 (c_lm)"));
+                    grid->insertMeta("source", openvdb::StringMetadata(src.name));
+                    grid->insertMeta("l", openvdb::Int32Metadata(l));
+                    grid->insertMeta("m", openvdb::Int32Metadata(mm));
+                    grid->insertMeta("level", openvdb::Int32Metadata(field.level));
+                    grids.replace(grid);
+                }
+        sources.push_back({{"name", src.name},
+                           {"packets", src.packets},
+                           {"flights", src.flights},
+                           {"power", src.power},
+                           {"escaped", src.escaped},
+                           {"absorbed", src.absorbed},
+                           {"relative_error", src.relativeError}});
+    }
+    const Affine& a0 = scene.fields.indexToWorld;
+    nlohmann::json meta = {{"order", L},
+                           {"level", field.level},
+                           {"per_star", opts.field.perStar},
+                           {"packets", opts.field.packets},
+                           {"seed", opts.field.seed},
+                           {"sources", sources},
+                           {"dust", nlohmann::json::parse(dust.toJson())},
+                           {"stars", nlohmann::json::parse(starsToJson(scene.stars))},
+                           {"wavelengths", opts.wavelengths},
+                           {"min_star_distance", opts.minStarDistance},
+                           {"density_grid", opts.densityGrid},
+                           {"emission_grid", opts.emissionGrid},
+                           {"index_to_world",
+                            {a0.m[0], a0.m[1], a0.m[2], a0.t.x, a0.m[3], a0.m[4], a0.m[5], a0.t.y,
+                             a0.m[6], a0.m[7], a0.m[8], a0.t.z}},
+                           {"seconds", seconds}};
+    grids.setMetaString(META_SCATTER, meta.dump());
+    return field;
+}
+
+} // namespace nebula

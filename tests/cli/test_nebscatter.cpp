@@ -1,0 +1,200 @@
+// End-to-end tests of nebscatter (DESIGN §5b): the field grids and metadata, nebrender using
+// them, determinism whatever the thread count, and every bad input of the issue: no tau
+// grids, no stars, --packets 0, an order outside 0..4, a field level coarser than the grid,
+// field grids of the wrong type or layout, a field made for other dust or stars, and the
+// field together with --phase or --levels.
+#include "cli_fixture.h"
+
+#include "nebula/io/grid_io.h"
+#include "nebula/io/image.h"
+
+#include <nlohmann/json.hpp>
+#include <openvdb/openvdb.h>
+
+#include <gtest/gtest.h>
+
+#include <string>
+
+using namespace nebula::clitest;
+
+namespace {
+
+class NebScatter : public Cli
+{
+protected:
+    /// lit.vdb and its field s.vdb (cheap settings).
+    void makeField()
+    {
+        makeLit();
+        const Result r = run("nebscatter -i lit.vdb --packets 20000 -v -o s.vdb");
+        ASSERT_EQ(r.code, 0) << r.err;
+        EXPECT_NE(r.err.find("nebscatter: stars: 20000 packets"), std::string::npos) << r.err;
+        EXPECT_NE(r.err.find("noise of J"), std::string::npos) << r.err;
+    }
+};
+
+double total(const nebula::Image& img, int c)
+{
+    double s = 0.0;
+    for (std::size_t p = 0; p < img.rgba.size() / 4; ++p)
+        s += img.rgba[p * 4 + std::size_t(c)];
+    return s;
+}
+
+} // namespace
+
+TEST_F(NebScatter, FieldGridsMetadataAndRendering)
+{
+    makeField();
+    const auto s = read(path("s.vdb"));
+    for (const std::string src : {"stars", "emission"}) {
+        for (const std::string c : {"R", "G", "B"}) {
+            const auto j = s.floatGrid("scatter." + src + ".J." + c, "");
+            EXPECT_GT(j->activeVoxelCount(), 100u) << src;
+            EXPECT_GT(maxValue(*j), 0.0) << src;
+            EXPECT_EQ(j->metaValue<std::string>("units"), "L_sun pc^-2 sr^-1 (mean intensity J)");
+            // Field level 1: voxels twice the density's.
+            EXPECT_NEAR(j->voxelSize()[0], 2.0 * s.floatGrid("density", "")->voxelSize()[0], 1e-9);
+            for (const std::string m : {"c1_-1", "c1_0", "c1_1", "c2_-2", "c2_2"})
+                EXPECT_TRUE(s.find("scatter." + src + "." + m + "." + c)) << m;
+        }
+    }
+    const auto meta = nlohmann::json::parse(s.metaString(nebula::META_SCATTER));
+    EXPECT_EQ(meta.at("order").get<int>(), 2);
+    EXPECT_EQ(meta.at("level").get<int>(), 1);
+    EXPECT_EQ(meta.at("stars").size(), 2u);
+
+    // nebrender uses it, says so, and the picture is brighter than single scattering, more
+    // so in blue (multiple scattering); --no-scatter-field gives single scattering exactly.
+    Result r = run("nebrender -i s.vdb --res 24x24 --no-stars -v -o f.exr");
+    ASSERT_EQ(r.code, 0) << r.err;
+    EXPECT_NE(r.err.find("using the scattered-light field: order 2, level 1"), std::string::npos)
+        << r.err;
+    ASSERT_EQ(run("nebrender -i s.vdb --res 24x24 --no-stars --no-scatter-field -o n.exr").code, 0);
+    ASSERT_EQ(run("nebrender -i lit.vdb --res 24x24 --no-stars -o l.exr").code, 0);
+    std::map<std::string, std::string> attrs;
+    const auto f = nebula::readExr(path("f.exr"), &attrs);
+    const auto n = nebula::readExr(path("n.exr"), nullptr);
+    const auto l = nebula::readExr(path("l.exr"), nullptr);
+    EXPECT_EQ(n.rgba, l.rgba);
+    for (int c = 0; c < 3; ++c)
+        EXPECT_GT(total(f, c), 1.05 * total(n, c)) << c;
+    EXPECT_GT(total(f, 2) / total(n, 2), total(f, 0) / total(n, 0));
+    EXPECT_NE(attrs.at("nebula:integrator").find("scattered-light field"), std::string::npos);
+
+    // The path tracer and spectral mode do not use it, and say so.
+    r = run("nebrender -i s.vdb --res 4x4 --integrator path --spp 1 -o p.exr");
+    ASSERT_EQ(r.code, 0) << r.err;
+    EXPECT_NE(r.err.find("does not need"), std::string::npos) << r.err;
+}
+
+TEST_F(NebScatter, SameFieldWhateverTheThreadCount)
+{
+    makeLit();
+    ASSERT_EQ(run("nebscatter -i lit.vdb --packets 5000 --threads 1 -o one.vdb").code, 0);
+    ASSERT_EQ(run("nebscatter -i lit.vdb --packets 5000 --threads 2 -o two.vdb").code, 0);
+    const auto a = read(path("one.vdb")), b = read(path("two.vdb"));
+    for (const auto& g : a.grids) {
+        if (g->getName().rfind("scatter.", 0) != 0) continue;
+        const auto ga = a.floatGrid(g->getName(), ""), gb = b.floatGrid(g->getName(), "");
+        ASSERT_EQ(ga->activeVoxelCount(), gb->activeVoxelCount());
+        const auto acc = gb->getConstAccessor();
+        for (auto it = ga->cbeginValueOn(); it; ++it)
+            ASSERT_EQ(*it, acc.getValue(it.getCoord())) << g->getName() << " " << it.getCoord();
+    }
+}
+
+TEST_F(NebScatter, BadInputIsRefused)
+{
+    makeField();
+    // No tau grids, no stars.
+    expectFailure("nebscatter -i small.vdb -o x.vdb", 1, "tau.");
+    {
+        auto g = read(path("small.vdb"));
+        g.meta.removeMeta(nebula::META_STARS);
+        nebula::writeGrids(path("nostars.vdb"), g, "test", "test");
+    }
+    expectFailure("nebscatter -i nostars.vdb -o x.vdb", 1, "no stars");
+    // Options.
+    expectFailure("nebscatter -i lit.vdb --packets 0 -o x.vdb", 2, "--packets");
+    expectFailure("nebscatter -i lit.vdb --order 5 -o x.vdb", 2, "--order");
+    expectFailure("nebscatter -i lit.vdb --field-level 6 -o x.vdb", 2, "--field-level 6");
+    // A field grid of the wrong type, or on another lattice.
+    {
+        auto g = read(path("s.vdb"));
+        auto v = openvdb::Vec3fGrid::create();
+        v->setName("scatter.stars.J.R");
+        v->setTransform(g.find("scatter.stars.J.G")->transform().copy());
+        g.replace(v);
+        nebula::writeGrids(path("type.vdb"), g, "test", "test");
+        auto h = read(path("s.vdb"));
+        auto j = h.floatGrid("scatter.stars.c1_0.G", "")->deepCopy();
+        j->setTransform(openvdb::math::Transform::createLinearTransform(0.5));
+        h.replace(j);
+        nebula::writeGrids(path("layout.vdb"), h, "test", "test");
+    }
+    expectFailure("nebrender -i type.vdb --res 8x8 -o x.exr", 1, "scatter.stars.J.R");
+    expectFailure("nebrender -i layout.vdb --res 8x8 -o x.exr", 1,
+                  "\"scatter.stars.c1_0.G\" is not on field level 1's transform");
+    // Other dust, other stars, other wavelengths.
+    expectFailure("nebrender -i s.vdb --albedo 0.3 --res 8x8 -o x.exr", 1, "other dust");
+    {
+        auto g = read(path("s.vdb"));
+        auto stars = g.stars();
+        stars[0].luminosity *= 2;
+        g.setStars(stars);
+        nebula::writeGrids(path("brighter.vdb"), g, "test", "test");
+        stars[0].position[0] += 0.5;
+        g.setStars(stars);
+        nebula::writeGrids(path("moved.vdb"), g, "test", "test");
+    }
+    expectFailure("nebrender -i brighter.vdb --res 8x8 -o x.exr", 1, "of luminosity");
+    expectFailure("nebrender -i moved.vdb --res 8x8 -o x.exr", 1, "at another position");
+    expectFailure("nebrender -i s.vdb --wavelengths 650,550,450 --res 8x8 -o x.exr", 1,
+                  "channel wavelengths");
+    // Counted twice: the field with --phase or --levels.
+    ASSERT_EQ(run("nebphase -q --t-count 2 --t-max 1 --mu-bins 16 --photons 1024 "
+                  "--max-photons 2048 -o phase.vdb")
+                  .code,
+              0);
+    ASSERT_EQ(run("nebpyramid -i s.vdb --levels 1 -o p.vdb").code, 0);
+    expectFailure("nebrender -i s.vdb --phase phase.vdb --phase-ignore-dust --res 8x8 -o x.exr", 2,
+                  "count it twice");
+    expectFailure("nebrender -i p.vdb --phase phase.vdb --phase-ignore-dust --levels 1 --res 8x8 "
+                  "-o x.exr",
+                  2, "count it twice");
+    // With --no-scatter-field the table and levels are fine.
+    EXPECT_EQ(run("nebrender -i p.vdb --phase phase.vdb --phase-ignore-dust --levels 1 "
+                  "--no-scatter-field --res 8x8 -o ok.exr")
+                  .code,
+              0);
+}
+
+// --per-star: a field per star, which nebrender scales by the scene's luminosity (a star
+// twice as bright: its collided light twice as bright).
+TEST_F(NebScatter, PerStarFieldsFollowTheLuminosity)
+{
+    makeLit();
+    ASSERT_EQ(run("nebscatter -i lit.vdb --per-star --no-emission --packets 20000 -o s.vdb").code,
+              0);
+    const auto s = read(path("s.vdb"));
+    EXPECT_TRUE(s.find("scatter.star_alpha.J.R"));
+    EXPECT_TRUE(s.find("scatter.star_beta.J.R"));
+    EXPECT_FALSE(s.find("scatter.stars.J.R"));
+    EXPECT_FALSE(s.find("scatter.emission.J.R"));
+    {
+        auto g = read(path("s.vdb"));
+        auto stars = g.stars();
+        for (auto& st : stars)
+            st.luminosity *= 2;
+        g.setStars(stars);
+        nebula::writeGrids(path("bright.vdb"), g, "test", "test");
+    }
+    ASSERT_EQ(run("nebrender -i s.vdb --res 16x16 --no-stars --emission-scale 0 -o a.exr").code, 0);
+    ASSERT_EQ(
+        run("nebrender -i bright.vdb --res 16x16 --no-stars --emission-scale 0 -o b.exr").code, 0);
+    const auto a = nebula::readExr(path("a.exr"), nullptr);
+    const auto b = nebula::readExr(path("b.exr"), nullptr);
+    for (int c = 0; c < 3; ++c)
+        EXPECT_NEAR(total(b, c), 2.0 * total(a, c), 1e-4 * total(b, c)) << c;
+}
