@@ -27,7 +27,8 @@
 #   * nebrender: --integrator path --no-stars, all three channels at one wavelength,
 #     549.45 nm, where CCM89's A/A_V = 1 exactly (x = 1.82 um^-1; at 546.1 nm it is 1.0071),
 #     so sigma_t = kappa_V n_H per pc in every channel: grey dust, albedo 0.6, HG g = 0.6.
-#     Each sample is one random walk PER CHANNEL (3 walks per pixel sample).
+#     One random walk per pixel sample serves the three channels (grey here; coloured dust is
+#     spectrally tracked, bench/path_coloured.sh).
 #   * Cycles (bench/cycles_scene.py): the same VDB as a Volume object; Principled Volume with
 #     Density = kappa_V (times the "density" grid), Color = albedo, Absorption Color black
 #     (then sigma_t = Density * grid and albedo = Color; see the script), Anisotropy = g; a

@@ -12,7 +12,7 @@
 #   filaments  --density 60000 --exponent 3 --contrast 4 --frequency 2.5: dense filaments
 #              casting deep shadows
 # each rendered (star sprites off: scattered light only) by the reference path tracer
-# (--integrator path, SPP walks per pixel and channel) and by the fast integrator: single
+# (--integrator path, SPP walks per pixel) and by the fast integrator: single
 # scattering; the seed's method (phase table + LEVELS pyramid levels); and nebscatter's field
 # at order L = 1, 2, 3 on cells of 2 voxels (level 1, the default), and at L = 2 on full
 # resolution (level 0) and cells of 4 voxels (level 2), PACKETS packets each.
@@ -64,8 +64,8 @@ for name in $SCENES; do
     timed "$name-ref" "$BIN/nebrender" -i "$name-lit.vdb" --no-stars --res "$IMAGE" \
         --integrator path --spp "$spp" -o "$name-ref.exr" --png "$name-ref.png"
     # One exposure for all the figures: the reference's automatic tone curve.
-    white=$(strings "$name-ref.exr" | grep -o '"white": [0-9.e+-]*' | head -1 | awk '{print $2}')
-    gamma=$(strings "$name-ref.exr" | grep -o '"gamma": [0-9.e+-]*' | head -1 | awk '{print $2}')
+    white=$(strings "$name-ref.exr" | grep -o '"white": *[0-9.e+-]*' | head -1 | awk -F: '{print $2}')
+    gamma=$(strings "$name-ref.exr" | grep -o '"gamma": *[0-9.e+-]*' | head -1 | awk -F: '{print $2}')
     exposure=$(awk -v w="$white" 'BEGIN { print -log(w) / log(2) }')
     tone=(--exposure "$exposure" --gamma "$gamma")
     tau=$("$COMPARE" "$name-ref.exr" "$name-ref.exr" | awk '/centre pixel optical depth/ { print $(NF-1) }')

@@ -152,7 +152,7 @@ int main(int argc, char** argv)
                    "Carlo path tracer, all orders of scattering (--spp, --seed)")
         ->check(CLI::IsMember({"fast", "path"}))
         ->capture_default_str();
-    app.add_option("--spp", opts.spp, "Path tracer: random walks per pixel and channel")
+    app.add_option("--spp", opts.spp, "Path tracer: random walks per pixel (one serves R, G and B)")
         ->capture_default_str()
         ->check(nebula::cli::integerIn(1, 1 << 30));
     app.add_option("--seed", opts.seed, "Path tracer: random seed (same seed, same image)")

@@ -151,6 +151,108 @@ double transmittance(const PathScene& ps, int c, const Vec3& x, const Vec3& d, d
     return T;
 }
 
+/// Ratio-tracked transmittance of all three channels at once from @p x along unit @p d over
+/// world length @p len, against channel @p cmax's majorant (the largest): each tentative
+/// collision multiplies channel c's estimate by 1 - k_c / (2 majorant).
+void transmittance3(const PathScene& ps, int cmax, const Vec3& x, const Vec3& d, double len,
+                    Pcg32& rng, std::uint64_t& collisions, double T[3])
+{
+    const Tracker tr(ps, x, d, len);
+    const auto& dust = ps.scene->dust;
+    T[0] = T[1] = T[2] = 1.0;
+    tr.track(
+        cmax, rng, collisions,
+        [&](double t, double mu) {
+            const double n = ps.fields.sample0(tr.ray.oI + tr.ray.dI * t);
+            for (int c = 0; c < 3; ++c)
+                T[c] *= std::max(0.0, 1.0 - dust.kappa_V * dust.r[c] * n / mu);
+            return T[0] > 1e-12 || T[1] > 1e-12 || T[2] > 1e-12;
+        },
+        RATIO_TRACKING_SCALE);
+}
+
+/// One random walk from the eye along @p d0 for all three channels of coloured dust
+/// (spectral tracking, Kutz et al. 2017): free flights against the majorant of channel
+/// @p cmax, the most extinguished; at a tentative collision the walk scatters with
+/// probability P = sum_c beta_c k_c / (majorant sum_c beta_c) (the channels' mean, weighted
+/// by their throughput), and each channel's throughput beta_c is multiplied by its own
+/// (k_c / majorant) / P, or (1 - k_c / majorant) / (1 - P) at a null collision: unbiased for
+/// every channel, with one walk instead of three. Adds to @p L, @p Ls and sets @p Tprim as
+/// walk() does.
+void walkSpectral(const PathScene& ps, int cmax, const Vec3& eye, const Vec3& d0, Pcg32& rng,
+                  double* L, double* Ls, double* Tprim, std::uint64_t& collisions)
+{
+    const auto& dust = ps.scene->dust;
+    double emitC[3], k0[3];
+    for (int c = 0; c < 3; ++c) {
+        emitC[c] = ps.emissionScale * ps.emissionColor[c];
+        k0[c] = dust.kappa_V * dust.r[c];
+    }
+    Vec3 x = eye, d = d0;
+    double beta[3] = {1.0, 1.0, 1.0};
+    transmittance3(ps, cmax, eye, d0, INF, rng, collisions, Tprim);
+    for (int depth = 0;; ++depth) {
+        const Tracker tr(ps, x, d, INF);
+        bool scattered = false;
+        double tHit = 0.0;
+        float f[2];
+        tr.track(cmax, rng, collisions, [&](double t, double mu) {
+            ps.fields.sample(tr.ray.oI + tr.ray.dI * t, f);
+            if (f[1] > 0.0f) {
+                for (int c = 0; c < 3; ++c)
+                    L[c] += beta[c] * emitC[c] * f[1] / mu;
+            }
+            double sumB = 0.0, sumBK = 0.0;
+            for (int c = 0; c < 3; ++c) {
+                sumB += beta[c];
+                sumBK += beta[c] * std::min(k0[c] * f[0], double(mu));
+            }
+            const double P = sumB > 0.0 ? sumBK / (mu * sumB) : 0.0;
+            if (rng.uniformDouble() < P) {
+                for (int c = 0; c < 3; ++c)
+                    beta[c] *= std::min(k0[c] * f[0], double(mu)) / mu / P;
+                scattered = true;
+                tHit = t;
+                return false;
+            }
+            for (int c = 0; c < 3; ++c)
+                beta[c] *= std::max(0.0, 1.0 - k0[c] * f[0] / mu) / (1.0 - P);
+            return true;
+        });
+        if (!scattered) return;
+        x = x + d * tHit;
+        for (double& b : beta)
+            b *= dust.albedo;
+        if (!(beta[0] > 0.0 || beta[1] > 0.0 || beta[2] > 0.0)) return;
+        for (std::size_t s = 0; s < ps.starPos.size(); ++s) {
+            const Vec3 v = ps.starPos[s] - x;
+            const double r2 = v.dot(v);
+            const double r = std::sqrt(r2);
+            const double mu = r > 0.0 ? v.dot(d) / r : 1.0;
+            const double p = phaseFunction(dust.phase, mu, dust.g);
+            double Tr[3] = {1.0, 1.0, 1.0};
+            if (r > 0.0) transmittance3(ps, cmax, x, v * (1.0 / r), r, rng, collisions, Tr);
+            const double g = p / (4.0 * PI * std::max(r2, ps.rmin2));
+            for (int c = 0; c < 3; ++c) {
+                const double add = beta[c] * g * Tr[c] * ps.scene->starColor[s][c];
+                L[c] += add;
+                Ls[s * 3 + c] += add;
+            }
+        }
+        const double mu = samplePhaseCosine(dust.phase, dust.g, rng.uniformDouble());
+        const double in[3] = {d.x, d.y, d.z};
+        double out[3];
+        sampleDirection(mu, 2.0 * PI * rng.uniformDouble(), in, out);
+        d = Vec3(out[0], out[1], out[2]).normalized();
+        if (depth >= 3) {
+            const double q = std::min(1.0, std::max({beta[0], beta[1], beta[2]}) / 0.25);
+            if (rng.uniformDouble() >= q) return;
+            for (double& b : beta)
+                b /= q;
+        }
+    }
+}
+
 /// One random walk from the eye along @p d0 for channels [c, c1), which share their
 /// extinction (all three in grey dust, else one): adds each channel's radiance to @p L[ch]
 /// (and each star's share to @p Ls[s * 3 + ch]) and sets the primary ray's ratio-tracked
@@ -241,10 +343,12 @@ Image renderPathTraced(const RenderScene& scene, const RenderOptions& opts, cons
     ImageLayer& transLayer = img.layers[S];
     ImageLayer& varLayer = img.layers[S + 1];
 
-    // Grey dust (equal extinction ratios): one walk serves all three channels.
+    // Grey dust (equal extinction ratios): one walk serves all three channels; coloured dust:
+    // one spectrally tracked walk against the most extinguished channel's majorant.
     const auto& r = scene.dust.r;
     const bool grey =
         std::abs(r[0] - r[1]) <= 1e-12 * r[1] && std::abs(r[2] - r[1]) <= 1e-12 * r[1];
+    const int cmax = int(std::max_element(r.begin(), r.end()) - r.begin());
     detail::forEachRowBand(
         H, 1, run, "nebrender path", stats, [&](int y0, int y1, RenderStats& band) {
             std::vector<double> Ls(S * 3), starSum(S * 3);
@@ -262,14 +366,11 @@ Image renderPathTraced(const RenderScene& scene, const RenderOptions& opts, cons
                         std::fill(Ls.begin(), Ls.end(), 0.0);
                         if (grey) {
                             walk(ps, 0, 3, cam.eye(), d, rng, L, Ls.data(), T, band.collisions);
-                            ++band.paths;
                         } else {
-                            for (int c = 0; c < 3; ++c) {
-                                walk(ps, c, c + 1, cam.eye(), d, rng, L, Ls.data(), T,
-                                     band.collisions);
-                                ++band.paths;
-                            }
+                            walkSpectral(ps, cmax, cam.eye(), d, rng, L, Ls.data(), T,
+                                         band.collisions);
                         }
+                        ++band.paths;
                         for (int c = 0; c < 3; ++c) {
                             // Welford's running mean and sum of squared deviations.
                             const double delta = L[c] - mean[c];

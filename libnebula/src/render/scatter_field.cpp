@@ -11,7 +11,9 @@
 
 #include <fmt/format.h>
 #include <tbb/blocked_range.h>
+#include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
 
 #include <algorithm>
 #include <atomic>
@@ -56,23 +58,37 @@ void validateScatterOptions(const RenderScene& scene, const ScatterOptions& opts
 namespace {
 
 constexpr double INF = std::numeric_limits<double>::infinity();
-/// Fixed-point quantum of the moment tallies (weight x length in voxels) and of the squared
-/// tallies; of the energy statistics (weight).
-constexpr double QUANTUM = 1.0 / double(1 << 24);
-constexpr double SQ_QUANTUM = 1.0 / double(1 << 16);
+/// Per-thread tally buffers are used while all of them together stay below this [bytes];
+/// above it, one shared buffer with atomic additions.
+constexpr double PER_THREAD_TALLY_BYTES = 512.0 * 1024.0 * 1024.0;
 /// A flight stops walking once even the least dimmed channel is below e^-17 (4e-8).
 constexpr double TAU_CUTOFF = 17.0;
 /// Russian roulette below this channel weight (initial weights are about 1).
 constexpr double ROULETTE_WEIGHT = 0.25;
 constexpr std::uint64_t MAX_FLIGHTS = 1000000;
 
-/// Adds @p v / quantum to @p p, rounded up or down at random in proportion (unbiased), as
-/// one atomic integer addition: the sum does not depend on the order of additions.
-inline void addFixed(std::int64_t* p, double scaled, Pcg32& rng)
+/// Fixed-point quantum 2^-e of the tallies (weight x length in voxels; weights): the
+/// finest for which @p packets packets cannot overflow an int64 sum (a bound of 64 flights
+/// per packet crossing a cell, weights up to 4, field cells of 2^level voxels). 2^-32 for
+/// 2 million packets at level 1: a tally of 10^-6 is rounded by 2e-4 of itself.
+double fixedQuantum(std::uint64_t packets, int level)
 {
-    const double f = std::floor(scaled);
-    const auto q = std::int64_t(f) + (double(rng.uniformFloat()) < scaled - f ? 1 : 0);
-    if (q != 0) __atomic_fetch_add(p, q, __ATOMIC_RELAXED);
+    const double bound = double(packets) * 64.0 * 4.0 * 2.0 * std::ldexp(1.0, level);
+    const int e = std::min(40, int(std::floor(62.0 - std::log2(std::max(bound, 1.0)))));
+    return std::ldexp(1.0, -e);
+}
+
+/// Adds @p scaled (a value over the quantum) to @p p, rounded to the nearest integer, as an
+/// integer addition (atomic when @p atomic): the sum does not depend on the order.
+inline void addFixed(std::int64_t* p, double scaled, bool atomic)
+{
+    const auto q = std::int64_t(std::llround(scaled));
+    if (q == 0) return;
+    if (atomic) {
+        __atomic_fetch_add(p, q, __ATOMIC_RELAXED);
+    } else {
+        *p += q;
+    }
 }
 
 /// One piece of a flight (a half-voxel cell) with dust: where it starts (world distance),
@@ -205,17 +221,22 @@ public:
         return v;
     }
 
-    /// Tallies of one source: moments (cell, k, c) and squared green J per cell, fixed point.
+    /// Where a flight adds its tallies: moments (cell, k, c) and squared green J per cell,
+    /// fixed point (quantum q, squares q * 2^8), atomically into a shared buffer or plainly
+    /// into the thread's own.
     struct Tally
     {
-        std::vector<std::int64_t> sum, sq;
+        std::int64_t* sum = nullptr;
+        std::int64_t* sq = nullptr;
+        bool atomic = true;
+        double invQ = 1.0, invQSq = 1.0;
     };
 
     /// Walks the flight from world point @p x along unit @p d with channel weights @p w:
     /// tallies (if @p tally) the expected track length times Y_lm(d) into @p out, and
     /// records the pieces with dust; returns the V optical depth walked.
     double walk(const Vec3& x, const Vec3& d, const double* w, bool tally, const double* Y,
-                Tally* out, Pcg32& rng, std::vector<Piece>& pieces) const
+                const Tally* out, std::vector<Piece>& pieces) const
     {
         pieces.clear();
         const Vec3 oI = mW2I.apply(x), dI = mW2I.applyLinear(d);
@@ -233,7 +254,7 @@ public:
         // Half-voxel cells: q = floor(2 p) along each axis; every such cell lies inside one
         // lattice cell (the trilinear density is one cubic along the piece: Simpson is
         // exact) and inside one field cell (boundaries at half-integers).
-        int q[3], step[3];
+        int q[3], step[3], li[3], fi[3];
         double tNext[3], tDelta[3];
         const Vec3 p0 = oI + dI * (0.5 * (ta + std::min(tb, ta + 1e-6))); // inside the box
         for (int a = 0; a < 3; ++a) {
@@ -251,6 +272,8 @@ public:
                 tNext[a] = INF;
                 tDelta[a] = INF;
             }
+            li[a] = floorDiv2(q[a]);
+            fi[a] = fieldIndex(q[a], a);
         }
         double t = ta, tau = 0.0;
         float nPrev = mDensity.sample0(oI + dI * ta);
@@ -265,10 +288,9 @@ public:
             const double tn = std::min(tNext[a], tb);
             const double len = tn - t;
             if (len > 0.0) {
-                // The piece's lattice cell and field cell from its half-voxel cell q.
-                const int li = floorDiv2(q[0]), lj = floorDiv2(q[1]), lk = floorDiv2(q[2]);
+                // The piece's lattice cell and field cell follow its half-voxel cell q.
                 double dTau = 0.0;
-                if (!mEmpty[mDensity.index(li, lj, lk)]) {
+                if (!mEmpty[mDensity.index(li[0], li[1], li[2])]) {
                     float nm, ne;
                     mDensity.sampleChannels(oI + dI * (0.5 * (t + tn)), 0, 1, &nm);
                     mDensity.sampleChannels(oI + dI * tn, 0, 1, &ne);
@@ -278,10 +300,9 @@ public:
                     nPrev = 0.0f; // the faces of an empty cell are empty
                 }
                 if (tally) {
-                    const long c = long(
-                        cellIndex(fieldIndex(q[0], 0), fieldIndex(q[1], 1), fieldIndex(q[2], 2)));
+                    const long c = long(cellIndex(fi[0], fi[1], fi[2]));
                     if (c != cell) {
-                        flush(cell, acc, Y, out, rng);
+                        flush(cell, acc, Y, out);
                         cell = mActive[std::size_t(c)] ? c : -1;
                     }
                 }
@@ -308,8 +329,10 @@ public:
             tNext[a] += tDelta[a];
             q[a] += step[a];
             if (q[a] < 2 * mLo[a] || q[a] > 2 * mHi[a] - 1) break; // left the box
+            li[a] = floorDiv2(q[a]);
+            fi[a] = fieldIndex(q[a], a);
         }
-        if (tally) flush(cell, acc, Y, out, rng);
+        if (tally) flush(cell, acc, Y, out);
         return tau;
     }
 
@@ -328,17 +351,20 @@ private:
         return std::clamp(f - mFLo[a], 0, mFDims[a] - 1);
     }
 
-    void flush(long cell, double* acc, const double* Y, Tally* out, Pcg32& rng) const
+    void flush(long cell, double* acc, const double* Y, const Tally* out) const
     {
         if (cell < 0 || !(acc[0] > 0.0 || acc[1] > 0.0 || acc[2] > 0.0)) {
             acc[0] = acc[1] = acc[2] = 0.0;
             return;
         }
-        std::int64_t* m = out->sum.data() + std::size_t(cell) * std::size_t(mNm) * 3;
+        std::int64_t* m = out->sum + std::size_t(cell) * std::size_t(mNm) * 3;
+        for (int c = 0; c < 3; ++c)
+            acc[c] *= out->invQ;
         for (int k = 0; k < mNm; ++k)
             for (int c = 0; c < 3; ++c)
-                addFixed(m + k * 3 + c, acc[c] * Y[k] / QUANTUM, rng);
-        addFixed(out->sq.data() + cell, acc[1] * acc[1] / SQ_QUANTUM, rng);
+                addFixed(m + k * 3 + c, acc[c] * Y[k], out->atomic);
+        addFixed(out->sq + cell, acc[1] * acc[1] * out->invQSq / (out->invQ * out->invQ),
+                 out->atomic);
         acc[0] = acc[1] = acc[2] = 0.0;
     }
 
@@ -369,7 +395,7 @@ struct SourceSpec
 /// Follows packet @p index of @p src through every order of scattering.
 void runPacket(const Transport& tr, const SourceSpec& src, const Sampler& sampler,
                std::uint64_t index, std::uint64_t seed, std::uint64_t sourceIndex,
-               Transport::Tally& tally, EnergySums& energy, std::vector<Piece>& pieces,
+               const Transport::Tally& tally, EnergySums& energy, std::vector<Piece>& pieces,
                std::vector<double>& etaS)
 {
     const RenderScene& scene = tr.mScene;
@@ -449,7 +475,7 @@ void runPacket(const Transport& tr, const SourceSpec& src, const Sampler& sample
                 w[c] = den > 0.0 ? norm * num[c] / den : 0.0;
         }
         for (int c = 0; c < 3; ++c)
-            addFixed(&energy.power[c], w[c] / QUANTUM, rng);
+            addFixed(&energy.power[c], w[c] * tally.invQ, true);
     } else {
         const double e = 4.0 * PI * double(fv[1]);
         for (int c = 0; c < 3; ++c)
@@ -467,7 +493,7 @@ void runPacket(const Transport& tr, const SourceSpec& src, const Sampler& sample
     std::uint64_t flights = 0;
     for (; flights < MAX_FLIGHTS; ++flights) {
         if (tallyOn) realSphericalHarmonics(d, tr.order(), Y);
-        const double tau = tr.walk(x, d, w, tallyOn, Y, &tally, rng, pieces);
+        const double tau = tr.walk(x, d, w, tallyOn, Y, &tally, pieces);
         double oneMinusT[3];
         for (int c = 0; c < 3; ++c) {
             oneMinusT[c] = -std::expm1(-dust.r[c] * tau);
@@ -513,9 +539,9 @@ void runPacket(const Transport& tr, const SourceSpec& src, const Sampler& sample
         }
     }
     for (int c = 0; c < 3; ++c) {
-        addFixed(&energy.escaped[c], esc[c] / QUANTUM, rng);
-        addFixed(&energy.absorbed[c], abs_[c] / QUANTUM, rng);
-        if (!fromStars) addFixed(&energy.power[c], pow_[c] / QUANTUM, rng);
+        addFixed(&energy.escaped[c], esc[c] * tally.invQ, true);
+        addFixed(&energy.absorbed[c], abs_[c] * tally.invQ, true);
+        if (!fromStars) addFixed(&energy.power[c], pow_[c] * tally.invQ, true);
     }
     energy.flights.fetch_add(flights + 1, std::memory_order_relaxed);
 }
@@ -606,14 +632,39 @@ ScatterField computeScatterField(const RenderScene& scene, const RenderOptions& 
         out.moments = DenseVolume(fLo, fDims, nm * 3);
         out.moments.indexToWorld = fieldMap;
         if (sampler.total > 0.0) {
-            Transport::Tally tally;
-            tally.sum.assign(cells * std::size_t(nm) * 3, 0);
-            tally.sq.assign(cells, 0);
+            // Integer sums: per-thread buffers added at the end, or one shared buffer with
+            // atomic additions; the same sums either way, whatever the threads.
+            const double quantum = fixedQuantum(opts.packets, opts.fieldLevel);
+            const std::size_t sumSize = cells * std::size_t(nm) * 3;
+            const double bytes =
+                double(sumSize + cells) * 8.0 * double(tbb::this_task_arena::max_concurrency() + 1);
+            const bool perThread = bytes <= PER_THREAD_TALLY_BYTES;
+            std::vector<std::int64_t> sumAll(sumSize, 0), sqAll(cells, 0);
+            tbb::enumerable_thread_specific<
+                std::pair<std::vector<std::int64_t>, std::vector<std::int64_t>>>
+                local;
+            Transport::Tally shared;
+            shared.sum = sumAll.data();
+            shared.sq = sqAll.data();
+            shared.atomic = true;
+            shared.invQ = 1.0 / quantum;
+            shared.invQSq = 1.0 / (quantum * 256.0);
             EnergySums energy;
             {
                 Progress bar(run, "nebscatter " + spec.name, opts.packets);
                 tbb::parallel_for(tbb::blocked_range<std::uint64_t>(0, opts.packets, 4096),
                                   [&](const tbb::blocked_range<std::uint64_t>& r) {
+                                      Transport::Tally tally = shared;
+                                      if (perThread) {
+                                          auto& buf = local.local();
+                                          if (buf.first.empty()) {
+                                              buf.first.assign(sumSize, 0);
+                                              buf.second.assign(cells, 0);
+                                          }
+                                          tally.sum = buf.first.data();
+                                          tally.sq = buf.second.data();
+                                          tally.atomic = false;
+                                      }
                                       std::vector<Piece> pieces;
                                       std::vector<double> etaS;
                                       pieces.reserve(1024);
@@ -623,12 +674,18 @@ ScatterField computeScatterField(const RenderScene& scene, const RenderOptions& 
                                       bar.add(r.size());
                                   });
             }
+            for (const auto& buf : local) {
+                for (std::size_t i = 0; i < sumSize; ++i)
+                    sumAll[i] += buf.first[i];
+                for (std::size_t i = 0; i < cells; ++i)
+                    sqAll[i] += buf.second[i];
+            }
             // Unit of the weights: the source's power over 3N (w_c is about 1).
             const double U = sampler.total * detA / (3.0 * double(opts.packets));
             for (int c = 0; c < 3; ++c) {
-                out.power[c] = double(energy.power[c]) * QUANTUM * U;
-                out.escaped[c] = double(energy.escaped[c]) * QUANTUM * U;
-                out.absorbed[c] = double(energy.absorbed[c]) * QUANTUM * U;
+                out.power[c] = double(energy.power[c]) * quantum * U;
+                out.escaped[c] = double(energy.escaped[c]) * quantum * U;
+                out.absorbed[c] = double(energy.absorbed[c]) * quantum * U;
             }
             out.flights = energy.flights.load();
             // c_lm = sum (w U) (length) Y_lm / V over the cell.
@@ -640,15 +697,15 @@ ScatterField computeScatterField(const RenderScene& scene, const RenderOptions& 
                         const double vol =
                             tr.cellVolume({I + fLo[0], J + fLo[1], K + fLo[2]}) * detA;
                         if (!(vol > 0.0)) continue;
-                        const double scale = QUANTUM * U * tr.voxel() / vol;
+                        const double scale = quantum * U * tr.voxel() / vol;
                         float* m = out.moments.voxel(c);
-                        const std::int64_t* t = tally.sum.data() + c * std::size_t(nm) * 3;
+                        const std::int64_t* t = sumAll.data() + c * std::size_t(nm) * 3;
                         for (int q = 0; q < nm * 3; ++q)
                             m[q] = float(double(t[q]) * scale);
-                        const double s1 = double(t[1]) * QUANTUM;
+                        const double s1 = double(t[1]) * quantum;
                         if (cellDust[c] > 0.0 && s1 > 0.0) {
                             // Y_00 folded out: the green J tally is t[1] / Y_00.
-                            const double sq = double(tally.sq[c]) * SQ_QUANTUM;
+                            const double sq = double(sqAll[c]) * quantum * 256.0;
                             const double rel = std::sqrt(sq) / (s1 / (0.5 / std::sqrt(PI)));
                             const double wgt = cellDust[c] * s1 / vol;
                             errW += wgt;

@@ -38,53 +38,6 @@ RenderOptions pathOptions(const RenderOptions& base, int spp)
     return o;
 }
 
-/// A slab z in [0, tau / k] pc of extinction k = 1 / pc in every channel (r_c = 1), wide in x
-/// and y (+-20 pc, 20 optical depths), with fine voxels in z so that its faces are sharp (the
-/// trilinear ramp at each face is 0.01 optical depths), lit along +z by a far star giving
-/// irradiance 1 at the slab.
-RenderScene slab(double tau, double albedo, double g)
-{
-    const double dz = 0.01;
-    const int nz = int(std::lround(tau / dz)) + 1; // dust on points 1..nz-1: tau in total
-    RenderScene scene;
-    scene.fields = DenseVolume({-20, -20, 0}, {41, 41, nz + 1}, 3);
-    scene.fields.indexToWorld.m = {1, 0, 0, 0, 1, 0, 0, 0, dz};
-    scene.fields.indexToWorld.t = Vec3(0, 0, -0.5 * dz); // dust from z = 0.5 dz .. tau + 0.5 dz
-    const double n0 = 1.0 / KAPPA;
-    for (int k = 1; k <= nz - 1; ++k)
-        for (int j = -19; j <= 19; ++j)
-            for (int i = -19; i <= 19; ++i)
-                scene.fields.voxel(scene.fields.index(i, j, k))[0] = float(n0);
-    Star s;
-    s.name = "far";
-    s.position = {0, 0, -1e5};
-    s.luminosity = 4.0 * PI * 1e10;
-    scene.stars = {s};
-    scene.starColor = {{s.luminosity, s.luminosity, s.luminosity}};
-    scene.dust.kappa_V = KAPPA;
-    scene.dust.r = {1, 1, 1};
-    scene.dust.albedo = albedo;
-    scene.dust.g = g;
-    scene.buildOccupancy();
-    return scene;
-}
-
-/// A 1x1 camera 40 pc from the slab's centre at exit cosine @p mu to the normal of the face
-/// it looks at: below the slab (reflection, the lit side) or above it (transmission).
-RenderOptions slabCamera(double mu, bool reflected, double tau)
-{
-    RenderOptions o;
-    const Vec3 centre(0, 0, reflected ? 0.0 : tau);
-    const Vec3 away(std::sqrt(1 - mu * mu), 0, reflected ? -mu : mu);
-    o.camera.eye = centre + away * 40.0;
-    o.camera.lookAt = centre;
-    o.camera.up = Vec3(0, 1, 0);
-    o.camera.width = o.camera.height = 1;
-    o.camera.fovDeg = 0.5;
-    o.drawStars = false;
-    return o;
-}
-
 } // namespace
 
 // Nearly black dust (a = 0.02: second and higher orders add about a tau / 2 < 0.5 %): single

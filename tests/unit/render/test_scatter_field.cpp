@@ -286,7 +286,7 @@ void compareWithPathTracer(const RenderScene& base, const std::string& what, int
     o.drawStars = false;
     o.step = 0.25;
     ScatterOptions so;
-    so.packets = 150000;
+    so.packets = 100000;
     so.fieldLevel = 0;
     so.order = order;
     const int seeds = 4;
@@ -300,7 +300,7 @@ void compareWithPathTracer(const RenderScene& base, const std::string& what, int
     const Image single = renderFrame(base, o);
     RenderOptions po = o;
     po.integrator = Integrator::Path;
-    po.spp = 3000;
+    po.spp = 2000;
     const Image path = renderPathTraced(base, po);
     const ImageLayer* var = nullptr;
     for (const auto& l : path.layers)
@@ -386,4 +386,57 @@ TEST(ScatterField, MatchesThePathTracerHG09InTotal)
 TEST(ScatterField, MatchesThePathTracerRayleigh)
 {
     compareWithPathTracer(thickCloud(0.7, PhaseModel::Rayleigh, 0.0, true), "Rayleigh");
+}
+
+// The published slab radiances the path tracer is tested against (van de Hulst: isotropic,
+// a = 0.8, b = 2: R(0.5, 1) = 0.28616, T(0.5, 1) = 0.14864; DISORT test problem 3A: HG
+// g = 0.75, a = 1, b = 1: 0.101103 up, 0.266648 down at mu 0.5, for incident flux pi),
+// reproduced by single scattering + the field (order 4, full resolution). The slab is
+// uniform sideways, so the radiance is averaged over a 16x16 view of its middle (+-6 pc,
+// seen from 400 pc: the exit cosine varies by 0.01), which averages the field's noise over
+// many cells. Isotropic scattering needs only J (p_l = 0 for l > 0); HG 0.75 is truncated
+// at l = 4. Tolerance: 4 % (the slab's finite width: 1 %; the field's noise: 1-2 %).
+TEST(ScatterField, WideSlabMatchesPublishedRadiances)
+{
+    struct Case
+    {
+        double tau, albedo, g, up, down; // radiance per unit irradiance at mu = 0.5
+    };
+    const auto wideView = [](double tau, bool reflected) {
+        RenderOptions o = slabCamera(0.5, reflected, tau);
+        const Vec3 d = o.camera.eye - o.camera.lookAt;
+        o.camera.eye = o.camera.lookAt + d * 10.0; // 400 pc away
+        o.camera.width = o.camera.height = 16;
+        o.camera.fovDeg = 1.7;
+        return o;
+    };
+    const auto mean = [](const Image& img, int c) {
+        double m = 0.0;
+        for (std::size_t p = 0; p < img.rgba.size() / 4; ++p)
+            m += img.rgba[p * 4 + std::size_t(c)];
+        return m / double(img.rgba.size() / 4);
+    };
+    for (const Case& k : {Case{2.0, 0.8, 0.0, 0.28616 / PI, 0.14864 / PI},
+                          Case{1.0, 1.0, 0.75, 0.101103 / PI, 0.266648 / PI}}) {
+        RenderScene scene = slab(k.tau, k.albedo, k.g);
+        fillStarTau(scene); // the ray caster's starlight needs tau.<star>
+        const RenderOptions upView = wideView(k.tau, true), downView = wideView(k.tau, false);
+        ScatterOptions so;
+        so.packets = 40000;
+        so.fieldLevel = 0;
+        so.order = 4;
+        scene.scatter = sceneScatterField(computeScatterField(scene, upView, so, nullptr), upView);
+        const Image up = renderFrame(scene, upView);
+        const Image down = renderFrame(scene, downView);
+        for (int c = 0; c < 3; ++c) {
+            EXPECT_NEAR(mean(up, c), k.up, 0.04 * k.up)
+                << "reflected, a " << k.albedo << " g " << k.g << " c " << c;
+            EXPECT_NEAR(mean(down, c), k.down, 0.04 * k.down)
+                << "transmitted, a " << k.albedo << " g " << k.g << " c " << c;
+        }
+        std::printf("slab a %g g %g: up %.5g (published %.5g, %+.2f %%), down %.5g (%.5g, "
+                    "%+.2f %%)\n",
+                    k.albedo, k.g, mean(up, 1), k.up, 100 * (mean(up, 1) / k.up - 1), mean(down, 1),
+                    k.down, 100 * (mean(down, 1) / k.down - 1));
+    }
 }

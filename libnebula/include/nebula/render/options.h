@@ -93,7 +93,7 @@ struct RenderStats
     /// Channel samples whose voxel optical thickness exceeded the phase table's t_max (the
     /// table's last row was used).
     std::uint64_t phaseClamped = 0;
-    std::uint64_t paths = 0;             ///< path tracer: random walks (pixels x spp x channels)
+    std::uint64_t paths = 0;             ///< path tracer: random walks (pixels x spp)
     std::uint64_t collisions = 0;        ///< path tracer: tentative collisions (real and null)
     std::uint64_t pieces = 0;            ///< spectral: linear pieces projected (lines + continuum)
     std::uint64_t spectrumPieces = 0;    ///< spectral, countPieces: pieces of the rays' spectra

@@ -36,7 +36,7 @@ struct ScatterOptions
     int order = 2;      ///< L: real spherical harmonics of degree 0..L, (L + 1)^2 moments
     int fieldLevel = 1; ///< field cells of 2^k x 2^k x 2^k voxels (nebpyramid's level k layout)
     /// Packets per source: all stars together (or each star with perStar), and the emission.
-    std::uint64_t packets = 2000000;
+    std::uint64_t packets = 1000000;
     std::uint64_t seed = 1;
     bool perStar = false; ///< one field per star instead of their sum
     bool emission = true; ///< also the gas emission's collided light (if the scene emits)
