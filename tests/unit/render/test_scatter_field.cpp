@@ -50,18 +50,6 @@ Star starAt(const Vec3& p, double luminosity = 1.0)
     return s;
 }
 
-/// The field's moments (c_lm) of channel @p c at the centre of the field cell holding world
-/// point @p x.
-std::vector<double> momentsAt(const ScatterSourceField& f, const Vec3& x, int c, int nm)
-{
-    const Vec3 p = f.moments.indexToWorld.inverse().apply(x);
-    const int i = int(std::lround(p.x)), j = int(std::lround(p.y)), k = int(std::lround(p.z));
-    std::vector<double> out(static_cast<std::size_t>(nm), 0.0);
-    for (int q = 0; q < nm; ++q)
-        out[std::size_t(q)] = f.moments.voxel(f.moments.index(i, j, k))[q * 3 + c];
-    return out;
-}
-
 } // namespace
 
 // Energy balance in a uniform cube of dust (dust up to the lattice's faces, so k is the same
@@ -117,11 +105,11 @@ TEST(ScatterField, EnergyBalanceInAUniformCube)
     }
 }
 
-// An optically thin shell (tau 0.02) around a star, seen from inside its cavity: the field's
-// J of the once-scattered light matches the single-scattering integral brute-forced over
-// directions through the same trilinear density (second order adds ~1 %): at the centre
-// J = k a p(-1) L (1/R1 - 1/R2) / (4 pi) for a sharp shell. By symmetry the l = 1 and 2
-// moments vanish at the centre. Tolerance: 4 % (the field's noise there is about 1 %).
+// An optically thin shell (tau 0.02) around a star: the field's J inside the shell matches
+// the single-scattering integral brute-forced over directions through the same trilinear
+// density (second order adds ~1 %; the brute force itself is checked against the sharp
+// shell's closed form at the centre, J = k a p(-1) L (1/R1 - 1/R2) / (4 pi)). Tolerance 3 %:
+// over seeds 1-4 the band averages came out -0.1 to +1.9 %.
 TEST(ScatterField, ThinShellMatchesTheSingleScatteringIntegral)
 {
     const int n = 41;
@@ -173,27 +161,40 @@ TEST(ScatterField, ThinShellMatchesTheSingleScatteringIntegral)
         }
         return sum / M; // (1/4pi) * 4 pi / M
     };
-    // Field cells (2 voxels, centres at (2i + 0.5) H) inside the shell, on the x and z axes
-    // through the star: there the field is symmetric about that axis, so of the l = 1
-    // moments (proportional to y, z, x) only the axis's is non-zero, and it is positive
-    // along +x (more light travels outwards, away from the star).
-    for (const Vec3& y : {Vec3(3.45, 2.05, 2.05), Vec3(2.05, 2.05, 0.65)}) {
-        const bool xAxis = y.x > 3.0;
+    // The shell is symmetric about the star, so J depends on the radius only: the field's J
+    // is averaged over the cells whose centres lie within 0.05 pc of a radius inside the
+    // shell (200-300 cells, which averages the per-cell noise of about 5 % down to well
+    // under 1 %) and compared with the brute-force J at that radius on an axis. The l = 1
+    // moments (proportional to y, z, x) give the net flux: along the radius it points
+    // outwards (more light travels away from the star), across it it averages to zero.
+    const auto& m = f.moments;
+    for (const double R : {1.2, 1.4, 1.6}) {
         for (int c = 0; c < 3; ++c) {
-            const auto mom = momentsAt(f, y, c, 9);
-            const double J = mom[0] / (4 * PI * Y00); // c_00 = 4 pi Y_00 J
-            const double ref = brute(y, c);
-            EXPECT_NEAR(J, ref, 0.04 * ref) << "y " << y.x << "," << y.z << " channel " << c;
-            const double cy = mom[std::size_t(shIndex(1, -1))];
-            const double cz = mom[std::size_t(shIndex(1, 0))];
-            const double cx = mom[std::size_t(shIndex(1, 1))];
-            EXPECT_LT(std::abs(cy), 0.05 * mom[0]);
-            EXPECT_LT(std::abs(xAxis ? cz : cx), 0.05 * mom[0]);
-            if (xAxis) {
-                EXPECT_GT(cx, 0.05 * mom[0]);
-            } else {
-                EXPECT_LT(cz, -0.05 * mom[0]); // outwards is -z below the star
-            }
+            double sumJ = 0.0, radial = 0.0, across = 0.0;
+            int cells = 0;
+            for (int K = m.lo()[2]; K < m.lo()[2] + m.dims()[2]; ++K)
+                for (int J = m.lo()[1]; J < m.lo()[1] + m.dims()[1]; ++J)
+                    for (int I = m.lo()[0]; I < m.lo()[0] + m.dims()[0]; ++I) {
+                        const Vec3 v = m.indexToWorld.apply(Vec3(I, J, K)) - centre;
+                        const double r = v.length();
+                        if (std::abs(r - R) > 0.05) continue;
+                        const float* q = m.voxel(m.index(I, J, K));
+                        sumJ += q[c] / (4 * PI * Y00); // c_00 = 4 pi Y_00 J
+                        const Vec3 flux(q[shIndex(1, 1) * 3 + c], q[shIndex(1, -1) * 3 + c],
+                                        q[shIndex(1, 0) * 3 + c]); // (x, y, z)
+                        radial += flux.dot(v) / r;
+                        // a tangential direction that changes sign round the shell
+                        across += flux.dot(Vec3(-v.y, v.x, 0)) / r;
+                        ++cells;
+                    }
+            ASSERT_GT(cells, 150) << R;
+            const double J = sumJ / cells;
+            const double ref = brute(centre + Vec3(R, 0, 0), c);
+            EXPECT_NEAR(J, ref, 0.03 * ref) << "R " << R << " channel " << c;
+            EXPECT_GT(radial, 0.05 * std::abs(sumJ) * 4 * PI * Y00) << "R " << R;
+            EXPECT_LT(std::abs(across), 0.2 * radial) << "R " << R;
+            std::printf("shell R %.2f c %d: J %.5g ref %.5g (%+.2f %%), %d cells\n", R, c, J, ref,
+                        100 * (J / ref - 1), cells);
         }
     }
     // The sharp-shell closed form is near (the voxelised shell's edges are ramps).
