@@ -58,9 +58,6 @@ void validateScatterOptions(const RenderScene& scene, const ScatterOptions& opts
 namespace {
 
 constexpr double INF = std::numeric_limits<double>::infinity();
-/// Per-thread tally buffers are used while all of them together stay below this [bytes];
-/// above it, one shared buffer with atomic additions.
-constexpr double PER_THREAD_TALLY_BYTES = 512.0 * 1024.0 * 1024.0;
 /// A flight stops walking once even the least dimmed channel is below e^-17 (4e-8).
 constexpr double TAU_CUTOFF = 17.0;
 /// Russian roulette below this channel weight (initial weights are about 1).
@@ -638,7 +635,7 @@ ScatterField computeScatterField(const RenderScene& scene, const RenderOptions& 
             const std::size_t sumSize = cells * std::size_t(nm) * 3;
             const double bytes =
                 double(sumSize + cells) * 8.0 * double(tbb::this_task_arena::max_concurrency() + 1);
-            const bool perThread = bytes <= PER_THREAD_TALLY_BYTES;
+            const bool perThread = bytes <= opts.perThreadTallyBytes;
             std::vector<std::int64_t> sumAll(sumSize, 0), sqAll(cells, 0);
             tbb::enumerable_thread_specific<
                 std::pair<std::vector<std::int64_t>, std::vector<std::int64_t>>>

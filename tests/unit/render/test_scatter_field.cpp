@@ -203,8 +203,8 @@ TEST(ScatterField, ThinShellMatchesTheSingleScatteringIntegral)
     EXPECT_NEAR(brute(Vec3(2.05, 2.05, 2.05), 1), closed, 0.05 * closed);
 }
 
-// Same seed, same field whatever the thread count (integer tallies), and another seed
-// gives another field.
+// Same seed, same field whatever the thread count and whether the tallies go to per-thread
+// buffers or to one shared buffer (integer sums), and another seed gives another field.
 TEST(ScatterField, SameSeedSameFieldWhateverTheThreadCount)
 {
     auto scene = ball(17, {starAt(Vec3(0.8, 0.8, 0.8), 10.0)}, [](const Vec3&) { return 900.0; });
@@ -222,6 +222,14 @@ TEST(ScatterField, SameSeedSameFieldWhateverTheThreadCount)
         EXPECT_EQ(one.sources[s].moments.data(), two.sources[s].moments.data());
         EXPECT_EQ(one.sources[s].escaped, two.sources[s].escaped);
     }
+    // One shared buffer with atomic additions (what large grids use) gives the same sums.
+    ScatterOptions shared = so;
+    shared.perThreadTallyBytes = 0.0;
+    ScatterField atomic;
+    tbb::task_arena(2).execute(
+        [&] { atomic = computeScatterField(scene, ropts, shared, nullptr); });
+    for (std::size_t s = 0; s < 2; ++s)
+        EXPECT_EQ(one.sources[s].moments.data(), atomic.sources[s].moments.data());
     so.seed = 2;
     EXPECT_NE(computeScatterField(scene, ropts, so, nullptr).sources[0].moments.data(),
               one.sources[0].moments.data());

@@ -40,6 +40,9 @@ struct ScatterOptions
     std::uint64_t seed = 1;
     bool perStar = false; ///< one field per star instead of their sum
     bool emission = true; ///< also the gas emission's collided light (if the scene emits)
+    /// Per-thread tally buffers while all of them (threads + 1) stay below this [bytes];
+    /// above it one shared buffer with atomic additions. The field is the same either way.
+    double perThreadTallyBytes = 512.0 * 1024.0 * 1024.0;
 };
 
 /// One source's field.
