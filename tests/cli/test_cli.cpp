@@ -153,7 +153,7 @@ TEST_F(Cli, OnlyNewAndReplacingGridsOfTheSameName)
 
 TEST_F(Cli, HelpStartsWithExamplesAndVersion)
 {
-    for (const std::string tool : {"nebgen", "nebillum", "nebrender"}) {
+    for (const std::string tool : {"nebgen", "nebillum", "nebscatter", "nebrender"}) {
         const Result r = run(tool + " --help > help.txt");
         EXPECT_EQ(r.code, 0);
         std::ifstream in(path("help.txt"));
