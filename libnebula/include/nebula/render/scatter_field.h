@@ -15,9 +15,9 @@
 /// weight times the probability of colliding), scatters with the albedo, and goes on until
 /// Russian roulette ends it. One walk serves the three channels (coloured dust): the
 /// collision point is drawn from the mixture of the channels' distributions and each
-/// channel's weight carries its own ratio. Tallies are fixed-point integers added
-/// atomically (stochastic rounding from the packet's own random stream), so the field is
-/// the same bit for bit whatever the thread count.
+/// channel's weight carries its own ratio. Tallies are fixed-point integers (rounded to
+/// nearest), summed per thread or atomically in one buffer; integer sums do not depend on
+/// their order, so the field is the same bit for bit whatever the thread count.
 
 #include "nebula/core/run.h"
 #include "nebula/render/options.h"
