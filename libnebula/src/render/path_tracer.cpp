@@ -129,33 +129,14 @@ struct Tracker
     }
 };
 
-/// Ratio-tracked transmittance of channel @p c from @p x along unit @p d over world length
-/// @p len (infinite: through the whole volume).
-double transmittance(const PathScene& ps, int c, const Vec3& x, const Vec3& d, double len,
-                     Pcg32& rng, std::uint64_t& collisions)
-{
-    const Tracker tr(ps, x, d, len);
-    double T = 1.0;
-    const double k0 = ps.scene->dust.kappa_V * ps.scene->dust.r[c];
-    // Twice the majorant: each tentative collision multiplies by at least 1/2 instead of
-    // nearly 0, so the estimate is not all-or-nothing; its variance in a uniform medium falls
-    // from e^-tau - e^-2tau to e^-1.5tau - e^-2tau for twice the lookups.
-    tr.track(
-        c, rng, collisions,
-        [&](double t, double mu) {
-            const double n = ps.fields.sample0(tr.ray.oI + tr.ray.dI * t);
-            T *= std::max(0.0, 1.0 - k0 * n / mu);
-            return T > 1e-12;
-        },
-        RATIO_TRACKING_SCALE);
-    return T;
-}
-
-/// Ratio-tracked transmittance of all three channels at once from @p x along unit @p d over
-/// world length @p len, against channel @p cmax's majorant (the largest): each tentative
-/// collision multiplies channel c's estimate by 1 - k_c / (2 majorant).
-void transmittance3(const PathScene& ps, int cmax, const Vec3& x, const Vec3& d, double len,
-                    Pcg32& rng, std::uint64_t& collisions, double T[3])
+/// Ratio-tracked transmittance @p T of all three channels at once from @p x along unit @p d
+/// over world length @p len (infinite: through the whole volume), against twice channel
+/// @p cmax's majorant (the largest): each tentative collision multiplies channel c's
+/// estimate by 1 - k_c / (2 majorant), at least 1/2 instead of nearly 0, so the estimate is
+/// not all-or-nothing; its variance in a uniform medium falls from e^-tau - e^-2tau to
+/// e^-1.5tau - e^-2tau for twice the lookups.
+void transmittance(const PathScene& ps, int cmax, const Vec3& x, const Vec3& d, double len,
+                   Pcg32& rng, std::uint64_t& collisions, double T[3])
 {
     const Tracker tr(ps, x, d, len);
     const auto& dust = ps.scene->dust;
@@ -171,16 +152,18 @@ void transmittance3(const PathScene& ps, int cmax, const Vec3& x, const Vec3& d,
         RATIO_TRACKING_SCALE);
 }
 
-/// One random walk from the eye along @p d0 for all three channels of coloured dust
-/// (spectral tracking, Kutz et al. 2017): free flights against the majorant of channel
-/// @p cmax, the most extinguished; at a tentative collision the walk scatters with
-/// probability P = sum_c beta_c k_c / (majorant sum_c beta_c) (the channels' mean, weighted
-/// by their throughput), and each channel's throughput beta_c is multiplied by its own
+/// One random walk from the eye along @p d0 for the three channels: adds each channel's
+/// radiance to @p L[c] (and each star's share to @p Ls[s * 3 + c]) and sets the primary
+/// ray's ratio-tracked transmittance @p Tprim[c]. Free flights against the majorant of
+/// channel @p cmax, the most extinguished. In @p grey dust the channels share every
+/// decision: a tentative collision is real with probability k / k_maj. In coloured dust the
+/// walk is spectrally tracked (Kutz et al. 2017): it scatters with probability
+/// P = sum_c beta_c k_c / (majorant sum_c beta_c) (the channels' mean, weighted by their
+/// throughput), and each channel's throughput beta_c is multiplied by its own
 /// (k_c / majorant) / P, or (1 - k_c / majorant) / (1 - P) at a null collision: unbiased for
-/// every channel, with one walk instead of three. Adds to @p L, @p Ls and sets @p Tprim as
-/// walk() does.
-void walkSpectral(const PathScene& ps, int cmax, const Vec3& eye, const Vec3& d0, Pcg32& rng,
-                  double* L, double* Ls, double* Tprim, std::uint64_t& collisions)
+/// every channel, with one walk instead of three.
+void walk(const PathScene& ps, int cmax, bool grey, const Vec3& eye, const Vec3& d0, Pcg32& rng,
+          double* L, double* Ls, double* Tprim, std::uint64_t& collisions)
 {
     const auto& dust = ps.scene->dust;
     double emitC[3], k0[3];
@@ -190,7 +173,8 @@ void walkSpectral(const PathScene& ps, int cmax, const Vec3& eye, const Vec3& d0
     }
     Vec3 x = eye, d = d0;
     double beta[3] = {1.0, 1.0, 1.0};
-    transmittance3(ps, cmax, eye, d0, INF, rng, collisions, Tprim);
+    // The primary ray's transmittance (alpha and the transmittance layer), ratio tracked.
+    transmittance(ps, cmax, eye, d0, INF, rng, collisions, Tprim);
     for (int depth = 0;; ++depth) {
         const Tracker tr(ps, x, d, INF);
         bool scattered = false;
@@ -198,9 +182,18 @@ void walkSpectral(const PathScene& ps, int cmax, const Vec3& eye, const Vec3& d0
         float f[2];
         tr.track(cmax, rng, collisions, [&](double t, double mu) {
             ps.fields.sample(tr.ray.oI + tr.ray.dI * t, f);
+            // Collision estimator of emission: j / majorant at every tentative collision.
             if (f[1] > 0.0f) {
                 for (int c = 0; c < 3; ++c)
                     L[c] += beta[c] * emitC[c] * f[1] / mu;
+            }
+            if (grey) {
+                if (rng.uniformDouble() * mu < k0[cmax] * f[0]) {
+                    scattered = true;
+                    tHit = t;
+                    return false;
+                }
+                return true;
             }
             double sumB = 0.0, sumBK = 0.0;
             for (int c = 0; c < 3; ++c) {
@@ -220,6 +213,7 @@ void walkSpectral(const PathScene& ps, int cmax, const Vec3& eye, const Vec3& d0
             return true;
         });
         if (!scattered) return;
+        // Real collision: absorb (1 - albedo) of the weight, light it from every star.
         x = x + d * tHit;
         for (double& b : beta)
             b *= dust.albedo;
@@ -228,87 +222,15 @@ void walkSpectral(const PathScene& ps, int cmax, const Vec3& eye, const Vec3& d0
             const Vec3 v = ps.starPos[s] - x;
             const double r2 = v.dot(v);
             const double r = std::sqrt(r2);
-            const double mu = r > 0.0 ? v.dot(d) / r : 1.0;
-            const double p = phaseFunction(dust.phase, mu, dust.g);
-            double Tr[3] = {1.0, 1.0, 1.0};
-            if (r > 0.0) transmittance3(ps, cmax, x, v * (1.0 / r), r, rng, collisions, Tr);
-            const double g = p / (4.0 * PI * std::max(r2, ps.rmin2));
-            for (int c = 0; c < 3; ++c) {
-                const double add = beta[c] * g * Tr[c] * ps.scene->starColor[s][c];
-                L[c] += add;
-                Ls[s * 3 + c] += add;
-            }
-        }
-        const double mu = samplePhaseCosine(dust.phase, dust.g, rng.uniformDouble());
-        const double in[3] = {d.x, d.y, d.z};
-        double out[3];
-        sampleDirection(mu, 2.0 * PI * rng.uniformDouble(), in, out);
-        d = Vec3(out[0], out[1], out[2]).normalized();
-        if (depth >= 3) {
-            const double q = std::min(1.0, std::max({beta[0], beta[1], beta[2]}) / 0.25);
-            if (rng.uniformDouble() >= q) return;
-            for (double& b : beta)
-                b /= q;
-        }
-    }
-}
-
-/// One random walk from the eye along @p d0 for channels [c, c1), which share their
-/// extinction (all three in grey dust, else one): adds each channel's radiance to @p L[ch]
-/// (and each star's share to @p Ls[s * 3 + ch]) and sets the primary ray's ratio-tracked
-/// transmittance @p Tprim[ch].
-void walk(const PathScene& ps, int c, int c1, const Vec3& eye, const Vec3& d0, Pcg32& rng,
-          double* L, double* Ls, double* Tprim, std::uint64_t& collisions)
-{
-    const auto& dust = ps.scene->dust;
-    const double k0 = dust.kappa_V * dust.r[c];
-    double emitC[3];
-    for (int ch = c; ch < c1; ++ch)
-        emitC[ch] = ps.emissionScale * ps.emissionColor[ch];
-    Vec3 x = eye, d = d0;
-    double beta = 1.0;
-    // The primary ray's transmittance (alpha and the transmittance layer), ratio tracked.
-    const double T0 = transmittance(ps, c, eye, d0, INF, rng, collisions);
-    for (int ch = c; ch < c1; ++ch)
-        Tprim[ch] = T0;
-    for (int depth = 0;; ++depth) {
-        const Tracker tr(ps, x, d, INF);
-        bool scattered = false;
-        double tHit = 0.0;
-        float f[2];
-        tr.track(c, rng, collisions, [&](double t, double mu) {
-            ps.fields.sample(tr.ray.oI + tr.ray.dI * t, f);
-            const double k = k0 * f[0];
-            // Collision estimator of emission: j / majorant at every tentative collision.
-            if (f[1] > 0.0f) {
-                for (int ch = c; ch < c1; ++ch)
-                    L[ch] += beta * emitC[ch] * f[1] / mu;
-            }
-            if (rng.uniformDouble() * mu < k) {
-                scattered = true;
-                tHit = t;
-                return false;
-            }
-            return true;
-        });
-        if (!scattered) return;
-        // Real collision: absorb (1 - albedo) of the weight, light it from every star.
-        x = x + d * tHit;
-        beta *= dust.albedo;
-        if (!(beta > 0.0)) return;
-        for (std::size_t s = 0; s < ps.starPos.size(); ++s) {
-            const Vec3 v = ps.starPos[s] - x;
-            const double r2 = v.dot(v);
-            const double r = std::sqrt(r2);
             const double mu = r > 0.0 ? v.dot(d) / r : 1.0; // light travel . (-d) = toStar . d
             const double p = phaseFunction(dust.phase, mu, dust.g);
-            const double Tr =
-                r > 0.0 ? transmittance(ps, c, x, v * (1.0 / r), r, rng, collisions) : 1.0;
-            const double w = beta * p * Tr / (4.0 * PI * std::max(r2, ps.rmin2));
-            for (int ch = c; ch < c1; ++ch) {
-                const double add = w * ps.scene->starColor[s][ch];
-                L[ch] += add;
-                Ls[s * 3 + ch] += add;
+            double Tr[3] = {1.0, 1.0, 1.0};
+            if (r > 0.0) transmittance(ps, cmax, x, v * (1.0 / r), r, rng, collisions, Tr);
+            for (int c = 0; c < 3; ++c) {
+                const double w = beta[c] * p * Tr[c] / (4.0 * PI * std::max(r2, ps.rmin2));
+                const double add = w * ps.scene->starColor[s][c];
+                L[c] += add;
+                Ls[s * 3 + c] += add;
             }
         }
         // Continue in a phase-sampled direction (weight p / pdf = 1).
@@ -317,11 +239,12 @@ void walk(const PathScene& ps, int c, int c1, const Vec3& eye, const Vec3& d0, P
         double out[3];
         sampleDirection(mu, 2.0 * PI * rng.uniformDouble(), in, out);
         d = Vec3(out[0], out[1], out[2]).normalized();
-        // Russian roulette after 3 bounces, on the weight.
+        // Russian roulette after 3 bounces, on the largest weight.
         if (depth >= 3) {
-            const double q = std::min(1.0, beta / 0.25);
+            const double q = std::min(1.0, std::max({beta[0], beta[1], beta[2]}) / 0.25);
             if (rng.uniformDouble() >= q) return;
-            beta /= q;
+            for (double& b : beta)
+                b /= q;
         }
     }
 }
@@ -364,12 +287,7 @@ Image renderPathTraced(const RenderScene& scene, const RenderOptions& opts, cons
                         Pcg32 rng(pix * 0x9E3779B97F4A7C15ULL + std::uint64_t(sample), opts.seed);
                         double L[3] = {0, 0, 0}, T[3] = {1, 1, 1};
                         std::fill(Ls.begin(), Ls.end(), 0.0);
-                        if (grey) {
-                            walk(ps, 0, 3, cam.eye(), d, rng, L, Ls.data(), T, band.collisions);
-                        } else {
-                            walkSpectral(ps, cmax, cam.eye(), d, rng, L, Ls.data(), T,
-                                         band.collisions);
-                        }
+                        walk(ps, cmax, grey, cam.eye(), d, rng, L, Ls.data(), T, band.collisions);
                         ++band.paths;
                         for (int c = 0; c < 3; ++c) {
                             // Welford's running mean and sum of squared deviations.

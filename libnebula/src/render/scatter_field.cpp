@@ -88,6 +88,18 @@ inline void addFixed(std::int64_t* p, double scaled, bool atomic)
     }
 }
 
+/// The light of star @p s first scattered at a point with dust @p n [cm^-3], squared
+/// distance @p r2 [pc^2] from the star (already clamped) and V optical depth @p tau from it,
+/// per channel: eta_c = k_c a E_c [L_sun pc^-3], integrated over directions.
+void firstScatteringSource(const RenderScene& scene, std::size_t s, double n, double r2, double tau,
+                           double eta[3])
+{
+    const ChannelDust& dust = scene.dust;
+    for (int c = 0; c < 3; ++c)
+        eta[c] = dust.kappa_V * dust.r[c] * n * dust.albedo * scene.starColor[s][c] /
+                 (4.0 * PI * r2) * std::exp(-dust.r[c] * tau);
+}
+
 /// One piece of a flight (a half-voxel cell) with dust: where it starts (world distance),
 /// its length [pc], its constant V extinction [1/pc] and the V optical depth before it.
 struct Piece
@@ -162,19 +174,22 @@ public:
                                                   k + (c >> 2)))[0] > 0.0f);
                     mEmpty[f.index(i, j, k)] = empty ? 1 : 0;
                 }
-        // Field cells the renderer reads: those overlapping dust and their 26 neighbours.
-        std::vector<std::uint8_t> dusty(fieldCells(), 0);
+        // Dust per field cell (n_H summed over its voxels), and the cells the renderer
+        // reads: those holding dust and their 26 neighbours.
+        mCellDust.assign(fieldCells(), 0.0);
         for (int k = mLo[2]; k <= mHi[2]; ++k)
             for (int j = mLo[1]; j <= mHi[1]; ++j)
-                for (int i = mLo[0]; i <= mHi[0]; ++i)
-                    if (f.voxel(f.index(i, j, k))[0] > 0.0f)
-                        dusty[cellIndex(floorDiv(i) - mFLo[0], floorDiv(j) - mFLo[1],
-                                        floorDiv(k) - mFLo[2])] = 1;
+                for (int i = mLo[0]; i <= mHi[0]; ++i) {
+                    const float n = f.voxel(f.index(i, j, k))[0];
+                    if (n > 0.0f)
+                        mCellDust[cellIndex(floorDiv(i) - mFLo[0], floorDiv(j) - mFLo[1],
+                                            floorDiv(k) - mFLo[2])] += n;
+                }
         mActive.assign(fieldCells(), 0);
         for (int K = 0; K < mFDims[2]; ++K)
             for (int J = 0; J < mFDims[1]; ++J)
                 for (int I = 0; I < mFDims[0]; ++I) {
-                    if (!dusty[cellIndex(I, J, K)]) continue;
+                    if (!(mCellDust[cellIndex(I, J, K)] > 0.0)) continue;
                     for (int c = 0; c < 27; ++c) {
                         const int a = I + c % 3 - 1, b = J + (c / 3) % 3 - 1, e = K + c / 9 - 1;
                         if (a >= 0 && b >= 0 && e >= 0 && a < mFDims[0] && b < mFDims[1] &&
@@ -201,8 +216,10 @@ public:
     {
         return (std::size_t(K) * mFDims[1] + std::size_t(J)) * mFDims[0] + std::size_t(I);
     }
-    /// Whether field cell @p c is read by the renderer (dust in it or next to it).
-    bool active(std::size_t c) const { return mActive[c] != 0; }
+    /// Per field cell: 1 if the renderer reads it (dust in it or next to it).
+    const std::vector<std::uint8_t>& active() const { return mActive; }
+    /// Per field cell: n_H summed over its voxels [cm^-3].
+    const std::vector<double>& cellDust() const { return mCellDust; }
 
     /// Field cell of level-0 index coordinate @p p along one axis.
     int floorDiv(double p) const { return int(std::floor((p + 0.5) / mScale)); }
@@ -373,6 +390,7 @@ private:
     std::vector<Vec3> mStarPos;
     std::vector<std::uint8_t> mEmpty;  ///< per lattice cell (lower corner's index): no dust
     std::vector<std::uint8_t> mActive; ///< per field cell: read by the renderer
+    std::vector<double> mCellDust;     ///< per field cell: n_H summed over its voxels
 };
 
 /// Integer sums of a source's energy statistics (weights, fixed point).
@@ -389,12 +407,24 @@ struct SourceSpec
     std::vector<std::size_t> stars; ///< empty: the emission
 };
 
+/// What one thread's packets reuse from packet to packet (no allocation per packet).
+struct PacketScratch
+{
+    std::vector<Piece> pieces;  ///< the current flight's pieces with dust
+    std::vector<float> fv;      ///< the scene's fields at the starting point
+    std::vector<double> etaS;   ///< per star and channel: its first-scattering source there
+    std::vector<double> etaSum; ///< per star: summed over channels
+};
+
 /// Follows packet @p index of @p src through every order of scattering.
 void runPacket(const Transport& tr, const SourceSpec& src, const Sampler& sampler,
                std::uint64_t index, std::uint64_t seed, std::uint64_t sourceIndex,
-               const Transport::Tally& tally, EnergySums& energy, std::vector<Piece>& pieces,
-               std::vector<double>& etaS)
+               const Transport::Tally& tally, EnergySums& energy, PacketScratch& sc)
 {
+    std::vector<Piece>& pieces = sc.pieces;
+    std::vector<double>& etaS = sc.etaS;
+    std::vector<double>& etaSum = sc.etaSum;
+    std::vector<float>& fv = sc.fv;
     const RenderScene& scene = tr.mScene;
     const ChannelDust& dust = tr.mDust;
     Pcg32 rng(index, seed ^ (0x9E3779B97F4A7C15ULL * (sourceIndex + 1)));
@@ -413,7 +443,7 @@ void runPacket(const Transport& tr, const SourceSpec& src, const Sampler& sample
     const int k = int(lin / std::size_t(dims[1])) + lo[2];
     const Vec3 pI(i + rng.uniformDouble(), j + rng.uniformDouble(), k + rng.uniformDouble());
     Vec3 x = f.indexToWorld.apply(pI);
-    std::vector<float> fv(std::size_t(f.channels()));
+    fv.resize(std::size_t(f.channels()));
     f.sample(pI, fv.data());
     const double norm = 3.0 / double(sampler.proxy[ci]); // w_c = 3 eta_c(x) / proxy(cell)
     double w[3];
@@ -425,19 +455,14 @@ void runPacket(const Transport& tr, const SourceSpec& src, const Sampler& sample
         const std::size_t S = src.stars.size();
         etaS.assign(S * 3, 0.0);
         double etaTot = 0.0;
-        std::vector<double> etaSum(S, 0.0);
+        etaSum.assign(S, 0.0);
         const double n = fv[0];
         for (std::size_t q = 0; q < S; ++q) {
             const std::size_t s = src.stars[q];
             const Vec3 v = x - tr.starPos()[s];
-            const double r2 = std::max(v.dot(v), tr.rmin2());
-            for (int c = 0; c < 3; ++c) {
-                const double e = dust.kappa_V * dust.r[c] * n * dust.albedo *
-                                 scene.starColor[s][c] / (4.0 * PI * r2) *
-                                 std::exp(-dust.r[c] * double(fv[2 + s]));
-                etaS[q * 3 + c] = e;
-                etaSum[q] += e;
-            }
+            firstScatteringSource(scene, s, n, std::max(v.dot(v), tr.rmin2()), double(fv[2 + s]),
+                                  &etaS[q * 3]);
+            etaSum[q] = etaS[q * 3] + etaS[q * 3 + 1] + etaS[q * 3 + 2];
             etaTot += etaSum[q];
         }
         if (!(etaTot > 0.0)) return;
@@ -577,22 +602,10 @@ ScatterField computeScatterField(const RenderScene& scene, const RenderOptions& 
     const std::size_t cells = tr.fieldCells();
     const int nm = tr.moments();
     const Affine fieldMap = fieldLevelMap(f.indexToWorld, opts.fieldLevel);
-    const auto& dust = scene.dust;
     const double rmin2 = tr.rmin2();
 
-    // Dust per field cell (for the noise report's weights).
-    std::vector<double> cellDust(cells, 0.0);
-    for (int k = f.lo()[2]; k < f.lo()[2] + f.dims()[2]; ++k)
-        for (int j = f.lo()[1]; j < f.lo()[1] + f.dims()[1]; ++j)
-            for (int i = f.lo()[0]; i < f.lo()[0] + f.dims()[0]; ++i) {
-                const float n = f.voxel(f.index(i, j, k))[0];
-                if (!(n > 0.0f)) continue;
-                const std::size_t c = (std::size_t(tr.floorDiv(k) - fLo[2]) * fDims[1] +
-                                       std::size_t(tr.floorDiv(j) - fLo[1])) *
-                                          fDims[0] +
-                                      std::size_t(tr.floorDiv(i) - fLo[0]);
-                cellDust[c] += n;
-            }
+    field.active = tr.active();
+    const std::vector<double>& cellDust = tr.cellDust(); // the noise report's weights
 
     for (std::size_t si = 0; si < specs.size(); ++si) {
         const SourceSpec& spec = specs[si];
@@ -611,11 +624,12 @@ ScatterField computeScatterField(const RenderScene& scene, const RenderOptions& 
                         const Vec3 xw = f.indexToWorld.apply(Vec3(i, j, k));
                         for (const std::size_t s : spec.stars) {
                             const Vec3 dv = xw - tr.starPos()[s];
-                            const double r2 = std::max(dv.dot(dv), rmin2);
-                            for (int c = 0; c < 3; ++c)
-                                e += dust.kappa_V * dust.r[c] * fv[0] * dust.albedo *
-                                     scene.starColor[s][c] / (4.0 * PI * r2) *
-                                     std::exp(-dust.r[c] * double(fv[2 + s]));
+                            double es[3];
+                            firstScatteringSource(scene, s, fv[0], std::max(dv.dot(dv), rmin2),
+                                                  double(fv[2 + s]), es);
+                            e += es[0];
+                            e += es[1];
+                            e += es[2];
                         }
                     }
                     eta[v] = float(e);
@@ -662,12 +676,11 @@ ScatterField computeScatterField(const RenderScene& scene, const RenderOptions& 
                                           tally.sq = buf.second.data();
                                           tally.atomic = false;
                                       }
-                                      std::vector<Piece> pieces;
-                                      std::vector<double> etaS;
-                                      pieces.reserve(1024);
+                                      PacketScratch scratch;
+                                      scratch.pieces.reserve(1024);
                                       for (std::uint64_t p = r.begin(); p != r.end(); ++p)
                                           runPacket(tr, spec, sampler, p, opts.seed, si, tally,
-                                                    energy, pieces, etaS);
+                                                    energy, scratch);
                                       bar.add(r.size());
                                   });
             }

@@ -15,38 +15,6 @@
 
 namespace nebula {
 
-namespace {
-
-/// Which field cells get active values: those overlapping a voxel with dust, and their 26
-/// neighbours (the renderer interpolates trilinearly).
-std::vector<std::uint8_t> activeCells(const DenseVolume& fields, const DenseVolume& moments,
-                                      int level)
-{
-    const auto& lo = moments.lo();
-    const auto& d = moments.dims();
-    std::vector<std::uint8_t> dusty(moments.voxelCount(), 0), active(moments.voxelCount(), 0);
-    const auto cellOf = [level](int i) { return int(std::floor((i + 0.5) / double(1 << level))); };
-    for (int k = fields.lo()[2]; k < fields.lo()[2] + fields.dims()[2]; ++k)
-        for (int j = fields.lo()[1]; j < fields.lo()[1] + fields.dims()[1]; ++j)
-            for (int i = fields.lo()[0]; i < fields.lo()[0] + fields.dims()[0]; ++i) {
-                if (!(fields.voxel(fields.index(i, j, k))[0] > 0.0f)) continue;
-                const int I = cellOf(i), J = cellOf(j), K = cellOf(k);
-                if (moments.contains(I, J, K)) dusty[moments.index(I, J, K)] = 1;
-            }
-    for (int K = lo[2]; K < lo[2] + d[2]; ++K)
-        for (int J = lo[1]; J < lo[1] + d[1]; ++J)
-            for (int I = lo[0]; I < lo[0] + d[0]; ++I) {
-                if (!dusty[moments.index(I, J, K)]) continue;
-                for (int c = 0; c < 27; ++c) {
-                    const int a = I + c % 3 - 1, b = J + (c / 3) % 3 - 1, e = K + c / 9 - 1;
-                    if (moments.contains(a, b, e)) active[moments.index(a, b, e)] = 1;
-                }
-            }
-    return active;
-}
-
-} // namespace
-
 ScatterField scatter(GridSet& grids, const ScatterStageOptions& opts, const Run& run)
 {
     const DustParams dust = grids.dust(run);
@@ -84,7 +52,6 @@ ScatterField scatter(GridSet& grids, const ScatterStageOptions& opts, const Run&
     nlohmann::json sources = nlohmann::json::array();
     for (const auto& src : field.sources) {
         const DenseVolume& m = src.moments;
-        const auto active = activeCells(scene.fields, m, field.level);
         const double j0 = 0.5 / std::sqrt(PI); // Y_00: J = c_00 / (4 pi Y_00)
         for (int l = 0; l <= L; ++l)
             for (int mm = -l; mm <= l; ++mm)
@@ -97,7 +64,7 @@ ScatterField scatter(GridSet& grids, const ScatterStageOptions& opts, const Run&
                         for (int J = m.lo()[1]; J < m.lo()[1] + m.dims()[1]; ++J)
                             for (int I = m.lo()[0]; I < m.lo()[0] + m.dims()[0]; ++I) {
                                 const std::size_t v = m.index(I, J, K);
-                                if (!active[v]) continue;
+                                if (!field.active[v]) continue;
                                 acc.setValue(openvdb::Coord(I, J, K),
                                              float(m.voxel(v)[ch] * scale));
                             }

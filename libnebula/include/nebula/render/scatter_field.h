@@ -70,6 +70,9 @@ struct ScatterField
     int order = 2;
     int level = 0;
     std::vector<ScatterSourceField> sources;
+    /// Per cell of the sources' lattice: 1 where the renderer reads the field (the cells
+    /// holding dust and their 26 neighbours; only these are tallied).
+    std::vector<std::uint8_t> active;
 };
 
 /// Field level @p level's index-to-world map from level 0's @p level0: field voxel I covers
