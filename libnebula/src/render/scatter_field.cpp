@@ -755,6 +755,18 @@ ScatterField computeScatterField(const RenderScene& scene, const RenderOptions& 
     return field;
 }
 
+void addScatterMoments(DenseVolume& total, const DenseVolume& src,
+                       const std::array<double, 3>& factor, double c00Factor)
+{
+    const std::size_t C = std::size_t(src.channels());
+    const auto& a = src.data();
+    auto& b = total.data();
+    for (std::size_t i = 0; i < a.size(); ++i) {
+        const std::size_t q = i % C; // k * 3 + c: 3 divides the channel count
+        b[i] += float(factor[q % 3] * a[i] * (q < 3 ? c00Factor : 1.0));
+    }
+}
+
 SceneScatterField sceneScatterField(const ScatterField& field, const RenderOptions& opts)
 {
     SceneScatterField out;
@@ -764,13 +776,12 @@ SceneScatterField sceneScatterField(const ScatterField& field, const RenderOptio
     out.moments = field.sources[0].moments;
     std::fill(out.moments.data().begin(), out.moments.data().end(), 0.0f);
     for (const auto& src : field.sources) {
-        const bool emission = src.name == "emission";
-        const auto& a = src.moments.data();
-        auto& b = out.moments.data();
-        for (std::size_t i = 0; i < a.size(); ++i) {
-            const std::size_t c = i % 3; // channel k * 3 + c: 3 divides the channel count
-            b[i] += emission ? float(opts.emissionScale * opts.emissionColor[c] * a[i]) : a[i];
+        std::array<double, 3> factor{1, 1, 1};
+        if (src.name == "emission") {
+            for (std::size_t c = 0; c < 3; ++c)
+                factor[c] = opts.emissionScale * opts.emissionColor[c];
         }
+        addScatterMoments(out.moments, src.moments, factor);
     }
     out.description = "scattered-light field (in memory)";
     return out;

@@ -321,12 +321,7 @@ void readScatterField(const GridSet& grids, const RenderOptions& opts, const Dus
                 if ("star_" + scene.stars[s].name == src)
                     factor.fill(scene.stars[s].luminosity / fieldStars[s].luminosity);
         }
-        for (std::size_t i = 0; i < v.voxelCount(); ++i) {
-            const float* a = v.voxel(i);
-            float* b = out.moments.voxel(i);
-            for (int q = 0; q < nm * 3; ++q)
-                b[q] += float(factor[std::size_t(q % 3)] * a[q] * (q < 3 ? c00 : 1.0));
-        }
+        addScatterMoments(out.moments, v, factor, c00);
     }
     std::string names;
     for (const auto& s : sources)

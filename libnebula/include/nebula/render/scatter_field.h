@@ -92,6 +92,12 @@ void validateScatterOptions(const RenderScene& scene, const ScatterOptions& opts
 ScatterField computeScatterField(const RenderScene& scene, const RenderOptions& ropts,
                                  const ScatterOptions& opts, const Run* run);
 
+/// Adds @p src's moments (channel k * 3 + c, as in ScatterSourceField::moments) times
+/// @p factor[c] to @p total's, the l = 0 ones also times @p c00Factor (2 sqrt(pi) turns
+/// nebscatter's J grids into c_00); both on the same lattice.
+void addScatterMoments(DenseVolume& total, const DenseVolume& src,
+                       const std::array<double, 3>& factor, double c00Factor = 1.0);
+
 /// The field as the fast integrator adds it (RenderScene::scatter): every source's moments
 /// summed, the emission's times @p opts' emission scale and colour (in memory; nebrender
 /// reads nebscatter's grids in buildScene()).
