@@ -82,7 +82,7 @@ TEST_F(NebScatter, FieldGridsMetadataAndRendering)
     EXPECT_GT(total(f, 2) / total(n, 2), total(f, 0) / total(n, 0));
     EXPECT_NE(attrs.at("nebula:integrator").find("scattered-light field"), std::string::npos);
 
-    // The path tracer and spectral mode do not use it, and say so.
+    // The path tracer does not use it, and says so.
     r = run("nebrender -i s.vdb --res 4x4 --integrator path --spp 1 -o p.exr");
     ASSERT_EQ(r.code, 0) << r.err;
     EXPECT_NE(r.err.find("does not need"), std::string::npos) << r.err;
@@ -197,4 +197,72 @@ TEST_F(NebScatter, PerStarFieldsFollowTheLuminosity)
     const auto b = nebula::readExr(path("b.exr"), nullptr);
     for (int c = 0; c < 3; ++c)
         EXPECT_NEAR(total(b, c), 2.0 * total(a, c), 1e-4 * total(b, c)) << c;
+}
+
+// --spectral N: the starlight's field at N wavelengths for nebrender --spectral, beside the
+// R, G, B field in the same file (each replaces only its own kind); nebrender --spectral
+// uses it and says so, and the RGB render is unchanged by it; a spectral render of a file
+// with only the R, G, B field warns that it is single scattering; a spectral field made
+// for other stars is refused; --spectral 1 is a usage error.
+TEST_F(NebScatter, SpectralFieldForTheSpectralRenderer)
+{
+    makeField();
+    Result r = run("nebscatter -i s.vdb --spectral 6 --packets 10000 -v -o both.vdb");
+    ASSERT_EQ(r.code, 0) << r.err;
+    EXPECT_NE(r.err.find("spectral: 6 wavelengths, 380-780 nm"), std::string::npos) << r.err;
+    const auto b = read(path("both.vdb"));
+    EXPECT_TRUE(b.find("scatter.stars.J.R")); // the R, G, B field stays
+    EXPECT_TRUE(b.find("scatter.emission.J.B"));
+    for (const std::string lam : {"380nm", "460nm", "540nm", "620nm", "700nm", "780nm"}) {
+        const auto j = b.floatGrid("scatter.spectral.stars.J." + lam, "");
+        EXPECT_GT(maxValue(*j), 0.0) << lam;
+        EXPECT_EQ(j->metaValue<std::string>("units"),
+                  "L_sun pc^-2 sr^-1 nm^-1 (mean intensity J per nm)");
+        EXPECT_TRUE(b.find("scatter.spectral.stars.c2_-1." + lam)) << lam;
+        EXPECT_FALSE(b.find("scatter.spectral.emission.J." + lam)) << lam;
+    }
+    const auto meta = nlohmann::json::parse(b.metaString(nebula::META_SCATTER_SPECTRAL));
+    EXPECT_EQ(meta.at("wavelengths").size(), 6u);
+    EXPECT_FALSE(b.metaString(nebula::META_SCATTER).empty());
+
+    r = run("nebrender -i both.vdb --spectral --res 16x16 --no-stars -v -o f.exr");
+    ASSERT_EQ(r.code, 0) << r.err;
+    EXPECT_NE(r.err.find("using the spectral scattered-light field"), std::string::npos) << r.err;
+    ASSERT_EQ(run("nebrender -i both.vdb --spectral --res 16x16 --no-stars --no-scatter-field "
+                  "-o n.exr")
+                  .code,
+              0);
+    r = run("nebrender -i s.vdb --spectral --res 16x16 --no-stars -o rgbonly.exr");
+    ASSERT_EQ(r.code, 0) << r.err;
+    EXPECT_NE(r.err.find("no spectral one"), std::string::npos) << r.err;
+    const auto f = nebula::readExr(path("f.exr"), nullptr);
+    const auto n = nebula::readExr(path("n.exr"), nullptr);
+    EXPECT_EQ(nebula::readExr(path("rgbonly.exr"), nullptr).rgba, n.rgba);
+    for (int c = 0; c < 3; ++c)
+        EXPECT_GT(total(f, c), 1.05 * total(n, c)) << c;
+    // The RGB render does not see the spectral field.
+    ASSERT_EQ(run("nebrender -i both.vdb --res 16x16 --no-stars -o rb.exr").code, 0);
+    ASSERT_EQ(run("nebrender -i s.vdb --res 16x16 --no-stars -o rs.exr").code, 0);
+    EXPECT_EQ(nebula::readExr(path("rb.exr"), nullptr).rgba,
+              nebula::readExr(path("rs.exr"), nullptr).rgba);
+    // A spectral field made for other stars; a spectral grid missing.
+    {
+        auto g = read(path("both.vdb"));
+        auto stars = g.stars();
+        stars[1].temperature *= 1.5;
+        g.setStars(stars);
+        nebula::writeGrids(path("hotter.vdb"), g, "test", "test");
+        auto h = read(path("both.vdb"));
+        openvdb::GridPtrVec kept;
+        for (auto& grid : h.grids)
+            if (grid->getName() != "scatter.spectral.stars.c1_0.540nm") kept.push_back(grid);
+        h.grids = kept;
+        nebula::writeGrids(path("missing.vdb"), h, "test", "test");
+    }
+    expectFailure("nebrender -i hotter.vdb --spectral --res 8x8 -o x.exr", 1,
+                  "spectral scattered-light field (nebscatter --spectral) was made for other "
+                  "stars");
+    expectFailure("nebrender -i missing.vdb --spectral --res 8x8 -o x.exr", 1,
+                  "lacks its grid \"scatter.spectral.stars.c1_0.540nm\"");
+    expectFailure("nebscatter -i lit.vdb --spectral 1 -o x.vdb", 2, "--spectral");
 }

@@ -49,7 +49,8 @@ int main(int argc, char** argv)
         "emission grid's nebula:lines (Doppler-shifted by the velocity grid, v_r > 0\n"
         "receding: lambda' = lambda (1 + v_r/c)), black-body (Kirchhoff) emission from the\n"
         "temperature grid, starlight scattered by dust with the extinction curve at every\n"
-        "wavelength; colour = CIE 1931 XYZ -> linear sRGB (may be negative out of gamut).",
+        "wavelength (and more than once from nebscatter --spectral's field, if present);\n"
+        "colour = CIE 1931 XYZ -> linear sRGB (may be negative out of gamut).",
         "nebrender"};
     nebula::cli::addCommon(app, common, nebula::cli::INPUT | nebula::cli::DENSITY_GRID);
     app.add_option("-o,--output", out.exr, "Output EXR file")->required();

@@ -16,7 +16,9 @@ int main(int argc, char** argv)
         "  nebscatter -i lit.vdb -o scattered.vdb && nebrender -i scattered.vdb -o f.exr\n"
         "  nebgen -o - | nebillum -i - -o - | nebscatter -i - -o - | nebrender -i - -o f.exr\n"
         "  nebscatter -i lit.vdb --field-level 0 --order 3 --packets 8000000 -o s.vdb\n"
-        "  nebscatter -i lit.vdb --per-star -o s.vdb   # a field per star\n\n"
+        "  nebscatter -i lit.vdb --per-star -o s.vdb   # a field per star\n"
+        "  nebscatter -i lit.vdb --spectral 6 -o s.vdb && nebrender -i s.vdb --spectral -o s.exr\n"
+        "  nebscatter -i lit.vdb -o - | nebscatter -i - --spectral 6 -o both.vdb  # both fields\n\n"
         "Monte Carlo packets start from the first-scattering source, known exactly from the\n"
         "tau.<star> grids (and from the gas emission), and are followed through every order\n"
         "of scattering on the full-resolution density (trilinear, exact optical depth per\n"
@@ -32,7 +34,11 @@ int main(int argc, char** argv)
         "(l = 1..L) [L_sun pc^-2], on cells of 2^k voxels (nebpyramid's level-k layout),\n"
         "active where there is dust; the file metadata nebula:scatter records the dust,\n"
         "stars, wavelengths and transform the field was made for (nebrender refuses a field\n"
-        "that does not match its scene). Same seed, same field, whatever the thread count.\n"
+        "that does not match its scene). --spectral N computes instead the starlight's\n"
+        "field for nebrender --spectral at N wavelengths over 380-780 nm (grids\n"
+        "scatter.spectral.<source>.J.<lambda>nm and .c<l>_<m>.<lambda>nm, per nm; metadata\n"
+        "nebula:scatter_spectral); it replaces only an earlier spectral field, so one file\n"
+        "can hold both. Same seed, same field, whatever the thread count.\n"
         "-v reports the packets, the energy balance and the field's noise.",
         "nebscatter"};
     nebula::cli::addCommon(app, common,
@@ -64,6 +70,11 @@ int main(int argc, char** argv)
     nebula::cli::addVec3(
         app, "--wavelengths", opts.wavelengths,
         "R,G,B channel wavelengths [nm] for the extinction curve (as nebrender's)");
+    app.add_option("--spectral", opts.spectral,
+                   "The starlight's field for nebrender --spectral at N wavelengths evenly\n"
+                   "spaced over 380-780 nm, 2..64 (6 keep colours within Delta E 2000 < 0.4 of\n"
+                   "a dense field); one walk carries them all")
+        ->check(nebula::cli::integerIn(2, 64));
     app.add_option("--min-star-distance", opts.minStarDistance,
                    "Distance below which 1/r^2 is clamped [voxels] (as nebrender's)")
         ->capture_default_str()

@@ -6,6 +6,8 @@
 #include "nebula/core/error.h"
 #include "nebula/core/rng.h"
 #include "nebula/core/units.h"
+#include "nebula/physics/blackbody.h"
+#include "nebula/physics/colour.h"
 #include "nebula/physics/spherical_harmonics.h"
 #include "nebula/volume/block_walk.h"
 
@@ -88,16 +90,26 @@ inline void addFixed(std::int64_t* p, double scaled, bool atomic)
     }
 }
 
-/// The light of star @p s first scattered at a point with dust @p n [cm^-3], squared
-/// distance @p r2 [pc^2] from the star (already clamped) and V optical depth @p tau from it,
-/// per channel: eta_c = k_c a E_c [L_sun pc^-3], integrated over directions.
-void firstScatteringSource(const RenderScene& scene, std::size_t s, double n, double r2, double tau,
-                           double eta[3])
+/// The channels one walk carries: R, G, B (the scene's channel dust and star colours) or a
+/// spectral field's wavelengths.
+struct Channels
 {
-    const ChannelDust& dust = scene.dust;
-    for (int c = 0; c < 3; ++c)
-        eta[c] = dust.kappa_V * dust.r[c] * n * dust.albedo * scene.starColor[s][c] /
-                 (4.0 * PI * r2) * std::exp(-dust.r[c] * tau);
+    std::vector<double> wavelengths;            ///< a spectral field's [nm]; empty: R, G, B
+    std::vector<double> r;                      ///< A(lambda_c)/A_V per channel
+    std::vector<std::vector<double>> starPower; ///< per star and channel [L_sun (nm^-1)]
+    std::size_t size() const { return r.size(); }
+};
+
+/// The most channels one walk carries (a spectral field's wavelengths).
+constexpr std::size_t MAX_CHANNELS = SPECTRAL_FIELD_MAX_WAVELENGTHS;
+
+Channels rgbChannels(const RenderScene& scene)
+{
+    Channels ch;
+    ch.r.assign(scene.dust.r.begin(), scene.dust.r.end());
+    for (const auto& c : scene.starColor)
+        ch.starPower.emplace_back(c.begin(), c.end());
+    return ch;
 }
 
 /// One piece of a flight (a half-voxel cell) with dust: where it starts (world distance),
@@ -144,9 +156,10 @@ Sampler buildSampler(const DenseVolume& lattice, const std::vector<float>& eta)
 class Transport
 {
 public:
-    Transport(const RenderScene& scene, const RenderOptions& ropts, const ScatterOptions& opts)
-        : mScene(scene), mDust(scene.dust), mOrder(opts.order), mNm(shCount(opts.order)),
-          mScale(1 << opts.fieldLevel)
+    Transport(const RenderScene& scene, const RenderOptions& ropts, const ScatterOptions& opts,
+              Channels channels)
+        : mScene(scene), mDust(scene.dust), mCh(std::move(channels)), mC(int(mCh.size())),
+          mOrder(opts.order), mNm(shCount(opts.order)), mScale(1 << opts.fieldLevel)
     {
         const DenseVolume& f = scene.fields;
         mDensity = DenseVolume(f.lo(), f.dims(), 1);
@@ -162,7 +175,7 @@ public:
             mFLo[a] = floorDiv(mLo[a]) - 1;
             mFDims[a] = floorDiv(mHi[a]) + 1 - mFLo[a] + 1;
         }
-        mRMin = std::min({mDust.r[0], mDust.r[1], mDust.r[2]});
+        mRMin = *std::min_element(mCh.r.begin(), mCh.r.end());
         // Lattice cells without dust (all 8 corners zero): nothing to sample there.
         mEmpty.assign(f.voxelCount(), 1);
         for (int k = mLo[2]; k < mHi[2]; ++k)
@@ -202,6 +215,21 @@ public:
     }
 
     std::size_t fieldCells() const { return std::size_t(mFDims[0]) * mFDims[1] * mFDims[2]; }
+    int channels() const { return mC; }
+    /// The channel whose J's noise is reported: green, a spectral field's middle wavelength.
+    int noiseChannel() const { return mC / 2; }
+    const Channels& channelSet() const { return mCh; }
+
+    /// The light of star @p s first scattered at a point with dust @p n [cm^-3], squared
+    /// distance @p r2 [pc^2] from the star (already clamped) and V optical depth @p tau from
+    /// it, per channel: eta_c = k_c a E_c [L_sun pc^-3], integrated over directions.
+    void firstScatteringSource(std::size_t s, double n, double r2, double tau, double* eta) const
+    {
+        for (int c = 0; c < mC; ++c)
+            eta[c] = mDust.kappa_V * mCh.r[std::size_t(c)] * n * mDust.albedo *
+                     mCh.starPower[s][std::size_t(c)] / (4.0 * PI * r2) *
+                     std::exp(-mCh.r[std::size_t(c)] * tau);
+    }
     int moments() const { return mNm; }
     int order() const { return mOrder; }
     const std::array<int, 3>& fieldLo() const { return mFLo; }
@@ -291,8 +319,11 @@ public:
         }
         double t = ta, tau = 0.0;
         float nPrev = mDensity.sample0(oI + dI * ta);
-        double att[3] = {w[0], w[1], w[2]}; // w_c e^-tau_c before the piece
-        double acc[3] = {0, 0, 0};
+        double att[MAX_CHANNELS], acc[MAX_CHANNELS];
+        for (int ch = 0; ch < mC; ++ch) {
+            att[ch] = w[ch]; // w_c e^-tau_c before the piece
+            acc[ch] = 0.0;
+        }
         long cell = -1;
         const double kappa = mDust.kappa_V;
         while (t < tb) {
@@ -321,8 +352,8 @@ public:
                     }
                 }
                 if (dTau > 0.0) {
-                    for (int ch = 0; ch < 3; ++ch) {
-                        const double xc = mDust.r[ch] * dTau;
+                    for (int ch = 0; ch < mC; ++ch) {
+                        const double xc = mCh.r[std::size_t(ch)] * dTau;
                         const double em1 = -std::expm1(-xc); // 1 - e^-x
                         if (cell >= 0) {
                             // integral of w e^-tau over the piece, in voxel lengths
@@ -335,7 +366,7 @@ public:
                     tau += dTau;
                     if (mRMin * tau > TAU_CUTOFF) break;
                 } else if (cell >= 0) {
-                    for (int ch = 0; ch < 3; ++ch)
+                    for (int ch = 0; ch < mC; ++ch)
                         acc[ch] += att[ch] * len / mVoxel;
                 }
             }
@@ -354,6 +385,8 @@ public:
     const ChannelDust& mDust;
 
 private:
+    Channels mCh;
+    int mC; ///< channels per walk
     static int floorDiv2(int q) { return q >= 0 ? q / 2 : -((1 - q) / 2); }
 
     /// Field cell index (0-based) along axis @p a of half-voxel cell @p q: the cell holding
@@ -367,19 +400,22 @@ private:
 
     void flush(long cell, double* acc, const double* Y, const Tally* out) const
     {
-        if (cell < 0 || !(acc[0] > 0.0 || acc[1] > 0.0 || acc[2] > 0.0)) {
-            acc[0] = acc[1] = acc[2] = 0.0;
+        bool any = false;
+        for (int c = 0; c < mC; ++c)
+            any = any || acc[c] > 0.0;
+        if (cell < 0 || !any) {
+            std::fill(acc, acc + mC, 0.0);
             return;
         }
-        std::int64_t* m = out->sum + std::size_t(cell) * std::size_t(mNm) * 3;
-        for (int c = 0; c < 3; ++c)
+        std::int64_t* m = out->sum + std::size_t(cell) * std::size_t(mNm) * std::size_t(mC);
+        for (int c = 0; c < mC; ++c)
             acc[c] *= out->invQ;
         for (int k = 0; k < mNm; ++k)
-            for (int c = 0; c < 3; ++c)
-                addFixed(m + k * 3 + c, acc[c] * Y[k], out->atomic);
-        addFixed(out->sq + cell, acc[1] * acc[1] * out->invQSq / (out->invQ * out->invQ),
-                 out->atomic);
-        acc[0] = acc[1] = acc[2] = 0.0;
+            for (int c = 0; c < mC; ++c)
+                addFixed(m + k * mC + c, acc[c] * Y[k], out->atomic);
+        const double g = acc[noiseChannel()];
+        addFixed(out->sq + cell, g * g * out->invQSq / (out->invQ * out->invQ), out->atomic);
+        std::fill(acc, acc + mC, 0.0);
     }
 
     int mOrder, mNm, mScale;
@@ -396,7 +432,7 @@ private:
 /// Integer sums of a source's energy statistics (weights, fixed point).
 struct EnergySums
 {
-    std::int64_t power[3] = {0, 0, 0}, escaped[3] = {0, 0, 0}, absorbed[3] = {0, 0, 0};
+    std::int64_t power[MAX_CHANNELS] = {}, escaped[MAX_CHANNELS] = {}, absorbed[MAX_CHANNELS] = {};
     std::atomic<std::uint64_t> flights{0};
 };
 
@@ -445,24 +481,27 @@ void runPacket(const Transport& tr, const SourceSpec& src, const Sampler& sample
     Vec3 x = f.indexToWorld.apply(pI);
     fv.resize(std::size_t(f.channels()));
     f.sample(pI, fv.data());
-    const double norm = 3.0 / double(sampler.proxy[ci]); // w_c = 3 eta_c(x) / proxy(cell)
-    double w[3];
+    const int C = tr.channels();
+    const double norm = C / double(sampler.proxy[ci]); // w_c = C eta_c(x) / proxy(cell)
+    double w[MAX_CHANNELS];
     Vec3 d;
     const bool fromStars = !src.stars.empty();
     if (fromStars) {
         // eta_{s,c} = k_c a E_{s,c}; the star is drawn in proportion to its eta, the
         // direction from its phase function; the weight is the mixture's exact ratio.
         const std::size_t S = src.stars.size();
-        etaS.assign(S * 3, 0.0);
+        etaS.assign(S * std::size_t(C), 0.0);
         double etaTot = 0.0;
         etaSum.assign(S, 0.0);
         const double n = fv[0];
         for (std::size_t q = 0; q < S; ++q) {
             const std::size_t s = src.stars[q];
             const Vec3 v = x - tr.starPos()[s];
-            firstScatteringSource(scene, s, n, std::max(v.dot(v), tr.rmin2()), double(fv[2 + s]),
-                                  &etaS[q * 3]);
-            etaSum[q] = etaS[q * 3] + etaS[q * 3 + 1] + etaS[q * 3 + 2];
+            double* eq = &etaS[q * std::size_t(C)];
+            tr.firstScatteringSource(s, n, std::max(v.dot(v), tr.rmin2()), double(fv[2 + s]), eq);
+            etaSum[q] = eq[0];
+            for (int c = 1; c < C; ++c)
+                etaSum[q] += eq[c];
             etaTot += etaSum[q];
         }
         if (!(etaTot > 0.0)) return;
@@ -481,44 +520,48 @@ void runPacket(const Transport& tr, const SourceSpec& src, const Sampler& sample
         sampleDirection(mu, 2.0 * PI * rng.uniformDouble(), inA, out);
         d = Vec3(out[0], out[1], out[2]).normalized();
         if (S == 1) {
-            for (int c = 0; c < 3; ++c)
-                w[c] = norm * etaS[c];
+            for (int c = 0; c < C; ++c)
+                w[c] = norm * etaS[std::size_t(c)];
         } else {
-            double num[3] = {0, 0, 0}, den = 0.0;
+            double num[MAX_CHANNELS] = {}, den = 0.0;
             for (std::size_t q = 0; q < S; ++q) {
                 const Vec3 fq = x - tr.starPos()[src.stars[q]];
                 const double rq = fq.length();
                 const double p = phaseFunction(dust.phase, rq > 0.0 ? fq.dot(d) / rq : 1.0, dust.g);
-                for (int c = 0; c < 3; ++c)
-                    num[c] += etaS[q * 3 + c] * p;
+                for (int c = 0; c < C; ++c)
+                    num[c] += etaS[q * std::size_t(C) + std::size_t(c)] * p;
                 den += etaSum[q] / etaTot * p;
             }
-            for (int c = 0; c < 3; ++c)
+            for (int c = 0; c < C; ++c)
                 w[c] = den > 0.0 ? norm * num[c] / den : 0.0;
         }
-        for (int c = 0; c < 3; ++c)
+        for (int c = 0; c < C; ++c)
             addFixed(&energy.power[c], w[c] * tally.invQ, true);
     } else {
         const double e = 4.0 * PI * double(fv[1]);
-        for (int c = 0; c < 3; ++c)
+        for (int c = 0; c < C; ++c)
             w[c] = norm * e;
         const double mu = 2.0 * rng.uniformDouble() - 1.0;
         const double phi = 2.0 * PI * rng.uniformDouble();
         const double st = std::sqrt(std::max(0.0, 1.0 - mu * mu));
         d = Vec3(st * std::cos(phi), st * std::sin(phi), mu);
     }
-    if (!(w[0] > 0.0 || w[1] > 0.0 || w[2] > 0.0)) return;
+    bool any = false;
+    for (int c = 0; c < C; ++c)
+        any = any || w[c] > 0.0;
+    if (!any) return;
 
     bool tallyOn = fromStars; // the emission's first flight is uncollided light
     double Y[shCount(SH_MAX_DEGREE)];
-    double esc[3] = {0, 0, 0}, abs_[3] = {0, 0, 0}, pow_[3] = {0, 0, 0};
+    double esc[MAX_CHANNELS] = {}, abs_[MAX_CHANNELS] = {}, pow_[MAX_CHANNELS] = {};
+    const std::vector<double>& r = tr.channelSet().r;
     std::uint64_t flights = 0;
     for (; flights < MAX_FLIGHTS; ++flights) {
         if (tallyOn) realSphericalHarmonics(d, tr.order(), Y);
         const double tau = tr.walk(x, d, w, tallyOn, Y, &tally, pieces);
-        double oneMinusT[3];
-        for (int c = 0; c < 3; ++c) {
-            oneMinusT[c] = -std::expm1(-dust.r[c] * tau);
+        double oneMinusT[MAX_CHANNELS];
+        for (int c = 0; c < C; ++c) {
+            oneMinusT[c] = -std::expm1(-r[std::size_t(c)] * tau);
             if (tallyOn) {
                 esc[c] += w[c] * (1.0 - oneMinusT[c]);
                 abs_[c] += w[c] * oneMinusT[c] * (1.0 - dust.albedo);
@@ -529,20 +572,20 @@ void runPacket(const Transport& tr, const SourceSpec& src, const Sampler& sample
         if (pieces.empty() || !(tau > 0.0)) break;
         // Collide inside the walked part for certain: a channel at random, a V optical
         // depth from its truncated exponential, the mixture's pdf for the weights.
-        const int cs = std::min(2, int(3.0 * rng.uniformDouble()));
-        const double target =
-            -std::log1p(-rng.uniformDouble() * oneMinusT[cs]) / dust.r[cs]; // V optical depth
+        const int cs = std::min(C - 1, int(double(C) * rng.uniformDouble()));
+        const double target = -std::log1p(-rng.uniformDouble() * oneMinusT[cs]) /
+                              r[std::size_t(cs)]; // V optical depth
         auto pit = std::upper_bound(pieces.begin(), pieces.end(), target,
                                     [](double v, const Piece& p) { return v < p.tau0; });
         const Piece& pc = *(pit == pieces.begin() ? pit : pit - 1);
         const double s = pc.t + std::min(pc.len, std::max(0.0, (target - pc.tau0) / pc.k));
-        double fc[3], pdf = 0.0;
-        for (int c = 0; c < 3; ++c) {
-            fc[c] = dust.r[c] * pc.k * std::exp(-dust.r[c] * target);
-            pdf += fc[c] / oneMinusT[c] / 3.0;
+        double fc[MAX_CHANNELS], pdf = 0.0;
+        for (int c = 0; c < C; ++c) {
+            fc[c] = r[std::size_t(c)] * pc.k * std::exp(-r[std::size_t(c)] * target);
+            pdf += fc[c] / oneMinusT[c] / double(C);
         }
         if (!(pdf > 0.0)) break;
-        for (int c = 0; c < 3; ++c)
+        for (int c = 0; c < C; ++c)
             w[c] *= dust.albedo * fc[c] / pdf;
         x = x + d * s;
         tallyOn = true;
@@ -551,16 +594,16 @@ void runPacket(const Transport& tr, const SourceSpec& src, const Sampler& sample
         double out[3];
         sampleDirection(mu, 2.0 * PI * rng.uniformDouble(), inA, out);
         d = Vec3(out[0], out[1], out[2]).normalized();
-        const double wmax = std::max({w[0], w[1], w[2]});
+        const double wmax = *std::max_element(w, w + C);
         if (!(wmax > 0.0)) break;
         if (wmax < ROULETTE_WEIGHT) {
             const double q = wmax / ROULETTE_WEIGHT;
             if (rng.uniformDouble() >= q) break;
-            for (double& wc : w)
-                wc /= q;
+            for (int c = 0; c < C; ++c)
+                w[c] /= q;
         }
     }
-    for (int c = 0; c < 3; ++c) {
+    for (int c = 0; c < C; ++c) {
         addFixed(&energy.escaped[c], esc[c] * tally.invQ, true);
         addFixed(&energy.absorbed[c], abs_[c] * tally.invQ, true);
         if (!fromStars) addFixed(&energy.power[c], pow_[c] * tally.invQ, true);
@@ -570,11 +613,17 @@ void runPacket(const Transport& tr, const SourceSpec& src, const Sampler& sample
 
 } // namespace
 
-ScatterField computeScatterField(const RenderScene& scene, const RenderOptions& ropts,
-                                 const ScatterOptions& opts, const Run* run)
+namespace {
+
+/// computeScatterField() for the channels @p channels (R, G, B or a spectral field's
+/// wavelengths): one walk carries them all.
+ScatterField computeField(const RenderScene& scene, const RenderOptions& ropts,
+                          const ScatterOptions& opts, Channels channels, const Run* run)
 {
     validateScatterOptions(scene, opts);
-    const Transport tr(scene, ropts, opts);
+    const Transport tr(scene, ropts, opts, std::move(channels));
+    const int C = tr.channels();
+    const std::size_t UC = std::size_t(C);
     const DenseVolume& f = scene.fields;
     const std::size_t S = scene.stars.size();
     const double detA = std::pow(voxelSize(f.indexToWorld), 3); // world volume of a voxel
@@ -610,7 +659,7 @@ ScatterField computeScatterField(const RenderScene& scene, const RenderOptions& 
     for (std::size_t si = 0; si < specs.size(); ++si) {
         const SourceSpec& spec = specs[si];
         // Source strength per voxel, summed over channels: eta = k_c a E_c (stars) or
-        // 4 pi j (emission, colour 1, 1, 1).
+        // 4 pi j (emission, colour 1 in every channel).
         std::vector<float> eta(f.voxelCount(), 0.0f);
         for (int k = f.lo()[2]; k < f.lo()[2] + f.dims()[2]; ++k)
             for (int j = f.lo()[1]; j < f.lo()[1] + f.dims()[1]; ++j)
@@ -619,17 +668,16 @@ ScatterField computeScatterField(const RenderScene& scene, const RenderOptions& 
                     const float* fv = f.voxel(v);
                     double e = 0.0;
                     if (spec.stars.empty()) {
-                        e = 3.0 * 4.0 * PI * double(fv[1]);
+                        e = double(C) * 4.0 * PI * double(fv[1]);
                     } else if (fv[0] > 0.0f) {
                         const Vec3 xw = f.indexToWorld.apply(Vec3(i, j, k));
                         for (const std::size_t s : spec.stars) {
                             const Vec3 dv = xw - tr.starPos()[s];
-                            double es[3];
-                            firstScatteringSource(scene, s, fv[0], std::max(dv.dot(dv), rmin2),
-                                                  double(fv[2 + s]), es);
-                            e += es[0];
-                            e += es[1];
-                            e += es[2];
+                            double es[MAX_CHANNELS];
+                            tr.firstScatteringSource(s, fv[0], std::max(dv.dot(dv), rmin2),
+                                                     double(fv[2 + s]), es);
+                            for (int c = 0; c < C; ++c)
+                                e += es[c];
                         }
                     }
                     eta[v] = float(e);
@@ -640,13 +688,16 @@ ScatterField computeScatterField(const RenderScene& scene, const RenderOptions& 
         ScatterSourceField out;
         out.name = spec.name;
         out.packets = opts.packets;
-        out.moments = DenseVolume(fLo, fDims, nm * 3);
+        out.power.assign(UC, 0.0);
+        out.escaped.assign(UC, 0.0);
+        out.absorbed.assign(UC, 0.0);
+        out.moments = DenseVolume(fLo, fDims, nm * C);
         out.moments.indexToWorld = fieldMap;
         if (sampler.total > 0.0) {
             // Integer sums: per-thread buffers added at the end, or one shared buffer with
             // atomic additions; the same sums either way, whatever the threads.
             const double quantum = fixedQuantum(opts.packets, opts.fieldLevel);
-            const std::size_t sumSize = cells * std::size_t(nm) * 3;
+            const std::size_t sumSize = cells * std::size_t(nm) * UC;
             const double bytes =
                 double(sumSize + cells) * 8.0 * double(tbb::this_task_arena::max_concurrency() + 1);
             const bool perThread = bytes <= opts.perThreadTallyBytes;
@@ -690,9 +741,9 @@ ScatterField computeScatterField(const RenderScene& scene, const RenderOptions& 
                 for (std::size_t i = 0; i < cells; ++i)
                     sqAll[i] += buf.second[i];
             }
-            // Unit of the weights: the source's power over 3N (w_c is about 1).
-            const double U = sampler.total * detA / (3.0 * double(opts.packets));
-            for (int c = 0; c < 3; ++c) {
+            // Unit of the weights: the source's power over C N (w_c is about 1).
+            const double U = sampler.total * detA / (double(C) * double(opts.packets));
+            for (int c = 0; c < C; ++c) {
                 out.power[c] = double(energy.power[c]) * quantum * U;
                 out.escaped[c] = double(energy.escaped[c]) * quantum * U;
                 out.absorbed[c] = double(energy.absorbed[c]) * quantum * U;
@@ -709,12 +760,12 @@ ScatterField computeScatterField(const RenderScene& scene, const RenderOptions& 
                         if (!(vol > 0.0)) continue;
                         const double scale = quantum * U * tr.voxel() / vol;
                         float* m = out.moments.voxel(c);
-                        const std::int64_t* t = sumAll.data() + c * std::size_t(nm) * 3;
-                        for (int q = 0; q < nm * 3; ++q)
+                        const std::int64_t* t = sumAll.data() + c * std::size_t(nm) * UC;
+                        for (int q = 0; q < nm * C; ++q)
                             m[q] = float(double(t[q]) * scale);
-                        const double s1 = double(t[1]) * quantum;
+                        const double s1 = double(t[tr.noiseChannel()]) * quantum;
                         if (cellDust[c] > 0.0 && s1 > 0.0) {
-                            // Y_00 folded out: the green J tally is t[1] / Y_00.
+                            // Y_00 folded out: the noise channel's J tally is t[c] / Y_00.
                             const double sq = double(sqAll[c]) * quantum * 256.0;
                             const double rel = std::sqrt(sq) / (s1 / (0.5 / std::sqrt(PI)));
                             const double wgt = cellDust[c] * s1 / vol;
@@ -736,35 +787,103 @@ ScatterField computeScatterField(const RenderScene& scene, const RenderOptions& 
                             out.moments.index(I2 + fLo[0], J2 + fLo[1], K2 + fLo[2]));
                         float* dst = out.moments.voxel(
                             out.moments.index(I + fLo[0], J + fLo[1], K + fLo[2]));
-                        std::copy(src, src + nm * 3, dst);
+                        std::copy(src, src + nm * C, dst);
                     }
         }
         if (run) {
+            // R, G, B; a spectral field: its first, middle and last wavelengths.
+            const std::size_t a = 0, b = std::size_t(tr.noiseChannel()), e = UC - 1;
+            const auto& wl = tr.channelSet().wavelengths;
+            const std::string which =
+                wl.empty() ? std::string("R,G,B")
+                           : fmt::format("at {:g}, {:g}, {:g} nm", wl[a], wl[b], wl[e]);
             run->info(fmt::format(
-                "{}: {} packets, {} flights ({:.3g} per packet); collided power R,G,B {:.4g} "
-                "{:.4g} {:.4g} L_sun: escaped {:.4g} {:.4g} {:.4g}, absorbed {:.4g} {:.4g} "
+                "{}: {} packets, {} flights ({:.3g} per packet); collided power {} {:.4g} "
+                "{:.4g} {:.4g} L_sun{}: escaped {:.4g} {:.4g} {:.4g}, absorbed {:.4g} {:.4g} "
                 "{:.4g}; noise of J {:.2g} % (mean relative standard error per field cell, "
                 "weighted by its scattered light)",
                 out.name, out.packets, out.flights, double(out.flights) / double(out.packets),
-                out.power[0], out.power[1], out.power[2], out.escaped[0], out.escaped[1],
-                out.escaped[2], out.absorbed[0], out.absorbed[1], out.absorbed[2],
-                100.0 * out.relativeError));
+                which, out.power[a], out.power[b], out.power[e], wl.empty() ? "" : " nm^-1",
+                out.escaped[a], out.escaped[b], out.escaped[e], out.absorbed[a], out.absorbed[b],
+                out.absorbed[e], 100.0 * out.relativeError));
         }
         field.sources.push_back(std::move(out));
     }
     return field;
 }
 
+} // namespace
+
+ScatterField computeScatterField(const RenderScene& scene, const RenderOptions& ropts,
+                                 const ScatterOptions& opts, const Run* run)
+{
+    return computeField(scene, ropts, opts, rgbChannels(scene), run);
+}
+
 void addScatterMoments(DenseVolume& total, const DenseVolume& src,
-                       const std::array<double, 3>& factor, double c00Factor)
+                       const std::vector<double>& factor, double c00Factor)
 {
     const std::size_t C = std::size_t(src.channels());
+    const std::size_t per = factor.size(); // channels per moment: it divides C
     const auto& a = src.data();
     auto& b = total.data();
     for (std::size_t i = 0; i < a.size(); ++i) {
-        const std::size_t q = i % C; // k * 3 + c: 3 divides the channel count
-        b[i] += float(factor[q % 3] * a[i] * (q < 3 ? c00Factor : 1.0));
+        const std::size_t q = i % C; // k * per + c
+        b[i] += float(factor[q % per] * a[i] * (q < per ? c00Factor : 1.0));
     }
+}
+
+std::vector<double> spectralFieldWavelengths(int n)
+{
+    if (n < 2) {
+        throw UsageError("a spectral field needs at least 2 wavelengths, got " + std::to_string(n));
+    }
+    std::vector<double> wl;
+    for (int i = 0; i < n; ++i)
+        wl.push_back(SPECTRAL_FIELD_MIN_NM +
+                     (SPECTRAL_FIELD_MAX_NM - SPECTRAL_FIELD_MIN_NM) * i / double(n - 1));
+    return wl;
+}
+
+double starSpectralPower(const Star& star, double lambda_nm)
+{
+    // Y of the unit black body: the spectrum linear between 1 nm nodes against the CMFs.
+    constexpr int NODES = 471; // 360..830 nm
+    static const std::vector<XYZ> weights = hatWeights(360.0, 1.0, NODES);
+    double Y = 0.0;
+    for (int j = 0; j < NODES; ++j)
+        Y += weights[std::size_t(j)][1] * planckPerNm(360.0 + j, star.temperature);
+    return star.luminosity * planckPerNm(lambda_nm, star.temperature) / Y;
+}
+
+ScatterField computeSpectralScatterField(const RenderScene& scene, const RenderOptions& ropts,
+                                         const ScatterOptions& opts,
+                                         const std::vector<double>& wavelengths, const Run* run)
+{
+    const std::size_t N = wavelengths.size();
+    if (N < 2 || N > SPECTRAL_FIELD_MAX_WAVELENGTHS) {
+        throw UsageError(fmt::format("a spectral field has 2..{} wavelengths, got {}",
+                                     SPECTRAL_FIELD_MAX_WAVELENGTHS, N));
+    }
+    Channels ch;
+    ch.wavelengths = wavelengths;
+    for (const double lam : wavelengths) {
+        try {
+            ch.r.push_back(extinctionRatio(scene.dust, lam));
+        } catch (const Error& e) {
+            throw UsageError("spectral field: " + std::string(e.what()));
+        }
+    }
+    for (const auto& star : scene.stars) {
+        ch.starPower.emplace_back();
+        for (const double lam : wavelengths)
+            ch.starPower.back().push_back(starSpectralPower(star, lam));
+    }
+    ScatterOptions o = opts;
+    o.emission = false; // the spectral renderer does not scatter the gas's glow
+    ScatterField field = computeField(scene, ropts, o, std::move(ch), run);
+    field.wavelengths = wavelengths;
+    return field;
 }
 
 SceneScatterField sceneScatterField(const ScatterField& field, const RenderOptions& opts)
@@ -773,11 +892,12 @@ SceneScatterField sceneScatterField(const ScatterField& field, const RenderOptio
     if (field.sources.empty()) return out;
     out.order = field.order;
     out.level = field.level;
+    out.wavelengths = field.wavelengths;
     out.moments = field.sources[0].moments;
     std::fill(out.moments.data().begin(), out.moments.data().end(), 0.0f);
     for (const auto& src : field.sources) {
-        std::array<double, 3> factor{1, 1, 1};
-        if (src.name == "emission") {
+        std::vector<double> factor(field.wavelengths.empty() ? 3 : field.wavelengths.size(), 1.0);
+        if (src.name == "emission" && field.wavelengths.empty()) {
             for (std::size_t c = 0; c < 3; ++c)
                 factor[c] = opts.emissionScale * opts.emissionColor[c];
         }

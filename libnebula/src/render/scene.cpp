@@ -139,30 +139,38 @@ bool close(double a, double b, double rel = 1e-9)
 }
 
 /// Reads nebscatter's field (DESIGN §5b) into scene.scatter, checking that it was made for
-/// this scene; see buildScene().
+/// this scene; see buildScene(). @p spectral: the spectral field (nebscatter --spectral,
+/// for the spectral renderer) instead of the R, G, B one.
 void readScatterField(const GridSet& grids, const RenderOptions& opts, const DustParams& dust,
-                      RenderScene& scene)
+                      RenderScene& scene, bool spectral)
 {
-    const std::string metaText = grids.metaString(META_SCATTER);
+    const char* metaKey = spectral ? META_SCATTER_SPECTRAL : META_SCATTER;
+    const std::string metaText = grids.metaString(metaKey);
     if (metaText.empty()) {
-        for (const auto& g : grids.grids)
-            if (g->getName().rfind("scatter.", 0) == 0) {
-                throw Error(grids.source + ": grid \"" + g->getName() +
-                            "\" looks like a scattered-light field but the file has no " +
-                            META_SCATTER +
-                            " metadata saying what it was made for; rerun "
-                            "nebscatter, or pass --no-scatter-field");
+        for (const auto& g : grids.grids) {
+            const std::string& name = g->getName();
+            const bool spectralGrid = name.rfind(SPECTRAL_SCATTER_PREFIX, 0) == 0;
+            if (spectral ? spectralGrid : name.rfind("scatter.", 0) == 0 && !spectralGrid) {
+                throw Error(grids.source + ": grid \"" + name + "\" looks like a " +
+                            (spectral ? "spectral " : "") +
+                            "scattered-light field but the file has no " + metaKey +
+                            " metadata saying what it was made for; rerun nebscatter" +
+                            (spectral ? " --spectral" : "") + ", or pass --no-scatter-field");
             }
+        }
         return;
     }
-    const std::string what = grids.source + ": the scattered-light field (nebscatter)";
-    const std::string rerun = "; rerun nebscatter on this scene, or pass --no-scatter-field";
+    const std::string what = grids.source + ": the " + (spectral ? "spectral " : "") +
+                             "scattered-light field (nebscatter" + (spectral ? " --spectral" : "") +
+                             ")";
+    const std::string rerun = "; rerun nebscatter" + std::string(spectral ? " --spectral" : "") +
+                              " on this scene, or pass --no-scatter-field";
     nlohmann::json meta;
     int order = 0, level = 0;
     std::vector<std::string> sources;
     std::vector<Star> fieldStars;
     DustParams fieldDust;
-    std::array<double, 3> wl{};
+    std::vector<double> wl;
     std::array<double, 12> a0{};
     double minStar = 0.0;
     std::string densityName, emissionName;
@@ -172,21 +180,28 @@ void readScatterField(const GridSet& grids, const RenderOptions& opts, const Dus
         level = meta.at("level").get<int>();
         for (const auto& src : meta.at("sources"))
             sources.push_back(src.at("name").get<std::string>());
-        fieldStars = parseStars(meta.at("stars").dump(), grids.source + " (" + META_SCATTER + ")");
+        fieldStars = parseStars(meta.at("stars").dump(), grids.source + " (" + metaKey + ")");
         fieldDust =
-            DustParams::fromJson(meta.at("dust").dump(), grids.source + " (" + META_SCATTER + ")");
-        wl = meta.at("wavelengths").get<std::array<double, 3>>();
+            DustParams::fromJson(meta.at("dust").dump(), grids.source + " (" + metaKey + ")");
+        wl = meta.at("wavelengths").get<std::vector<double>>();
         a0 = meta.at("index_to_world").get<std::array<double, 12>>();
         minStar = meta.at("min_star_distance").get<double>();
         densityName = meta.at("density_grid").get<std::string>();
         emissionName = meta.at("emission_grid").get<std::string>();
     } catch (const nlohmann::json::exception& e) {
-        throw Error(grids.source + ": " + META_SCATTER +
-                    " metadata is not nebscatter's: " + e.what());
+        throw Error(grids.source + ": " + metaKey + " metadata is not nebscatter's: " + e.what());
     }
     if (order < 0 || order > SH_MAX_DEGREE || level < 0 || level > 16) {
-        throw Error(grids.source + ": " + META_SCATTER + " has order " + std::to_string(order) +
+        throw Error(grids.source + ": " + metaKey + " has order " + std::to_string(order) +
                     " and level " + std::to_string(level) + "; expected 0..4 and 0..16");
+    }
+    bool wlOk = spectral ? wl.size() >= 2 : wl.size() == 3;
+    for (std::size_t i = 0; i < wl.size() && wlOk; ++i)
+        wlOk = std::isfinite(wl[i]) && wl[i] > 0.0 && (i == 0 || wl[i] > wl[i - 1] || !spectral);
+    if (!wlOk) {
+        throw Error(grids.source + ": " + metaKey + " has wavelengths " +
+                    tripleText(meta.at("wavelengths")) + "; expected " +
+                    (spectral ? "at least 2 increasing" : "3 (R, G, B)") + " wavelengths > 0 nm");
     }
     if (opts.phaseTable || opts.levels > 0) {
         throw UsageError(grids.source +
@@ -203,7 +218,7 @@ void readScatterField(const GridSet& grids, const RenderOptions& opts, const Dus
         throw Error(what + " was made for other dust: " + fieldDust.toJson() +
                     ", but the scene's is " + dust.toJson() + rerun);
     }
-    for (int c = 0; c < 3; ++c) {
+    for (int c = 0; c < 3 && !spectral; ++c) {
         if (!close(wl[std::size_t(c)], opts.wavelengths[std::size_t(c)])) {
             throw Error(what + " was made for channel wavelengths " +
                         tripleText(meta.at("wavelengths")) + " nm, but --wavelengths is " +
@@ -267,14 +282,21 @@ void readScatterField(const GridSet& grids, const RenderOptions& opts, const Dus
     const Affine expected = fieldLevelMap(s0, level);
 
     const int nm = shCount(order);
+    const int C = int(wl.size()); // channels per moment
     std::vector<openvdb::FloatGrid::ConstPtr> jGrids;
     std::vector<std::vector<openvdb::FloatGrid::ConstPtr>> perSource;
     for (const auto& src : sources) {
+        if (spectral && src == "emission") {
+            throw Error(what + " has an emission source, which a spectral field does not have" +
+                        rerun);
+        }
         std::vector<openvdb::FloatGrid::ConstPtr> list;
         for (int l = 0; l <= order; ++l)
             for (int m = -l; m <= l; ++m)
-                for (int c = 0; c < 3; ++c) {
-                    const std::string name = scatterGridName(src, l, m, c);
+                for (int c = 0; c < C; ++c) {
+                    const std::string name =
+                        spectral ? spectralScatterGridName(src, l, m, wl[std::size_t(c)])
+                                 : scatterGridName(src, l, m, c);
                     const auto base = grids.find(name);
                     if (!base) throw Error(what + " lacks its grid \"" + name + "\"" + rerun);
                     const auto g = grids.floatGrid(name, "");
@@ -303,15 +325,16 @@ void readScatterField(const GridSet& grids, const RenderOptions& opts, const Dus
     SceneScatterField& out = scene.scatter;
     out.order = order;
     out.level = level;
+    if (spectral) out.wavelengths = wl;
     const double c00 = 4.0 * PI * (0.5 / std::sqrt(PI)); // J -> c_00
     for (std::size_t si = 0; si < sources.size(); ++si) {
         const DenseVolume v = denseFromGrids(perSource[si], bounds, grids.source);
         if (si == 0) {
-            out.moments = DenseVolume(v.lo(), v.dims(), nm * 3);
+            out.moments = DenseVolume(v.lo(), v.dims(), nm * C);
             out.moments.indexToWorld = v.indexToWorld;
         }
         // Each channel's factor: a star's luminosity ratio, the emission's scale and colour.
-        std::array<double, 3> factor{1, 1, 1};
+        std::vector<double> factor(std::size_t(C), 1.0);
         const std::string& src = sources[si];
         if (src == "emission") {
             for (int c = 0; c < 3; ++c)
@@ -319,16 +342,20 @@ void readScatterField(const GridSet& grids, const RenderOptions& opts, const Dus
         } else if (src.rfind("star_", 0) == 0) {
             for (std::size_t s = 0; s < scene.stars.size(); ++s)
                 if ("star_" + scene.stars[s].name == src)
-                    factor.fill(scene.stars[s].luminosity / fieldStars[s].luminosity);
+                    std::fill(factor.begin(), factor.end(),
+                              scene.stars[s].luminosity / fieldStars[s].luminosity);
         }
         addScatterMoments(out.moments, v, factor, c00);
     }
     std::string names;
     for (const auto& s : sources)
         names += (names.empty() ? "" : ", ") + s;
-    out.description = fmt::format("scattered-light field: order {}, level {} (cells of {}^3 "
-                                  "voxels), sources {}",
-                                  order, level, 1 << level, names);
+    out.description = fmt::format(
+        "{}scattered-light field: order {}, level {} (cells of {}^3 "
+        "voxels), sources {}{}",
+        spectral ? "spectral " : "", order, level, 1 << level, names,
+        spectral ? fmt::format(", {} wavelengths {:g}-{:g} nm", C, wl.front(), wl.back())
+                 : std::string());
 }
 
 } // namespace
@@ -375,8 +402,8 @@ RenderScene buildScene(const GridSet& grids, const RenderOptions& opts, const Du
     requireTableForDust(grids, opts, dust);
     scene.buildOccupancy();
 
-    if (opts.scatterField && opts.integrator == Integrator::Fast && !opts.spectral.enabled) {
-        readScatterField(grids, opts, dust, scene);
+    if (opts.scatterField && opts.integrator == Integrator::Fast) {
+        readScatterField(grids, opts, dust, scene, opts.spectral.enabled);
     }
     const int levels = levelCount(grids, opts);
     for (int k = 1; k <= levels; ++k) {

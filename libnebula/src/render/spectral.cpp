@@ -26,6 +26,7 @@
 #include "nebula/physics/blackbody.h"
 #include "nebula/physics/colour.h"
 #include "nebula/physics/motion.h"
+#include "nebula/physics/spherical_harmonics.h"
 #include "nebula/render/sprites.h"
 
 #include "nebula/volume/block_walk.h"
@@ -114,9 +115,9 @@ void checkSpectralOptions(const RenderOptions& opts)
         throw UsageError("--spectral is for the fast integrator (--integrator fast)");
     }
     if (opts.phaseTable) {
-        throw UsageError("--spectral renders single scattering; it does not use --phase (the "
-                         "table's gain depends on the wavelength through the voxel's optical "
-                         "thickness)");
+        throw UsageError("--spectral does not use --phase (the table's gain depends on the "
+                         "wavelength through the voxel's optical thickness); its multiple "
+                         "scattering comes from nebscatter --spectral's field");
     }
     if (opts.levels > 0) throw UsageError("--spectral does not use pyramid levels (--levels)");
     if (so.bands < 0) throw UsageError("--bands must be >= 1 (0: piecewise-linear spectra)");
@@ -328,10 +329,13 @@ struct SpectralScratch
     std::vector<float> f;         ///< field sample
     std::vector<double> Cstar;    ///< per star and node: scattered starlight
     std::vector<double> Cgas;     ///< per node: black-body and (fixed bands) line emission
+    std::vector<double> Cfield;   ///< per node: the scattered-light field's (nebscatter)
     std::vector<double> Ctotal;   ///< per node: the whole continuum
     std::vector<double> A;        ///< per node: 1 - e^-x Lambda of the current segment
     std::vector<double> layerAcc; ///< per spectral layer: the lines' share
     std::vector<Piece> rayPieces; ///< with countPieces: the ray's pieces
+    std::vector<float> fs;        ///< the field's moments at a sample
+    std::vector<double> Sfield;   ///< per field wavelength: its source function towards the eye
     RenderStats stats;
 };
 
@@ -343,6 +347,7 @@ struct SpectralRay
     double tau = 0.0;
     XYZ lineXYZ{0, 0, 0};
     double lastEndT = -1.0, lastEndD = 1.0;
+    double fieldWeight[shCount(SH_MAX_DEGREE)] = {}; ///< a p_l Y_lm(-dW) per field moment
 };
 
 class SpectralIntegrator
@@ -366,6 +371,7 @@ public:
         for (int c = 0; c < 3; ++c) {
             mRChannel[std::size_t(c)] = extinctionRatio(mDust, opts.wavelengths[std::size_t(c)]);
         }
+        fieldSetup();
     }
 
     int layers() const { return mSo.layers; }
@@ -378,7 +384,12 @@ public:
         sc.f.resize(std::size_t(mRs.fields.channels()));
         sc.Cstar.resize(S * J);
         sc.Cgas.resize(J);
+        sc.Cfield.resize(J);
         sc.Ctotal.resize(J);
+        if (mField) {
+            sc.fs.resize(std::size_t(mField->channels()));
+            sc.Sfield.resize(mFieldLambda.size());
+        }
         sc.A.resize(J);
         sc.layerAcc.resize(std::size_t(mSo.layers));
         return sc;
@@ -390,8 +401,16 @@ public:
         SpectralRay ray;
         if (!mCam.direction(px + 0.5, py + 0.5, ray.dW)) return; // outside the view: black
         ray.dI = mLevel0.w2i.applyLinear(ray.dW);
+        if (mField) {
+            // Scattered towards the eye: Y_lm of the light's travel direction, -dW.
+            double Y[shCount(SH_MAX_DEGREE)];
+            realSphericalHarmonics(-ray.dW, mRs.scatter.order, Y);
+            for (int k = 0; k < mFieldMoments; ++k)
+                ray.fieldWeight[k] = mFieldPl[k] * Y[k];
+        }
         std::fill(sc.Cstar.begin(), sc.Cstar.end(), 0.0);
         std::fill(sc.Cgas.begin(), sc.Cgas.end(), 0.0);
+        std::fill(sc.Cfield.begin(), sc.Cfield.end(), 0.0);
         std::fill(sc.layerAcc.begin(), sc.layerAcc.end(), 0.0);
         sc.rayPieces.clear();
         sc.stats.rays +=
@@ -428,6 +447,38 @@ public:
     }
 
 private:
+    /// The spectral scattered-light field (nebscatter --spectral), if the scene has one: the
+    /// weights a p_l of its moments and, per continuum node, the two field wavelengths it
+    /// lies between (the end ones beyond the field's range).
+    void fieldSetup()
+    {
+        const SceneScatterField& f = mRs.scatter;
+        if (f.order < 0 || f.wavelengths.empty()) return;
+        mField = &f.moments;
+        mFieldW2I = mField->indexToWorld.inverse();
+        mFieldMoments = shCount(f.order);
+        mFieldLambda = f.wavelengths;
+        const auto p = phaseLegendreMoments(mDust.phase, mDust.g, f.order);
+        for (int l = 0; l <= f.order; ++l)
+            for (int m = -l; m <= l; ++m)
+                mFieldPl[shIndex(l, m)] = mDust.albedo * p[std::size_t(l)];
+        const auto& wl = mFieldLambda;
+        for (const double lam : mNodes.lam) {
+            const auto it = std::upper_bound(wl.begin(), wl.end(), lam);
+            std::size_t i1 = std::size_t(it - wl.begin());
+            std::size_t i0 = i1 == 0 ? 0 : i1 - 1;
+            double frac = 0.0;
+            if (i1 >= wl.size()) {
+                i0 = i1 = wl.size() - 1;
+            } else if (i1 == 0) {
+                i0 = 0;
+            } else {
+                frac = (lam - wl[i0]) / (wl[i1] - wl[i0]);
+            }
+            mNodeField.push_back({i0, i1, frac});
+        }
+    }
+
     /// Star spectra at the continuum nodes, normalised so that each star's Y is L_s in this
     /// representation (the RGB mode's convention, DESIGN §3).
     void starSpectra()
@@ -530,6 +581,30 @@ private:
         }
     }
 
+    /// The light scattered at least once before (nebscatter --spectral's field, DESIGN §5b)
+    /// scattered towards the eye at xW, at each node: the source function a sum_l p_l sum_m
+    /// c_lm Y_lm(-d) at each field wavelength (a negative sum counts as none), linear in
+    /// wavelength between them, attenuated to the eye, times 1 - e^-x Lambda (sc.A).
+    void scatterField(const Vec3& xW, const SpectralRay& ray, SpectralScratch& sc) const
+    {
+        mField->sample(mFieldW2I.apply(xW), sc.fs.data());
+        const std::size_t N = mFieldLambda.size();
+        bool any = false;
+        for (std::size_t i = 0; i < N; ++i) {
+            double src = 0.0;
+            for (int k = 0; k < mFieldMoments; ++k)
+                src += ray.fieldWeight[k] * double(sc.fs[std::size_t(k) * N + i]);
+            sc.Sfield[i] = std::max(0.0, src);
+            any = any || src > 0.0;
+        }
+        if (!any) return;
+        for (std::size_t j = 0; j < mNodes.size(); ++j) {
+            const NodeField& nf = mNodeField[j];
+            const double S = sc.Sfield[nf.i0] + nf.frac * (sc.Sfield[nf.i1] - sc.Sfield[nf.i0]);
+            sc.Cfield[j] += S * std::exp(-ray.tau * mNodes.lamExt[j]) * sc.A[j];
+        }
+    }
+
     /// Kirchhoff: j = (1 - a) k(lambda_e) B(lambda_e, T), emitted at lambda_e = lambda /
     /// (1 + v_r/c) and stretched by 1 + v_r/c, at each node.
     void blackbodyEmission(const Vec3& pI, const SpectralRay& ray, SpectralScratch& sc) const
@@ -614,7 +689,9 @@ private:
             // the eye's attenuation e^-tau Lambda is folded into each source's.
             for (std::size_t j = 0; j < mNodes.size(); ++j)
                 sc.A[j] = -std::expm1(-x * mNodes.lamExt[j]);
-            scatterStarlight(mCam.eye() + ray.dW * tm, ray, sc);
+            const Vec3 xW = mCam.eye() + ray.dW * tm;
+            scatterStarlight(xW, ray, sc);
+            if (mField) scatterField(xW, ray, sc);
             blackbodyEmission(pI, ray, sc);
         }
         if (em > 0.0) lineEmission(pI, tm, seg, x, ray, sc);
@@ -638,8 +715,9 @@ private:
             }
         }
         const XYZ gas = nodesToXYZ(sc.Cgas.data(), mNodes.weight);
+        const XYZ field = mField ? nodesToXYZ(sc.Cfield.data(), mNodes.weight) : XYZ{0, 0, 0};
         for (int c = 0; c < 3; ++c)
-            total[std::size_t(c)] += gas[std::size_t(c)];
+            total[std::size_t(c)] += gas[std::size_t(c)] + field[std::size_t(c)];
         const auto rgb = xyzToLinearSRGB(total);
         ImageLayer& transLayer = img.layers[S];
         for (int c = 0; c < 3; ++c) {
@@ -651,7 +729,7 @@ private:
         if (NL > 0 || mSo.countPieces) {
             // The whole continuum at the nodes (stars and gas).
             for (std::size_t j = 0; j < J; ++j) {
-                sc.Ctotal[j] = sc.Cgas[j];
+                sc.Ctotal[j] = sc.Cgas[j] + sc.Cfield[j];
                 for (std::size_t s = 0; s < S; ++s)
                     sc.Ctotal[j] += sc.Cstar[s * J + j];
             }
@@ -702,6 +780,18 @@ private:
     double mBbFactor = 0.0;
     double mLineWidth = 0.0;
     std::array<double, 3> mRChannel{};
+    // The spectral scattered-light field (fieldSetup()); mField null without one.
+    struct NodeField
+    {
+        std::size_t i0 = 0, i1 = 0; ///< the field wavelengths a continuum node lies between
+        double frac = 0.0;          ///< its position between them
+    };
+    const DenseVolume* mField = nullptr;
+    Affine mFieldW2I;
+    int mFieldMoments = 0;
+    double mFieldPl[shCount(SH_MAX_DEGREE)] = {}; ///< a p_l per moment
+    std::vector<double> mFieldLambda;             ///< the field's wavelengths [nm]
+    std::vector<NodeField> mNodeField;            ///< per continuum node
 };
 
 } // namespace

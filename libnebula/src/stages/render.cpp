@@ -52,13 +52,25 @@ void checkIntegratorOptions(const GridSet& grids, const RenderOptions& opts, con
         throw UsageError("--levels needs a phase table (--phase): each level adds the change "
                          "of the per-voxel scattering Phi as the voxel doubles");
     }
-    const bool field = opts.scatterField && !grids.metaString(META_SCATTER).empty();
-    if (field && (path || opts.spectral.enabled)) {
-        run.warn(grids.source + " has a scattered-light field (nebscatter), which " +
-                 (path ? std::string("--integrator path does not need: it simulates every "
-                                     "order of scattering itself")
-                       : std::string("--spectral does not use yet: this image is single "
-                                     "scattering")));
+    const bool spectral = opts.spectral.enabled;
+    const bool rgbField = opts.scatterField && !grids.metaString(META_SCATTER).empty();
+    const bool spectralField =
+        opts.scatterField && !grids.metaString(META_SCATTER_SPECTRAL).empty();
+    const bool field = spectral ? spectralField : rgbField;
+    if ((rgbField || spectralField) && path) {
+        run.warn(grids.source +
+                 " has a scattered-light field (nebscatter), which --integrator "
+                 "path does not need: it simulates every order of scattering itself");
+    } else if (spectral && rgbField && !spectralField) {
+        run.warn(grids.source +
+                 " has an R, G, B scattered-light field but no spectral one, "
+                 "which --spectral needs: this image is single scattering (nebscatter "
+                 "--spectral 6 adds one)");
+    } else if (!spectral && spectralField && !rgbField) {
+        run.warn(grids.source +
+                 " has a spectral scattered-light field but no R, G, B one: "
+                 "this image is single scattering (render with --spectral, or run nebscatter "
+                 "without --spectral to add one)");
     }
     if (opts.levels < 0 && !opts.phaseTable && !opts.spectral.enabled && !field &&
         grids.find(levelGridName(opts.densityGrid, 1))) {
@@ -146,7 +158,11 @@ std::map<std::string, std::string> exrAttributes(const GridSet& grids, const Ren
                     ? "spectral, " + std::to_string(opts.spectral.bands) + " fixed bands"
                     : std::string("spectral, piecewise-linear")) +
                    ", exaggerate-velocity " + std::to_string(opts.spectral.exaggerateVelocity) +
-                   (opts.spectral.relativistic ? ", relativistic Doppler" : ", first-order Doppler")
+                   (opts.spectral.relativistic ? ", relativistic Doppler"
+                                               : ", first-order Doppler") +
+                   (scene.scatter.description.empty()
+                        ? std::string()
+                        : ", single scattering + " + scene.scatter.description)
          : !scene.scatter.description.empty() ? "single scattering + " + scene.scatter.description
          : opts.phaseTable                    ? std::string("effective phase function (") +
                                  (opts.phaseUse == PhaseUse::Gain ? "gain" : "replace") +

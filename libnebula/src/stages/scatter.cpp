@@ -26,37 +26,51 @@ ScatterField scatter(GridSet& grids, const ScatterStageOptions& opts, const Run&
     ropts.levels = 0;
     const RenderScene scene = buildScene(grids, ropts, dust);
     validateScatterOptions(scene, opts.field);
+    const bool spectral = opts.spectral > 0;
+    const std::vector<double> wavelengths =
+        spectral ? spectralFieldWavelengths(opts.spectral) : std::vector<double>{};
     const auto d = scene.fields.dims();
-    run.info(fmt::format("density {}x{}x{} voxels, {} stars; field level {} (cells of {}^3 "
-                         "voxels), order L = {} ({} moments per channel), {} packets per source",
-                         d[0], d[1], d[2], scene.stars.size(), opts.field.fieldLevel,
-                         1 << opts.field.fieldLevel, opts.field.order, shCount(opts.field.order),
-                         opts.field.packets));
+    run.info(fmt::format(
+        "density {}x{}x{} voxels, {} stars; field level {} (cells of {}^3 "
+        "voxels), order L = {} ({} moments per channel), {} packets per source{}",
+        d[0], d[1], d[2], scene.stars.size(), opts.field.fieldLevel, 1 << opts.field.fieldLevel,
+        opts.field.order, shCount(opts.field.order), opts.field.packets,
+        spectral ? fmt::format("; spectral: {} wavelengths, {:g}-{:g} nm", wavelengths.size(),
+                               wavelengths.front(), wavelengths.back())
+                 : std::string()));
 
     const auto t0 = std::chrono::steady_clock::now();
-    ScatterField field = computeScatterField(scene, ropts, opts.field, &run);
+    ScatterField field =
+        spectral ? computeSpectralScatterField(scene, ropts, opts.field, wavelengths, &run)
+                 : computeScatterField(scene, ropts, opts.field, &run);
     const double seconds =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     run.info(fmt::format("field computed in {:.3g} s", seconds));
 
-    // Replace any earlier field.
-    if (opts.onlyNew) grids.grids.clear();
-    openvdb::GridPtrVec kept;
-    for (auto& g : grids.grids)
-        if (g->getName().rfind("scatter.", 0) != 0) kept.push_back(g);
-    grids.grids = kept;
-
+    // Replace any earlier field of the same kind (R, G, B or spectral).
     const auto density = grids.find(opts.densityGrid);
     const auto xform = levelTransform(density->transform(), field.level);
+    if (opts.onlyNew) grids.grids.clear();
+    openvdb::GridPtrVec kept;
+    for (auto& g : grids.grids) {
+        const std::string& name = g->getName();
+        const bool spectralGrid = name.rfind(SPECTRAL_SCATTER_PREFIX, 0) == 0;
+        const bool fieldGrid =
+            spectral ? spectralGrid : name.rfind("scatter.", 0) == 0 && !spectralGrid;
+        if (!fieldGrid) kept.push_back(g);
+    }
+    grids.grids = kept;
+
     const int L = field.order;
+    const int C = spectral ? int(wavelengths.size()) : 3; // channels per moment
     nlohmann::json sources = nlohmann::json::array();
     for (const auto& src : field.sources) {
         const DenseVolume& m = src.moments;
         const double j0 = 0.5 / std::sqrt(PI); // Y_00: J = c_00 / (4 pi Y_00)
         for (int l = 0; l <= L; ++l)
             for (int mm = -l; mm <= l; ++mm)
-                for (int c = 0; c < 3; ++c) {
-                    const int ch = shIndex(l, mm) * 3 + c;
+                for (int c = 0; c < C; ++c) {
+                    const int ch = shIndex(l, mm) * C + c;
                     const double scale = l == 0 ? 1.0 / (4.0 * PI * j0) : 1.0;
                     auto grid = openvdb::FloatGrid::create(0.0f);
                     auto acc = grid->getAccessor();
@@ -69,11 +83,20 @@ ScatterField scatter(GridSet& grids, const ScatterStageOptions& opts, const Run&
                                              float(m.voxel(v)[ch] * scale));
                             }
                     grid->setTransform(xform->copy());
-                    grid->setName(scatterGridName(src.name, l, mm, c));
+                    grid->setName(spectral ? spectralScatterGridName(src.name, l, mm,
+                                                                     wavelengths[std::size_t(c)])
+                                           : scatterGridName(src.name, l, mm, c));
                     grid->setGridClass(openvdb::GRID_UNKNOWN);
-                    grid->insertMeta("units", openvdb::StringMetadata(
-                                                  l == 0 ? "L_sun pc^-2 sr^-1 (mean intensity J)"
-                                                         : "L_sun pc^-2 (c_lm)"));
+                    const char* units =
+                        spectral ? (l == 0 ? "L_sun pc^-2 sr^-1 nm^-1 (mean intensity J per nm)"
+                                           : "L_sun pc^-2 nm^-1 (c_lm per nm)")
+                                 : (l == 0 ? "L_sun pc^-2 sr^-1 (mean intensity J)"
+                                           : "L_sun pc^-2 (c_lm)");
+                    grid->insertMeta("units", openvdb::StringMetadata(units));
+                    if (spectral) {
+                        grid->insertMeta("wavelength_nm",
+                                         openvdb::DoubleMetadata(wavelengths[std::size_t(c)]));
+                    }
                     grid->insertMeta("source", openvdb::StringMetadata(src.name));
                     grid->insertMeta("l", openvdb::Int32Metadata(l));
                     grid->insertMeta("m", openvdb::Int32Metadata(mm));
@@ -97,7 +120,9 @@ ScatterField scatter(GridSet& grids, const ScatterStageOptions& opts, const Run&
                            {"sources", sources},
                            {"dust", nlohmann::json::parse(dust.toJson())},
                            {"stars", nlohmann::json::parse(starsToJson(scene.stars))},
-                           {"wavelengths", opts.wavelengths},
+                           {"wavelengths", spectral ? wavelengths
+                                                    : std::vector<double>(opts.wavelengths.begin(),
+                                                                          opts.wavelengths.end())},
                            {"min_star_distance", opts.minStarDistance},
                            {"density_grid", opts.densityGrid},
                            {"emission_grid", opts.emissionGrid},
@@ -105,7 +130,7 @@ ScatterField scatter(GridSet& grids, const ScatterStageOptions& opts, const Run&
                             {a0.m[0], a0.m[1], a0.m[2], a0.t.x, a0.m[3], a0.m[4], a0.m[5], a0.t.y,
                              a0.m[6], a0.m[7], a0.m[8], a0.t.z}},
                            {"seconds", seconds}};
-    grids.setMetaString(META_SCATTER, meta.dump());
+    grids.setMetaString(spectral ? META_SCATTER_SPECTRAL : META_SCATTER, meta.dump());
     return field;
 }
 

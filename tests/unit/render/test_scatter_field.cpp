@@ -2,8 +2,10 @@
 // single-scattering integral, the reference path tracer and published slab radiances, and
 // its determinism.
 #include "nebula/core/error.h"
+#include "nebula/physics/colour.h"
 #include "nebula/physics/spherical_harmonics.h"
 #include "nebula/render/scatter_field.h"
+#include "nebula/render/spectral.h"
 
 #include "render_scenes.h"
 
@@ -447,5 +449,174 @@ TEST(ScatterField, WideSlabMatchesPublishedRadiances)
                     "%+.2f %%)\n",
                     k.albedo, k.g, mean(up, 1), k.up, 100 * (mean(up, 1) / k.up - 1), mean(down, 1),
                     k.down, 100 * (mean(down, 1) / k.down - 1));
+    }
+}
+
+// ---------------------------------------------------------------------------------------
+// The spectral field (nebscatter --spectral) and the spectral renderer.
+
+namespace {
+
+/// @p scene as the spectral renderer sees it (no emission grids).
+SpectralScene spectralOf(const RenderScene& scene)
+{
+    SpectralScene s;
+    s.base = scene;
+    s.dust = scene.dust;
+    return s;
+}
+
+/// The field of @p dense's wavelengths i = 0, stride, 2 stride, ... (the same noise).
+ScatterField subsetField(const ScatterField& dense, std::size_t stride)
+{
+    ScatterField sub = dense;
+    const std::size_t N = dense.wavelengths.size();
+    std::vector<std::size_t> keep;
+    sub.wavelengths.clear();
+    for (std::size_t i = 0; i < N; i += stride) {
+        keep.push_back(i);
+        sub.wavelengths.push_back(dense.wavelengths[i]);
+    }
+    const int nm = shCount(dense.order);
+    for (std::size_t si = 0; si < dense.sources.size(); ++si) {
+        const DenseVolume& a = dense.sources[si].moments;
+        DenseVolume b(a.lo(), a.dims(), nm * int(keep.size()));
+        b.indexToWorld = a.indexToWorld;
+        for (std::size_t v = 0; v < a.voxelCount(); ++v)
+            for (int k = 0; k < nm; ++k)
+                for (std::size_t i = 0; i < keep.size(); ++i)
+                    b.voxel(v)[std::size_t(k) * keep.size() + i] =
+                        a.voxel(v)[std::size_t(k) * N + keep[i]];
+        sub.sources[si].moments = std::move(b);
+    }
+    return sub;
+}
+
+RenderOptions cloudCamera(int res)
+{
+    RenderOptions o;
+    o.camera.eye = Vec3(1.2, 1.2, -8.0);
+    o.camera.lookAt = Vec3(1.2, 1.2, 1.2);
+    o.camera.up = Vec3(0, 1, 0);
+    o.camera.width = o.camera.height = res;
+    o.camera.fovDeg = 16.0;
+    o.drawStars = false;
+    o.step = 0.25;
+    return o;
+}
+
+/// The largest CIEDE2000 difference between two images' pixels (L*a*b* relative to a D65
+/// white of the reference's largest luminance; pixels below 1e-3 of it left out).
+double maxDeltaE(const Image& ref, const Image& test)
+{
+    const std::size_t n = std::size_t(ref.width) * ref.height;
+    double Yw = 0.0;
+    for (std::size_t i = 0; i < n; ++i)
+        Yw = std::max(
+            Yw, linearSRGBToXYZ({ref.rgba[i * 4], ref.rgba[i * 4 + 1], ref.rgba[i * 4 + 2]})[1]);
+    const XYZ white = linearSRGBToXYZ({Yw, Yw, Yw});
+    double worst = 0.0;
+    for (std::size_t i = 0; i < n; ++i) {
+        const XYZ a = linearSRGBToXYZ({ref.rgba[i * 4], ref.rgba[i * 4 + 1], ref.rgba[i * 4 + 2]});
+        if (!(a[1] > 1e-3 * Yw)) continue;
+        const XYZ b =
+            linearSRGBToXYZ({test.rgba[i * 4], test.rgba[i * 4 + 1], test.rgba[i * 4 + 2]});
+        worst = std::max(worst, deltaE2000(xyzToLab(a, white), xyzToLab(b, white)));
+    }
+    return worst;
+}
+
+} // namespace
+
+// How many wavelengths the spectral field needs: on the thick cloud (CCM dust, a 12000 K
+// star, the blue end extinguished twice as much as the red), the spectral render with the
+// field at 6 wavelengths (every 80 nm over 380-780 nm) stays within Delta E 2000 < 1 of the
+// one at 41 (every 10 nm) in every pixel; 3 wavelengths do not. The 6 are a subset of the
+// 41, so both carry the same Monte Carlo noise and only the wavelength interpolation
+// differs. The field itself matters: single scattering alone is far off.
+TEST(ScatterField, SpectralFieldOfSixWavelengthsKeepsColoursWithinDeltaE1)
+{
+    RenderScene scene = thickCloud(0.6, PhaseModel::HenyeyGreenstein, 0.6, false);
+    scene.stars[0].temperature = 12000.0;
+    ScatterOptions so;
+    so.packets = 30000;
+    so.fieldLevel = 0;
+    const RenderOptions o = cloudCamera(12);
+    const ScatterField dense =
+        computeSpectralScatterField(scene, o, so, spectralFieldWavelengths(41), nullptr);
+    ASSERT_EQ(dense.wavelengths.size(), 41u);
+    EXPECT_EQ(dense.sources.size(), 1u); // the stars; no emission in a spectral field
+    RenderOptions so2 = o;
+    so2.spectral.enabled = true;
+    const auto render = [&](const ScatterField* f) {
+        SpectralScene s = spectralOf(scene);
+        if (f) s.base.scatter = sceneScatterField(*f, so2);
+        return renderSpectral(s, so2);
+    };
+    const Image ref = render(&dense);
+    const ScatterField six = subsetField(dense, 8), three = subsetField(dense, 20);
+    ASSERT_EQ(six.wavelengths.size(), 6u);
+    ASSERT_EQ(three.wavelengths.size(), 3u);
+    const double dE6 = maxDeltaE(ref, render(&six));
+    const double dE3 = maxDeltaE(ref, render(&three));
+    const double dESingle = maxDeltaE(ref, render(nullptr));
+    std::printf("max Delta E 2000 against 41 wavelengths: 6: %.3f, 3: %.3f, no field: %.3f\n", dE6,
+                dE3, dESingle);
+    EXPECT_LT(dE6, 1.0);
+    EXPECT_GT(dE3, 1.0);
+    EXPECT_GT(dESingle, 5.0);
+}
+
+// In grey dust the collided light has the star's spectrum everywhere, so the spectral
+// field's light (spectral render with the field minus without) must equal the R, G, B
+// field's (RGB render with minus without) in linear sRGB: the same units, normalisation
+// (the star's luminance Y = L) and geometry. Tolerances: 1.5 % in total per channel, 4 %
+// per 2x2-pixel block holding at least 5 % of the brightest block's light (the two fields
+// are independent Monte Carlo estimates of 100,000 packets: about 1 % noise per block).
+TEST(ScatterField, SpectralFieldMatchesTheRgbFieldInGreyDust)
+{
+    RenderScene scene = thickCloud(0.6, PhaseModel::HenyeyGreenstein, 0.6, true);
+    scene.dust.curve = "grey";
+    scene.stars[0].temperature = 6500.0;
+    const auto rgb = blackbodyLinearSRGB(6500.0);
+    for (int c = 0; c < 3; ++c)
+        scene.starColor[0][std::size_t(c)] = rgb[std::size_t(c)] * scene.stars[0].luminosity;
+    ScatterOptions so;
+    so.packets = 100000;
+    so.fieldLevel = 0;
+    RenderOptions o = cloudCamera(8);
+    RenderScene withField = scene;
+    withField.scatter = sceneScatterField(computeScatterField(scene, o, so, nullptr), o);
+    const Image rgbWith = renderFrame(withField, o), rgbWithout = renderFrame(scene, o);
+    RenderOptions os = o;
+    os.spectral.enabled = true;
+    SpectralScene sw = spectralOf(scene);
+    sw.base.scatter = sceneScatterField(
+        computeSpectralScatterField(scene, o, so, spectralFieldWavelengths(9), nullptr), os);
+    const Image specWith = renderSpectral(sw, os),
+                specWithout = renderSpectral(spectralOf(scene), os);
+    for (int c = 0; c < 3; ++c) {
+        double tr = 0, ts = 0, brightest = 0;
+        std::vector<double> br(16, 0.0), bs(16, 0.0);
+        for (int y = 0; y < 8; ++y)
+            for (int x = 0; x < 8; ++x) {
+                const std::size_t p = (std::size_t(y) * 8 + x) * 4 + std::size_t(c);
+                const double r = rgbWith.rgba[p] - rgbWithout.rgba[p];
+                const double s = specWith.rgba[p] - specWithout.rgba[p];
+                br[std::size_t(y / 2 * 4 + x / 2)] += r;
+                bs[std::size_t(y / 2 * 4 + x / 2)] += s;
+                tr += r;
+                ts += s;
+            }
+        for (double b : br)
+            brightest = std::max(brightest, b);
+        ASSERT_GT(tr, 0.0);
+        EXPECT_NEAR(ts, tr, 0.015 * tr) << "channel " << c;
+        std::printf("channel %d: field's light RGB %.5g, spectral %.5g (%+.2f %%)\n", c, tr, ts,
+                    100 * (ts / tr - 1));
+        for (std::size_t b = 0; b < 16; ++b) {
+            if (br[b] < 0.05 * brightest) continue;
+            EXPECT_NEAR(bs[b], br[b], 0.04 * br[b]) << "block " << b << " channel " << c;
+        }
     }
 }

@@ -3,6 +3,7 @@
 /// The names that are a contract between the tools (DESIGN §1-2): file-level metadata keys
 /// and the names of the grids one stage makes for the next.
 
+#include <cstdio>
 #include <string>
 
 namespace nebula {
@@ -21,6 +22,8 @@ inline constexpr const char* META_DUST = "nebula:dust";   ///< JSON object of du
 /// JSON object: what nebscatter's field was made for (order, level, sources, dust, stars,
 /// wavelengths, transform; DESIGN §5b).
 inline constexpr const char* META_SCATTER = "nebula:scatter";
+/// JSON object: the same for nebscatter --spectral's field (wavelengths: its list [nm]).
+inline constexpr const char* META_SCATTER_SPECTRAL = "nebula:scatter_spectral";
 /// Grid metadata: the spectral lines an emission grid emits ("NAME:STRENGTH,...").
 inline constexpr const char* META_LINES = "nebula:lines";
 
@@ -45,6 +48,22 @@ inline std::string scatterGridName(const std::string& source, int l, int m, int 
     const std::string moment =
         l == 0 ? std::string("J") : "c" + std::to_string(l) + "_" + std::to_string(m);
     return "scatter." + source + "." + moment + "." + CH[channel];
+}
+
+/// The prefix of nebscatter --spectral's grids; an RGB field's grids never start with it.
+inline constexpr const char* SPECTRAL_SCATTER_PREFIX = "scatter.spectral.";
+
+/// nebscatter --spectral's grid of moment (@p l, @p m) at wavelength @p lambda [nm] of
+/// source @p source: "scatter.spectral.<source>.J.<lambda>nm" for l = 0, else
+/// "scatter.spectral.<source>.c<l>_<m>.<lambda>nm", lambda with up to 5 significant digits
+/// ("430nm", "416.36nm"; DESIGN §5b).
+inline std::string spectralScatterGridName(const std::string& source, int l, int m, double lambda)
+{
+    const std::string moment =
+        l == 0 ? std::string("J") : "c" + std::to_string(l) + "_" + std::to_string(m);
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "%.5gnm", lambda);
+    return SPECTRAL_SCATTER_PREFIX + source + "." + moment + "." + buf;
 }
 
 } // namespace nebula

@@ -49,16 +49,18 @@ struct ScatterOptions
 struct ScatterSourceField
 {
     std::string name; ///< "stars", a star's name (perStar) or "emission"
-    /// Moments on the field lattice: channel k * 3 + c is c_lm of RGB channel c,
-    /// k = shIndex(l, m), c_lm = integral of L(w) Y_lm(w) dw [L_sun pc^-2] (the l = 0
-    /// moment is 4 pi Y_00 J = 2 sqrt(pi) J). The emission's is per unit --emission-scale
-    /// and colour (1, 1, 1). Its indexToWorld is fieldLevelMap() of level 0's.
+    /// Moments on the field lattice: channel k * C + c is c_lm of channel c (C = 3: R, G, B;
+    /// a spectral field: C wavelengths), k = shIndex(l, m), c_lm = integral of L(w) Y_lm(w)
+    /// dw [L_sun pc^-2] (a spectral field: per nm, [L_sun pc^-2 nm^-1]; the l = 0 moment is
+    /// 4 pi Y_00 J = 2 sqrt(pi) J). The emission's is per unit --emission-scale and colour
+    /// (1, 1, 1). Its indexToWorld is fieldLevelMap() of level 0's.
     DenseVolume moments;
-    std::array<double, 3> power{0, 0, 0};    ///< first-scattered (or emitted) power [L_sun]
-    std::array<double, 3> escaped{0, 0, 0};  ///< collided power leaving the grid [L_sun]
-    std::array<double, 3> absorbed{0, 0, 0}; ///< collided power absorbed [L_sun]
-    /// Relative standard error of J (green) per field cell, averaged with weights n_H J V
-    /// (each cell's share of the scattered light) over the cells holding dust.
+    std::vector<double> power;    ///< per channel: first-scattered (or emitted) power [L_sun]
+    std::vector<double> escaped;  ///< per channel: collided power leaving the grid [L_sun]
+    std::vector<double> absorbed; ///< per channel: collided power absorbed [L_sun]
+    /// Relative standard error of J (green; a spectral field: the largest of its runs'
+    /// middle wavelengths) per field cell, averaged with weights n_H J V (each cell's share
+    /// of the scattered light) over the cells holding dust.
     double relativeError = 0.0;
     std::uint64_t packets = 0;
     std::uint64_t flights = 0; ///< straight flights walked (one per scattering order)
@@ -69,6 +71,9 @@ struct ScatterField
 {
     int order = 2;
     int level = 0;
+    /// Empty: the channels are R, G, B; else a spectral field's wavelengths [nm], one
+    /// channel each (computeSpectralScatterField()).
+    std::vector<double> wavelengths;
     std::vector<ScatterSourceField> sources;
     /// Per cell of the sources' lattice: 1 where the renderer reads the field (the cells
     /// holding dust and their 26 neighbours; only these are tallied).
@@ -92,15 +97,44 @@ void validateScatterOptions(const RenderScene& scene, const ScatterOptions& opts
 ScatterField computeScatterField(const RenderScene& scene, const RenderOptions& ropts,
                                  const ScatterOptions& opts, const Run* run);
 
-/// Adds @p src's moments (channel k * 3 + c, as in ScatterSourceField::moments) times
-/// @p factor[c] to @p total's, the l = 0 ones also times @p c00Factor (2 sqrt(pi) turns
-/// nebscatter's J grids into c_00); both on the same lattice.
+/// Adds @p src's moments (channel k * C + c, as in ScatterSourceField::moments, C =
+/// @p factor's size) times @p factor[c] to @p total's, the l = 0 ones also times
+/// @p c00Factor (2 sqrt(pi) turns nebscatter's J grids into c_00); both on the same lattice.
 void addScatterMoments(DenseVolume& total, const DenseVolume& src,
-                       const std::array<double, 3>& factor, double c00Factor = 1.0);
+                       const std::vector<double>& factor, double c00Factor = 1.0);
+
+/// A spectral field's wavelength range [nm] (spectralFieldWavelengths()).
+inline constexpr double SPECTRAL_FIELD_MIN_NM = 380.0;
+inline constexpr double SPECTRAL_FIELD_MAX_NM = 780.0;
+/// The most wavelengths a spectral field has (one walk carries them all).
+inline constexpr std::size_t SPECTRAL_FIELD_MAX_WAVELENGTHS = 64;
+
+/// The wavelengths of a spectral field of @p n (>= 2) wavelengths: evenly spaced over
+/// 380-780 nm, the ends included (nebrender --spectral holds the end values beyond them,
+/// where the colour-matching functions are below 0.4 % of their peaks).
+std::vector<double> spectralFieldWavelengths(int n);
+
+/// Star @p star's spectral power at @p lambda_nm [L_sun nm^-1]: its black body normalised
+/// so that its luminance Y (the CIE y-bar integral over 360-830 nm) is its luminosity, the
+/// spectral renderer's convention (DESIGN §7).
+double starSpectralPower(const Star& star, double lambda_nm);
+
+/// The starlight's field for nebrender --spectral: the collided light at each of
+/// @p wavelengths [nm] (2..SPECTRAL_FIELD_MAX_WAVELENGTHS of them; UsageError otherwise),
+/// per nm, of stars whose spectra are starSpectralPower(). One walk carries every
+/// wavelength as a channel (the dust's extinction and the stars' spectral power there;
+/// collisions drawn from the mixture of all of them), so the field's noise is shared by
+/// its wavelengths and colours stay smooth. The emission is left out (the spectral
+/// renderer does not scatter the gas's glow). Same seed, same field, whatever the thread
+/// count.
+ScatterField computeSpectralScatterField(const RenderScene& scene, const RenderOptions& ropts,
+                                         const ScatterOptions& opts,
+                                         const std::vector<double>& wavelengths, const Run* run);
 
 /// The field as the fast integrator adds it (RenderScene::scatter): every source's moments
 /// summed, the emission's times @p opts' emission scale and colour (in memory; nebrender
-/// reads nebscatter's grids in buildScene()).
+/// reads nebscatter's grids in buildScene()). A spectral field stays spectral (its
+/// wavelengths kept), for buildSpectralScene()'s scene.
 SceneScatterField sceneScatterField(const ScatterField& field, const RenderOptions& opts);
 
 } // namespace nebula

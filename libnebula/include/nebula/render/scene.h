@@ -38,11 +38,14 @@ struct ChannelDust : DustParams
 /// nebscatter's field as the fast integrator adds it (DESIGN §5b): the moments of every
 /// source summed (each star's scaled to the scene's luminosity, the emission's by
 /// --emission-scale and colour), channel shIndex(l, m) * 3 + c holding c_lm of channel c
-/// [L_sun pc^-2], on the field level's lattice. order -1: no field.
+/// [L_sun pc^-2], on the field level's lattice. order -1: no field. A spectral field
+/// (nebscatter --spectral, for the spectral renderer): channel shIndex(l, m) * N + i holds
+/// c_lm at wavelengths[i] [L_sun pc^-2 nm^-1].
 struct SceneScatterField
 {
     int order = -1;
     int level = 0;
+    std::vector<double> wavelengths; ///< a spectral field's [nm]; empty: R, G, B
     DenseVolume moments;
     std::string description; ///< what it is, for -v and the EXR
 };
@@ -76,8 +79,9 @@ struct RenderScene
 /// if opts.phaseTable was made for another albedo, g or phase model than @p dust (unless
 /// opts.phaseIgnoreDust). With opts.levels = K, also reads density.L<k> and tau.<star>.L<k>
 /// for k = 1..K and throws Error if one is missing or its voxels are not 2^k times level 0's.
-/// With opts.scatterField and an input holding nebscatter's field (nebula:scatter), reads it
-/// into RenderScene::scatter; throws Error if it was made for other dust, stars (a summed
+/// With opts.scatterField and an input holding nebscatter's field (nebula:scatter; with
+/// opts.spectral.enabled the spectral field, nebula:scatter_spectral), reads it into
+/// RenderScene::scatter; throws Error if it was made for other dust, stars (a summed
 /// field: also their luminosity), wavelengths, star distance clamp, density or emission grid
 /// or grid transform, or if a field grid is missing or not a FloatGrid on the field level's
 /// transform; UsageError if it would be combined with a phase table or pyramid levels.

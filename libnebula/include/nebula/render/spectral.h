@@ -5,7 +5,9 @@
 /// trapezoids (Alghamdi et al. 2023, DESIGN §7.1); black-body emission and the starlight the
 /// dust scatters carry the extinction curve at every wavelength. Colour is the exact
 /// integral of the piecewise-linear spectrum against the CIE 1931 colour-matching functions,
-/// then linear sRGB. A fixed-band mode point-samples the same spectra for comparison.
+/// then linear sRGB. A fixed-band mode point-samples the same spectra for comparison. The
+/// light scattered more than once comes from nebscatter --spectral's field (DESIGN §5b),
+/// if the input has one, linear in wavelength between the field's wavelengths.
 
 #include "nebula/core/run.h"
 #include "nebula/io/image.h"
@@ -49,7 +51,8 @@ struct SpectralScene
     int velocityChannel = -1;    ///< vx; vy, vz follow. -1: no velocity grid
 };
 
-/// Builds the spectral scene: everything buildScene() checks and reads, plus every emission
+/// Builds the spectral scene: everything buildScene() checks and reads (with
+/// opts.scatterField, the spectral field into base.scatter), plus every emission
 /// grid (opts.emissionGrid and each FloatGrid with nebula:lines metadata), the temperature
 /// grid (opts.spectral.temperatureGrid, optional; Error if a value is negative, NaN or
 /// infinite) and the velocity grid (opts.spectral.velocityGrid, optional; Error unless a

@@ -20,6 +20,9 @@ struct ScatterStageOptions
     std::array<double, 3> wavelengths{700.0, 546.1, 435.8};
     double minStarDistance = 0.5; ///< 1/r^2 clamp [voxels] (nebrender's --min-star-distance)
     bool onlyNew = false;         ///< write only the field grids
+    /// > 0: the starlight's field for nebrender --spectral at this many wavelengths
+    /// (spectralFieldWavelengths()) instead of the R, G, B field.
+    int spectral = 0;
 };
 
 /// Computes the field of @p grids (density, emission, tau.<star>, nebula:stars, nebula:dust)
@@ -28,7 +31,11 @@ struct ScatterStageOptions
 /// scatter.<source>.J.<c> (mean intensity of the collided light [L_sun pc^-2 sr^-1]) and,
 /// for l = 1..L, scatter.<source>.c<l>_<m>.<c> (c_lm [L_sun pc^-2]), on field level k's
 /// transform (nebpyramid's levelTransform()), active on the cells holding dust and their
-/// neighbours; and the file metadata nebula:scatter (what the field was made for). Throws
+/// neighbours; and the file metadata nebula:scatter (what the field was made for). With
+/// opts.spectral = N: the stars' field at N wavelengths (computeSpectralScatterField()),
+/// grids spectralScatterGridName() and metadata nebula:scatter_spectral, replacing only an
+/// earlier spectral field (one file may hold both; an R, G, B field replaces only its own
+/// grids too). Throws
 /// Error on input nebrender would refuse (no stars, a tau grid missing) and UsageError on
 /// bad options (validateScatterOptions()).
 ScatterField scatter(GridSet& grids, const ScatterStageOptions& opts, const Run& run);
