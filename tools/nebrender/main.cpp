@@ -143,7 +143,11 @@ int main(int argc, char** argv)
                    "the change of the voxel scattering as the voxel doubles (default: with\n"
                    "--phase, every level the input has; 0: none)")
         ->check(nebula::cli::integerIn(0, 16));
-    bool noScatterField = false;
+    bool noScatterField = false, interpolatedTau = false;
+    app.add_flag("--interpolated-tau", interpolatedTau,
+                 "Take each star's optical depth from the trilinear tau grid everywhere, instead\n"
+                 "of exactly through cells whose optical depth changes by 0.05 or more across a\n"
+                 "voxel (faster; too dark at the lit face of optically thick voxels)");
     app.add_flag("--no-scatter-field", noScatterField,
                  "Ignore the input's scattered-light field (nebscatter): single scattering,\n"
                  "or --phase and --levels");
@@ -292,6 +296,7 @@ int main(int argc, char** argv)
         }
         opts.drawStars = !noStars;
         opts.scatterField = !noScatterField;
+        opts.exactStarDepth = !interpolatedTau;
         if (bandsOpt->count() > 0) sp.enabled = true;
         nebula::cli::requireMode(spectralOnly, sp.enabled, "--spectral");
         opts.integrator =

@@ -8,7 +8,7 @@ int main(int argc, char** argv)
 {
     nebula::CommonOptions common;
     nebula::ScatterStageOptions opts; // every default lives here
-    bool noEmission = false;
+    bool noEmission = false, interpolatedTau = false;
 
     CLI::App app{
         "nebscatter - the field of light scattered at least once, for nebrender\n\n"
@@ -75,6 +75,9 @@ int main(int argc, char** argv)
                    "spaced over 380-780 nm, 2..64 (6 keep colours within Delta E 2000 < 0.4 of\n"
                    "a dense field); one walk carries them all")
         ->check(nebula::cli::integerIn(2, 64));
+    app.add_flag("--interpolated-tau", interpolatedTau,
+                 "Start packets with each star's optical depth from the trilinear tau grid\n"
+                 "everywhere (as nebrender --interpolated-tau), not exact through rough cells");
     app.add_option("--min-star-distance", opts.minStarDistance,
                    "Distance below which 1/r^2 is clamped [voxels] (as nebrender's)")
         ->capture_default_str()
@@ -83,6 +86,7 @@ int main(int argc, char** argv)
     return nebula::cli::run(app, "nebscatter", common, argc, argv, [&](nebula::Run& run) {
         nebula::refuseBinaryToTerminal(common.output, "-o");
         f.emission = !noEmission;
+        opts.exactStarDepth = !interpolatedTau;
         auto grids = nebula::readGrids(common.input, run);
         opts.densityGrid = common.densityGrid;
         opts.onlyNew = common.onlyNew;

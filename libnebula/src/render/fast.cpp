@@ -13,6 +13,7 @@
 #include "nebula/core/units.h"
 #include "nebula/physics/spherical_harmonics.h"
 #include "nebula/render/sprites.h"
+#include "nebula/render/star_depth.h"
 #include "nebula/volume/block_walk.h"
 
 #include <algorithm>
@@ -72,6 +73,7 @@ public:
         for (const auto& s : scene.stars) {
             mStarPos.emplace_back(s.position[0], s.position[1], s.position[2]);
         }
+        if (opts.exactStarDepth) mDepth.emplace(scene);
         // Effective phase function (DESIGN §4): log t_c = log n + log(kappa_V r_c * voxel
         // size). Replace: the table's Phi; Gain: a p(mu) times Phi / Phi_1 (PhaseUse).
         if (mTable && opts.phaseUse == PhaseUse::Gain) {
@@ -275,6 +277,10 @@ private:
         ++sc.stats.samples;
         const double n = sc.f[0], em = sc.f[1];
         if (n <= 0.0 && em <= 0.0) return true;
+        if (n > 0.0 && mDepth && mDepth->rough(pI)) { // tau exact through rough cells
+            for (std::size_t s = 0; s < mScene.stars.size(); ++s)
+                sc.f[2 + s] = float(mDepth->march(s, pI));
+        }
         // Exact attenuation of a segment of constant k_c: the fraction 1 - e^-x of its source
         // function reaches the segment's front.
         double x[3], oneMinus[3];
@@ -319,6 +325,7 @@ private:
     double mOff0[3] = {0, 0, 0};
     std::vector<std::array<double, 3>> mOffLevel;
     const DenseVolume* mField = nullptr; ///< the scattered-light field, if any
+    std::optional<StarDepth> mDepth;     ///< with RenderOptions::exactStarDepth
     Affine mFieldW2I;
     int mFieldMoments = 0;
     double mFieldPl[shCount(SH_MAX_DEGREE)] = {}; ///< a p_l per moment index

@@ -9,6 +9,7 @@
 #include "nebula/physics/blackbody.h"
 #include "nebula/physics/colour.h"
 #include "nebula/physics/spherical_harmonics.h"
+#include "nebula/render/star_depth.h"
 #include "nebula/volume/block_walk.h"
 
 #include <fmt/format.h>
@@ -21,6 +22,7 @@
 #include <atomic>
 #include <cmath>
 #include <limits>
+#include <optional>
 
 namespace nebula {
 
@@ -212,6 +214,16 @@ public:
                 }
         for (const auto& s : scene.stars)
             mStarPos.emplace_back(s.position[0], s.position[1], s.position[2]);
+        if (ropts.exactStarDepth) mDepth.emplace(scene);
+    }
+
+    /// Each star's tau_V at index point @p pI into fv[2 + s] (the fields sampled there):
+    /// exact through rough cells (StarDepth), as the renderers take it.
+    void starDepths(const Vec3& pI, float* fv) const
+    {
+        if (!mDepth || !mDepth->rough(pI)) return;
+        for (std::size_t s = 0; s < mStarPos.size(); ++s)
+            fv[2 + s] = float(mDepth->march(s, pI));
     }
 
     std::size_t fieldCells() const { return std::size_t(mFDims[0]) * mFDims[1] * mFDims[2]; }
@@ -427,6 +439,7 @@ private:
     std::vector<std::uint8_t> mEmpty;  ///< per lattice cell (lower corner's index): no dust
     std::vector<std::uint8_t> mActive; ///< per field cell: read by the renderer
     std::vector<double> mCellDust;     ///< per field cell: n_H summed over its voxels
+    std::optional<StarDepth> mDepth;   ///< with RenderOptions::exactStarDepth
 };
 
 /// Integer sums of a source's energy statistics (weights, fixed point).
@@ -481,6 +494,7 @@ void runPacket(const Transport& tr, const SourceSpec& src, const Sampler& sample
     Vec3 x = f.indexToWorld.apply(pI);
     fv.resize(std::size_t(f.channels()));
     f.sample(pI, fv.data());
+    tr.starDepths(pI, fv.data());
     const int C = tr.channels();
     const double norm = C / double(sampler.proxy[ci]); // w_c = C eta_c(x) / proxy(cell)
     double w[MAX_CHANNELS];

@@ -28,6 +28,7 @@
 #include "nebula/physics/motion.h"
 #include "nebula/physics/spherical_harmonics.h"
 #include "nebula/render/sprites.h"
+#include "nebula/render/star_depth.h"
 
 #include "nebula/volume/block_walk.h"
 
@@ -37,6 +38,7 @@
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <optional>
 
 namespace nebula {
 
@@ -372,6 +374,7 @@ public:
             mRChannel[std::size_t(c)] = extinctionRatio(mDust, opts.wavelengths[std::size_t(c)]);
         }
         fieldSetup();
+        if (opts.exactStarDepth) mDepth.emplace(mRs);
     }
 
     int layers() const { return mSo.layers; }
@@ -683,6 +686,10 @@ private:
         ++sc.stats.samples;
         const double n = std::max(0.0f, sc.f[0]), em = sc.f[1];
         if (n <= 0.0 && em <= 0.0) return true;
+        if (n > 0.0 && mDepth && mDepth->rough(pI)) { // tau exact through rough cells
+            for (std::size_t s = 0; s < mRs.stars.size(); ++s)
+                sc.f[2 + s] = float(mDepth->march(s, pI));
+        }
         const double x = mDust.kappa_V * n * seg; // the segment's V optical depth
         if (n > 0.0) {
             // The fraction of the segment's source function that leaves it (1 - e^-x Lambda);
@@ -787,6 +794,7 @@ private:
         double frac = 0.0;          ///< its position between them
     };
     const DenseVolume* mField = nullptr;
+    std::optional<StarDepth> mDepth; ///< with RenderOptions::exactStarDepth
     Affine mFieldW2I;
     int mFieldMoments = 0;
     double mFieldPl[shCount(SH_MAX_DEGREE)] = {}; ///< a p_l per moment

@@ -23,6 +23,7 @@ ScatterField scatter(GridSet& grids, const ScatterStageOptions& opts, const Run&
     ropts.emissionGrid = opts.emissionGrid;
     ropts.wavelengths = opts.wavelengths;
     ropts.minStarDistance = opts.minStarDistance;
+    ropts.exactStarDepth = opts.exactStarDepth;
     ropts.levels = 0;
     const RenderScene scene = buildScene(grids, ropts, dust);
     validateScatterOptions(scene, opts.field);
@@ -124,6 +125,7 @@ ScatterField scatter(GridSet& grids, const ScatterStageOptions& opts, const Run&
                                                     : std::vector<double>(opts.wavelengths.begin(),
                                                                           opts.wavelengths.end())},
                            {"min_star_distance", opts.minStarDistance},
+                           {"exact_star_depth", opts.exactStarDepth},
                            {"density_grid", opts.densityGrid},
                            {"emission_grid", opts.emissionGrid},
                            {"index_to_world",

@@ -20,6 +20,8 @@ struct ScatterStageOptions
     std::array<double, 3> wavelengths{700.0, 546.1, 435.8};
     double minStarDistance = 0.5; ///< 1/r^2 clamp [voxels] (nebrender's --min-star-distance)
     bool onlyNew = false;         ///< write only the field grids
+    /// Stars' optical depth exact through rough cells (RenderOptions::exactStarDepth).
+    bool exactStarDepth = true;
     /// > 0: the starlight's field for nebrender --spectral at this many wavelengths
     /// (spectralFieldWavelengths()) instead of the R, G, B field.
     int spectral = 0;
