@@ -207,7 +207,7 @@ TEST_F(NebScatter, PerStarFieldsFollowTheLuminosity)
 TEST_F(NebScatter, SpectralFieldForTheSpectralRenderer)
 {
     makeField();
-    Result r = run("nebscatter -i s.vdb --spectral 6 --packets 10000 -v -o both.vdb");
+    Result r = run("nebscatter -i s.vdb --spectral 6 --packets 5000 -v -o both.vdb");
     ASSERT_EQ(r.code, 0) << r.err;
     EXPECT_NE(r.err.find("spectral: 6 wavelengths, 380-780 nm"), std::string::npos) << r.err;
     const auto b = read(path("both.vdb"));

@@ -277,9 +277,9 @@ private:
         ++sc.stats.samples;
         const double n = sc.f[0], em = sc.f[1];
         if (n <= 0.0 && em <= 0.0) return true;
-        if (n > 0.0 && mDepth && mDepth->rough(pI)) { // tau exact through rough cells
+        if (n > 0.0 && mDepth && mDepth->anyCurved(pI)) { // tau exact where it bends
             for (std::size_t s = 0; s < mScene.stars.size(); ++s)
-                sc.f[2 + s] = float(mDepth->march(s, pI));
+                if (mDepth->curved(s, pI)) sc.f[2 + s] = float(mDepth->march(s, pI));
         }
         // Exact attenuation of a segment of constant k_c: the fraction 1 - e^-x of its source
         // function reaches the segment's front.

@@ -218,12 +218,12 @@ public:
     }
 
     /// Each star's tau_V at index point @p pI into fv[2 + s] (the fields sampled there):
-    /// exact through rough cells (StarDepth), as the renderers take it.
+    /// exact where it bends (StarDepth), as the renderers take it.
     void starDepths(const Vec3& pI, float* fv) const
     {
-        if (!mDepth || !mDepth->rough(pI)) return;
+        if (!mDepth || !mDepth->anyCurved(pI)) return;
         for (std::size_t s = 0; s < mStarPos.size(); ++s)
-            fv[2 + s] = float(mDepth->march(s, pI));
+            if (mDepth->curved(s, pI)) fv[2 + s] = float(mDepth->march(s, pI));
     }
 
     std::size_t fieldCells() const { return std::size_t(mFDims[0]) * mFDims[1] * mFDims[2]; }

@@ -686,9 +686,9 @@ private:
         ++sc.stats.samples;
         const double n = std::max(0.0f, sc.f[0]), em = sc.f[1];
         if (n <= 0.0 && em <= 0.0) return true;
-        if (n > 0.0 && mDepth && mDepth->rough(pI)) { // tau exact through rough cells
+        if (n > 0.0 && mDepth && mDepth->anyCurved(pI)) { // tau exact where it bends
             for (std::size_t s = 0; s < mRs.stars.size(); ++s)
-                sc.f[2 + s] = float(mDepth->march(s, pI));
+                if (mDepth->curved(s, pI)) sc.f[2 + s] = float(mDepth->march(s, pI));
         }
         const double x = mDust.kappa_V * n * seg; // the segment's V optical depth
         if (n > 0.0) {

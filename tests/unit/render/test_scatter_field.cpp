@@ -539,7 +539,7 @@ TEST(ScatterField, SpectralFieldOfSixWavelengthsKeepsColoursWithinDeltaE1)
     RenderScene scene = thickCloud(0.6, PhaseModel::HenyeyGreenstein, 0.6, false);
     scene.stars[0].temperature = 12000.0;
     ScatterOptions so;
-    so.packets = 30000;
+    so.packets = 15000;
     so.fieldLevel = 0;
     const RenderOptions o = cloudCamera(12);
     const ScatterField dense =

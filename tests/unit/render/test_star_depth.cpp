@@ -44,9 +44,10 @@ Vec3 starIndex(const RenderScene& scene, std::size_t s)
 
 // At the lit face the density ramps from 0 to n0 across the first cell, so tau grows as the
 // square of the depth there: at depth 0.5 voxel it is 1/8 of the voxel's optical depth (0.625
-// for 5), where trilinear tau gives 1/4 (1.25). Only the ramp's cells are rough; StarDepth
-// matches the exact integral to 1e-5 in them and in the uniform cell behind (where
-// trilinear tau is exact); deeper it returns the interpolated tau unchanged.
+// for 5), where trilinear tau gives 1/4 (1.25). tau bends at the lattice points 0 and 1 (its
+// second difference there is 2.5), so the cells [0, 1] and [1, 2] are curved; StarDepth
+// matches the exact integral to 1e-5 in them; deeper, where tau is linear, it returns the
+// interpolated tau unchanged (exact there).
 TEST(StarDepth, ExactAtTheLitFaceOfThickVoxels)
 {
     const RenderScene scene = thickCube(5.0);
@@ -57,7 +58,7 @@ TEST(StarDepth, ExactAtTheLitFaceOfThickVoxels)
         float interp = 0.0f;
         scene.fields.sampleChannels(p, 2, 1, &interp);
         const double exact = KAPPA * columnDensityReference(n, star, p);
-        EXPECT_EQ(depth.rough(p), p.x < 1.0) << p.x; // the ramp's cell only
+        EXPECT_EQ(depth.curved(0, p), p.x < 2.0) << p.x; // the ramp's cells and the next
         EXPECT_NEAR(depth(0, p, interp), exact, 1e-5 * std::max(1.0, exact)) << p.x;
         if (p.x < 0.6) {
             EXPECT_GT(double(interp) - exact, 0.6) << p.x; // interpolation is off
@@ -65,7 +66,7 @@ TEST(StarDepth, ExactAtTheLitFaceOfThickVoxels)
     }
     EXPECT_NEAR(KAPPA * columnDensityReference(n, star, Vec3(0.5, 20.3, 17.7)), 0.625, 1e-4);
     const Vec3 inside(10.5, 20.3, 17.7);
-    EXPECT_FALSE(depth.rough(inside));
+    EXPECT_FALSE(depth.curved(0, inside));
     EXPECT_EQ(depth(0, inside, 7.25), 7.25);
     // A star inside a rough cell: the march reaches it.
     RenderScene near = thickCube(5.0);
@@ -76,8 +77,10 @@ TEST(StarDepth, ExactAtTheLitFaceOfThickVoxels)
     const Vec3 q(1.3, 20.4, 19.9);
     const double exact = KAPPA * columnDensityReference(n, Vec3(0.6, 20.0, 20.0), q);
     EXPECT_NEAR(nearDepth.march(0, q), exact, 1e-5 * std::max(1.0, exact));
-    EXPECT_GT(depth.roughFraction(), 0.0);
-    EXPECT_LT(depth.roughFraction(), 0.2); // the faces only
+    // Curved: the cells within about two voxels of the cube's faces (tau bends across the
+    // lit face and across the shadow's edge along the four side faces), not its inside.
+    EXPECT_GT(depth.curvedFraction(0), 0.1);
+    EXPECT_LT(depth.curvedFraction(0), 0.35);
 }
 
 // The single scattering seen face-on at the lit face of voxels of optical depth 5 (albedo

@@ -82,7 +82,7 @@ struct RenderOptions
     /// Use nebscatter's scattered-light field (DESIGN §5b) when the input has one
     /// (--no-scatter-field: false).
     bool scatterField = true;
-    /// Each star's optical depth exact through optically rough cells (render/star_depth.h,
+    /// Each star's optical depth exact through the cells where it bends (render/star_depth.h,
     /// DESIGN §3.3) instead of the trilinear tau grid everywhere (--interpolated-tau: false).
     bool exactStarDepth = true;
     SpectralOptions spectral;

@@ -2,19 +2,25 @@
 /// @file star_depth.h
 /// The optical depth from a star to any point, exact where trilinear interpolation of the
 /// tau grid is not (DESIGN §3.3). nebillum's tau.<star> is exact at the lattice points; between
-/// them the renderers interpolate it trilinearly, which is exact where the density is the same
-/// at a cell's 8 corners but not where it changes within the cell: at the lit face of a cloud
-/// whose voxels are optically thick, tau grows as the square of the depth inside the first
-/// cell while the interpolation makes it grow linearly, too deep and too dark (a voxel of
-/// optical depth 5 at the face loses 40 % of its once-scattered light). StarDepth integrates
-/// the trilinear density exactly (physics/optical_depth.h) from the point towards the star
-/// through such cells, one voxel at a time, until it reaches a cell where the interpolation is
-/// right again (or the star, or the edge of the grid, or an optical depth past which no light
-/// is left), and adds the interpolated tau there: a short characteristic.
+/// them the renderers interpolate it trilinearly, which is right where tau is close to linear
+/// across a cell but not where it bends: at the lit face of a cloud whose voxels are optically
+/// thick, tau grows as the square of the depth inside the first cell while the interpolation
+/// makes it grow linearly, too deep and too dark (a voxel of optical depth 5 at the face loses
+/// 30-46 % of its once-scattered light), and across the edge of a dense filament's shadow.
+/// StarDepth marks, per star, the lattice cells where tau bends (a second difference of the
+/// tau grid at one of the cell's corners of at least CURVED), integrates the trilinear density
+/// exactly (physics/optical_depth.h) from a point in such a cell towards the star, one voxel at
+/// a time, until it reaches a cell where tau does not bend (or the star, or the edge of the
+/// grid, or an optical depth past which no light is left), and adds the interpolated tau there:
+/// a short characteristic. The same test starts and stops the march, so the optical depth is
+/// continuous across the cells' boundaries. The march never stops where the tau grids hold
+/// no value (nebillum writes them on the dust and one voxel round it; elsewhere the dense
+/// fields read 0): it crosses such gaps to the next cell with values, or leaves the grid.
 
 #include "nebula/physics/optical_depth.h"
 #include "nebula/render/scene.h"
 
+#include <cmath>
 #include <cstdint>
 #include <vector>
 
@@ -23,58 +29,74 @@ namespace nebula {
 class StarDepth
 {
 public:
-    /// A lattice cell is "rough" when the V optical depth across one voxel changes by at least
-    /// this much between its corners (kappa_V h (n_max - n_min)): trilinear tau is then off by
-    /// up to about an eighth of it inside the cell.
-    static constexpr double ROUGH = 0.05;
+    /// A lattice cell is "curved" for a star when the tau grid's second difference along an
+    /// axis, |tau(i-1) - 2 tau(i) + tau(i+1)|, is at least this at one of its corners:
+    /// trilinear tau is then off by up to about an eighth of it inside the cell.
+    static constexpr double CURVED = 0.1;
     /// Past this V optical depth from the point the march stops (e^-12: no light left).
     static constexpr double TAU_STOP = 12.0;
     /// At most this many voxels are marched (then the interpolated tau is taken).
-    static constexpr int MAX_STEPS = 24;
-    /// The march stops in a cell that is not rough and whose tau grid varies by less than
-    /// this between its corners (where trilinear tau is right both along and across the
-    /// star's light).
-    static constexpr double SMOOTH_TAU = 0.1;
+    static constexpr int MAX_STEPS = 32;
 
     /// For @p scene's density (channel 0 of its fields), kappa_V and stars, whose tau grids
     /// are channels 2 + s.
     explicit StarDepth(const RenderScene& scene);
 
     /// tau_V of star @p s at index point @p pI, where the trilinear tau grid gives
-    /// @p tauInterp: @p tauInterp itself unless @p pI lies in a rough cell.
+    /// @p tauInterp: @p tauInterp itself unless @p pI lies in a curved cell.
     double operator()(std::size_t s, const Vec3& pI, double tauInterp) const
     {
-        return rough(pI) ? march(s, pI) : tauInterp;
+        return curved(s, pI) ? march(s, pI) : tauInterp;
     }
 
-    /// Whether index point @p pI lies in a rough lattice cell.
-    bool rough(const Vec3& pI) const
+    /// Whether index point @p pI lies in a lattice cell where star @p s's tau bends.
+    bool curved(std::size_t s, const Vec3& pI) const
     {
-        const int i = int(std::floor(pI.x)) - mLo[0], j = int(std::floor(pI.y)) - mLo[1],
-                  k = int(std::floor(pI.z)) - mLo[2];
-        if (i < 0 || j < 0 || k < 0 || i + 1 >= mDims[0] || j + 1 >= mDims[1] || k + 1 >= mDims[2])
-            return false;
-        return mRough[(std::size_t(k) * std::size_t(mDims[1]) + std::size_t(j)) *
-                          std::size_t(mDims[0]) +
-                      std::size_t(i)] != 0;
+        const std::size_t c = cellOf(pI);
+        return c != NONE && bit(mCurved[s], c);
+    }
+
+    /// Whether any star's tau bends in the cell of @p pI (the renderers' quick test).
+    bool anyCurved(const Vec3& pI) const
+    {
+        const std::size_t c = cellOf(pI);
+        return c != NONE && bit(mAny, c);
     }
 
     /// The exact march from @p pI (see the file comment).
     double march(std::size_t s, const Vec3& pI) const;
 
-    /// The largest difference of star @p s's tau grid between the corners of the lattice cell
-    /// holding @p pI (0 outside the grid).
-    double tauSpread(std::size_t s, const Vec3& pI) const;
-
-    /// The fraction of lattice cells that are rough.
-    double roughFraction() const;
+    /// The fraction of lattice cells curved for star @p s.
+    double curvedFraction(std::size_t s) const;
 
 private:
+    static constexpr std::size_t NONE = ~std::size_t(0);
+    static bool bit(const std::vector<std::uint64_t>& v, std::size_t c)
+    {
+        return (v[c >> 6] >> (c & 63)) & 1u;
+    }
+    /// Linear index of the lattice cell holding @p pI (its lower corner), NONE outside.
+    std::size_t cellOf(const Vec3& pI) const
+    {
+        const double x = std::floor(pI.x), y = std::floor(pI.y), z = std::floor(pI.z);
+        if (!(x >= mLo[0] && y >= mLo[1] && z >= mLo[2] && x + 1 < mLo[0] + mDims[0] &&
+              y + 1 < mLo[1] + mDims[1] && z + 1 < mLo[2] + mDims[2]))
+            return NONE;
+        return (std::size_t(int(z) - mLo[2]) * std::size_t(mDims[1]) +
+                std::size_t(int(y) - mLo[1])) *
+                   std::size_t(mDims[0]) +
+               std::size_t(int(x) - mLo[0]);
+    }
+
     const RenderScene& mScene;
     DenseVolume mDensity; ///< channel 0 of the scene's fields (ColumnIntegrator's input)
     ColumnIntegrator mColumn;
-    std::vector<std::uint8_t> mRough; ///< per lattice cell (lower corner's index)
-    std::vector<Vec3> mStarI;         ///< star positions in index space
+    std::vector<std::vector<std::uint64_t>> mCurved; ///< per star: a bit per lattice cell
+    std::vector<std::uint64_t> mAny;                 ///< a bit per lattice cell: any star
+    /// A bit per lattice cell: its 8 corners lie within one voxel of dust (the tau grids
+    /// hold values there).
+    std::vector<std::uint64_t> mValid;
+    std::vector<Vec3> mStarI; ///< star positions in index space
     std::array<int, 3> mLo{}, mDims{};
     double mKappa = 0.0;
 };
