@@ -146,8 +146,8 @@ int main(int argc, char** argv)
     bool noScatterField = false, interpolatedTau = false;
     app.add_flag("--interpolated-tau", interpolatedTau,
                  "Take each star's optical depth from the trilinear tau grid everywhere, instead\n"
-                 "of exactly through cells whose optical depth changes by 0.05 or more across a\n"
-                 "voxel (faster; too dark at the lit face of optically thick voxels)");
+                 "of exactly through the cells where it bends (faster; too dark at the lit face\n"
+                 "of optically thick voxels)");
     app.add_flag("--no-scatter-field", noScatterField,
                  "Ignore the input's scattered-light field (nebscatter): single scattering,\n"
                  "or --phase and --levels");

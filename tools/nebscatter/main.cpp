@@ -77,7 +77,7 @@ int main(int argc, char** argv)
         ->check(nebula::cli::integerIn(2, 64));
     app.add_flag("--interpolated-tau", interpolatedTau,
                  "Start packets with each star's optical depth from the trilinear tau grid\n"
-                 "everywhere (as nebrender --interpolated-tau), not exact through rough cells");
+                 "everywhere (as nebrender --interpolated-tau), not exact where it bends");
     app.add_option("--min-star-distance", opts.minStarDistance,
                    "Distance below which 1/r^2 is clamped [voxels] (as nebrender's)")
         ->capture_default_str()

@@ -63,10 +63,15 @@ StarDepth::StarDepth(const RenderScene& scene)
                 for (int i = 1; i + 1 < mDims[0]; ++i) {
                     const std::size_t v =
                         std::size_t(k) * sz + std::size_t(j) * sy + std::size_t(i);
+                    if (!near[v]) continue;
+                    // Along each axis whose three points hold tau (beyond the active band
+                    // the grid reads 0, which is no bend of the true tau).
                     const double t = 2.0 * tau(v);
-                    bends[v] = std::abs(tau(v - sx) - t + tau(v + sx)) >= CURVED ||
-                               std::abs(tau(v - sy) - t + tau(v + sy)) >= CURVED ||
-                               std::abs(tau(v - sz) - t + tau(v + sz)) >= CURVED;
+                    bool b = false;
+                    for (const std::size_t st : {sx, sy, sz})
+                        b = b || (near[v - st] && near[v + st] &&
+                                  std::abs(tau(v - st) - t + tau(v + st)) >= CURVED);
+                    bends[v] = b;
                 }
         // A cell is curved if one of its corners is.
         std::vector<std::uint64_t> cells(words, 0);
