@@ -16,7 +16,6 @@
 #include "nebula/core/error.h"
 #include "nebula/io/grid_io.h"
 #include "nebula/io/image.h"
-#include "nebula/physics/spherical_harmonics.h"
 #include "nebula/render/scatter_field.h"
 #include "nebula/render/spectral.h"
 
@@ -65,26 +64,8 @@ int main(int argc, char** argv)
         render(&dense, "dense");
         render(nullptr, "single");
         for (const int n : {3, 5, 6, 9, 11, 21}) {
-            const std::size_t stride = (wl.size() - 1) / std::size_t(n - 1);
-            ScatterField sub = dense;
-            sub.wavelengths.clear();
-            std::vector<std::size_t> keep;
-            for (std::size_t i = 0; i < wl.size(); i += stride) {
-                keep.push_back(i);
-                sub.wavelengths.push_back(wl[i]);
-            }
-            const int nm = shCount(dense.order);
-            for (std::size_t si = 0; si < dense.sources.size(); ++si) {
-                const DenseVolume& a = dense.sources[si].moments;
-                DenseVolume b(a.lo(), a.dims(), nm * int(keep.size()));
-                b.indexToWorld = a.indexToWorld;
-                for (std::size_t v = 0; v < a.voxelCount(); ++v)
-                    for (int k = 0; k < nm; ++k)
-                        for (std::size_t i = 0; i < keep.size(); ++i)
-                            b.voxel(v)[std::size_t(k) * keep.size() + i] =
-                                a.voxel(v)[std::size_t(k) * wl.size() + keep[i]];
-                sub.sources[si].moments = std::move(b);
-            }
+            const ScatterField sub =
+                spectralFieldSubset(dense, (wl.size() - 1) / std::size_t(n - 1));
             render(&sub, "n" + std::to_string(n));
         }
     } catch (const std::exception& e) {

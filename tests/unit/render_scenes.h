@@ -67,13 +67,10 @@ inline Star farStar(const Vec3& dir)
 inline void fillStarTau(RenderScene& scene)
 {
     const DenseVolume& v = scene.fields;
-    DenseVolume n(v.lo(), v.dims(), 1);
-    n.indexToWorld = v.indexToWorld;
+    const DenseVolume n = v.channel(0);
     std::vector<std::uint32_t> points(v.voxelCount());
-    for (std::size_t i = 0; i < v.voxelCount(); ++i) {
-        n.voxel(i)[0] = v.voxel(i)[0];
+    for (std::size_t i = 0; i < v.voxelCount(); ++i)
         points[i] = std::uint32_t(i);
-    }
     const Affine w2i = v.indexToWorld.inverse();
     for (std::size_t s = 0; s < scene.stars.size(); ++s) {
         const auto& p = scene.stars[s].position;

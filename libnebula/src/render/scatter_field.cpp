@@ -164,10 +164,7 @@ public:
           mOrder(opts.order), mNm(shCount(opts.order)), mScale(1 << opts.fieldLevel)
     {
         const DenseVolume& f = scene.fields;
-        mDensity = DenseVolume(f.lo(), f.dims(), 1);
-        mDensity.indexToWorld = f.indexToWorld;
-        for (std::size_t i = 0; i < f.voxelCount(); ++i)
-            mDensity.voxel(i)[0] = f.voxel(i)[0];
+        mDensity = f.channel(0);
         mW2I = f.indexToWorld.inverse();
         mVoxel = voxelSize(f.indexToWorld);
         mRmin2 = std::pow(ropts.minStarDistance * mVoxel, 2);
@@ -898,6 +895,38 @@ ScatterField computeSpectralScatterField(const RenderScene& scene, const RenderO
     ScatterField field = computeField(scene, ropts, o, std::move(ch), run);
     field.wavelengths = wavelengths;
     return field;
+}
+
+ScatterField spectralFieldSubset(const ScatterField& field, std::size_t stride)
+{
+    ScatterField sub = field;
+    const std::size_t N = field.wavelengths.size();
+    std::vector<std::size_t> keep;
+    sub.wavelengths.clear();
+    for (std::size_t i = 0; i < N; i += std::max<std::size_t>(stride, 1)) {
+        keep.push_back(i);
+        sub.wavelengths.push_back(field.wavelengths[i]);
+    }
+    const int nm = shCount(field.order);
+    for (std::size_t si = 0; si < field.sources.size(); ++si) {
+        const DenseVolume& a = field.sources[si].moments;
+        DenseVolume b(a.lo(), a.dims(), nm * int(keep.size()));
+        b.indexToWorld = a.indexToWorld;
+        for (std::size_t v = 0; v < a.voxelCount(); ++v)
+            for (int k = 0; k < nm; ++k)
+                for (std::size_t i = 0; i < keep.size(); ++i)
+                    b.voxel(v)[std::size_t(k) * keep.size() + i] =
+                        a.voxel(v)[std::size_t(k) * N + keep[i]];
+        ScatterSourceField& out = sub.sources[si];
+        out.moments = std::move(b);
+        for (auto* per : {&out.power, &out.escaped, &out.absorbed}) {
+            std::vector<double> kept;
+            for (const std::size_t i : keep)
+                kept.push_back((*per)[i]);
+            *per = std::move(kept);
+        }
+    }
+    return sub;
 }
 
 SceneScatterField sceneScatterField(const ScatterField& field, const RenderOptions& opts)

@@ -8,21 +8,8 @@
 
 namespace nebula {
 
-namespace {
-
-DenseVolume densityOf(const DenseVolume& f)
-{
-    DenseVolume d(f.lo(), f.dims(), 1);
-    d.indexToWorld = f.indexToWorld;
-    for (std::size_t i = 0; i < f.voxelCount(); ++i)
-        d.voxel(i)[0] = f.voxel(i)[0];
-    return d;
-}
-
-} // namespace
-
 StarDepth::StarDepth(const RenderScene& scene)
-    : mScene(scene), mDensity(densityOf(scene.fields)), mColumn(mDensity), mLo(scene.fields.lo()),
+    : mScene(scene), mDensity(scene.fields.channel(0)), mColumn(mDensity), mLo(scene.fields.lo()),
       mDims(scene.fields.dims()), mKappa(scene.dust.kappa_V)
 {
     const DenseVolume& f = scene.fields;

@@ -466,32 +466,6 @@ SpectralScene spectralOf(const RenderScene& scene)
     return s;
 }
 
-/// The field of @p dense's wavelengths i = 0, stride, 2 stride, ... (the same noise).
-ScatterField subsetField(const ScatterField& dense, std::size_t stride)
-{
-    ScatterField sub = dense;
-    const std::size_t N = dense.wavelengths.size();
-    std::vector<std::size_t> keep;
-    sub.wavelengths.clear();
-    for (std::size_t i = 0; i < N; i += stride) {
-        keep.push_back(i);
-        sub.wavelengths.push_back(dense.wavelengths[i]);
-    }
-    const int nm = shCount(dense.order);
-    for (std::size_t si = 0; si < dense.sources.size(); ++si) {
-        const DenseVolume& a = dense.sources[si].moments;
-        DenseVolume b(a.lo(), a.dims(), nm * int(keep.size()));
-        b.indexToWorld = a.indexToWorld;
-        for (std::size_t v = 0; v < a.voxelCount(); ++v)
-            for (int k = 0; k < nm; ++k)
-                for (std::size_t i = 0; i < keep.size(); ++i)
-                    b.voxel(v)[std::size_t(k) * keep.size() + i] =
-                        a.voxel(v)[std::size_t(k) * N + keep[i]];
-        sub.sources[si].moments = std::move(b);
-    }
-    return sub;
-}
-
 RenderOptions cloudCamera(int res)
 {
     RenderOptions o;
@@ -554,7 +528,7 @@ TEST(ScatterField, SpectralFieldOfSixWavelengthsKeepsColoursWithinDeltaE1)
         return renderSpectral(s, so2);
     };
     const Image ref = render(&dense);
-    const ScatterField six = subsetField(dense, 8), three = subsetField(dense, 20);
+    const ScatterField six = spectralFieldSubset(dense, 8), three = spectralFieldSubset(dense, 20);
     ASSERT_EQ(six.wavelengths.size(), 6u);
     ASSERT_EQ(three.wavelengths.size(), 3u);
     const double dE6 = maxDeltaE(ref, render(&six));

@@ -131,6 +131,11 @@ ScatterField computeSpectralScatterField(const RenderScene& scene, const RenderO
                                          const ScatterOptions& opts,
                                          const std::vector<double>& wavelengths, const Run* run);
 
+/// The spectral field @p field keeps only its wavelengths 0, @p stride, 2 @p stride, ...
+/// (stride > 0): a coarser spectral field with the same noise (for measuring how many
+/// wavelengths a field needs).
+ScatterField spectralFieldSubset(const ScatterField& field, std::size_t stride);
+
 /// The field as the fast integrator adds it (RenderScene::scatter): every source's moments
 /// summed, the emission's times @p opts' emission scale and colour (in memory; nebrender
 /// reads nebscatter's grids in buildScene()). A spectral field stays spectral (its

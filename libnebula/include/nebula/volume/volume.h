@@ -84,6 +84,16 @@ public:
     std::vector<float>& data() { return mData; }
     const std::vector<float>& data() const { return mData; }
 
+    /// Channel @p c alone as a one-channel volume on the same lattice and transform.
+    DenseVolume channel(int c) const
+    {
+        DenseVolume v(mLo, mDims, 1);
+        v.indexToWorld = indexToWorld;
+        for (std::size_t i = 0; i < voxelCount(); ++i)
+            v.mData[i] = voxel(i)[c];
+        return v;
+    }
+
     /// Trilinear interpolation of every channel at index-space point @p p into @p out
     /// (channels() floats); zero outside the lattice, so keep a zero border if the field
     /// should fall to zero smoothly.
