@@ -157,8 +157,11 @@ TEST_F(RenderModes, DomeAndPanoramaCameras)
         << attrs["nebula:camera"];
     EXPECT_NE(attrs["nebula:camera"].find("\"fov_deg\":180"), std::string::npos)
         << attrs["nebula:camera"];
-    ASSERT_EQ(run("nebrender -i lit.vdb --camera equirect --eye 0,0,-1 --no-png -o pano.exr").code,
-              0);
+    // The default size (1024x512) with long steps: the size is checked, not the picture.
+    ASSERT_EQ(
+        run("nebrender -i lit.vdb --camera equirect --eye 0,0,-1 --step 4 --no-png -o pano.exr")
+            .code,
+        0);
     const nebula::Image pano = nebula::readExr(path("pano.exr"), nullptr);
     EXPECT_EQ(pano.width, 1024);
     EXPECT_EQ(pano.height, 512);
