@@ -15,11 +15,14 @@
 # (--integrator path, SPP walks per pixel) and by the fast integrator: single
 # scattering; the seed's method (phase table + LEVELS pyramid levels); and nebscatter's field
 # at order L = 1, 2, 3 on cells of 2 voxels (level 1, the default), and at L = 2 on full
-# resolution (level 0) and cells of 4 voxels (level 2), PACKETS packets each.
+# resolution (level 0) and cells of 4 voxels (level 2), and at L = 4 on full resolution,
+# PACKETS packets each.
 # For each: relative error of the total scattered flux (luminance Y), and the relative RMS
 # error over the pixels where the reference is above 1 % of its maximum: as measured, and
 # with the reference's own noise (its variance layer) taken out, sqrt(RMS^2 - noise^2)
-# (bench/exr_compare); "< noise" where the error is below the reference's noise; the
+# (bench/exr_compare); "< noise" where the error is below the reference's noise; the same
+# over blocks of 8x8 pixels (exr_compare --block 8: the image's error on that scale, with 8
+# times less of the reference's noise in it); the
 # precompute's wall time and peak RSS (nebscatter, or nebpyramid + nebphase), and the render's.
 # Figures: examples/error-<scene>.png, side by side: reference | single scattering | seed's
 # method | field (L = 2, level 1), at the reference's exposure.
@@ -43,9 +46,15 @@ bench_require "$BIN/nebgen" "$BIN/nebillum" "$BIN/nebpyramid" "$BIN/nebphase" "$
     "$BIN/nebrender" "$COMPARE"
 bench_tmpdir
 
+# "measured / noise removed" from an exr_compare line (columns 5 and 8).
+rms_pair() {
+    awk '{ if ($8 > 0) printf "%.1f %% / %.1f %%", 100 * $5, 100 * $8;
+           else printf "%.1f %% / < noise", 100 * $5 }' <<<"$1"
+}
+
 timed phase "$BIN/nebphase" -o phase.vdb
-echo "| scene | centre tau_V | method | flux error | pixel RMS error (measured / noise removed) | precompute | peak RSS | render |"
-echo "|---|---|---|---|---|---|---|---|"
+echo "| scene | centre tau_V | method | flux error | pixel RMS error (measured / noise removed) | 8x8-block RMS error (measured / noise removed) | precompute | peak RSS | render |"
+echo "|---|---|---|---|---|---|---|---|---|"
 for name in $SCENES; do
     case $name in
         thin) gen=(--density 600) ;;
@@ -74,7 +83,8 @@ for name in $SCENES; do
            "table + $LEVELS levels:pyr:$name-pyr.vdb:--phase phase.vdb --levels $LEVELS"
            "field L=1:--order 1::" "field L=2:--order 2::" "field L=3:--order 3::"
            "field L=2 level 0:--order 2 --field-level 0::"
-           "field L=2 level 2:--order 2 --field-level 2::")
+           "field L=2 level 2:--order 2 --field-level 2::"
+           "field L=4 level 0:--order 4 --field-level 0::")
     pngs=("$name-ref.png")
     for m in "${modes[@]}"; do
         IFS=: read -r label pre input flags <<<"$m"
@@ -98,11 +108,13 @@ for name in $SCENES; do
             pngs+=("$name-$tag.png")
         line=$("$COMPARE" "$name-ref.exr" "$name-$tag.exr" | awk '$1 == "Y"')
         flux=$(awk '{ printf "%+.1f %%", 100 * $4 }' <<<"$line")
-        rms=$(awk '{ if ($8 > 0) printf "%.1f %% / %.1f %%", 100 * $5, 100 * $8;
-                     else printf "%.1f %% / < noise", 100 * $5 }' <<<"$line")
-        echo "| $name | $tau | $label | $flux | $rms | $precompute | $rss | $(wall "$name-$tag") s |"
+        rms=$(rms_pair "$line")
+        block=$(rms_pair "$("$COMPARE" "$name-ref.exr" "$name-$tag.exr" --block 8 | awk '$1 == "Y"')")
+        echo "| $name | $tau | $label | $flux | $rms | $block | $precompute | $rss | $(wall "$name-$tag") s |"
     done
     noise=$("$COMPARE" "$name-ref.exr" "$name-ref.exr" | awk '$1 == "Y" { printf "%.1f %%", 100 * $7 }')
-    echo "| $name | $tau | reference ($spp spp) | | noise $noise | | | $(wall "$name-ref") s |"
+    bnoise=$("$COMPARE" "$name-ref.exr" "$name-ref.exr" --block 8 |
+        awk '$1 == "Y" { printf "%.1f %%", 100 * $7 }')
+    echo "| $name | $tau | reference ($spp spp) | | noise $noise | noise $bnoise | | | $(wall "$name-ref") s |"
     python3 "$here/tile_png.py" "$FIGURES/error-$name.png" "${pngs[@]}"
 done

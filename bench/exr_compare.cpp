@@ -1,7 +1,7 @@
 /// @file exr_compare.cpp
 /// Compares two nebrender EXRs of the same view: a reference and a test image.
 ///
-///     build/bench/exr_compare REF.exr TEST.exr [--ratio-png FILE] [--threshold 0.01]
+///     build/bench/exr_compare REF.exr TEST.exr [--ratio-png FILE] [--threshold 0.01] [--block N]
 ///
 /// Prints, per channel R, G, B and for luminance Y (Rec. 709 weights of linear sRGB):
 ///  - flux: the sum over pixels of TEST / the sum of REF, minus 1 (relative error of the
@@ -10,8 +10,12 @@
 ///    REF is above --threshold (default 1 %) of its maximum in that channel;
 ///  - if REF has a "variance" layer (nebrender --integrator path: squared standard error of
 ///    each pixel), ref_noise = sqrt(mean(variance / REF^2)) over the same pixels, REF's own
-///    relative noise, and rms_corrected = sqrt(max(0, rms^2 - ref_noise^2)), the RMS error
-///    with REF's noise taken out (the noise is independent of TEST's error).
+///    relative noise (luminance: its "variance.Y" channel where it has one, else the channels'
+///    variances taken as independent), and rms_corrected = sqrt(max(0, rms^2 - ref_noise^2)), the
+///    RMS error with REF's noise taken out (the noise is independent of TEST's error).
+/// --block N first sums both images (and the variance) over blocks of N x N pixels (the
+/// right and bottom edges' partial blocks are dropped), so the figures are per block: the
+/// error of the image smoothed on that scale, with N times less noise.
 /// Also prints the optical depth -ln T of REF's centre pixel (its transmittance layer).
 /// --ratio-png writes a map of TEST_Y / REF_Y: white where equal, red where TEST is brighter,
 /// blue where it is darker, full colour at a factor of 2 (log scale); black where REF_Y is
@@ -19,6 +23,7 @@
 
 #include "nebula/core/error.h"
 #include "nebula/io/image.h"
+#include "nebula/physics/colour.h"
 
 #include <algorithm>
 #include <cmath>
@@ -30,7 +35,7 @@ namespace {
 
 double luminance(const float* p)
 {
-    return 0.2126 * p[0] + 0.7152 * p[1] + 0.0722 * p[2];
+    return nebula::linearSRGBLuminance(p[0], p[1], p[2]);
 }
 
 /// Channel value of pixel @p i: c = 0..2 for R, G, B, 3 for luminance.
@@ -40,16 +45,59 @@ double channel(const nebula::Image& img, std::size_t i, int c)
     return c < 3 ? p[c] : luminance(p);
 }
 
+/// @p img summed over blocks of @p b x @p b pixels (beauty and the "variance" layer, if any);
+/// the transmittance layer keeps the block's centre pixel.
+nebula::Image blockSums(const nebula::Image& img, int b)
+{
+    const int w = img.width / b, h = img.height / b;
+    nebula::Image out(w, h);
+    for (const auto& l : img.layers) {
+        if (l.name == "variance" || l.name == "transmittance")
+            out.layers.push_back({l.name, std::vector<float>(std::size_t(w) * h * 3, 0.0f)});
+    }
+    for (const auto& ch : img.channels) {
+        if (ch.name == "variance.Y")
+            out.channels.push_back({ch.name, std::vector<float>(std::size_t(w) * h, 0.0f)});
+    }
+    for (int y = 0; y < h * b; ++y)
+        for (int x = 0; x < w * b; ++x) {
+            const std::size_t i = std::size_t(y) * img.width + x;
+            const std::size_t o = std::size_t(y / b) * w + x / b;
+            for (int c = 0; c < 4; ++c)
+                out.rgba[o * 4 + c] += c < 3 ? img.rgba[i * 4 + c] : 1.0f / float(b * b);
+            for (std::size_t k = 0, j = 0; k < img.channels.size(); ++k) {
+                if (img.channels[k].name == "variance.Y")
+                    out.channels[j++].values[o] += img.channels[k].values[i];
+            }
+            for (std::size_t k = 0, j = 0; k < img.layers.size(); ++k) {
+                const auto& l = img.layers[k];
+                if (l.name != "variance" && l.name != "transmittance") continue;
+                auto& ol = out.layers[j++];
+                const bool centre = y % b == b / 2 && x % b == b / 2;
+                for (int c = 0; c < 3; ++c) {
+                    if (l.name == "variance")
+                        ol.rgb[o * 3 + c] += l.rgb[i * 3 + c];
+                    else if (centre)
+                        ol.rgb[o * 3 + c] = l.rgb[i * 3 + c];
+                }
+            }
+        }
+    return out;
+}
+
 } // namespace
 
 int main(int argc, char** argv)
 {
     std::string refPath, testPath, ratioPng;
     double threshold = 0.01;
+    int block = 1;
     for (int i = 1; i < argc; ++i) {
         const std::string a = argv[i];
         if (a == "--ratio-png" && i + 1 < argc) {
             ratioPng = argv[++i];
+        } else if (a == "--block" && i + 1 < argc) {
+            block = std::atoi(argv[++i]);
         } else if (a == "--threshold" && i + 1 < argc) {
             threshold = std::atof(argv[++i]);
         } else if (refPath.empty()) {
@@ -62,25 +110,37 @@ int main(int argc, char** argv)
             return 2;
         }
     }
-    if (testPath.empty() || !(threshold > 0.0 && threshold < 1.0)) {
-        std::fprintf(
-            stderr,
-            "usage: exr_compare REF.exr TEST.exr [--ratio-png FILE] [--threshold F in (0,1)]\n");
+    if (testPath.empty() || !(threshold > 0.0 && threshold < 1.0) || block < 1) {
+        std::fprintf(stderr, "usage: exr_compare REF.exr TEST.exr [--ratio-png FILE] "
+                             "[--threshold F in (0,1)] [--block N >= 1]\n");
         return 2;
     }
     try {
-        const nebula::Image ref = nebula::readExr(refPath, nullptr);
-        const nebula::Image test = nebula::readExr(testPath, nullptr);
+        nebula::Image ref = nebula::readExr(refPath, nullptr);
+        nebula::Image test = nebula::readExr(testPath, nullptr);
         if (ref.width != test.width || ref.height != test.height) {
             throw nebula::Error(testPath + ": " + std::to_string(test.width) + "x" +
                                 std::to_string(test.height) + " pixels, but " + refPath + " has " +
                                 std::to_string(ref.width) + "x" + std::to_string(ref.height));
+        }
+        if (block > std::min(ref.width, ref.height)) {
+            throw nebula::Error("--block " + std::to_string(block) + " is larger than the " +
+                                std::to_string(ref.width) + "x" + std::to_string(ref.height) +
+                                " image");
+        }
+        if (block > 1) {
+            ref = blockSums(ref, block);
+            test = blockSums(test, block);
         }
         const std::size_t n = std::size_t(ref.width) * ref.height;
         const char* names[4] = {"R", "G", "B", "Y"};
         const nebula::ImageLayer* variance = nullptr;
         for (const auto& l : ref.layers) {
             if (l.name == "variance") variance = &l;
+        }
+        const std::vector<float>* varianceY = nullptr;
+        for (const auto& ch : ref.channels) {
+            if (ch.name == "variance.Y") varianceY = &ch.values;
         }
         std::printf("channel  flux_ref      flux_test     flux_error  rms_error  pixels  ref_noise "
                     " rms_corrected\n");
@@ -100,10 +160,13 @@ int main(int argc, char** argv)
                 sq += d * d;
                 if (variance) {
                     const float* v = &variance->rgb[i * 3];
-                    // Luminance variance: the channels' noise taken as independent.
+                    // Luminance: its own variance where REF has it (the channels' noise is
+                    // correlated, one walk carrying all three); else taken as independent.
                     const double var = c < 3 ? v[c]
-                                             : 0.2126 * 0.2126 * v[0] + 0.7152 * 0.7152 * v[1] +
-                                                   0.0722 * 0.0722 * v[2];
+                                       : varianceY
+                                           ? (*varianceY)[i]
+                                           : 0.2126 * 0.2126 * v[0] + 0.7152 * 0.7152 * v[1] +
+                                                 0.0722 * 0.0722 * v[2];
                     noise += var / (r * r);
                 }
                 ++count;

@@ -2,6 +2,7 @@
 
 #include "nebula/core/atomic_file.h"
 #include "nebula/core/error.h"
+#include "nebula/physics/colour.h"
 
 #include <IexBaseExc.h>
 #include <ImfChannelList.h>
@@ -30,12 +31,6 @@
 namespace nebula {
 
 namespace {
-
-/// Rec. 709 / sRGB luminance of linear RGB.
-inline double luminance(float r, float g, float b)
-{
-    return 0.2126 * r + 0.7152 * g + 0.0722 * b;
-}
 
 std::size_t pixelCount(int width, int height)
 {
@@ -353,7 +348,9 @@ Image readExr(const std::string& path, std::map<std::string, std::string>* attri
             bool inLayer = false;
             for (const ImageLayer& layer : image.layers) {
                 if (name.size() == layer.name.size() + 2 &&
-                    name.compare(0, layer.name.size(), layer.name) == 0) {
+                    name.compare(0, layer.name.size(), layer.name) == 0 &&
+                    name[layer.name.size()] == '.' &&
+                    (name.back() == 'R' || name.back() == 'G' || name.back() == 'B')) {
                     inLayer = true;
                 }
             }
@@ -430,7 +427,7 @@ LuminanceStats luminanceStats(const Image& image, double percentile)
     Y.reserve(n);
     for (std::size_t i = 0; i < n; ++i) {
         const float* p = &image.rgba[4 * i];
-        const double L = luminance(p[0], p[1], p[2]);
+        const double L = linearSRGBLuminance(p[0], p[1], p[2]);
         if (L > 0.0 && std::isfinite(L)) Y.push_back(L);
     }
     stats.lit = Y.size();
@@ -524,7 +521,7 @@ void writePng(AtomicFile& file, const Image& image, const ToneCurve& curve,
             const double x = double(image.rgba[4 * i + c]) * invWhite;
             rgb[c] = x > 0.0 ? x : 0.0; // NaN -> 0
         }
-        const double Y = 0.2126 * rgb[0] + 0.7152 * rgb[1] + 0.0722 * rgb[2];
+        const double Y = linearSRGBLuminance(rgb[0], rgb[1], rgb[2]);
         const double scale = Y > 0.0 ? std::pow(Y, curve.gamma) / Y : 0.0;
         const double peak = std::max({rgb[0], rgb[1], rgb[2]}) * scale;
         const double fit = peak > 1.0 ? 1.0 / peak : 1.0;

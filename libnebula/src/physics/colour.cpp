@@ -547,7 +547,7 @@ std::array<double, 3> blackbodyLinearSRGB(double T)
         for (double& c : rgb) {
             c = std::max(c, 0.0);
         }
-        const double luminance = 0.2126 * rgb[0] + 0.7152 * rgb[1] + 0.0722 * rgb[2];
+        const double luminance = linearSRGBLuminance(rgb[0], rgb[1], rgb[2]);
         for (double& c : rgb) {
             c /= luminance;
         }

@@ -7,6 +7,7 @@
 #include "frame.h"
 
 #include "nebula/core/units.h"
+#include "nebula/physics/colour.h"
 #include "nebula/render/sprites.h"
 
 #include "nebula/core/error.h"
@@ -262,9 +263,13 @@ Image renderPathTraced(const RenderScene& scene, const RenderOptions& opts, cons
     const std::size_t S = scene.stars.size();
     const PathScene ps = buildPathScene(scene, opts);
 
-    Image img = detail::frameImage(scene, opts, {"variance"});
+    Image img = detail::frameImage(scene, opts, {"variance"}, 1);
     ImageLayer& transLayer = img.layers[S];
     ImageLayer& varLayer = img.layers[S + 1];
+    // The luminance's own variance: one walk carries all three channels, so their noise is
+    // correlated and the Y variance is not the weighted sum of theirs.
+    img.channels.push_back({"variance.Y", std::vector<float>(std::size_t(W) * H, 0.0f)});
+    std::vector<float>& varY = img.channels.back().values;
 
     // Grey dust (equal extinction ratios): one walk serves all three channels; coloured dust:
     // one spectrally tracked walk against the most extinguished channel's majorant.
@@ -280,7 +285,7 @@ Image renderPathTraced(const RenderScene& scene, const RenderOptions& opts, cons
                     const std::size_t pix = std::size_t(py) * W + px;
                     Vec3 d;
                     if (!cam.direction(px + 0.5, py + 0.5, d)) continue; // not in view
-                    double mean[3] = {0, 0, 0}, m2[3] = {0, 0, 0}, trans[3] = {0, 0, 0};
+                    double mean[4] = {0, 0, 0, 0}, m2[4] = {0, 0, 0, 0}, trans[3] = {0, 0, 0};
                     std::fill(starSum.begin(), starSum.end(), 0.0);
                     for (int sample = 0; sample < opts.spp; ++sample) {
                         // One stream per (pixel, sample); the seed picks the family.
@@ -289,11 +294,15 @@ Image renderPathTraced(const RenderScene& scene, const RenderOptions& opts, cons
                         std::fill(Ls.begin(), Ls.end(), 0.0);
                         walk(ps, cmax, grey, cam.eye(), d, rng, L, Ls.data(), T, band.collisions);
                         ++band.paths;
-                        for (int c = 0; c < 3; ++c) {
+                        const double Lc[4] = {L[0], L[1], L[2],
+                                              linearSRGBLuminance(L[0], L[1], L[2])};
+                        for (int c = 0; c < 4; ++c) {
                             // Welford's running mean and sum of squared deviations.
-                            const double delta = L[c] - mean[c];
+                            const double delta = Lc[c] - mean[c];
                             mean[c] += delta / (sample + 1);
-                            m2[c] += delta * (L[c] - mean[c]);
+                            m2[c] += delta * (Lc[c] - mean[c]);
+                        }
+                        for (int c = 0; c < 3; ++c) {
                             trans[c] += T[c];
                             for (std::size_t s = 0; s < S; ++s)
                                 starSum[s * 3 + c] += Ls[s * 3 + c];
@@ -308,6 +317,7 @@ Image renderPathTraced(const RenderScene& scene, const RenderOptions& opts, cons
                             img.layers[s].rgb[pix * 3 + c] = float(starSum[s * 3 + c] / n);
                         }
                     }
+                    varY[pix] = n > 1 ? float(m2[3] / (n - 1) / n) : 0.0f;
                     img.rgba[pix * 4 + 3] = float(1.0 - trans[1] / n);
                 }
             }

@@ -586,6 +586,25 @@ TEST_F(ImageTest, ExrSingleChannelsRoundTrip)
     EXPECT_FALSE(std::filesystem::exists(file("bad.exr")));
 }
 
+// A single channel named like a layer's but not R, G or B ("variance.Y" beside the path
+// tracer's variance.R/G/B) is read back as a channel, not dropped as part of the layer.
+TEST_F(ImageTest, ExrChannelBesideALayerRoundTrips)
+{
+    nebula::Image image = sampleImage();
+    ASSERT_FALSE(image.layers.empty());
+    const std::string name = image.layers[0].name + ".Y";
+    image.channels.push_back({name, std::vector<float>(std::size_t(image.width) * image.height)});
+    for (std::size_t i = 0; i < image.channels[0].values.size(); ++i)
+        image.channels[0].values[i] = float(i) + 0.5f;
+    nebula::writeExr(file("y.exr"), image, {});
+    const nebula::Image back = nebula::readExr(file("y.exr"), nullptr);
+    ASSERT_EQ(back.layers.size(), image.layers.size());
+    EXPECT_EQ(back.layers[0].rgb, image.layers[0].rgb);
+    ASSERT_EQ(back.channels.size(), 1u);
+    EXPECT_EQ(back.channels[0].name, name);
+    EXPECT_EQ(back.channels[0].values, image.channels[0].values);
+}
+
 // Pixels outside the camera's view (Image::inView, a dome master's corners) are transparent
 // black in the PNG, whatever their values; every other pixel is opaque.
 TEST_F(ImageTest, PixelsOutOfViewAreTransparentInThePng)

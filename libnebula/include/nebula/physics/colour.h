@@ -114,6 +114,13 @@ std::array<double, 3> xyzToLab(const XYZ& xyz, const XYZ& white);
 /// Symmetric in its arguments.
 double deltaE2000(const std::array<double, 3>& lab1, const std::array<double, 3>& lab2);
 
+/// Luminance Y of linear sRGB (Rec. 709 weights 0.2126, 0.7152, 0.0722): what the tone curve,
+/// the images' comparisons and the path tracer's luminance variance use.
+inline double linearSRGBLuminance(double r, double g, double b)
+{
+    return 0.2126 * r + 0.7152 * g + 0.0722 * b;
+}
+
 /// Linear sRGB (IEC 61966-2-1, D65) colour of a black body at @p T [K], normalised to
 /// luminance Y = 1 (DESIGN §3): Planck's law integrated against the shipped CIE 1931
 /// 2-degree colour-matching function table over 360-830 nm (blackbodyXYZScaled(), then
