@@ -45,43 +45,37 @@ double channel(const nebula::Image& img, std::size_t i, int c)
     return c < 3 ? p[c] : luminance(p);
 }
 
-/// @p img summed over blocks of @p b x @p b pixels (beauty and the "variance" layer, if any);
-/// the transmittance layer keeps the block's centre pixel.
+/// @p img summed over blocks of @p b x @p b pixels: the beauty, the "variance" layer and the
+/// "variance.Y" channel (if any); the transmittance layer keeps the block's centre pixel.
 nebula::Image blockSums(const nebula::Image& img, int b)
 {
     const int w = img.width / b, h = img.height / b;
     nebula::Image out(w, h);
+    // Adds plane @p src (@p k floats per pixel) into @p dst, block by block; with @p centre,
+    // copies each block's centre pixel instead.
+    const auto reduce = [&](const std::vector<float>& src, std::vector<float>& dst, int k,
+                            bool centre) {
+        dst.assign(std::size_t(w) * h * k, 0.0f);
+        for (int y = 0; y < h * b; ++y)
+            for (int x = 0; x < w * b; ++x) {
+                if (centre && (y % b != b / 2 || x % b != b / 2)) continue;
+                const std::size_t i = (std::size_t(y) * img.width + x) * k;
+                const std::size_t o = (std::size_t(y / b) * w + x / b) * k;
+                for (int c = 0; c < k; ++c)
+                    dst[o + c] += src[i + c];
+            }
+    };
+    reduce(img.rgba, out.rgba, 4, false);
     for (const auto& l : img.layers) {
-        if (l.name == "variance" || l.name == "transmittance")
-            out.layers.push_back({l.name, std::vector<float>(std::size_t(w) * h * 3, 0.0f)});
+        if (l.name != "variance" && l.name != "transmittance") continue;
+        out.layers.push_back({l.name, {}});
+        reduce(l.rgb, out.layers.back().rgb, 3, l.name == "transmittance");
     }
     for (const auto& ch : img.channels) {
-        if (ch.name == "variance.Y")
-            out.channels.push_back({ch.name, std::vector<float>(std::size_t(w) * h, 0.0f)});
+        if (ch.name != "variance.Y") continue;
+        out.channels.push_back({ch.name, {}});
+        reduce(ch.values, out.channels.back().values, 1, false);
     }
-    for (int y = 0; y < h * b; ++y)
-        for (int x = 0; x < w * b; ++x) {
-            const std::size_t i = std::size_t(y) * img.width + x;
-            const std::size_t o = std::size_t(y / b) * w + x / b;
-            for (int c = 0; c < 4; ++c)
-                out.rgba[o * 4 + c] += c < 3 ? img.rgba[i * 4 + c] : 1.0f / float(b * b);
-            for (std::size_t k = 0, j = 0; k < img.channels.size(); ++k) {
-                if (img.channels[k].name == "variance.Y")
-                    out.channels[j++].values[o] += img.channels[k].values[i];
-            }
-            for (std::size_t k = 0, j = 0; k < img.layers.size(); ++k) {
-                const auto& l = img.layers[k];
-                if (l.name != "variance" && l.name != "transmittance") continue;
-                auto& ol = out.layers[j++];
-                const bool centre = y % b == b / 2 && x % b == b / 2;
-                for (int c = 0; c < 3; ++c) {
-                    if (l.name == "variance")
-                        ol.rgb[o * 3 + c] += l.rgb[i * 3 + c];
-                    else if (centre)
-                        ol.rgb[o * 3 + c] = l.rgb[i * 3 + c];
-                }
-            }
-        }
     return out;
 }
 
@@ -162,11 +156,9 @@ int main(int argc, char** argv)
                     const float* v = &variance->rgb[i * 3];
                     // Luminance: its own variance where REF has it (the channels' noise is
                     // correlated, one walk carrying all three); else taken as independent.
-                    const double var = c < 3 ? v[c]
-                                       : varianceY
-                                           ? (*varianceY)[i]
-                                           : 0.2126 * 0.2126 * v[0] + 0.7152 * 0.7152 * v[1] +
-                                                 0.0722 * 0.0722 * v[2];
+                    const double var = c < 3       ? v[c]
+                                       : varianceY ? (*varianceY)[i]
+                                                   : nebula::independentLuminanceVariance(v);
                     noise += var / (r * r);
                 }
                 ++count;

@@ -222,8 +222,7 @@ TEST(PathTracer, LuminanceVarianceMatchesTheSpreadAcrossSeeds)
                                      [](const ImageChannel& c) { return c.name == "variance.Y"; });
         ASSERT_NE(it, img.channels.end());
         reported += it->values[0];
-        const float* v = layer(img, "variance").rgb.data();
-        independent += 0.2126 * 0.2126 * v[0] + 0.7152 * 0.7152 * v[1] + 0.0722 * 0.0722 * v[2];
+        independent += independentLuminanceVariance(layer(img, "variance").rgb.data());
     }
     const double mean = sum / runs;
     const double spread = (sumSq - runs * mean * mean) / (runs - 1);

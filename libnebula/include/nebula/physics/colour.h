@@ -114,11 +114,24 @@ std::array<double, 3> xyzToLab(const XYZ& xyz, const XYZ& white);
 /// Symmetric in its arguments.
 double deltaE2000(const std::array<double, 3>& lab1, const std::array<double, 3>& lab2);
 
-/// Luminance Y of linear sRGB (Rec. 709 weights 0.2126, 0.7152, 0.0722): what the tone curve,
-/// the images' comparisons and the path tracer's luminance variance use.
+/// Rec. 709 luminance weights of linear sRGB R, G, B.
+inline constexpr std::array<double, 3> LUMINANCE_WEIGHTS{0.2126, 0.7152, 0.0722};
+
+/// Luminance Y of linear sRGB (LUMINANCE_WEIGHTS): what the tone curve, the images'
+/// comparisons and the path tracer's luminance variance use.
 inline double linearSRGBLuminance(double r, double g, double b)
 {
-    return 0.2126 * r + 0.7152 * g + 0.0722 * b;
+    return LUMINANCE_WEIGHTS[0] * r + LUMINANCE_WEIGHTS[1] * g + LUMINANCE_WEIGHTS[2] * b;
+}
+
+/// Variance of the luminance of R, G, B whose noise is independent, from their variances
+/// @p v: sum_c w_c^2 v_c.
+inline double independentLuminanceVariance(const float* v)
+{
+    double var = 0.0;
+    for (int c = 0; c < 3; ++c)
+        var += LUMINANCE_WEIGHTS[std::size_t(c)] * LUMINANCE_WEIGHTS[std::size_t(c)] * v[c];
+    return var;
 }
 
 /// Linear sRGB (IEC 61966-2-1, D65) colour of a black body at @p T [K], normalised to
