@@ -87,7 +87,6 @@ TEST_F(Cli, IntegerOptionsRefuseNegativeAndOversizedValues)
         {"nebscatter -i a.vdb --seed {} -o b.vdb", "--seed", u64},
         {"nebscatter -i a.vdb --packets {} -o b.vdb", "--packets", "[1, 1099511627776]"},
         {"nebscatter -i a.vdb --order {} -o b.vdb", "--order", "[0, 4]"},
-        {"nebscatter -i a.vdb --field-level {} -o b.vdb", "--field-level", "[0, 16]"},
         {"nebscatter -i a.vdb --threads {} -o b.vdb", "--threads", "[0, 4096]"},
         {"nebrender -i a.vdb --seed {} -o f.exr", "--seed", u64},
         {"nebrender -i a.vdb --levels {} -o f.exr", "--levels", "[0, 16]"},
@@ -112,6 +111,10 @@ TEST_F(Cli, IntegerOptionsRefuseNegativeAndOversizedValues)
                           c.option + ": expected an integer in " + c.range + ", got " + value);
         }
     }
+    // --field-level also takes "auto" (its default).
+    for (const std::string value : {"-1", "99999999999999999999", "1e3", "0x10", "Auto"})
+        expectFailure("nebscatter -i a.vdb --field-level " + value + " -o b.vdb", 2,
+                      "--field-level: expected auto or an integer in [0, 16], got " + value);
     // The largest seed is fine, and a leading zero is decimal (not octal as CLI11 reads it).
     const Result r = run("nebgen --res 8 --seed 18446744073709551615 -o a.vdb && "
                          "nebgen --res 8 --seed 010 -o b.vdb && nebgen --res 8 --seed 10 -o c.vdb");

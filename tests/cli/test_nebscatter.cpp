@@ -30,6 +30,11 @@ protected:
         ASSERT_EQ(r.code, 0) << r.err;
         EXPECT_NE(r.err.find("nebscatter: stars: 20000 packets"), std::string::npos) << r.err;
         EXPECT_NE(r.err.find("noise of J"), std::string::npos) << r.err;
+        // The defaults: order 4, the level chosen from the grid (about 64 cells across: full
+        // resolution on this small grid), and -v says why.
+        EXPECT_NE(r.err.find("field level 0 chosen: about 64 cells across the grid gives level 0"),
+                  std::string::npos)
+            << r.err;
     }
 };
 
@@ -53,22 +58,22 @@ TEST_F(NebScatter, FieldGridsMetadataAndRendering)
             EXPECT_GT(j->activeVoxelCount(), 100u) << src;
             EXPECT_GT(maxValue(*j), 0.0) << src;
             EXPECT_EQ(j->metaValue<std::string>("units"), "L_sun pc^-2 sr^-1 (mean intensity J)");
-            // Field level 1: voxels twice the density's.
-            EXPECT_NEAR(j->voxelSize()[0], 2.0 * s.floatGrid("density", "")->voxelSize()[0], 1e-9);
-            for (const std::string m : {"c1_-1", "c1_0", "c1_1", "c2_-2", "c2_2"})
+            // Field level 0: the density's voxels.
+            EXPECT_NEAR(j->voxelSize()[0], s.floatGrid("density", "")->voxelSize()[0], 1e-9);
+            for (const std::string m : {"c1_-1", "c1_0", "c1_1", "c2_-2", "c2_2", "c4_-4", "c4_4"})
                 EXPECT_TRUE(s.find("scatter." + src + "." + m + "." + c)) << m;
         }
     }
     const auto meta = nlohmann::json::parse(s.metaString(nebula::META_SCATTER));
-    EXPECT_EQ(meta.at("order").get<int>(), 2);
-    EXPECT_EQ(meta.at("level").get<int>(), 1);
+    EXPECT_EQ(meta.at("order").get<int>(), 4);
+    EXPECT_EQ(meta.at("level").get<int>(), 0);
     EXPECT_EQ(meta.at("stars").size(), 2u);
 
     // nebrender uses it, says so, and the picture is brighter than single scattering, more
     // so in blue (multiple scattering); --no-scatter-field gives single scattering exactly.
     Result r = run("nebrender -i s.vdb --res 24x24 --no-stars -v -o f.exr");
     ASSERT_EQ(r.code, 0) << r.err;
-    EXPECT_NE(r.err.find("using the scattered-light field: order 2, level 1"), std::string::npos)
+    EXPECT_NE(r.err.find("using the scattered-light field: order 4, level 0"), std::string::npos)
         << r.err;
     ASSERT_EQ(run("nebrender -i s.vdb --res 24x24 --no-stars --no-scatter-field -o n.exr").code, 0);
     ASSERT_EQ(run("nebrender -i lit.vdb --res 24x24 --no-stars -o l.exr").code, 0);
@@ -135,7 +140,7 @@ TEST_F(NebScatter, BadInputIsRefused)
     }
     expectFailure("nebrender -i type.vdb --res 8x8 -o x.exr", 1, "scatter.stars.J.R");
     expectFailure("nebrender -i layout.vdb --res 8x8 -o x.exr", 1,
-                  "\"scatter.stars.c1_0.G\" is not on field level 1's transform");
+                  "\"scatter.stars.c1_0.G\" is not on field level 0's transform");
     // Other dust, other stars, other wavelengths.
     expectFailure("nebrender -i s.vdb --albedo 0.3 --res 8x8 -o x.exr", 1, "other dust");
     {

@@ -3,6 +3,7 @@
 #include "nebula/stages/scatter.h"
 
 #include <cstdint>
+#include <string>
 
 int main(int argc, char** argv)
 {
@@ -15,7 +16,7 @@ int main(int argc, char** argv)
         "Examples:\n"
         "  nebscatter -i lit.vdb -o scattered.vdb && nebrender -i scattered.vdb -o f.exr\n"
         "  nebgen -o - | nebillum -i - -o - | nebscatter -i - -o - | nebrender -i - -o f.exr\n"
-        "  nebscatter -i lit.vdb --field-level 0 --order 3 --packets 8000000 -o s.vdb\n"
+        "  nebscatter -i lit.vdb --field-level 1 --order 2 -o s.vdb   # quicker, rougher\n"
         "  nebscatter -i lit.vdb --per-star -o s.vdb   # a field per star\n"
         "  nebscatter -i lit.vdb --spectral 6 -o s.vdb && nebrender -i s.vdb --spectral -o s.exr\n"
         "  nebscatter -i lit.vdb -o - | nebscatter -i - --spectral 6 -o both.vdb  # both fields\n\n"
@@ -53,11 +54,21 @@ int main(int argc, char** argv)
     app.add_option("--order", f.order, "Degree L of the spherical harmonics, 0..4")
         ->capture_default_str()
         ->check(nebula::cli::integerIn(0, 4));
-    app.add_option("--field-level", f.fieldLevel,
-                   "Field cells of 2^k x 2^k x 2^k voxels (0: full resolution); not larger\n"
-                   "than the grid")
+    std::string fieldLevel = "auto";
+    const CLI::Validator levelNumber = nebula::cli::integerIn(0, 16);
+    app.add_option("--field-level", fieldLevel,
+                   "Field cells of 2^k x 2^k x 2^k voxels (0: full resolution), not larger\n"
+                   "than the grid; auto: about 64 cells across the grid, finer while cells\n"
+                   "of the densest dust are optically thick (tau_V > 1 across); -v says why")
         ->capture_default_str()
-        ->check(nebula::cli::integerIn(0, 16));
+        ->check(CLI::Validator(
+            [levelNumber](std::string& s) {
+                if (s == "auto") return std::string();
+                std::string v = s;
+                const std::string e = levelNumber(v);
+                return e.empty() ? e : "expected auto or an integer in [0, 16], got " + s;
+            },
+            "auto|0..16"));
     app.add_option("--seed", f.seed, "Random seed (same seed, same field)")
         ->capture_default_str()
         ->check(nebula::cli::integerIn(0, UINT64_MAX));
@@ -86,6 +97,7 @@ int main(int argc, char** argv)
     return nebula::cli::run(app, "nebscatter", common, argc, argv, [&](nebula::Run& run) {
         nebula::refuseBinaryToTerminal(common.output, "-o");
         f.emission = !noEmission;
+        f.fieldLevel = fieldLevel == "auto" ? nebula::AUTO_FIELD_LEVEL : std::stoi(fieldLevel);
         opts.exactStarDepth = !interpolatedTau;
         auto grids = nebula::readGrids(common.input, run);
         opts.densityGrid = common.densityGrid;

@@ -26,24 +26,35 @@ ScatterField scatter(GridSet& grids, const ScatterStageOptions& opts, const Run&
     ropts.exactStarDepth = opts.exactStarDepth;
     ropts.levels = 0;
     const RenderScene scene = buildScene(grids, ropts, dust);
-    validateScatterOptions(scene, opts.field);
     const bool spectral = opts.spectral > 0;
+    ScatterOptions fopts = opts.field;
+    if (fopts.fieldLevel == AUTO_FIELD_LEVEL) {
+        const FieldLevelChoice c = autoFieldLevel(scene, fopts.order, spectral ? opts.spectral : 3);
+        fopts.fieldLevel = c.level;
+        run.info(fmt::format(
+            "field level {} chosen: about 64 cells across the grid gives level {}; a voxel "
+            "of the densest 1 % of the dust has tau_V {:.3g}, a cell of level {} {:.3g} "
+            "(finer while above {:g}); tallies {:.0f} MiB",
+            c.level, c.gridLevel, c.voxelTau, c.level, c.cellTau, AUTO_FIELD_MAX_CELL_TAU,
+            c.tallyBytes / (1024.0 * 1024.0)));
+    }
+    validateScatterOptions(scene, fopts);
     const std::vector<double> wavelengths =
         spectral ? spectralFieldWavelengths(opts.spectral) : std::vector<double>{};
     const auto d = scene.fields.dims();
-    run.info(fmt::format(
-        "density {}x{}x{} voxels, {} stars; field level {} (cells of {}^3 "
-        "voxels), order L = {} ({} moments per channel), {} packets per source{}",
-        d[0], d[1], d[2], scene.stars.size(), opts.field.fieldLevel, 1 << opts.field.fieldLevel,
-        opts.field.order, shCount(opts.field.order), opts.field.packets,
-        spectral ? fmt::format("; spectral: {} wavelengths, {:g}-{:g} nm", wavelengths.size(),
-                               wavelengths.front(), wavelengths.back())
-                 : std::string()));
+    run.info(fmt::format("density {}x{}x{} voxels, {} stars; field level {} (cells of {}^3 "
+                         "voxels), order L = {} ({} moments per channel), {} packets per source{}",
+                         d[0], d[1], d[2], scene.stars.size(), fopts.fieldLevel,
+                         1 << fopts.fieldLevel, fopts.order, shCount(fopts.order), fopts.packets,
+                         spectral ? fmt::format("; spectral: {} wavelengths, {:g}-{:g} nm",
+                                                wavelengths.size(), wavelengths.front(),
+                                                wavelengths.back())
+                                  : std::string()));
 
     const auto t0 = std::chrono::steady_clock::now();
-    ScatterField field =
-        spectral ? computeSpectralScatterField(scene, ropts, opts.field, wavelengths, &run)
-                 : computeScatterField(scene, ropts, opts.field, &run);
+    ScatterField field = spectral
+                             ? computeSpectralScatterField(scene, ropts, fopts, wavelengths, &run)
+                             : computeScatterField(scene, ropts, fopts, &run);
     const double seconds =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     run.info(fmt::format("field computed in {:.3g} s", seconds));
@@ -115,9 +126,9 @@ ScatterField scatter(GridSet& grids, const ScatterStageOptions& opts, const Run&
     const Affine& a0 = scene.fields.indexToWorld;
     nlohmann::json meta = {{"order", L},
                            {"level", field.level},
-                           {"per_star", opts.field.perStar},
-                           {"packets", opts.field.packets},
-                           {"seed", opts.field.seed},
+                           {"per_star", fopts.perStar},
+                           {"packets", fopts.packets},
+                           {"seed", fopts.seed},
                            {"sources", sources},
                            {"dust", nlohmann::json::parse(dust.toJson())},
                            {"stars", nlohmann::json::parse(starsToJson(scene.stars))},

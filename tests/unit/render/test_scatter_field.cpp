@@ -258,6 +258,52 @@ TEST(ScatterField, RefusesBadOptions)
     EXPECT_NO_THROW(validateScatterOptions(scene, so));
 }
 
+// The automatic field level: about 64 cells across the grid (45 to 90), finer where cells
+// of the densest 1 % of the dust are optically thick, within the tallies' memory budget.
+TEST(ScatterField, AutoFieldLevelFollowsGridSizeOpticalThicknessAndMemory)
+{
+    // A box of n - 2 voxels of dust nH (voxel tau_V = KAPPA nH H = 1.5e-4 nH), optionally
+    // with a dense core of fewer than 1 % of the voxels.
+    const auto box = [](int n, double nH, double core = 0.0) {
+        RenderScene s;
+        s.fields = DenseVolume({0, 0, 0}, {n, n, n}, 2);
+        s.fields.indexToWorld.m = {H, 0, 0, 0, H, 0, 0, 0, H};
+        for (int k = 1; k < n - 1; ++k)
+            for (int j = 1; j < n - 1; ++j)
+                for (int i = 1; i < n - 1; ++i) {
+                    const bool inCore = std::abs(i - n / 2) < 4 && std::abs(j - n / 2) < 4 &&
+                                        std::abs(k - n / 2) < 4;
+                    s.fields.voxel(s.fields.index(i, j, k))[0] =
+                        float(inCore && core > 0.0 ? core : nH);
+                }
+        s.dust.kappa_V = KAPPA;
+        return s;
+    };
+    // Grid size alone (thin dust): 64 -> 0, 128 -> 1 (64 cells), 90 -> 0, 92 -> 1.
+    EXPECT_EQ(autoFieldLevel(box(66, 100.0), 4, 3).level, 0);
+    const RenderScene thin128 = box(130, 100.0);
+    const FieldLevelChoice c = autoFieldLevel(thin128, 4, 3);
+    EXPECT_EQ(c.level, 1);
+    EXPECT_EQ(c.gridLevel, 1);
+    EXPECT_NEAR(c.voxelTau, KAPPA * 100.0 * H, 1e-9);
+    EXPECT_NEAR(c.cellTau, 2.0 * KAPPA * 100.0 * H, 1e-9);
+    EXPECT_EQ(autoFieldLevel(box(92, 100.0), 4, 3).level, 0);
+    EXPECT_EQ(autoFieldLevel(box(94, 100.0), 4, 3).level, 1);
+    // A dense core under 1 % of the voxels does not decide the level.
+    EXPECT_EQ(autoFieldLevel(box(130, 100.0, 1e6), 4, 3).level, 1);
+    // Thick dust (voxel tau 0.75, cells of level 1: 1.5): level 0 where its tallies fit in
+    // the budget (order 2: 130^3 x 9 x 3 x 8 bytes = 0.44 GiB), not where they do not
+    // (order 4: 1.2 GiB).
+    const RenderScene thick = box(130, 5000.0);
+    EXPECT_EQ(autoFieldLevel(thick, 2, 3).level, 0);
+    EXPECT_EQ(autoFieldLevel(thick, 4, 3).level, 1);
+    EXPECT_LE(autoFieldLevel(thick, 4, 3).tallyBytes, AUTO_FIELD_MAX_TALLY_BYTES);
+    // Many channels (a spectral field of 64 wavelengths at order 4): coarser than 64 cells.
+    const FieldLevelChoice spectral = autoFieldLevel(thin128, 4, 64);
+    EXPECT_EQ(spectral.level, 2);
+    EXPECT_LE(spectral.tallyBytes, AUTO_FIELD_MAX_TALLY_BYTES);
+}
+
 namespace {
 
 /// A cloud of optical depth ~3 through its centre: a ball of radius 1.1 pc (k_V = 1.36 /pc)

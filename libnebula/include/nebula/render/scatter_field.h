@@ -33,8 +33,10 @@ namespace nebula {
 /// What nebscatter computes and how hard it tries.
 struct ScatterOptions
 {
-    int order = 2;      ///< L: real spherical harmonics of degree 0..L, (L + 1)^2 moments
-    int fieldLevel = 1; ///< field cells of 2^k x 2^k x 2^k voxels (nebpyramid's level k layout)
+    int order = 2; ///< L: real spherical harmonics of degree 0..L, (L + 1)^2 moments
+    /// Field cells of 2^k x 2^k x 2^k voxels (nebpyramid's level k layout); AUTO_FIELD_LEVEL:
+    /// autoFieldLevel()'s choice (the stage resolves it before computing).
+    int fieldLevel = 1;
     /// Packets per source: all stars together (or each star with perStar), and the emission.
     std::uint64_t packets = 1000000;
     std::uint64_t seed = 1;
@@ -84,6 +86,32 @@ struct ScatterField
 /// level-0 voxels 2^k I ... 2^k I + 2^k - 1, its centre at 2^k I + (2^k - 1) / 2
 /// (nebpyramid's levelTransform()).
 Affine fieldLevelMap(const Affine& level0, int level);
+
+/// ScatterOptions::fieldLevel: chosen by autoFieldLevel().
+inline constexpr int AUTO_FIELD_LEVEL = -1;
+
+/// What autoFieldLevel() chose and why.
+struct FieldLevelChoice
+{
+    int level = 0;
+    int gridLevel = 0; ///< the level of about 64 cells (45 to 90) across the grid's longest side
+    double voxelTau = 0.0;   ///< tau_V across one voxel of the densest 1 % of the dust
+    double cellTau = 0.0;    ///< the same across a cell of the chosen level
+    double tallyBytes = 0.0; ///< one set of the chosen level's tallies (every cell)
+};
+
+/// The largest cell optical depth (tau_V across a cell of the densest 1 % of the dust
+/// voxels) autoFieldLevel() accepts.
+inline constexpr double AUTO_FIELD_MAX_CELL_TAU = 1.0;
+/// The most memory one set of tallies may take at the level autoFieldLevel() chooses.
+inline constexpr double AUTO_FIELD_MAX_TALLY_BYTES = 1024.0 * 1024.0 * 1024.0;
+
+/// The field level for @p scene's density at order @p order with @p channels channels per
+/// moment: cells about 1/64 of the grid's longest side (45 to 90 across), finer while a
+/// cell of the densest 1 % of the dust is optically thicker than AUTO_FIELD_MAX_CELL_TAU
+/// (the collided light varies like e^-tau inside such cells) and the finer tallies take at
+/// most AUTO_FIELD_MAX_TALLY_BYTES, coarser while they take more.
+FieldLevelChoice autoFieldLevel(const RenderScene& scene, int order, int channels);
 
 /// Throws UsageError naming the option unless @p opts are usable on @p scene: order in
 /// 0..SH_MAX_DEGREE (--order), packets > 0 (--packets), a field level whose cells are not

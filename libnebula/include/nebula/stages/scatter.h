@@ -11,9 +11,19 @@
 
 namespace nebula {
 
+/// nebscatter's field defaults: order L = 4 and the field level chosen from the grid
+/// (autoFieldLevel()). The dense error-table scenes need both (README, "Accuracy").
+inline ScatterOptions defaultStageFieldOptions()
+{
+    ScatterOptions o;
+    o.order = 4;
+    o.fieldLevel = AUTO_FIELD_LEVEL;
+    return o;
+}
+
 struct ScatterStageOptions
 {
-    ScatterOptions field;
+    ScatterOptions field = defaultStageFieldOptions();
     std::string densityGrid = "density";
     std::string emissionGrid = "emission";
     /// R, G, B wavelengths [nm]: the channels' extinction (nebrender's --wavelengths).
@@ -39,7 +49,8 @@ struct ScatterStageOptions
 /// earlier spectral field (one file may hold both; an R, G, B field replaces only its own
 /// grids too). Throws
 /// Error on input nebrender would refuse (no stars, a tau grid missing) and UsageError on
-/// bad options (validateScatterOptions()).
+/// bad options (validateScatterOptions()). A field level AUTO_FIELD_LEVEL is resolved by
+/// autoFieldLevel() first (reported with -v); the result records the level used.
 ScatterField scatter(GridSet& grids, const ScatterStageOptions& opts, const Run& run);
 
 } // namespace nebula
