@@ -20,7 +20,9 @@ The render builds, from an empty factory scene:
     so with Absorption Color black: sigma_t = Density * attr, albedo = Color; hence
     Density = --sigma-t (extinction per unit of the grid per world unit: kappa_V times the
     extinction ratio), Color = --albedo (grey, linear), Anisotropy = --g (Henyey-Greenstein);
-    no emission, no blackbody;
+    no emission, no blackbody; with --ratios (coloured dust: A/A_V per channel) Color and
+    Absorption Color per channel give each channel its own sigma_t and the same albedo (see
+    build_scene);
   * a point light (radius 0) at --light of power --power [W] and linear colour
     --light-color.  Its irradiance is power * colour / (4 pi r^2) (a white Lambertian plane
     at 1 m from a 1000 W light renders at 1000 / (4 pi^2)), so --power L [L_sun] gives
@@ -82,6 +84,8 @@ def parse_args():
     p.add_argument("--light-color", type=vec3, default=vec3("1,1,1"))
     p.add_argument("--sigma-t", type=float, required=True,
                    help="extinction per unit of the density grid per world unit")
+    p.add_argument("--ratios", type=vec3, default=vec3("1,1,1"),
+                   help="extinction ratio A/A_V per channel R,G,B (coloured dust)")
     p.add_argument("--albedo", type=float, default=0.6)
     p.add_argument("--g", type=float, default=0.6)
     p.add_argument("--step-rate", type=float, default=1.0,
@@ -291,11 +295,22 @@ def main():
     nt.nodes.clear()
     out = nt.nodes.new("ShaderNodeOutputMaterial")
     pv = nt.nodes.new("ShaderNodeVolumePrincipled")
-    pv.inputs["Color"].default_value = (a.albedo, a.albedo, a.albedo, 1.0)
-    pv.inputs["Density"].default_value = a.sigma_t
+    # Coloured dust (--ratios r_c): Density = sigma_t r_max, Color_c = a r_c / r_max gives
+    # sigma_s,c = a sigma_t r_c attr; the Absorption Color with
+    # 1 - sqrt(Abs_c) = q (1 - a) / (1 - a q), q = r_c / r_max, makes sigma_t,c =
+    # (Color_c + (1 - Color_c)(1 - sqrt(Abs_c))) Density attr = sigma_t r_c attr. Grey dust
+    # (all r_c = 1): Color = a, Absorption Color black, as above.
+    rmax = max(a.ratios)
+    colour, absorption = [], []
+    for r in a.ratios:
+        q = r / rmax
+        colour.append(a.albedo * q)
+        absorption.append((1.0 - q * (1.0 - a.albedo) / (1.0 - a.albedo * q)) ** 2)
+    pv.inputs["Color"].default_value = (*colour, 1.0)
+    pv.inputs["Density"].default_value = a.sigma_t * rmax
     pv.inputs["Density Attribute"].default_value = "density"
     pv.inputs["Anisotropy"].default_value = a.g
-    pv.inputs["Absorption Color"].default_value = (0.0, 0.0, 0.0, 1.0)
+    pv.inputs["Absorption Color"].default_value = (*absorption, 1.0)
     pv.inputs["Emission Strength"].default_value = 0.0
     pv.inputs["Blackbody Intensity"].default_value = 0.0
     nt.links.new(pv.outputs["Volume"], out.inputs["Volume"])

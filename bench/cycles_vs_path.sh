@@ -10,7 +10,8 @@
 #   default 1), CHECK_STEP_RATE and CHECK_SPP (one Cycles render at a finer step against
 #   the same seed at STEP_RATE; default 0.1 and 64; CHECK_STEP_RATE=0 skips it),
 #   VOLUME_SAMPLING (Cycles material volume sampling: MULTIPLE_IMPORTANCE (default, as
-#   Blender's default), DISTANCE or EQUIANGULAR),
+#   Blender's default), DISTANCE or EQUIANGULAR), COLOURED=1 (coloured dust: CCM89 at
+#   nebrender's channel wavelengths instead of grey dust at 549.45 nm),
 #   BLENDER (default blender), EXR_COMPARE (default build/bench/exr_compare), OUTDIR (copy
 #   the comparison PNGs there), KEEP=1 keeps the temp dir.
 #
@@ -75,6 +76,7 @@ STEP_RATE=${STEP_RATE:-1}
 CHECK_STEP_RATE=${CHECK_STEP_RATE:-0.1}
 CHECK_SPP=${CHECK_SPP:-64}
 VOLUME_SAMPLING=${VOLUME_SAMPLING:-MULTIPLE_IMPORTANCE}
+COLOURED=${COLOURED:-0}
 
 GRID=64; SIZE=10; STAR_POS=0.4,0.3,-0.2; LUMINOSITY=8000; CLASS=B1V
 WAVELENGTH=549.450549   # CCM89 x = 1000 / lambda = 1.82 um^-1: A/A_V = 1
@@ -144,14 +146,32 @@ dustField() { echo "$DUST" | grep -o "\"$1\": *[-0-9.eE+]*" | sed 's/.*: *//' ||
 KAPPA_V=$(dustField kappa_V); ALBEDO=$(dustField albedo); G=$(dustField g)
 [[ -n $KAPPA_V && -n $ALBEDO && -n $G ]] ||
     { echo "$SCRIPT: error: no kappa_V/albedo/g in n.vdb's nebula:dust: '$DUST'" >&2; exit 1; }
+# Coloured dust (COLOURED=1): nebrender's own channel wavelengths (700, 546.1, 435.8 nm) and
+# CCM89's A/A_V there (the optical polynomial, 1.1 <= x <= 3.3 um^-1, with the dust's R_V),
+# one walk for the three channels (spectral tracking); Cycles gets per-channel extinction
+# (cycles_scene.py --ratios).
+RATIOS=1,1,1
+NEB_WL=(--wavelengths "$WAVELENGTH,$WAVELENGTH,$WAVELENGTH")
+if [[ $COLOURED == 1 ]]; then
+    RV=$(dustField R_V)
+    [[ -n $RV ]] || { echo "$SCRIPT: error: no R_V in n.vdb's nebula:dust: '$DUST'" >&2; exit 1; }
+    RATIOS=$(awk -v rv="$RV" 'function ccm(nm,  x, y, a, b) {
+            x = 1000 / nm; y = x - 1.82
+            a = 1 + 0.17699*y - 0.50447*y^2 - 0.02427*y^3 + 0.72085*y^4 + 0.01979*y^5 - 0.77530*y^6 + 0.32999*y^7
+            b = 1.41338*y + 2.28305*y^2 + 1.07233*y^3 - 5.38434*y^4 - 0.62251*y^5 + 5.30260*y^6 - 2.09002*y^7
+            return a + b / rv }
+        BEGIN { printf "%.6f,%.6f,%.6f", ccm(700), ccm(546.1), ccm(435.8) }')
+    NEB_WL=(--wavelengths 700,546.1,435.8)
+fi
 HALF=$(awk -v s="$SIZE" -v n="$GRID" 'BEGIN { printf "%.9g", -0.5 * s / n }')
 echo "dust: kappa_V $KAPPA_V pc^-1 cm^3 (sigma_t = kappa_V n_H at $WAVELENGTH nm), albedo $ALBEDO, g $G; voxel $(awk -v s="$SIZE" -v n="$GRID" 'BEGIN { print s / n }') pc"
+[[ $COLOURED != 1 ]] || echo "coloured dust: A/A_V $RATIOS at 700, 546.1, 435.8 nm (CCM89, R_V $RV)"
 
 # --- runs ---------------------------------------------------------------------------------
 NEB_VIEW=(--res "$RES" --eye "$EYE" --look-at "$LOOK_AT" --up "$UP" --fov "$FOV")
 neb() {  # neb NAME SPP SEED: sets RW, RC (render wall, process CPU [s])
     timed "$1" "$TOOLS/nebrender" -i lit.vdb --integrator path --spp "$2" --seed "$3" \
-        --wavelengths "$WAVELENGTH,$WAVELENGTH,$WAVELENGTH" --no-stars "${NEB_VIEW[@]}" \
+        "${NEB_WL[@]}" --no-stars "${NEB_VIEW[@]}" \
         -o "$1.exr" --no-png -v
     RW=$(sed -n 's/.*render \([0-9.eE+-]*\) s.*/\1/p' "$1.log" | head -n1)
     RC=$(cpu "$1")
@@ -162,7 +182,7 @@ cyc() {  # cyc NAME SPP SEED STEP_RATE: sets RW, RC (render call wall, CPU [s])
         --vdb n.vdb -o "$1.exr" --samples "$2" --seed "$3" --res "$RES" --eye "$EYE" \
         --look-at "$LOOK_AT" --up "$UP" --fov "$FOV" --offset="$HALF,$HALF,$HALF" \
         --light "$STAR_POS" --power "$LUMINOSITY" --light-color "$STAR_RGB" \
-        --sigma-t "$KAPPA_V" --albedo "$ALBEDO" --g "$G" --step-rate "$4" \
+        --sigma-t "$KAPPA_V" --ratios "$RATIOS" --albedo "$ALBEDO" --g "$G" --step-rate "$4" \
         --volume-sampling "$VOLUME_SAMPLING"
     local line
     line=$(grep '^cycles: render' "$1.log" | head -n1)
@@ -187,8 +207,12 @@ echo
 echo "nebrender reference: $REF_SPP spp, seed 1000"
 neb ref "$REF_SPP" 1000
 echo "  render $RW s wall, process $RC s CPU"
-# The star's linear sRGB colour (luminance 1): the reference's channel fluxes over its Y flux.
-"$EXR_COMPARE" ref.exr ref.exr >refflux.txt
+# The star's linear sRGB colour (luminance 1): the channel fluxes over the Y flux of the
+# light scattered once by grey dust (the fast integrator: exact and quick; in grey dust the
+# scattered light has the star's colour).
+timed colour "$TOOLS/nebrender" -i lit.vdb --wavelengths "$WAVELENGTH,$WAVELENGTH,$WAVELENGTH" \
+    --no-stars "${NEB_VIEW[@]}" -o colour.exr --no-png
+"$EXR_COMPARE" colour.exr colour.exr >refflux.txt
 STAR_RGB=$(awk '$1 == "R" { r = $2 } $1 == "G" { g = $2 } $1 == "B" { b = $2 } $1 == "Y" { y = $2 }
                 END { printf "%.6f,%.6f,%.6f", r / y, g / y, b / y }' refflux.txt)
 echo "  star colour (channel flux / luminance flux): $STAR_RGB"

@@ -2,6 +2,7 @@
 /// Compares two nebrender EXRs of the same view: a reference and a test image.
 ///
 ///     build/bench/exr_compare REF.exr TEST.exr [--ratio-png FILE] [--threshold 0.01] [--block N]
+///                              [--second-reference REF2.exr]
 ///
 /// Prints, per channel R, G, B and for luminance Y (Rec. 709 weights of linear sRGB):
 ///  - flux: the sum over pixels of TEST / the sum of REF, minus 1 (relative error of the
@@ -13,6 +14,12 @@
 ///    relative noise (luminance: its "variance.Y" channel where it has one, else the channels'
 ///    variances taken as independent), and rms_corrected = sqrt(max(0, rms^2 - ref_noise^2)), the
 ///    RMS error with REF's noise taken out (the noise is independent of TEST's error).
+/// --second-reference REF2.exr, another reference of the same view with independent noise
+/// (another seed), adds rms_two_refs = sqrt(max(0, mean((TEST - REF)(TEST - REF2) / M^2))),
+/// M = (REF + REF2) / 2, over the pixels where M is above the threshold: the two references'
+/// noises are independent, so the product's mean is the squared error of TEST alone, with no
+/// estimate of the noise in it (the variance layer's estimate is itself noisy where a pixel's
+/// walks are few or long).
 /// --block N first sums both images (and the variance) over blocks of N x N pixels (the
 /// right and bottom edges' partial blocks are dropped), so the figures are per block: the
 /// error of the image smoothed on that scale, with N times less noise.
@@ -83,13 +90,15 @@ nebula::Image blockSums(const nebula::Image& img, int b)
 
 int main(int argc, char** argv)
 {
-    std::string refPath, testPath, ratioPng;
+    std::string refPath, testPath, ratioPng, ref2Path;
     double threshold = 0.01;
     int block = 1;
     for (int i = 1; i < argc; ++i) {
         const std::string a = argv[i];
         if (a == "--ratio-png" && i + 1 < argc) {
             ratioPng = argv[++i];
+        } else if (a == "--second-reference" && i + 1 < argc) {
+            ref2Path = argv[++i];
         } else if (a == "--block" && i + 1 < argc) {
             block = std::atoi(argv[++i]);
         } else if (a == "--threshold" && i + 1 < argc) {
@@ -99,14 +108,16 @@ int main(int argc, char** argv)
         } else if (testPath.empty()) {
             testPath = a;
         } else {
-            std::fprintf(
-                stderr, "usage: exr_compare REF.exr TEST.exr [--ratio-png FILE] [--threshold F]\n");
+            std::fprintf(stderr,
+                         "usage: exr_compare REF.exr TEST.exr [--ratio-png FILE] [--threshold F] "
+                         "[--block N] [--second-reference REF2.exr]\n");
             return 2;
         }
     }
     if (testPath.empty() || !(threshold > 0.0 && threshold < 1.0) || block < 1) {
         std::fprintf(stderr, "usage: exr_compare REF.exr TEST.exr [--ratio-png FILE] "
-                             "[--threshold F in (0,1)] [--block N >= 1]\n");
+                             "[--threshold F in (0,1)] [--block N >= 1] "
+                             "[--second-reference REF2.exr]\n");
         return 2;
     }
     try {
@@ -122,9 +133,20 @@ int main(int argc, char** argv)
                                 std::to_string(ref.width) + "x" + std::to_string(ref.height) +
                                 " image");
         }
+        nebula::Image ref2;
+        if (!ref2Path.empty()) {
+            ref2 = nebula::readExr(ref2Path, nullptr);
+            if (ref2.width != ref.width || ref2.height != ref.height) {
+                throw nebula::Error(ref2Path + ": " + std::to_string(ref2.width) + "x" +
+                                    std::to_string(ref2.height) + " pixels, but " + refPath +
+                                    " has " + std::to_string(ref.width) + "x" +
+                                    std::to_string(ref.height));
+            }
+        }
         if (block > 1) {
             ref = blockSums(ref, block);
             test = blockSums(test, block);
+            if (!ref2Path.empty()) ref2 = blockSums(ref2, block);
         }
         const std::size_t n = std::size_t(ref.width) * ref.height;
         const char* names[4] = {"R", "G", "B", "Y"};
@@ -137,7 +159,8 @@ int main(int argc, char** argv)
             if (ch.name == "variance.Y") varianceY = &ch.values;
         }
         std::printf("channel  flux_ref      flux_test     flux_error  rms_error  pixels  ref_noise "
-                    " rms_corrected\n");
+                    " rms_corrected%s\n",
+                    ref2Path.empty() ? "" : "  rms_two_refs");
         for (int c = 0; c < 4; ++c) {
             double sumRef = 0.0, sumTest = 0.0, maxRef = 0.0;
             for (std::size_t i = 0; i < n; ++i) {
@@ -169,6 +192,23 @@ int main(int argc, char** argv)
             if (variance && count) {
                 const double rn = std::sqrt(noise / double(count));
                 std::printf("  %9.4f  %13.4f", rn, std::sqrt(std::max(0.0, rms * rms - rn * rn)));
+            } else if (!ref2Path.empty()) {
+                std::printf("  %9s  %13s", "-", "-");
+            }
+            if (!ref2Path.empty()) {
+                double maxM = 0.0;
+                for (std::size_t i = 0; i < n; ++i)
+                    maxM = std::max(maxM, 0.5 * (channel(ref, i, c) + channel(ref2, i, c)));
+                double cross = 0.0;
+                std::size_t m = 0;
+                for (std::size_t i = 0; i < n; ++i) {
+                    const double a = channel(ref, i, c), b = channel(ref2, i, c);
+                    const double mean = 0.5 * (a + b), t = channel(test, i, c);
+                    if (mean <= threshold * maxM) continue;
+                    cross += (t - a) * (t - b) / (mean * mean);
+                    ++m;
+                }
+                std::printf("  %12.4f", m ? std::sqrt(std::max(0.0, cross / double(m))) : 0.0);
             }
             std::printf("\n");
         }

@@ -17,6 +17,7 @@
 #include "nebula/volume/block_walk.h"
 
 #include <algorithm>
+#include <climits>
 #include <cmath>
 #include <limits>
 #include <optional>
@@ -37,7 +38,6 @@ struct LevelMap
 struct Scratch
 {
     std::vector<float> f, fk;  ///< field samples at level 0 and at a pyramid level
-    std::vector<float> fs;     ///< the scattered-light field's moments at a sample
     std::vector<double> starL; ///< per star and channel: the pixel's scattered light
     /// Per level, star and channel: the level's term (phase-factor change times the star's
     /// irradiance factor at that level), resampled every half level-k voxel along the ray
@@ -53,6 +53,11 @@ struct RayState
     Vec3 dW; ///< world direction
     /// a p_l Y_lm(-dW) per moment: the scattered-light field's weights towards the eye
     double fieldWeight[shCount(SH_MAX_DEGREE)] = {};
+    /// The field cell (lower corner, index space) whose 8 corners' towards-the-eye sums
+    /// fieldCorner[corner][c] = sum_k fieldWeight[k] c_k,c hold: a ray takes several samples
+    /// in one cell, so each cell's moments are weighted once, not at every sample.
+    int fieldCell[3] = {INT_MIN, INT_MIN, INT_MIN};
+    double fieldCorner[8][3] = {};
     double T[3] = {1, 1, 1};
     double L[3] = {0, 0, 0};
 };
@@ -106,7 +111,6 @@ public:
         const std::size_t S = mScene.stars.size();
         Scratch s;
         s.f.resize(C);
-        if (mField) s.fs.resize(std::size_t(mField->channels()));
         s.fk.resize(C);
         s.starL.resize(S * 3);
         s.held.resize(mLevels.size() * S * 3);
@@ -258,13 +262,44 @@ private:
     /// The light scattered at least once before (nebscatter's field, DESIGN §5b) scattered
     /// towards the eye at xW: k a sum_l p_l sum_m c_lm Y_lm(-d), the k cancelled by the
     /// segment's (1 - e^-x) / k. A negative sum (noise, truncation) counts as none.
-    void scatterField(const Vec3& xW, const double* oneMinus, RayState& ray, Scratch& sc) const
+    void scatterField(const Vec3& xW, const double* oneMinus, RayState& ray) const
     {
-        mField->sample(mFieldW2I.apply(xW), sc.fs.data());
+        // Trilinear in the cell around p (zero outside the lattice, as DenseVolume::sample)
+        // of the corners' weighted sums: the same as weighting the interpolated moments.
+        const Vec3 p = mFieldW2I.apply(xW);
+        const double fx = std::floor(p.x), fy = std::floor(p.y), fz = std::floor(p.z);
+        const int i = int(fx), j = int(fy), k = int(fz);
+        const auto& lo = mField->lo();
+        const auto& dims = mField->dims();
+        if (!(fx >= lo[0] && fy >= lo[1] && fz >= lo[2] && i + 1 < lo[0] + dims[0] &&
+              j + 1 < lo[1] + dims[1] && k + 1 < lo[2] + dims[2]))
+            return;
+        if (i != ray.fieldCell[0] || j != ray.fieldCell[1] || k != ray.fieldCell[2]) {
+            ray.fieldCell[0] = i;
+            ray.fieldCell[1] = j;
+            ray.fieldCell[2] = k;
+            // 24 independent sums side by side (one sum at a time waits on each addition).
+            const float* m[8];
+            for (int q = 0; q < 8; ++q)
+                m[q] = mField->voxel(mField->index(i + (q & 1), j + (q >> 1 & 1), k + (q >> 2)));
+            double acc[8][3] = {};
+            for (int n = 0; n < mFieldMoments; ++n) {
+                const double wn = ray.fieldWeight[n];
+                for (int q = 0; q < 8; ++q)
+                    for (int c = 0; c < 3; ++c)
+                        acc[q][c] += wn * double(m[q][n * 3 + c]);
+            }
+            std::copy(&acc[0][0], &acc[0][0] + 24, &ray.fieldCorner[0][0]);
+        }
+        const double u = p.x - fx, v = p.y - fy, w = p.z - fz;
         for (int c = 0; c < 3; ++c) {
-            double src = 0.0;
-            for (int k = 0; k < mFieldMoments; ++k)
-                src += ray.fieldWeight[k] * double(sc.fs[std::size_t(k * 3 + c)]);
+            const auto& f = ray.fieldCorner;
+            const double c00 = f[0][c] + u * (f[1][c] - f[0][c]);
+            const double c10 = f[2][c] + u * (f[3][c] - f[2][c]);
+            const double c01 = f[4][c] + u * (f[5][c] - f[4][c]);
+            const double c11 = f[6][c] + u * (f[7][c] - f[6][c]);
+            const double c0 = c00 + v * (c10 - c00), c1 = c01 + v * (c11 - c01);
+            const double src = c0 + w * (c1 - c0);
             if (src > 0.0) ray.L[c] += ray.T[c] * src * oneMinus[c];
         }
     }
@@ -301,7 +336,7 @@ private:
                 resampleLevels(xW, tm, ray.dW, sc);
             }
             scatterStars(xW, &sc.f[2], oneMinus, tPos, ray, sc);
-            if (mField) scatterField(xW, oneMinus, ray, sc);
+            if (mField) scatterField(xW, oneMinus, ray);
         }
         for (int c = 0; c < 3; ++c)
             ray.T[c] *= 1.0 - oneMinus[c];
