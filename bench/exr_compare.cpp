@@ -15,11 +15,12 @@
 ///    variances taken as independent), and rms_corrected = sqrt(max(0, rms^2 - ref_noise^2)), the
 ///    RMS error with REF's noise taken out (the noise is independent of TEST's error).
 /// --second-reference REF2.exr, another reference of the same view with independent noise
-/// (another seed), adds rms_two_refs = sqrt(max(0, mean((TEST - REF)(TEST - REF2) / M^2))),
-/// M = (REF + REF2) / 2, over the pixels where M is above the threshold: the two references'
-/// noises are independent, so the product's mean is the squared error of TEST alone, with no
-/// estimate of the noise in it (the variance layer's estimate is itself noisy where a pixel's
-/// walks are few or long).
+/// (another seed), adds rms_two_refs = sqrt(max(0, mean((TEST - REF)(TEST - REF2) / TEST^2)))
+/// over the pixels where M = (REF + REF2) / 2 is above the threshold: the two references'
+/// noises are independent of each other and of TEST, so the product's mean is the squared
+/// error of TEST alone, with no estimate of the noise in it (the variance layer's estimate is
+/// itself noisy where a pixel's walks are few or long). It is relative to TEST, not to the
+/// references (dividing by M would correlate with M's noise).
 /// --block N first sums both images (and the variance) over blocks of N x N pixels (the
 /// right and bottom edges' partial blocks are dropped), so the figures are per block: the
 /// error of the image smoothed on that scale, with N times less noise.
@@ -205,7 +206,10 @@ int main(int argc, char** argv)
                     const double a = channel(ref, i, c), b = channel(ref2, i, c);
                     const double mean = 0.5 * (a + b), t = channel(test, i, c);
                     if (mean <= threshold * maxM) continue;
-                    cross += (t - a) * (t - b) / (mean * mean);
+                    // Relative to TEST, which is independent of both references' noise
+                    // (over their mean M the product would correlate with M's noise).
+                    if (!(t > 0.0)) continue;
+                    cross += (t - a) * (t - b) / (t * t);
                     ++m;
                 }
                 std::printf("  %12.4f", m ? std::sqrt(std::max(0.0, cross / double(m))) : 0.0);
