@@ -266,18 +266,12 @@ private:
     {
         // Trilinear in the cell around p (zero outside the lattice, as DenseVolume::sample)
         // of the corners' weighted sums: the same as weighting the interpolated moments.
-        const Vec3 p = mFieldW2I.apply(xW);
-        const double fx = std::floor(p.x), fy = std::floor(p.y), fz = std::floor(p.z);
-        const int i = int(fx), j = int(fy), k = int(fz);
-        const auto& lo = mField->lo();
-        const auto& dims = mField->dims();
-        if (!(fx >= lo[0] && fy >= lo[1] && fz >= lo[2] && i + 1 < lo[0] + dims[0] &&
-              j + 1 < lo[1] + dims[1] && k + 1 < lo[2] + dims[2]))
-            return;
+        int ijk[3];
+        double frac[3];
+        if (!mField->cellAt(mFieldW2I.apply(xW), ijk, frac)) return;
+        const int i = ijk[0], j = ijk[1], k = ijk[2];
         if (i != ray.fieldCell[0] || j != ray.fieldCell[1] || k != ray.fieldCell[2]) {
-            ray.fieldCell[0] = i;
-            ray.fieldCell[1] = j;
-            ray.fieldCell[2] = k;
+            std::copy(ijk, ijk + 3, ray.fieldCell);
             // 24 independent sums side by side (one sum at a time waits on each addition).
             const float* m[8];
             for (int q = 0; q < 8; ++q)
@@ -291,7 +285,7 @@ private:
             }
             std::copy(&acc[0][0], &acc[0][0] + 24, &ray.fieldCorner[0][0]);
         }
-        const double u = p.x - fx, v = p.y - fy, w = p.z - fz;
+        const double u = frac[0], v = frac[1], w = frac[2];
         for (int c = 0; c < 3; ++c) {
             const auto& f = ray.fieldCorner;
             const double c00 = f[0][c] + u * (f[1][c] - f[0][c]);

@@ -36,17 +36,36 @@ Affine fieldLevelMap(const Affine& level0, int level)
     return a;
 }
 
+namespace {
+
+/// The grid's own extent along its longest axis [voxels]: the dense lattice has a one-voxel
+/// zero border on each side.
+int gridExtent(const RenderScene& scene)
+{
+    const auto& d = scene.fields.dims();
+    return std::max({d[0], d[1], d[2]}) - 2;
+}
+
+/// The coarsest field level whose cells are not larger than a grid of @p extent voxels.
+int coarsestFieldLevel(int extent)
+{
+    int k = 0;
+    while ((2 << k) <= std::max(extent, 1))
+        ++k;
+    return k;
+}
+
+} // namespace
+
 FieldLevelChoice autoFieldLevel(const RenderScene& scene, int order, int channels)
 {
     FieldLevelChoice c;
     const auto& d = scene.fields.dims();
-    const int extent = std::max({d[0], d[1], d[2]}) - 2; // without the zero border
+    const int extent = gridExtent(scene);
     // About 64 cells across: 45 to 90.
     while (double(extent) >= 64.0 * std::sqrt(2.0) * std::ldexp(1.0, c.gridLevel))
         ++c.gridLevel;
-    int coarsest = 0;
-    while ((2 << coarsest) <= std::max(extent, 1))
-        ++coarsest;
+    const int coarsest = coarsestFieldLevel(extent);
     // The densest 1 % of the dust voxels.
     std::vector<float> n;
     for (std::size_t i = 0; i < scene.fields.voxelCount(); ++i)
@@ -84,17 +103,13 @@ void validateScatterOptions(const RenderScene& scene, const ScatterOptions& opts
     }
     if (opts.packets == 0) throw UsageError("--packets must be > 0");
     const auto& d = scene.fields.dims();
-    // The grid's own extent: the dense lattice has a one-voxel zero border on each side.
-    const int extent = std::max({d[0], d[1], d[2]}) - 2;
-    int coarsest = 0;
-    while ((2 << coarsest) <= std::max(extent, 1))
-        ++coarsest;
+    const int extent = gridExtent(scene);
     if (opts.fieldLevel < 0 || (1 << std::min(opts.fieldLevel, 30)) > std::max(extent, 1)) {
         throw UsageError(fmt::format(
             "--field-level {}: cells of {} voxels are larger than the grid ({}x{}x{} voxels); "
             "use a level in 0..{}",
             opts.fieldLevel, opts.fieldLevel < 31 ? std::to_string(1LL << opts.fieldLevel) : "2^k",
-            d[0] - 2, d[1] - 2, d[2] - 2, coarsest));
+            d[0] - 2, d[1] - 2, d[2] - 2, coarsestFieldLevel(extent)));
     }
 }
 

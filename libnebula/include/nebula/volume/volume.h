@@ -99,20 +99,38 @@ public:
     /// should fall to zero smoothly.
     void sample(const Vec3& p, float* out) const { sampleChannels(p, 0, mChannels, out); }
 
-    /// Trilinear interpolation of channels [@p first, @p first + @p count) only (see sample()).
-    void sampleChannels(const Vec3& p, int first, int count, float* out) const
+    /// The lattice cell trilinear interpolation at index-space point @p p reads: its lower
+    /// corner @p ijk and @p p's position in it, @p frac in [0, 1)^3. False (outputs unset)
+    /// where that cell's 8 corners are not all on the lattice: sample() is zero there.
+    bool cellAt(const Vec3& p, int ijk[3], double frac[3]) const
     {
         const double fx = std::floor(p.x), fy = std::floor(p.y), fz = std::floor(p.z);
         const int i = int(fx), j = int(fy), k = int(fz);
         if (!(fx >= mLo[0] && fy >= mLo[1] && fz >= mLo[2] && i + 1 < mLo[0] + mDims[0] &&
-              j + 1 < mLo[1] + mDims[1] && k + 1 < mLo[2] + mDims[2])) {
+              j + 1 < mLo[1] + mDims[1] && k + 1 < mLo[2] + mDims[2]))
+            return false;
+        ijk[0] = i;
+        ijk[1] = j;
+        ijk[2] = k;
+        frac[0] = p.x - fx;
+        frac[1] = p.y - fy;
+        frac[2] = p.z - fz;
+        return true;
+    }
+
+    /// Trilinear interpolation of channels [@p first, @p first + @p count) only (see sample()).
+    void sampleChannels(const Vec3& p, int first, int count, float* out) const
+    {
+        int ijk[3];
+        double frac[3];
+        if (!cellAt(p, ijk, frac)) {
             for (int c = 0; c < count; ++c)
                 out[c] = 0.0f;
             return;
         }
-        const float u = float(p.x - fx), v = float(p.y - fy), w = float(p.z - fz);
+        const float u = float(frac[0]), v = float(frac[1]), w = float(frac[2]);
         const std::size_t sx = std::size_t(mChannels), sy = sx * mDims[0], sz = sy * mDims[1];
-        const float* b = mData.data() + index(i, j, k) * sx + first;
+        const float* b = mData.data() + index(ijk[0], ijk[1], ijk[2]) * sx + first;
         for (int c = 0; c < count; ++c) {
             const float* q = b + c;
             const float c00 = q[0] + u * (q[sx] - q[0]);
