@@ -91,7 +91,7 @@ TEST_F(Cli, IntegerOptionsRefuseNegativeAndOversizedValues)
         {"nebrender -i a.vdb --seed {} -o f.exr", "--seed", u64},
         {"nebrender -i a.vdb --levels {} -o f.exr", "--levels", "[0, 16]"},
         {"nebrender -i a.vdb --spp {} -o f.exr", "--spp", "[1, 1073741824]"},
-        {"nebrender -i a.vdb --bands {} -o f.exr", "--bands", "[1, 1000000]"},
+        {"nebrender -i a.vdb --bands {} -o f.exr", "--bands", "[1, 4700]"},
         {"nebrender -i a.vdb --spectral --spectral-layers {} -o f.exr", "--spectral-layers",
          "[1, 470]"},
         {"nebrender -i a.vdb --threads {} -o f.exr", "--threads", "[0, 4096]"},

@@ -1,5 +1,6 @@
 // nebtone end to end: a static camera's sequence gets one curve (identical PNGs), a moving
-// one a smooth curve; 16-bit PNGs; the EXRs' nebula:luminance is what nebtone reads.
+// one a smooth curve; 16-bit PNGs; the EXRs record nebula:luminance (nebtone takes the
+// statistics from the pixels; tests/cli/test_hardening.cpp: a damaged one is only a warning).
 #include "cli_fixture.h"
 
 #include "nebula/io/image.h"

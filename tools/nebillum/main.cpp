@@ -28,7 +28,7 @@ int main(int argc, char** argv)
     auto* grp = app.add_option_group("Dust");
     grp->add_option("--kappa-v", dustOpts.kappa_V,
                     "V-band extinction per n_H per pc [pc^-1 cm^3] (default: the input's)")
-        ->check(nebula::cli::positive());
+        ->check(nebula::cli::numberIn(0.0, nebula::MAX_KAPPA_V, true));
 
     return nebula::cli::run(app, "nebillum", common, argc, argv, [&](nebula::Run& run) {
         nebula::refuseBinaryToTerminal(common.output, "-o");

@@ -3,6 +3,7 @@
 #include "nebula/cli/options.h"
 #include "nebula/core/error.h"
 #include "nebula/core/frames.h"
+#include "nebula/core/input.h"
 #include "nebula/io/phase_table_vdb.h"
 #include "nebula/stages/render.h"
 
@@ -175,13 +176,13 @@ int main(int argc, char** argv)
             ->add_option("--bands", sp.bands,
                          "Fixed-band mode instead: N bands over 360-830 nm, point-sampled at\n"
                          "their centres (for comparison; implies --spectral)")
-            ->check(nebula::cli::integerIn(1, 1000000));
+            ->check(nebula::cli::integerIn(1, nebula::MAX_SPECTRAL_BANDS));
     std::vector<CLI::Option*> spectralOnly;
     spectralOnly.push_back(spectral
                                ->add_option("--continuum-step", sp.continuumStep,
                                             "Piecewise-linear mode: continuum node spacing [nm]")
                                ->capture_default_str()
-                               ->check(nebula::cli::numberIn(0.0, 50.0, true)));
+                               ->check(nebula::cli::numberIn(nebula::MIN_CONTINUUM_STEP, 50.0)));
     spectralOnly.push_back(
         spectral
             ->add_option("--exaggerate-velocity", sp.exaggerateVelocity,
@@ -209,7 +210,7 @@ int main(int argc, char** argv)
             ->add_option("--blackbody-scale", sp.blackbodyScale,
                          "Multiply the black-body emission (1 = Kirchhoff's law, physical)")
             ->capture_default_str()
-            ->check(nebula::cli::nonNegative()));
+            ->check(nebula::cli::numberIn(0.0, 1e6)));
     spectralOnly.push_back(
         spectral
             ->add_option("--temperature-scale", sp.temperatureScale,
@@ -264,32 +265,35 @@ int main(int argc, char** argv)
         }
         nebula::validateCamera(opts.camera);
         if (pathOpt->count() > 0) {
-            std::ifstream in(pathFile, std::ios::binary);
-            if (!in) throw nebula::Error(pathFile + " (--camera-path): cannot open file");
-            std::ostringstream text;
-            text << in.rdbuf();
-            if (!in.good() && !in.eof()) throw nebula::Error(pathFile + ": cannot read file");
-            auto path = std::make_shared<nebula::CameraPath>(
-                nebula::parseCameraPath(text.str(), pathFile, opts.camera));
+            nebula::InputSpec spec;
+            spec.option = "--camera-path";
+            spec.format = "a JSON file";
+            spec.head = nebula::jsonHead("{", "a camera path (a JSON object)");
+            auto path = std::make_shared<nebula::CameraPath>(nebula::parseCameraPath(
+                nebula::readInput(pathFile, spec), nebula::inputName(pathFile), opts.camera));
+            nebula::FrameRange range{1, path->frameCount(), 1};
             if (!frameText.empty()) {
-                out.frames = nebula::parseFrameRange(frameText, "--frame").frames();
+                range = nebula::parseFrameRange(frameText, "--frame");
                 if (frameText.find_first_not_of("0123456789") != std::string::npos) {
                     throw nebula::UsageError("--frame takes one frame number; for a range use "
                                              "--frames A-B[:STEP]");
                 }
             } else if (!framesText.empty()) {
-                out.frames = nebula::parseFrameRange(framesText, "--frames").frames();
-            } else {
-                out.frames = nebula::FrameRange{1, path->frameCount(), 1}.frames();
+                range = nebula::parseFrameRange(framesText, "--frames");
             }
-            for (const long f : out.frames) {
-                if (f > path->frameCount()) {
-                    throw nebula::UsageError("frame " + std::to_string(f) +
-                                             " is beyond the end of " + pathFile + ", which has " +
-                                             std::to_string(path->frameCount()) + " frames at " +
-                                             fmt::format("{:g}", path->fps) + " fps");
-                }
+            // The first frame of the range beyond the path's end, found before the frames are
+            // listed.
+            const long n = path->frameCount();
+            const long beyond =
+                range.first > n ? range.first
+                                : range.first + ((n - range.first) / range.step + 1) * range.step;
+            if (beyond <= range.last) {
+                throw nebula::UsageError("frame " + std::to_string(beyond) +
+                                         " is beyond the end of " + pathFile + ", which has " +
+                                         std::to_string(n) + " frames at " +
+                                         fmt::format("{:g}", path->fps) + " fps");
             }
+            out.frames = range.frames();
             out.path = path;
         } else if (!frameText.empty() || !framesText.empty()) {
             throw nebula::UsageError("--frame and --frames need a --camera-path");
@@ -309,7 +313,7 @@ int main(int argc, char** argv)
         }
         if (!phaseFile.empty()) {
             opts.phaseTable = std::make_shared<const nebula::PhaseTable>(
-                nebula::readPhaseTable(nebula::readGrids(phaseFile, run)));
+                nebula::readPhaseTable(nebula::readGrids(phaseFile, run, "--phase")));
             opts.phaseSource = phaseFile;
         }
         const auto grids = nebula::readGrids(common.input, run);

@@ -48,7 +48,8 @@ int main(int argc, char** argv)
     auto& f = opts.field;
     app.add_option("--packets", f.packets,
                    "Packets per source (all stars, each star with --per-star, the emission);\n"
-                   "the field's noise falls as 1/sqrt(N)")
+                   "the field's noise falls as 1/sqrt(N); at most 1e9 (hours per star), a\n"
+                   "work bound refused with its estimate")
         ->capture_default_str()
         ->check(nebula::cli::integerIn(1, std::int64_t(1) << 40));
     app.add_option("--order", f.order, "Degree L of the spherical harmonics, 0..4")

@@ -14,9 +14,11 @@ int main(int argc, char** argv)
 
     CLI::App app{
         "nebtone - PNG frames of a nebrender EXR sequence with a tone curve that does not\n"
-        "flicker: each frame's white point and log-mean luminance (the EXR's\n"
-        "nebula:luminance) are averaged over the frames within the --window, and the\n"
-        "automatic curve is computed from the averages (a static camera gets one curve).\n\n"
+        "flicker: each frame's white point and log-mean luminance (from its pixels) are\n"
+        "averaged over the frames within the --window, and the automatic curve is computed\n"
+        "from the averages (a static camera gets one curve). Every frame is read and\n"
+        "checked before any PNG is written; a frame whose white point is a million-fold\n"
+        "from the sequence's median is left out of the smoothing, with a warning.\n\n"
         "Examples:\n"
         "  nebtone -i 'frames/f.####.exr' -o 'display/f.####.png'\n"
         "  nebtone -i 'frames/f.%04d.exr' --frames 1-240 --window 2 --bits 16 -o 'd/f.%04d.png'\n"
@@ -26,7 +28,8 @@ int main(int argc, char** argv)
     app.add_option("-i,--input", opts.input,
                    "EXR frames: a name with a frame pattern (#### or %04d)")
         ->required();
-    app.add_option("-o,--output", opts.output, "PNG frames: a name with a frame pattern")
+    app.add_option("-o,--output", opts.output,
+                   "PNG frames: a name with a frame pattern, ending in .png")
         ->required();
     app.add_option("--frames", framesText,
                    "Frames A-B[:STEP] (default: every frame of the pattern that exists)");
@@ -42,10 +45,11 @@ int main(int argc, char** argv)
         ->check(CLI::IsMember({8, 16}))
         ->capture_default_str();
     app.add_option("--percentile", opts.percentile,
-                   "White point = this luminance percentile (EXRs record 99.5)")
+                   "White point = this percentile of the lit pixels' luminance")
         ->capture_default_str()
         ->check(nebula::cli::numberIn(1.0, 100.0));
-    app.add_flag("--skip-existing", opts.skipExisting, "Skip frames whose PNG exists");
+    app.add_flag("--skip-existing", opts.skipExisting,
+                 "Skip frames whose PNG exists and decodes whole");
 
     return nebula::cli::run(app, "nebtone", common, argc, argv, [&](nebula::Run& run) {
         if (!framesText.empty()) {

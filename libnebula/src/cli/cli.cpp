@@ -3,19 +3,25 @@
 #include "nebula/core/atomic_file.h"
 #include "nebula/core/error.h"
 #include "nebula/core/format.h"
+#include "nebula/core/input.h"
 
 #include <fmt/format.h>
 #include <openvdb/openvdb.h>
 #include <tbb/global_control.h>
 
+#include <cerrno>
 #include <cmath>
 #include <cstdint>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
 #include <limits>
+#include <map>
 #include <new>
+#include <optional>
 #include <sstream>
+#include <sys/mman.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -393,11 +399,12 @@ CLI::Option* configOption(CLI::App& app, const std::string& key)
 
 } // namespace
 
-void checkConfigFile(CLI::App& app, const std::string& path, const std::string& tool)
+void checkConfigText(CLI::App& app, const std::string& text, const std::string& path,
+                     const std::string& tool)
 {
-    std::ifstream in(path, std::ios::binary);
-    if (!in) return; // CLI11 reports a missing file
+    std::istringstream in(text);
     const std::string where = "--config: " + path + ", line ";
+    std::map<std::string, int> keyLines; // option name -> the line that set it
     std::string line;
     int number = 0;
     bool inArray = false; // inside a [multi-line, array] value
@@ -443,6 +450,12 @@ void checkConfigFile(CLI::App& app, const std::string& path, const std::string& 
         if (opt->get_name() == "--config") {
             throw UsageError(at + "a config file cannot name another config file");
         }
+        if (const auto [first, fresh] = keyLines.emplace(opt->get_name(), number); !fresh) {
+            throw UsageError(at + opt->get_name() + " is set again (line " +
+                             std::to_string(first->second) +
+                             " set it first); give each "
+                             "option once");
+        }
         if (eq != std::string::npos) {
             std::string value = trimmed(text.substr(eq + 1));
             if (value.empty()) {
@@ -476,6 +489,40 @@ void checkConfigFile(CLI::App& app, const std::string& path, const std::string& 
 
 namespace {
 
+/// A config file's text in an anonymous memory file, for CLI11 to read by name
+/// (/proc/self/fd/N) after checkConfigText() has checked it: CLI11 reopens the file it is
+/// given, which for a pipe would find it drained (or wait for a writer that is gone).
+class ConfigCopy
+{
+public:
+    ConfigCopy(const std::string& text, const std::string& source)
+    {
+        fd_ = int(::memfd_create("nebula-config", MFD_CLOEXEC));
+        if (fd_ < 0) {
+            throw Error("--config " + source + ": cannot make a memory copy (" +
+                        std::strerror(errno) + ")");
+        }
+        std::size_t done = 0;
+        while (done < text.size()) {
+            const ssize_t n = ::write(fd_, text.data() + done, text.size() - done);
+            if (n < 0 && errno == EINTR) continue;
+            if (n <= 0) {
+                ::close(fd_);
+                throw Error("--config " + source + ": cannot make a memory copy (" +
+                            std::strerror(errno) + ")");
+            }
+            done += std::size_t(n);
+        }
+    }
+    ConfigCopy(const ConfigCopy&) = delete;
+    ConfigCopy& operator=(const ConfigCopy&) = delete;
+    ~ConfigCopy() { ::close(fd_); }
+    std::string path() const { return "/proc/self/fd/" + std::to_string(fd_); }
+
+private:
+    int fd_ = -1;
+};
+
 std::string joinCommand(int argc, char** argv)
 {
     std::string cmd;
@@ -503,17 +550,50 @@ int run(CLI::App& app, const std::string& tool, CommonOptions& opts, int argc, c
 {
     try {
         checkNumbers(app);
-        // The config files, checked line by line before CLI11 reads them.
-        for (int i = 1; i < argc; ++i) {
-            const std::string arg = argv[i];
-            if (arg == "--config" && i + 1 < argc) {
-                checkConfigFile(app, argv[++i], tool);
-            } else if (arg.rfind("--config=", 0) == 0) {
-                checkConfigFile(app, arg.substr(9), tool);
+        // The config file is read once (a pipe or /dev/stdin as the stream it is, with a size
+        // limit), checked line by line, and CLI11 reads that same text from a memory file.
+        std::vector<std::string> args(argv, argv + argc);
+        std::string configPath;
+        std::optional<ConfigCopy> copy;
+        for (std::size_t i = 1; i < args.size(); ++i) {
+            std::string* value = nullptr;
+            std::string prefix;
+            if (args[i] == "--config" && i + 1 < args.size()) {
+                value = &args[++i];
+            } else if (args[i].rfind("--config=", 0) == 0) {
+                prefix = "--config=";
+                value = &args[i];
             }
+            if (!value) continue;
+            if (copy) throw UsageError("--config is given twice; give one config file");
+            configPath = value->substr(prefix.size());
+            InputSpec spec;
+            spec.option = "--config";
+            spec.format = "a config file";
+            spec.head = textHead("--config: " + configPath);
+            std::string text;
+            try {
+                text = readInput(configPath, spec);
+            } catch (const UsageError&) {
+                throw;
+            } catch (const Error& e) {
+                throw UsageError(e.what());
+            }
+            checkConfigText(app, text, configPath, tool);
+            copy.emplace(text, configPath);
+            *value = prefix + copy->path();
         }
-        app.parse(argc, argv);
-    } catch (const UsageError& e) { // from an option's callback (addVec3) or checkConfigFile
+        std::vector<char*> ptrs;
+        for (auto& a : args)
+            ptrs.push_back(a.data());
+        app.parse(int(ptrs.size()), ptrs.data());
+        if (copy) {
+            // The option names the user's file again (checkFileOptions(), messages).
+            auto* config = app.get_option("--config");
+            config->clear();
+            config->add_result(configPath);
+        }
+    } catch (const UsageError& e) { // from an option's callback (addVec3) or checkConfigText
         std::cerr << tool << ": error: " << e.what() << "\n"
                   << "Run " << tool << " --help for the options and examples.\n";
         return 2;

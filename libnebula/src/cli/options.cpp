@@ -1,4 +1,6 @@
 #include "nebula/cli/options.h"
+#include "nebula/core/format.h"
+#include "nebula/core/input.h"
 
 #include "nebula/cli/cli.h"
 
@@ -70,7 +72,8 @@ void addStars(CLI::App& app, StarOptions& opts)
 Star parseStarOption(const std::string& text)
 {
     const std::string expected =
-        "--star \"" + text + "\": expected NAME:X,Y,Z:LUMINOSITY:CLASS (e.g. alpha:0,0,0:1000:B2V)";
+        "--star \"" + detail::printable(text, 80) +
+        "\": expected NAME:X,Y,Z:LUMINOSITY:CLASS (e.g. alpha:0,0,0:1000:B2V)";
     const std::vector<std::string> parts = split(text, ':');
     if (parts.size() != 4) throw UsageError(expected);
     // Build the JSON form so that every check lives in parseStars().
@@ -106,11 +109,11 @@ std::vector<Star> loadStars(const StarOptions& opts)
 {
     std::vector<Star> stars;
     if (!opts.starsFile.empty()) {
-        std::ifstream in(opts.starsFile);
-        if (!in) throw Error(opts.starsFile + ": cannot open file");
-        std::stringstream text;
-        text << in.rdbuf();
-        stars = parseStars(text.str(), opts.starsFile);
+        InputSpec spec;
+        spec.option = "--stars";
+        spec.format = "a JSON file";
+        spec.head = jsonHead("[", "a JSON array of stars");
+        stars = parseStars(readInput(opts.starsFile, spec), inputName(opts.starsFile));
         if (stars.empty()) {
             throw Error(opts.starsFile + " (--stars) holds no stars: an empty list; give at " +
                         "least one star, or leave out --stars");
@@ -134,7 +137,7 @@ void addDust(CLI::App& app, DustOptions& opts, bool withKappa)
         "Dust", "Dust model, carried as nebula:dust (nebillum, nebrender: default the input's)");
     if (withKappa) {
         grp->add_option("--kappa-v", opts.kappa_V, "V-band extinction per n_H per pc [pc^-1 cm^3]")
-            ->check(positive())
+            ->check(numberIn(0.0, MAX_KAPPA_V, true))
             ->default_str(fmt::format("{}", d.kappa_V));
     }
     grp->add_option("--albedo", opts.albedo, "Single-scattering albedo")
@@ -147,7 +150,7 @@ void addDust(CLI::App& app, DustOptions& opts, bool withKappa)
         ->check(CLI::IsMember({"hg", "rayleigh", "hazy", "murky"}))
         ->default_str(toString(d.phase));
     grp->add_option("--rv", opts.R_V, "Extinction curve R_V = A_V/E(B-V)")
-        ->check(positive())
+        ->check(numberIn(MIN_R_V, MAX_R_V))
         ->default_str(fmt::format("{}", d.R_V));
     grp->add_option("--extinction-curve", opts.curve,
                     "Extinction curve: CCM89 (Cardelli, Clayton & Mathis 1989) or grey (the same "

@@ -1,5 +1,7 @@
 #include "nebula/core/frames.h"
 
+#include <algorithm>
+
 #include "nebula/core/error.h"
 #include "nebula/core/format.h"
 
@@ -104,9 +106,15 @@ bool matchFramePattern(const std::string& pattern, const std::string& name, long
     return expandFramePattern(pattern, frame) == name; // the same padding
 }
 
+long FrameRange::count() const
+{
+    return (last - first) / step + 1;
+}
+
 std::vector<long> FrameRange::frames() const
 {
     std::vector<long> out;
+    out.reserve(std::size_t(std::max(0L, count())));
     for (long f = first; f <= last; f += step)
         out.push_back(f);
     return out;
@@ -131,6 +139,11 @@ FrameRange parseFrameRange(const std::string& text, const std::string& option)
     if (r.first > r.last) {
         throw UsageError(option + " \"" + detail::printable(text, 60) +
                          "\": the first frame is after the last");
+    }
+    if (r.count() > MAX_FRAMES) {
+        throw UsageError(option + " \"" + detail::printable(text, 60) +
+                         "\": " + std::to_string(r.count()) + " frames; at most " +
+                         std::to_string(MAX_FRAMES) + " frames in one range");
     }
     return r;
 }

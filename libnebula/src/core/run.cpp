@@ -1,5 +1,7 @@
 #include "nebula/core/run.h"
 
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <cstdio>
 #include <iostream>
@@ -26,7 +28,7 @@ void Run::warn(const std::string& message) const
 
 Progress::Progress(const Run* run, std::string label, std::uint64_t total)
     : mEnabled(run && run->showProgress() && total > 0), mLabel(std::move(label)), mTotal(total),
-      mLast(std::chrono::steady_clock::now())
+      mLast(std::chrono::steady_clock::now()), mStart(mLast)
 {}
 
 Progress::~Progress()
@@ -54,8 +56,21 @@ void Progress::draw(bool final)
     const int filled = int(f * width + 0.5);
     std::string bar(std::size_t(filled), '#');
     bar.resize(std::size_t(width), '.');
-    std::fprintf(stderr, "\r%s [%s] %3d%%%s", mLabel.c_str(), bar.c_str(), int(f * 100 + 0.5),
-                 final ? "\n" : "");
+    // The time left, once there is enough of a rate to tell it (padded so that a shorter
+    // text overwrites a longer one).
+    std::string eta;
+    const double elapsed =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - mStart).count();
+    if (!final && f > 0.0 && elapsed > 2.0) {
+        const double left = elapsed * (1.0 - f) / f;
+        eta = left < 120.0    ? fmt::format(" {:.0f} s left", left)
+              : left < 7200.0 ? fmt::format(" {:.0f} min left", left / 60.0)
+              : left < 172800 ? fmt::format(" {:.1f} h left", left / 3600.0)
+                              : fmt::format(" {:.0f} days left", left / 86400.0);
+    }
+    eta.resize(std::max<std::size_t>(eta.size(), 16), ' ');
+    std::fprintf(stderr, "\r%s [%s] %3d%%%s%s", mLabel.c_str(), bar.c_str(), int(f * 100 + 0.5),
+                 final ? "" : eta.c_str(), final ? "                \n" : "");
     std::fflush(stderr);
 }
 

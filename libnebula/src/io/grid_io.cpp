@@ -3,6 +3,7 @@
 #include "nebula/core/atomic_file.h"
 #include "nebula/core/error.h"
 #include "nebula/core/format.h"
+#include "nebula/core/input.h"
 #include "nebula/io/checksum.h"
 #include "nebula/io/vdb_check.h"
 
@@ -14,9 +15,11 @@
 #include <cstring>
 #include <fcntl.h>
 #include <iostream>
+#include <map>
 #include <sstream>
 #include <streambuf>
 #include <sys/stat.h>
+#include <type_traits>
 #include <unistd.h>
 
 namespace nebula {
@@ -257,46 +260,20 @@ protected:
     }
 };
 
-/// All of @p fd, read to its end (a file, or a pipe: so that "-" gets the same checks).
-std::string readAll(int fd, const std::string& source)
+/// The VDB magic number's 8 bytes (vdb_check.cpp checks them again with the rest).
+bool vdbHead(std::string_view head, bool atEnd, const std::string& source)
 {
-    std::string bytes;
-    struct stat st;
-    if (::fstat(fd, &st) == 0 && S_ISREG(st.st_mode)) bytes.reserve(std::size_t(st.st_size));
-    std::vector<char> chunk(1 << 20);
-    for (;;) {
-        const ssize_t n = ::read(fd, chunk.data(), chunk.size());
-        if (n < 0 && errno == EINTR) continue;
-        if (n < 0) throw Error(source + ": read failed (" + std::strerror(errno) + ")");
-        if (n == 0) break;
-        bytes.append(chunk.data(), std::size_t(n));
+    static const std::string_view magic("\x20\x42\x44\x56\0\0\0\0", 8);
+    const std::string_view have = head.substr(0, std::min(head.size(), magic.size()));
+    if (have != magic.substr(0, have.size())) {
+        throw Error(source + ": not a VDB file (no VDB magic number at byte 0)");
     }
-    return bytes;
-}
-
-std::string readInput(const std::string& path, const std::string& source)
-{
-    if (path == "-") {
-        if (::isatty(STDIN_FILENO)) {
-            throw UsageError("-i -: stdin is a terminal; pipe a VDB stream in or give a file");
-        }
-        return readAll(STDIN_FILENO, source);
+    if (have.size() == magic.size()) return true;
+    if (atEnd) {
+        throw Error(source + (head.empty() ? ": empty, not a VDB file"
+                                           : ": truncated: shorter than a VDB header"));
     }
-    const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
-    if (fd < 0) throw Error(path + ": cannot open file (" + std::strerror(errno) + ")");
-    struct stat st;
-    if (::fstat(fd, &st) == 0 && S_ISDIR(st.st_mode)) {
-        ::close(fd);
-        throw Error(path + ": is a folder, not a VDB file");
-    }
-    try {
-        std::string bytes = readAll(fd, source);
-        ::close(fd);
-        return bytes;
-    } catch (...) {
-        ::close(fd);
-        throw;
-    }
+    return false;
 }
 
 [[noreturn]] void damaged(const GridSet& set, const std::string& what)
@@ -314,6 +291,7 @@ void verifyChecksums(const GridSet& set)
     if (text.empty()) return;
     const std::string key = std::string("metadata ") + META_CHECKSUMS;
     nlohmann::json sums;
+    detail::checkJsonBounds(text, set.source, key + " is ");
     try {
         sums = nlohmann::json::parse(text);
     } catch (const std::exception&) {
@@ -346,12 +324,32 @@ void verifyChecksums(const GridSet& set)
     }
 }
 
+/// Throws Error "<source>: two grids are named ..." if two of @p grids share a name.
+void requireUniqueNames(const openvdb::GridPtrVec& grids, const std::string& source)
+{
+    std::map<std::string, std::size_t> seen;
+    for (std::size_t i = 0; i < grids.size(); ++i) {
+        const auto [it, fresh] = seen.emplace(grids[i]->getName(), i);
+        if (!fresh) {
+            throw Error(source + ": grids " + std::to_string(it->second + 1) + " and " +
+                        std::to_string(i + 1) + " are both named \"" +
+                        detail::printable(it->first, 60) +
+                        "\"; a nebula file holds each grid name once");
+        }
+    }
+}
+
 } // namespace
 
-GridSet readGrids(const std::string& path)
+GridSet readGrids(const std::string& path, const std::string& option)
 {
-    const std::string source = path == "-" ? std::string("<stdin>") : path;
-    return readGridsFromMemory(readInput(path, source), source);
+    InputSpec spec;
+    spec.option = option;
+    spec.format = "a VDB file";
+    spec.limit = MAX_GRID_INPUT_BYTES;
+    spec.head = vdbHead;
+    spec.checkMemory = true;
+    return readGridsFromMemory(readInput(path, spec), inputName(path));
 }
 
 GridSet readGridsFromMemory(const std::string& bytes, const std::string& source)
@@ -376,6 +374,7 @@ GridSet readGridsFromMemory(const std::string& bytes, const std::string& source)
     for (const auto& g : set.grids) {
         if (!g) throw Error(set.source + ": not a valid, complete VDB file (empty grid entry)");
     }
+    requireUniqueNames(set.grids, set.source);
     try {
         verifyChecksums(set);
     } catch (const Error&) {
@@ -401,6 +400,47 @@ public:
 };
 
 /// Stamps provenance and checksums into @p grids before a write.
+/// The first active value (or background) of a float grid that is not finite, named.
+template <typename GridT> void requireFiniteGrid(const GridT& grid, const std::string& where)
+{
+    const auto finite = [](const auto& v) {
+        if constexpr (std::is_floating_point_v<std::decay_t<decltype(v)>>) {
+            return std::isfinite(v);
+        } else {
+            return std::isfinite(v[0]) && std::isfinite(v[1]) && std::isfinite(v[2]);
+        }
+    };
+    const std::string name = "grid \"" + detail::printable(grid.getName(), 60) + "\"";
+    if (!finite(grid.background())) {
+        throw Error(where + ": " + name + " has a non-finite background; refusing to write it");
+    }
+    for (auto it = grid.cbeginValueOn(); it; ++it) {
+        if (!finite(*it)) {
+            const auto ijk = it.getCoord();
+            throw Error(where + ": " + name + " has a non-finite value at voxel (" +
+                        std::to_string(ijk.x()) + ", " + std::to_string(ijk.y()) + ", " +
+                        std::to_string(ijk.z()) +
+                        "); refusing to write it (a physical parameter overflowed)");
+        }
+    }
+}
+
+/// No tool writes two grids of one name or a non-finite voxel (as requireFinitePixels() for
+/// images).
+void requireWritable(const GridSet& grids, const std::string& where)
+{
+    requireUniqueNames(grids.grids, where);
+    for (const auto& g : grids.grids) {
+        if (const auto f = openvdb::GridBase::constGrid<openvdb::FloatGrid>(g)) {
+            requireFiniteGrid(*f, where);
+        } else if (const auto d = openvdb::GridBase::constGrid<openvdb::DoubleGrid>(g)) {
+            requireFiniteGrid(*d, where);
+        } else if (const auto v = openvdb::GridBase::constGrid<openvdb::Vec3SGrid>(g)) {
+            requireFiniteGrid(*v, where);
+        }
+    }
+}
+
 void stamp(GridSet& grids, const std::string& tool, const std::string& command)
 {
     const nlohmann::json history = grids.historyWith(tool, command);
@@ -426,6 +466,7 @@ void stamp(GridSet& grids, const std::string& tool, const std::string& command)
 void writeGrids(AtomicFile& file, GridSet grids, const std::string& tool,
                 const std::string& command)
 {
+    requireWritable(grids, file.path());
     stamp(grids, tool, command);
     try {
         CheckedArchive().writeTo(file.stream(), grids.grids, grids.meta);
@@ -443,6 +484,7 @@ void writeGrids(const std::string& path, GridSet grids, const std::string& tool,
 {
     if (path == "-") {
         refuseBinaryToTerminal(path, "-o");
+        requireWritable(grids, "<stdout>");
         stamp(grids, tool, command);
         // A fresh ostream over stdout's buffer: OpenVDB leaves a pointer to its (then freed)
         // stream metadata in the stream it wrote to, so a second write to std::cout itself
@@ -476,9 +518,9 @@ std::string describeGrids(const GridSet& grids)
     return text;
 }
 
-GridSet readGrids(const std::string& path, const Run& run)
+GridSet readGrids(const std::string& path, const Run& run, const std::string& option)
 {
-    GridSet grids = readGrids(path);
+    GridSet grids = readGrids(path, option);
     run.info("read " + grids.source + ": " + describeGrids(grids));
     return grids;
 }

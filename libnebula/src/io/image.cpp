@@ -24,6 +24,7 @@
 #include <cstdio>
 #include <cstring>
 #include <exception>
+#include <filesystem>
 #include <memory>
 #include <ostream>
 #include <set>
@@ -55,8 +56,18 @@ void validateImage(const std::string& where, const Image& image, bool withLayers
     }
     if (!withLayers) return;
     std::set<std::string> names;
+    // OpenEXR keeps channel names of up to 255 characters (and truncates longer ones, so that
+    // R, G and B of a long layer name would collide): "<layer>.R" must fit.
+    const auto requireLength = [&](const std::string& name, std::size_t suffix) {
+        if (name.size() + suffix > EXR_MAX_CHANNEL_NAME) {
+            throw Error(where + ": image channel \"" + name.substr(0, 40) + "...\" has " +
+                        std::to_string(name.size() + suffix) + " characters; OpenEXR keeps " +
+                        std::to_string(EXR_MAX_CHANNEL_NAME));
+        }
+    };
     for (const ImageLayer& layer : image.layers) {
         if (layer.name.empty()) throw Error(where + ": image layer with an empty name");
+        requireLength(layer.name, 2);
         if (!names.insert(layer.name).second) {
             throw Error(where + ": image layer \"" + layer.name + "\" appears twice");
         }
@@ -68,6 +79,7 @@ void validateImage(const std::string& where, const Image& image, bool withLayers
     }
     for (const ImageChannel& ch : image.channels) {
         if (ch.name.empty()) throw Error(where + ": image channel with an empty name");
+        requireLength(ch.name, 0);
         if (!names.insert(ch.name).second) {
             throw Error(where + ": image channel \"" + ch.name + "\" appears twice");
         }
@@ -585,6 +597,28 @@ void writePng(const std::string& path, const Image& image, const ToneCurve& curv
     AtomicFile file(path);
     writePng(file, image, curve, text, bitDepth);
     file.commit();
+}
+
+bool pngReadsBack(const std::string& path)
+{
+    std::error_code ec;
+    if (!std::filesystem::is_regular_file(path, ec)) return false;
+    png_image image{};
+    image.version = PNG_IMAGE_VERSION;
+    if (!png_image_begin_read_from_file(&image, path.c_str())) {
+        png_image_free(&image);
+        return false;
+    }
+    image.format = PNG_FORMAT_RGBA;
+    const std::size_t bytes = PNG_IMAGE_SIZE(image);
+    if (bytes == 0 || bytes > (std::size_t(1) << 34)) {
+        png_image_free(&image);
+        return false;
+    }
+    std::vector<png_byte> pixels(bytes);
+    const bool ok = png_image_finish_read(&image, nullptr, pixels.data(), 0, nullptr) != 0;
+    png_image_free(&image);
+    return ok && (image.warning_or_error & PNG_IMAGE_ERROR) == 0;
 }
 
 } // namespace nebula

@@ -24,8 +24,9 @@ void requireFinite(const std::vector<float>& values, std::size_t stride, int wid
         const std::size_t x = pixel % std::size_t(width), y = pixel / std::size_t(width);
         throw Error(fmt::format(
             "{}: pixel ({}, {}) has {} = {}; not writing an image with non-finite values. "
-            "The radiance overflowed a float (3.4e38): a star's luminosity, --emission-scale or "
-            "--blackbody-scale is too large, or the camera is (almost) at a star",
+            "The radiance overflowed a float (3.4e38): a star's luminosity, kappa_V, "
+            "--emission-scale, --blackbody-scale or --temperature-scale is too large, or the "
+            "camera is (almost) at a star",
             path, x, y, prefix + names[i % stride],
             std::isnan(v) ? "NaN" : (v > 0 ? "inf" : "-inf")));
     }

@@ -1,6 +1,12 @@
 #include "nebula/io/volume_vdb.h"
 
 #include "nebula/core/error.h"
+#include "nebula/core/memory.h"
+
+#include <algorithm>
+#include <cstdint>
+#include <limits>
+#include <string>
 
 #include <openvdb/tree/LeafManager.h>
 
@@ -38,6 +44,34 @@ openvdb::CoordBBox activeBounds(const std::vector<openvdb::FloatGrid::ConstPtr>&
 DenseVolume denseFromGrids(const std::vector<openvdb::FloatGrid::ConstPtr>& grids,
                            const openvdb::CoordBBox& bounds, const std::string& source)
 {
+    // The lattice spans the grids' active bounding box: two voxels far apart would need more
+    // memory than the machine has (a clear error, before anything is allocated).
+    double voxels = 1.0;
+    for (int a = 0; a < 3; ++a)
+        voxels *= double(std::int64_t(bounds.max()[a]) - std::int64_t(bounds.min()[a]) + 1);
+    std::string names;
+    for (const auto& g : grids)
+        names += (names.empty() ? "\"" : ", \"") + g->getName() + "\"";
+    const auto extent = [&](int a) {
+        return std::to_string(std::int64_t(bounds.max()[a]) - std::int64_t(bounds.min()[a]) + 1);
+    };
+    const std::string what = source + ": grid" + (grids.size() > 1 ? "s " : " ") + names +
+                             ": the active voxels span " + extent(0) + " x " + extent(1) + " x " +
+                             extent(2) + " voxels; as the dense lattice the stages use";
+    try {
+        requireMemory(voxels * double(std::max<std::size_t>(grids.size(), 1)) * sizeof(float),
+                      what);
+        for (int a = 0; a < 3; ++a) {
+            if (std::int64_t(bounds.max()[a]) - std::int64_t(bounds.min()[a]) + 1 >
+                std::numeric_limits<int>::max()) {
+                throw UsageError(what + ", an axis longer than " +
+                                 std::to_string(std::numeric_limits<int>::max()) +
+                                 " voxels is not supported");
+            }
+        }
+    } catch (const UsageError& e) {
+        throw Error(e.what());
+    }
     const auto dim = bounds.dim();
     DenseVolume vol({bounds.min().x(), bounds.min().y(), bounds.min().z()},
                     {dim.x(), dim.y(), dim.z()}, int(grids.size()));

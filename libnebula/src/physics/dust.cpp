@@ -241,8 +241,9 @@ double ScatteringMedium::phaseFunction(double mu) const
 
 void DustParams::validate() const
 {
-    if (!(kappa_V > 0.0) || !std::isfinite(kappa_V)) {
-        throw UsageError("dust parameter kappa_V must be a finite number > 0 [pc^-1 cm^3], got " +
+    if (!(kappa_V > 0.0 && kappa_V <= MAX_KAPPA_V)) {
+        throw UsageError("dust parameter kappa_V must be > 0 and at most " +
+                         numberText(MAX_KAPPA_V) + " [pc^-1 cm^3] (Milky Way dust: 1.5e-3), got " +
                          numberText(kappa_V));
     }
     if (!(albedo >= 0.0 && albedo <= 1.0)) {
@@ -251,8 +252,10 @@ void DustParams::validate() const
     if (!(std::fabs(g) < 1.0)) {
         throw UsageError("dust parameter g must be in (-1, 1), got " + numberText(g));
     }
-    if (!(R_V > 0.0) || !std::isfinite(R_V)) {
-        throw UsageError("dust parameter R_V must be a finite number > 0, got " + numberText(R_V));
+    if (!(R_V >= MIN_R_V && R_V <= MAX_R_V)) {
+        throw UsageError("dust parameter R_V must be in [" + numberText(MIN_R_V) + ", " +
+                         numberText(MAX_R_V) + "] (Milky Way: 3.1; dense clouds up to 5.5), got " +
+                         numberText(R_V));
     }
     if (curve != "CCM89" && curve != "grey") {
         throw UsageError("dust parameter curve must be \"CCM89\" or \"grey\", got \"" + curve +

@@ -149,13 +149,15 @@ std::string shown(const nlohmann::json& value)
     return text;
 }
 
-/// True for a non-empty name of [A-Za-z0-9_-] only (grid names tau.<name> rely on it).
+/// True for a non-empty name of at most MAX_STAR_NAME_LENGTH characters of [A-Za-z0-9_-]
+/// only (grid names tau.<name> and EXR channels star.<name>.R rely on it).
 bool isValidStarName(const std::string& name)
 {
-    return !name.empty() && std::all_of(name.begin(), name.end(), [](char c) {
-        return (c >= 'A' && c <= 'Z') || (c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') ||
-               c == '_' || c == '-';
-    });
+    return !name.empty() && name.size() <= MAX_STAR_NAME_LENGTH &&
+           std::all_of(name.begin(), name.end(), [](char c) {
+               return (c >= 'A' && c <= 'Z') || (c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') ||
+                      c == '_' || c == '-';
+           });
 }
 
 } // namespace
@@ -274,10 +276,13 @@ std::vector<Star> parseStars(const std::string& json, const std::string& source)
             throw missing("name");
         }
         if (!name->is_string() || !isValidStarName(name->get<std::string>())) {
-            throw Error(where +
-                        ": \"name\" must be a string of letters, digits, '_' and '-', "
-                        "got " +
-                        shown(*name));
+            throw Error(
+                where + ": \"name\" must be a string of 1 to " +
+                std::to_string(MAX_STAR_NAME_LENGTH) + " letters, digits, '_' and '-', got " +
+                shown(*name) +
+                (name->is_string()
+                     ? " (" + std::to_string(name->get<std::string>().size()) + " characters)"
+                     : std::string()));
         }
         star.name = name->get<std::string>();
         where += " (\"" + star.name + "\")";

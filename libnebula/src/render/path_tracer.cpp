@@ -11,7 +11,10 @@
 #include "nebula/render/sprites.h"
 
 #include "nebula/core/error.h"
+#include "nebula/core/format.h"
 #include "nebula/core/rng.h"
+
+#include <fmt/format.h>
 
 #include <algorithm>
 #include <cmath>
@@ -252,12 +255,24 @@ void walk(const PathScene& ps, int cmax, bool grey, const Vec3& eye, const Vec3&
 
 } // namespace
 
+void requirePathWalks(const RenderOptions& opts)
+{
+    if (opts.spp <= 0) throw UsageError("--spp must be > 0, got " + std::to_string(opts.spp));
+    const double walks = double(opts.spp) * double(opts.camera.width) * double(opts.camera.height);
+    if (walks > MAX_PATH_WALKS) {
+        throw UsageError(fmt::format(
+            "--spp {} at {}x{} is {:.3g} random walks per frame; at most {:g} (the README's "
+            "reference, 256 spp at 512x512, is 6.7e+07); use fewer samples or pixels",
+            opts.spp, opts.camera.width, opts.camera.height, walks, MAX_PATH_WALKS));
+    }
+}
+
 Image renderPathTraced(const RenderScene& scene, const RenderOptions& opts, const Run* run,
                        RenderStats* stats)
 {
     const Camera& view = opts.camera;
     if (view.width <= 0 || view.height <= 0) throw UsageError("--res must be WxH with W, H > 0");
-    if (opts.spp <= 0) throw UsageError("--spp must be > 0, got " + std::to_string(opts.spp));
+    requirePathWalks(opts);
     const Projection cam(view);
     const int W = view.width, H = view.height;
     const std::size_t S = scene.stars.size();

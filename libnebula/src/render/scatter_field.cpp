@@ -101,7 +101,12 @@ void validateScatterOptions(const RenderScene& scene, const ScatterOptions& opts
                          " (the degree of the spherical harmonics), got " +
                          std::to_string(opts.order));
     }
-    if (opts.packets == 0) throw UsageError("--packets must be > 0");
+    if (opts.packets == 0 || opts.packets > MAX_PACKETS) {
+        throw UsageError(fmt::format(
+            "--packets must be in [1, {:g}] per source, got {} (the default 1e6 takes 15-60 s "
+            "per star on 2 cores, so {:g} would take 4-17 hours and more would not finish)",
+            double(MAX_PACKETS), opts.packets, double(MAX_PACKETS)));
+    }
     const auto& d = scene.fields.dims();
     const int extent = gridExtent(scene);
     if (opts.fieldLevel < 0 || (1 << std::min(opts.fieldLevel, 30)) > std::max(extent, 1)) {

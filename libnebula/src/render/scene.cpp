@@ -174,6 +174,7 @@ void readScatterField(const GridSet& grids, const RenderOptions& opts, const Dus
     std::array<double, 12> a0{};
     double minStar = 0.0;
     std::string densityName, emissionName;
+    detail::checkJsonBounds(metaText, grids.source, std::string(metaKey) + " metadata is ");
     try {
         meta = nlohmann::json::parse(metaText);
         order = meta.at("order").get<int>();
@@ -189,7 +190,8 @@ void readScatterField(const GridSet& grids, const RenderOptions& opts, const Dus
         densityName = meta.at("density_grid").get<std::string>();
         emissionName = meta.at("emission_grid").get<std::string>();
     } catch (const nlohmann::json::exception& e) {
-        throw Error(grids.source + ": " + metaKey + " metadata is not nebscatter's: " + e.what());
+        throw Error(grids.source + ": " + metaKey +
+                    " metadata is not nebscatter's: " + detail::jsonErrorText(e));
     }
     if (order < 0 || order > SH_MAX_DEGREE || level < 0 || level > 16) {
         throw Error(grids.source + ": " + metaKey + " has order " + std::to_string(order) +
@@ -360,6 +362,40 @@ void readScatterField(const GridSet& grids, const RenderOptions& opts, const Dus
 
 } // namespace
 
+namespace {
+
+/// The largest active value of @p grid (0 for none).
+float largestValue(const openvdb::FloatGrid& grid)
+{
+    float m = 0.0f;
+    for (auto it = grid.cbeginValueOn(); it; ++it)
+        m = std::max(m, *it);
+    return m;
+}
+
+/// Throws UsageError naming --emission-scale (and the grid's largest value) if @p scale times
+/// @p emission's largest value across @p lattice's diagonal exceeds MAX_RADIANCE.
+void requireFiniteEmission(const openvdb::FloatGrid& emission, double scale,
+                           const DenseVolume& lattice, const std::string& source)
+{
+    const double largest = largestValue(emission);
+    const auto& d = lattice.dims();
+    const Vec3 diagonal = lattice.indexToWorld.applyLinear(Vec3(d[0], d[1], d[2]));
+    const double length =
+        std::sqrt(diagonal.x * diagonal.x + diagonal.y * diagonal.y + diagonal.z * diagonal.z);
+    const double radiance = scale * largest * length;
+    if (!(radiance <= MAX_RADIANCE)) {
+        throw UsageError(source + ": --emission-scale " + detail::numberText(scale) +
+                         " times the emission grid \"" + emission.getName() +
+                         "\"'s largest value " + fmt::format("{:.4g}", largest) + " over " +
+                         fmt::format("{:.4g}", length) + " pc gives radiances up to " +
+                         fmt::format("{:.4g}", radiance) + ", beyond " +
+                         detail::numberText(MAX_RADIANCE) + "; use a smaller --emission-scale");
+    }
+}
+
+} // namespace
+
 RenderScene buildScene(const GridSet& grids, const RenderOptions& opts, const DustParams& dust)
 {
     RenderScene scene;
@@ -386,6 +422,7 @@ RenderScene buildScene(const GridSet& grids, const RenderOptions& opts, const Du
         fields.push_back(tau);
     }
     scene.fields = denseFromGrids(fields, activeBounds({density, fields[1]}, 1), grids.source);
+    requireFiniteEmission(*emission, opts.emissionScale, scene.fields, grids.source);
 
     for (const auto& s : scene.stars) {
         const auto c = blackbodyLinearSRGB(s.temperature);

@@ -20,6 +20,7 @@
 #include "frame.h"
 
 #include "nebula/core/error.h"
+#include "nebula/core/format.h"
 #include "nebula/io/grid_names.h"
 #include "nebula/io/spectral_grids.h"
 #include "nebula/io/volume_vdb.h"
@@ -33,6 +34,8 @@
 #include "nebula/volume/block_walk.h"
 
 #include <openvdb/tools/ValueTransformer.h>
+
+#include <fmt/format.h>
 
 #include <algorithm>
 #include <cmath>
@@ -122,9 +125,14 @@ void checkSpectralOptions(const RenderOptions& opts)
                          "scattering comes from nebscatter --spectral's field");
     }
     if (opts.levels > 0) throw UsageError("--spectral does not use pyramid levels (--levels)");
-    if (so.bands < 0) throw UsageError("--bands must be >= 1 (0: piecewise-linear spectra)");
-    if (!(so.continuumStep > 0.0 && so.continuumStep <= 50.0)) {
-        throw UsageError("--continuum-step must be in (0, 50] nm");
+    if (so.bands < 0 || so.bands > MAX_SPECTRAL_BANDS) {
+        throw UsageError(fmt::format("--bands must be in [1, {}] (bands of 0.1 nm at the most; 0: "
+                                     "piecewise-linear spectra), got {}",
+                                     MAX_SPECTRAL_BANDS, so.bands));
+    }
+    if (!(so.continuumStep >= MIN_CONTINUUM_STEP && so.continuumStep <= 50.0)) {
+        throw UsageError(fmt::format("--continuum-step must be in [{:g}, 50] nm, got {}",
+                                     MIN_CONTINUUM_STEP, detail::numberText(so.continuumStep)));
     }
     if (!(so.lineWidth > 0.0) || !std::isfinite(so.lineWidth)) {
         throw UsageError("--line-width must be a finite number > 0 [km/s]");
@@ -243,6 +251,17 @@ SpectralScene buildSpectralScene(const GridSet& grids, const RenderOptions& opts
     if (grids.find(so.temperatureGrid)) {
         temperature = grids.floatGrid(so.temperatureGrid, "--temperature-grid");
         requireValidTemperature(*temperature, grids.source);
+        float hottest = 0.0f;
+        for (auto it = temperature->cbeginValueOn(); it; ++it)
+            hottest = std::max(hottest, *it);
+        if (!(double(hottest) * so.temperatureScale <= MAX_STAR_TEMPERATURE)) {
+            throw UsageError(grids.source + ": --temperature-scale " +
+                             detail::numberText(so.temperatureScale) + " times grid \"" +
+                             so.temperatureGrid + "\"'s hottest voxel, " +
+                             fmt::format("{:.4g}", hottest) + " K, exceeds " +
+                             detail::numberText(MAX_STAR_TEMPERATURE) +
+                             " K, beyond any dust or star; use a smaller --temperature-scale");
+        }
     }
     const auto velocity = velocityComponents(grids, so);
 

@@ -1,5 +1,7 @@
 #include "nebula/stages/illuminate.h"
 
+#include "nebula/core/format.h"
+
 #include "nebula/io/grid_names.h"
 
 #include "nebula/core/error.h"
@@ -48,6 +50,15 @@ void addOpticalDepths(GridSet& products, const openvdb::FloatGrid& density,
             Progress bar(run, run.tool() + " " + star.name + suffix, support.points.size());
             tau = opticalDepthAt(n, s, dust.kappa_V, support.points,
                                  [&](std::size_t k) { bar.add(k); });
+        }
+        for (const float t : tau) {
+            if (!std::isfinite(t)) {
+                throw Error(products.source + ": the optical depth towards star \"" + star.name +
+                            "\" overflows: kappa_V = " + detail::numberText(dust.kappa_V) +
+                            " [pc^-1 cm^3] (nebula:dust or --kappa-v) times the density grid \"" +
+                            density.getName() +
+                            "\" is too large; check kappa_V and the grid's units (n_H [cm^-3])");
+            }
         }
         auto grid = gridFromField(n, tau, *support.grid);
         grid->setName(tauGridName(star.name) + suffix);

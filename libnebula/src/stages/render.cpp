@@ -44,6 +44,7 @@ std::string pngPath(const RenderOutput& out)
 void checkIntegratorOptions(const GridSet& grids, const RenderOptions& opts, const Run& run)
 {
     const bool path = opts.integrator == Integrator::Path;
+    if (path) requirePathWalks(opts);
     if (path && opts.levels > 0) {
         throw UsageError("--levels is for the fast integrator; --integrator path simulates "
                          "multiple scattering itself");
@@ -195,7 +196,7 @@ bool frameExists(const std::string& exr, const std::string& png)
 {
     std::error_code ec;
     if (!std::filesystem::is_regular_file(exr, ec)) return false;
-    if (!png.empty() && !std::filesystem::is_regular_file(png, ec)) return false;
+    if (!png.empty() && !pngReadsBack(png)) return false;
     try {
         readExr(exr, nullptr);
     } catch (const Error&) {

@@ -9,8 +9,10 @@
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <filesystem>
+#include <map>
 
 namespace nebula {
 
@@ -73,32 +75,111 @@ std::vector<long> framesOnDisk(const std::string& pattern)
     return frames;
 }
 
+double frameAttributeFps(const std::string& text, const std::string& where)
+{
+    const auto j = detail::parseJson(text, where, "attribute nebula:frame is ");
+    if (!j.is_object() || !j.contains("fps")) return 0.0;
+    const auto& v = j["fps"];
+    if (!v.is_number() || !(v.get<double>() >= 1e-3 && v.get<double>() <= 1e4)) {
+        throw Error(where + ": attribute nebula:frame has fps " + detail::printable(v.dump(), 40) +
+                    ", expected a number in [0.001, 10000]; give --fps");
+    }
+    return v.get<double>();
+}
+
+double luminanceAttributeWhite(const std::string& text, double percentile, const std::string& where)
+{
+    const auto j = detail::parseJson(text, where, "attribute nebula:luminance is ");
+    if (!j.is_object() || !j.contains("white") || !j["white"].is_number() ||
+        !j.contains("percentile") || !j["percentile"].is_number()) {
+        throw Error(where + ": attribute nebula:luminance lacks a numeric \"white\" or "
+                            "\"percentile\"");
+    }
+    if (j["percentile"].get<double>() != percentile) return -1.0;
+    const double w = j["white"].get<double>();
+    if (!(w >= 0.0) || !std::isfinite(w)) {
+        throw Error(where + ": attribute nebula:luminance has white point " +
+                    detail::numberText(w) + ", expected a finite number >= 0");
+    }
+    return w;
+}
+
 namespace {
 
-/// A frame's statistics: nebula:luminance if the EXR has it (and at the same percentile),
-/// else from its pixels.
-LuminanceStats frameStats(const std::string& exr, double percentile, double& fps)
+bool endsWithPng(const std::string& name)
 {
-    const auto attrs = readExrAttributes(exr);
+    if (name.size() < 4) return false;
+    std::string ext = name.substr(name.size() - 4);
+    std::transform(ext.begin(), ext.end(), ext.begin(),
+                   [](unsigned char c) { return char(std::tolower(c)); });
+    return ext == ".png";
+}
+
+/// A frame's statistics from its pixels (the frame is decoded whole, so a damaged frame is
+/// found before any PNG is written), and the fps its nebula:frame records (where @p fps is
+/// not set yet). A frame's nebula:luminance is only compared with its pixels: a warning when
+/// they disagree.
+LuminanceStats frameStats(const std::string& exr, long frame, double percentile, double& fps,
+                          const Run& run)
+{
+    std::map<std::string, std::string> attrs;
+    const Image img = readExr(exr, &attrs);
+    const std::string where = exr + " (frame " + std::to_string(frame) + ")";
     if (const auto it = attrs.find("nebula:frame"); it != attrs.end() && fps <= 0.0) {
-        const auto j = nlohmann::json::parse(it->second, nullptr, false);
-        if (j.is_object() && j.contains("fps") && j["fps"].is_number()) {
-            fps = j["fps"].get<double>();
-        }
+        fps = frameAttributeFps(it->second, where);
+    }
+    const LuminanceStats stats = luminanceStats(img, percentile);
+    if (!std::isfinite(stats.white) || !std::isfinite(stats.logMean)) {
+        throw Error(where + ": its luminance statistics are not finite (white point " +
+                    detail::numberText(stats.white) + ")");
     }
     if (const auto it = attrs.find("nebula:luminance"); it != attrs.end()) {
-        const auto j = nlohmann::json::parse(it->second, nullptr, false);
-        if (j.is_object() && j.value("percentile", -1.0) == percentile && j.contains("white") &&
-            j.contains("log_mean")) {
-            LuminanceStats s;
-            s.percentile = percentile;
-            s.white = j["white"].get<double>();
-            s.logMean = j["log_mean"].get<double>();
-            s.lit = j.value("lit_pixels", std::size_t(0));
-            if (std::isfinite(s.white) && std::isfinite(s.logMean)) return s;
+        std::string why;
+        try {
+            const double w = luminanceAttributeWhite(it->second, percentile, where);
+            if (w >= 0.0 && !(std::fabs(w - stats.white) <= 0.01 * stats.white)) {
+                why = "it says white point " + detail::numberText(w) + ", its pixels " +
+                      detail::numberText(stats.white);
+            }
+        } catch (const Error& e) {
+            why = e.what();
+        }
+        if (!why.empty()) {
+            run.warn(where + ": attribute nebula:luminance disagrees with the pixels (" +
+                     detail::printable(why, 160) + "); using the pixels");
         }
     }
-    return luminanceStats(readExr(exr, nullptr), percentile);
+    return stats;
+}
+
+/// Leaves out of the smoothing (with a warning) a lit frame whose white point is more than
+/// OUTLIER_FACTOR from the median of the sequence's lit frames: no genuine camera move
+/// changes the brightness a million-fold, and one such frame would set its neighbours'
+/// curves (black or blown out).
+constexpr double OUTLIER_FACTOR = 1e6;
+
+std::vector<LuminanceStats> withoutOutliers(const std::vector<LuminanceStats>& stats,
+                                            const std::vector<long>& frames, const Run& run)
+{
+    std::vector<double> whites;
+    for (const auto& s : stats)
+        if (s.white > 0.0) whites.push_back(s.white);
+    if (whites.size() < 3) return stats;
+    std::nth_element(whites.begin(), whites.begin() + std::ptrdiff_t(whites.size() / 2),
+                     whites.end());
+    const double median = whites[whites.size() / 2];
+    std::vector<LuminanceStats> kept = stats;
+    for (std::size_t i = 0; i < stats.size(); ++i) {
+        const double w = stats[i].white;
+        if (w > 0.0 && (w > OUTLIER_FACTOR * median || w < median / OUTLIER_FACTOR)) {
+            run.warn(fmt::format("frame {}: white point {} is more than {:g} times from the "
+                                 "sequence's median {}; left out of the smoothing",
+                                 frames[i], detail::numberText(w), OUTLIER_FACTOR,
+                                 detail::numberText(median)));
+            kept[i] = LuminanceStats{}; // as a black frame: its neighbours set its curve
+        }
+    }
+    return kept;
 }
 
 } // namespace
@@ -109,24 +190,32 @@ void toneSequence(const ToneSequenceOptions& opts, const Run& run)
         throw UsageError("-o " + opts.output +
                          ": expected PNG names with a frame pattern, e.g. display/f.####.png");
     }
+    if (!endsWithPng(opts.output)) {
+        throw UsageError("-o " + opts.output +
+                         ": nebtone writes PNG frames; the names must end in .png");
+    }
     std::vector<long> frames = opts.frames.empty() ? framesOnDisk(opts.input) : opts.frames;
     if (frames.empty()) {
         throw Error(opts.input + ": no frames found (no file matches the pattern)");
     }
+    // Every frame is read and checked before any PNG is written: all or nothing.
     double fps = opts.fps;
     std::vector<LuminanceStats> stats;
     for (const long f : frames) {
         const std::string exr = expandFramePattern(opts.input, f);
-        stats.push_back(frameStats(exr, opts.percentile, fps));
+        stats.push_back(frameStats(exr, f, opts.percentile, fps, run));
     }
     if (!(fps > 0.0)) fps = 24.0;
     std::vector<double> times;
     for (const long f : frames)
         times.push_back(double(f - 1) / fps);
-    const auto curves = sequenceToneCurves(times, stats, opts.window, opts.whole);
+    const bool smoothing = opts.whole || opts.window > 0.0;
+    const auto curves = sequenceToneCurves(
+        times, smoothing ? withoutOutliers(stats, frames, run) : stats, opts.window, opts.whole);
     const std::string how = opts.whole ? std::string("one curve for the sequence")
                                        : fmt::format("window {:g} s at {:g} fps", opts.window, fps);
     run.info(fmt::format("{} frames, {}", frames.size(), how));
+    std::size_t skipped = 0;
     for (std::size_t i = 0; i < frames.size(); ++i) {
         const std::string exr = expandFramePattern(opts.input, frames[i]);
         const std::string png = expandFramePattern(opts.output, frames[i]);
@@ -134,8 +223,10 @@ void toneSequence(const ToneSequenceOptions& opts, const Run& run)
             run.info(fmt::format("frame {}: white {:.6g} (its own {:.6g}), gamma {:.4g}", frames[i],
                                  curves[i].white, stats[i].white, curves[i].gamma));
         }
-        std::error_code ec;
-        if (opts.skipExisting && std::filesystem::is_regular_file(png, ec)) continue;
+        if (opts.skipExisting && pngReadsBack(png)) {
+            ++skipped;
+            continue;
+        }
         const Image img = readExr(exr, nullptr);
         AtomicFile file(png);
         writePng(file, img, curves[i],
@@ -147,7 +238,8 @@ void toneSequence(const ToneSequenceOptions& opts, const Run& run)
                  opts.bits);
         file.commit();
     }
-    run.info("wrote " + std::to_string(frames.size()) + " frames to " + opts.output);
+    run.info("wrote " + std::to_string(frames.size() - skipped) + " frames to " + opts.output +
+             (skipped ? fmt::format(" ({} existed and were skipped)", skipped) : std::string()));
 }
 
 } // namespace nebula

@@ -504,7 +504,7 @@ TEST(Cli, ParseVec3RefusesMagnitudesWhoseSquaresOverflow)
     EXPECT_THROW(nebula::cli::parseVec3("0,-1e151,0", "--up"), nebula::UsageError);
 }
 
-// checkConfigFile: each line a comment, [default], key = value with a known key and a value
+// checkConfigText: each line a comment, [default], key = value with a known key and a value
 // the option's number check accepts, or an array's continuation; messages name file and line.
 TEST(CliChecks, ConfigFileLines)
 {
@@ -522,9 +522,8 @@ TEST(CliChecks, ConfigFileLines)
     app.add_option("--scale", scale)->check(nebula::cli::positive());
     nebula::cli::checkNumbers(app);
     const auto check = [&](const std::string& text) {
-        std::ofstream(file, std::ios::binary | std::ios::trunc) << text;
         try {
-            nebula::cli::checkConfigFile(app, file, "nebtest");
+            nebula::cli::checkConfigText(app, text, file, "nebtest");
         } catch (const nebula::UsageError& e) {
             return std::string(e.what());
         }
@@ -546,6 +545,8 @@ TEST(CliChecks, ConfigFileLines)
               at + "1: --threads: expected an integer in [0, 4096], got -1");
     EXPECT_EQ(check("scale = \"nan\"\n"), at + "1: --scale: expected a finite number > 0, got nan");
     EXPECT_EQ(check("list = [\"a\",\n\"b\",\n"), at + "2: the array opened with '[' is not closed");
+    EXPECT_EQ(check("threads = 2\nquiet\nthreads = 3\n"),
+              at + "3: --threads is set again (line 1 set it first); give each option once");
     EXPECT_EQ(check("config = other.toml\n"),
               at + "1: a config file cannot name another config file");
     EXPECT_EQ(check(std::string("threads = 2\nab\0cd\n", 18)),

@@ -169,7 +169,7 @@ TEST_F(StarsFileTest, FileThenEachStarOption)
     opts.star.clear();
     opts.starsFile = (dir / "missing.json").string();
     msg = errorMessage([&] { nebula::cli::loadStars(opts); });
-    EXPECT_EQ(msg.rfind(opts.starsFile + ": ", 0), 0u) << msg;
+    EXPECT_EQ(msg.rfind(opts.starsFile + " (--stars): cannot open file", 0), 0u) << msg;
     const std::string broken = (dir / "broken.json").string();
     std::ofstream(broken) << "[{\"name\": ";
     opts.starsFile = broken;

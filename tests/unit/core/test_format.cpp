@@ -126,4 +126,38 @@ TEST(ParseJson, NumberTooLargeForADoubleIsAnError)
     EXPECT_TRUE(contains(msg, "1e999")) << msg;
 }
 
+// checkJsonBounds(): depth counted over arrays and objects outside strings, one pass; the
+// limit is MAX_JSON_DEPTH, the size MAX_JSON_BYTES; parseJson() applies it first.
+TEST(JsonBounds, DepthAndSizeAreBoundedBeforeParsing)
+{
+    using nebula::detail::MAX_JSON_DEPTH;
+    const auto nested = [](std::size_t n) { return std::string(n, '[') + std::string(n, ']'); };
+    EXPECT_NO_THROW(parseJson(nested(MAX_JSON_DEPTH), "a.json"));
+    std::string msg = errorMessage([&] { parseJson(nested(MAX_JSON_DEPTH + 1), "a.json"); });
+    EXPECT_EQ(msg, "a.json: JSON nested deeper than 64 levels (at byte 65); nebula's documents "
+                   "nest a few levels");
+    msg = errorMessage([&] { parseJson(nested(100000), "a.json", "the camera path is "); });
+    EXPECT_TRUE(contains(msg, "a.json: the camera path is JSON nested deeper than 64")) << msg;
+    // Objects count as arrays do; brackets in strings (escaped quotes too) do not count.
+    std::string objects;
+    for (int i = 0; i < MAX_JSON_DEPTH + 1; ++i)
+        objects += "{\"k\":";
+    objects += "1" + std::string(std::size_t(MAX_JSON_DEPTH + 1), '}');
+    EXPECT_TRUE(contains(errorMessage([&] { parseJson(objects, "o"); }), "deeper than 64"));
+    const std::string inString =
+        "[\"" + std::string(1000, '[') + "\\\"" + std::string(1000, '{') + "\"]";
+    EXPECT_EQ(parseJson(inString, "s")[0].get<std::string>().size(), 2001u);
+    // Unbalanced closers never make the count negative enough to hide a deep tail.
+    EXPECT_TRUE(
+        contains(errorMessage([&] { parseJson("]]]]" + nested(70), "u"); }), "deeper than 64"));
+    // Size.
+    const std::string big(nebula::detail::MAX_JSON_BYTES + 1, ' ');
+    EXPECT_TRUE(contains(errorMessage([&] { parseJson(big, "big"); }),
+                         "big: a JSON document of 16777217 bytes, more than the 16777216"));
+    // Library messages lose their "[json.exception...]" prefix.
+    msg = errorMessage([&] { parseJson("[1,", "t.json"); });
+    EXPECT_FALSE(contains(msg, "json.exception")) << msg;
+    EXPECT_TRUE(contains(msg, "t.json: not valid JSON: ")) << msg;
+}
+
 } // namespace

@@ -602,3 +602,43 @@ TEST(GridChecks, RequireAffine)
 }
 
 } // namespace
+
+// No file is written with two grids of one name or a non-finite voxel, and none is read with
+// two grids of one name: both named.
+TEST_F(GridIoTest, DuplicateNamesAndNonFiniteVoxelsAreRefused)
+{
+    GridSet twice = sampleSet();
+    twice.grids.push_back(floatGrid("density", 2.0f));
+    std::string msg = errorMessage([&] { nebula::writeGrids(path("twice.vdb"), twice, "t", "c"); });
+    EXPECT_TRUE(contains(msg, "grids 1 and 4 are both named \"density\"")) << msg;
+    EXPECT_FALSE(fs::exists(path("twice.vdb")));
+    // As another program would write it: refused on reading.
+    {
+        openvdb::io::File f(path("foreign.vdb"));
+        f.write(twice.grids);
+        f.close();
+    }
+    msg = errorMessage([&] { nebula::readGrids(path("foreign.vdb")); });
+    EXPECT_EQ(msg, path("foreign.vdb") + ": grids 1 and 4 are both named \"density\"; a nebula "
+                                         "file holds each grid name once");
+    for (const float bad :
+         {std::numeric_limits<float>::infinity(), std::numeric_limits<float>::quiet_NaN()}) {
+        GridSet set = sampleSet();
+        auto tau = floatGrid("tau.alpha", 1.0f);
+        tau->tree().setValue(openvdb::Coord(4, 5, 6), bad);
+        set.grids.push_back(tau);
+        msg = errorMessage([&] { nebula::writeGrids(path("inf.vdb"), set, "t", "c"); });
+        EXPECT_TRUE(contains(msg, "grid \"tau.alpha\" has a non-finite value at voxel (4, 5, 6)"))
+            << msg;
+        EXPECT_FALSE(fs::exists(path("inf.vdb")));
+    }
+    GridSet vec = sampleSet();
+    auto v = openvdb::Vec3fGrid::create(openvdb::Vec3f(0.0f));
+    v->setName("velocity2");
+    v->tree().setValue(openvdb::Coord(1, 1, 1),
+                       openvdb::Vec3f(0.0f, std::numeric_limits<float>::infinity(), 0.0f));
+    vec.grids.push_back(v);
+    msg = errorMessage([&] { nebula::writeGrids(path("vec.vdb"), vec, "t", "c"); });
+    EXPECT_TRUE(contains(msg, "grid \"velocity2\" has a non-finite value at voxel (1, 1, 1)"))
+        << msg;
+}

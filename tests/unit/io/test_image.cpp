@@ -624,3 +624,22 @@ TEST_F(ImageTest, PixelsOutOfViewAreTransparentInThePng)
         EXPECT_EQ(png.rgba[std::size_t(c)], 0) << c;
     EXPECT_EQ(png.rgba[11], 255);
 }
+
+// Channel names OpenEXR would truncate are refused (so that <layer>.R, .G and .B never
+// collide), at the limit: a layer name of 253 characters is written and read back whole.
+TEST_F(ImageTest, ChannelNamesBeyondOpenExrsLimitAreRefused)
+{
+    nebula::Image img(2, 2);
+    nebula::ImageLayer layer;
+    layer.name = std::string(nebula::EXR_MAX_CHANNEL_NAME - 2, 'x');
+    layer.rgb.assign(2 * 2 * 3, 0.5f);
+    img.layers.push_back(layer);
+    nebula::writeExr(file("ok.exr"), img, {});
+    const auto back = nebula::readExr(file("ok.exr"), nullptr);
+    ASSERT_EQ(back.layers.size(), 1u);
+    EXPECT_EQ(back.layers[0].name, layer.name);
+    img.layers[0].name += "y";
+    expectErrorContaining([&] { nebula::writeExr(file("long.exr"), img, {}); },
+                          "has 256 characters; OpenEXR keeps 255");
+    EXPECT_FALSE(fs::exists(file("long.exr")));
+}

@@ -122,13 +122,16 @@ void checkNumbers(CLI::App& app);
 void refuseSharedStream(const std::vector<std::pair<std::string, std::string>>& paths,
                         const std::string& stream);
 
-/// Checks the text of config file @p path for @p app before CLI11 reads it: every line must be
-/// blank, a comment (# or ;), [default], "key = value" with a key that is an option of @p app
-/// (a bare flag name also), or the continuation of a [multi-line, array]; a single value
-/// must pass the option's number check (integerIn(), numberIn()). Throws UsageError
-/// naming the file and line ("--config: cfg.toml, line 3: unknown option \"rez\"
-/// ..."); binary content is named by its first non-text byte, never echoed.
-void checkConfigFile(CLI::App& app, const std::string& path, const std::string& tool);
+/// Checks the text of config file @p path (read once by run(), readInput(): a pipe or
+/// /dev/stdin as the stream it is, at most MAX_TEXT_INPUT_BYTES) for @p app before CLI11 reads
+/// the same text: every line must be blank, a comment (# or ;), [default], "key = value" with
+/// a key that is an option of @p app (a bare flag name also), set once, or the continuation
+/// of a [multi-line, array]; a single value must pass the option's number check (integerIn(),
+/// numberIn()). Throws UsageError naming the file and line ("--config: cfg.toml, line 3:
+/// unknown option \"rez\" ..."); binary content is named by its first non-text byte, never
+/// echoed.
+void checkConfigText(CLI::App& app, const std::string& text, const std::string& path,
+                     const std::string& tool);
 
 /// Throws UsageError("<option> needs <mode>") for the first of @p options that was given
 /// while @p enabled is false (options that only mean something in a mode, e.g. --spectral).

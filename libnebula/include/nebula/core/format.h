@@ -36,21 +36,72 @@ inline std::string printable(const std::string& text, std::size_t maxChars = 200
     return out;
 }
 
-/// Parses @p text; on failure throws Error "<source>: <what>not valid JSON: <detail>", where
-/// detail is nlohmann's message without its "[json.exception.parse_error.101] " prefix
-/// (parse errors, and out_of_range for a number too large for a double).
+/// nlohmann's message for a user, without its "[json.exception.type_error.302] " prefix and
+/// made printable.
+inline std::string jsonErrorText(const nlohmann::json::exception& e)
+{
+    std::string detail = e.what();
+    const auto bracket = detail.find("] ");
+    if (detail.rfind("[json.exception", 0) == 0 && bracket != std::string::npos) {
+        detail.erase(0, bracket + 2);
+    }
+    return printable(detail);
+}
+
+/// The deepest nesting of arrays and objects any JSON input of nebula may have (its own
+/// documents nest 4 levels at most).
+inline constexpr int MAX_JSON_DEPTH = 64;
+/// The largest JSON document nebula parses [bytes] (the same as input.h's
+/// MAX_TEXT_INPUT_BYTES, for documents that come from metadata rather than files).
+inline constexpr std::size_t MAX_JSON_BYTES = std::size_t(16) << 20;
+
+/// Throws Error "<source>: <what>..." if @p text is larger than MAX_JSON_BYTES or nests
+/// arrays and objects deeper than MAX_JSON_DEPTH. One pass, no recursion, before any JSON
+/// library sees the text (whose parser, destructor and messages would otherwise recurse over
+/// a document 100,000 levels deep).
+inline void checkJsonBounds(const std::string& text, const std::string& source,
+                            const std::string& what = "")
+{
+    if (text.size() > MAX_JSON_BYTES) {
+        throw Error(source + ": " + what + "a JSON document of " + std::to_string(text.size()) +
+                    " bytes, more than the " + std::to_string(MAX_JSON_BYTES) + " nebula reads");
+    }
+    int depth = 0;
+    bool inString = false;
+    for (std::size_t i = 0; i < text.size(); ++i) {
+        const char c = text[i];
+        if (inString) {
+            if (c == '\\') {
+                ++i;
+            } else if (c == '"') {
+                inString = false;
+            }
+        } else if (c == '"') {
+            inString = true;
+        } else if (c == '[' || c == '{') {
+            if (++depth > MAX_JSON_DEPTH) {
+                throw Error(source + ": " + what + "JSON nested deeper than " +
+                            std::to_string(MAX_JSON_DEPTH) + " levels (at byte " +
+                            std::to_string(i + 1) + "); nebula's documents nest a few levels");
+            }
+        } else if (c == ']' || c == '}') {
+            --depth;
+        }
+    }
+}
+
+/// Parses @p text (checkJsonBounds() first); on failure throws Error "<source>: <what>not
+/// valid JSON: <detail>", where detail is nlohmann's message without its
+/// "[json.exception.parse_error.101] " prefix (parse errors, and out_of_range for a number
+/// too large for a double).
 inline nlohmann::json parseJson(const std::string& text, const std::string& source,
                                 const std::string& what = "")
 {
+    checkJsonBounds(text, source, what);
     try {
         return nlohmann::json::parse(text);
     } catch (const nlohmann::json::exception& e) {
-        std::string detail = e.what();
-        const auto bracket = detail.find("] ");
-        if (detail.rfind("[json.exception", 0) == 0 && bracket != std::string::npos) {
-            detail.erase(0, bracket + 2);
-        }
-        throw Error(source + ": " + what + "not valid JSON: " + printable(detail));
+        throw Error(source + ": " + what + "not valid JSON: " + jsonErrorText(e));
     }
 }
 

@@ -29,11 +29,16 @@ struct FrameRange
     long first = 1;
     long last = 1;
     long step = 1;
+    long count() const; ///< the number of frames, without listing them
     std::vector<long> frames() const;
 };
 
-/// Parses "N", "A-B" or "A-B:STEP" (frames numbered from 1; A <= B; STEP >= 1), naming
-/// @p option in a UsageError otherwise.
+/// The most frames one range may hold (11.6 hours at 24 fps): a range is checked against this
+/// (and a camera path's length) before its frames are listed.
+inline constexpr long MAX_FRAMES = 1000000;
+
+/// Parses "N", "A-B" or "A-B:STEP" (frames numbered from 1; A <= B; STEP >= 1; at most
+/// MAX_FRAMES frames), naming @p option in a UsageError otherwise.
 FrameRange parseFrameRange(const std::string& text, const std::string& option);
 
 } // namespace nebula

@@ -68,6 +68,7 @@ private:
     std::atomic<std::uint64_t> mDone{0};
     std::mutex mMutex;
     std::chrono::steady_clock::time_point mLast;
+    std::chrono::steady_clock::time_point mStart;
 };
 
 } // namespace nebula

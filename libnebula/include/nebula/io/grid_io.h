@@ -60,18 +60,20 @@ struct GridSet
     void setMetaString(const std::string& key, const std::string& value);
 };
 
-/// Reads every grid of @p path ("-" = stdin). The whole file or stream is read into memory
-/// and its structure checked (checkVdbStructure()) before OpenVDB parses it, and the grids
-/// are verified against `nebula:checksums` where the file has it. Throws Error naming the
-/// file (and grid): missing, not a VDB, truncated, damaged or unreadable.
-GridSet readGrids(const std::string& path);
+/// Reads every grid of @p path ("-" = stdin), given by @p option (for messages). The file or
+/// stream is read once (readInput(): its first 8 bytes must be the VDB magic number, and it
+/// may hold at most MAX_GRID_INPUT_BYTES and the machine's memory) and its structure checked
+/// (checkVdbStructure()) before OpenVDB parses it; grid names must be unique; the grids are
+/// verified against `nebula:checksums` where the file has it. Throws Error naming the file
+/// (and grid): missing, not a VDB, too large, truncated, damaged or unreadable.
+GridSet readGrids(const std::string& path, const std::string& option = "-i");
 
 /// readGrids() of a whole file or stream already in memory; @p source names it in messages.
 /// (The fuzzer's entry point: tests/fuzz.)
 GridSet readGridsFromMemory(const std::string& bytes, const std::string& source);
 
 /// readGrids(), reporting what it read under -v ("read <file>: 3 grids: density, ...").
-GridSet readGrids(const std::string& path, const Run& run);
+GridSet readGrids(const std::string& path, const Run& run, const std::string& option = "-i");
 
 /// "N grids: name, name, ..." (for -v reports).
 std::string describeGrids(const GridSet& grids);

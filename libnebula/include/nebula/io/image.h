@@ -42,6 +42,10 @@ struct Image
     Image(int w, int h) : width(w), height(h), rgba(std::size_t(w) * h * 4, 0.0f) {}
 };
 
+/// The longest EXR channel name OpenEXR keeps (longer ones are truncated); writeExr() refuses
+/// a layer or channel whose name would exceed it.
+inline constexpr std::size_t EXR_MAX_CHANNEL_NAME = 255;
+
 /// Writes @p image as a float (32-bit) ZIP-compressed EXR: channels R,G,B,A, each layer's
 /// <name>.R/G/B and each single channel under its name. @p attributes become string header
 /// attributes (e.g. "nebula:command"), "comments" is set if present. Atomic (AtomicFile). Throws
@@ -131,5 +135,10 @@ void writePng(const std::string& path, const Image& image, const ToneCurve& curv
 /// writePng() into an open AtomicFile, finished but not committed (see writeExr()).
 void writePng(AtomicFile& file, const Image& image, const ToneCurve& curve,
               const std::map<std::string, std::string>& text, int bitDepth = 8);
+
+/// True if @p path is a regular file that decodes whole as a PNG (its header, every row and
+/// the end chunk, CRCs checked): what --skip-existing requires of a PNG it keeps. A missing,
+/// empty, truncated or damaged file gives false.
+bool pngReadsBack(const std::string& path);
 
 } // namespace nebula

@@ -92,6 +92,15 @@ struct ScatteringMedium
     double phaseFunction(double mu) const;
 };
 
+/// The range of kappa_V [pc^-1 cm^3] DustParams::validate() accepts: Milky Way dust has
+/// 1.5e-3; a billion times that still gives finite optical depths for any density a float grid
+/// holds over any grid a float can place (each stage also checks its optical depths).
+inline constexpr double MAX_KAPPA_V = 1e6;
+/// The range of R_V (CCM89): measured sight lines lie within 2.1-5.6 (Fitzpatrick 1999); below 1
+/// the curve's b(x)/R_V term runs away.
+inline constexpr double MIN_R_V = 1.0;
+inline constexpr double MAX_R_V = 10.0;
+
 /// The dust of every stage (DESIGN §2-3): its scattering (the Monte Carlo medium, albedo a,
 /// asymmetry g, phase model) plus its extinction: kappa_V and the curve A(lambda)/A_V. The
 /// renderers extend it with their channels' extinction ratios (render/scene.h ChannelDust).

@@ -8,10 +8,15 @@
 
 namespace nebula {
 
+/// The longest star name [characters]. Every name derived from it stays unique and within its
+/// format's limits: grids (tau.<name>, scatter.spectral.<name>.c4_4.780nm) and EXR channels
+/// (star.<name>.R, within OpenEXR's 255).
+inline constexpr std::size_t MAX_STAR_NAME_LENGTH = 64;
+
 /// A point source. Travels as the file metadata `nebula:stars`.
 struct Star
 {
-    std::string name;                        ///< [A-Za-z0-9_-]+, used in grid names tau.<name>
+    std::string name;                        ///< [A-Za-z0-9_-]{1,64}, used in grid names tau.<name>
     std::array<double, 3> position{0, 0, 0}; ///< world position [pc]
     double luminosity = 1.0;                 ///< bolometric-free scale [L_sun], > 0
     double temperature = 5772.0;             ///< effective temperature [K], > 0

@@ -25,6 +25,16 @@ enum class Integrator { Fast, Path };
 enum class PhaseUse { Replace, Gain };
 
 /// nebrender --spectral (DESIGN §7): spectra along each ray instead of three channels.
+/// Work bounds (README, Failure behaviour): a spectrum resolved finer than 0.1 nm, or a path
+/// traced frame of more random walks than MAX_PATH_WALKS, is refused before any work starts.
+/// The most fixed bands (--bands): 0.1 nm wide over 360-830 nm.
+inline constexpr int MAX_SPECTRAL_BANDS = 4700;
+/// The finest continuum node spacing (--continuum-step) [nm]: 4701 nodes over 360-830 nm.
+inline constexpr double MIN_CONTINUUM_STEP = 0.1;
+/// The most random walks in one path-traced frame (--spp x pixels): 150 times the README's
+/// reference (256 spp at 512x512, 6.7e7 walks).
+inline constexpr double MAX_PATH_WALKS = 1e10;
+
 struct SpectralOptions
 {
     bool enabled = false;

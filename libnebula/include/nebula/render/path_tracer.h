@@ -21,6 +21,10 @@ namespace nebula {
 /// whatever the thread count). Output: the beauty R,G,B (the mean), A = 1 - T_G, layers
 /// star.<name> (sprites only), "transmittance" (ratio-tracked, per channel) and "variance"
 /// (variance of each channel's pixel mean, i.e. the squared standard error).
+/// Throws UsageError unless opts.spp > 0 and opts.spp x the pixels is at most MAX_PATH_WALKS
+/// (the estimate and the bound in the message). nebrender checks it before loading the scene.
+void requirePathWalks(const RenderOptions& opts);
+
 Image renderPathTraced(const RenderScene& scene, const RenderOptions& opts,
                        const Run* run = nullptr, RenderStats* stats = nullptr);
 

@@ -30,6 +30,10 @@
 
 namespace nebula {
 
+/// The most packets per source (--packets), a work bound (README, Failure behaviour): the
+/// default 1e6 takes 15-60 s per star on 2 cores, 1e9 some hours.
+inline constexpr std::uint64_t MAX_PACKETS = 1000000000;
+
 /// What nebscatter computes and how hard it tries.
 struct ScatterOptions
 {
@@ -37,7 +41,8 @@ struct ScatterOptions
     /// Field cells of 2^k x 2^k x 2^k voxels (nebpyramid's level k layout); AUTO_FIELD_LEVEL:
     /// autoFieldLevel()'s choice (the stage resolves it before computing).
     int fieldLevel = 1;
-    /// Packets per source: all stars together (or each star with perStar), and the emission.
+    /// Packets per source: all stars together (or each star with perStar), and the emission;
+    /// at most MAX_PACKETS.
     std::uint64_t packets = 1000000;
     std::uint64_t seed = 1;
     bool perStar = false; ///< one field per star instead of their sum

@@ -87,6 +87,12 @@ struct RenderScene
 /// transform; UsageError if it would be combined with a phase table or pyramid levels.
 RenderScene buildScene(const GridSet& grids, const RenderOptions& opts, const DustParams& dust);
 
+/// The largest radiance any option or value may produce before a frame is rendered
+/// [L_sun pc^-2 sr^-1]: far beyond any nebula, and 3e8 times short of a float's limit, so
+/// that sums over pixels and channels stay finite. buildScene() refuses an --emission-scale
+/// that would exceed it across the grid, naming the option and the grid's largest value.
+inline constexpr double MAX_RADIANCE = 1e30;
+
 /// The most ray-march steps a ray may take across a scene's lattice (corner to corner).
 inline constexpr double MAX_STEPS_PER_RAY = 1e6;
 

@@ -25,7 +25,7 @@ struct ToneSequenceOptions
     bool whole = false;       ///< one curve for the whole sequence (window "all")
     double fps = 0.0;         ///< frames per second; 0: the EXRs' nebula:frame, else 24
     int bits = 8;             ///< PNG bit depth, 8 or 16
-    double percentile = 99.5; ///< white point, for EXRs without nebula:luminance
+    double percentile = 99.5; ///< white point: this percentile of the lit pixels' luminance
     bool skipExisting = false;
 };
 
@@ -42,8 +42,24 @@ std::vector<ToneCurve> sequenceToneCurves(const std::vector<double>& times,
 /// UsageError if @p pattern has no frame pattern or it is in a folder name.
 std::vector<long> framesOnDisk(const std::string& pattern);
 
-/// nebtone: reads each frame's statistics (nebula:luminance, or its pixels), computes the
-/// curves (sequenceToneCurves()) and writes each PNG atomically.
+/// The fps a frame's nebula:frame attribute (JSON, @p text) records, 0 if none. Throws Error
+/// naming @p where for text that is not bounded JSON (checkJsonBounds()) or an fps outside
+/// [0.001, 10000].
+double frameAttributeFps(const std::string& text, const std::string& where);
+
+/// The white point a frame's nebula:luminance attribute (JSON, @p text) records at
+/// @p percentile, or -1 if it was taken at another percentile. Throws Error naming @p where for
+/// text that is not bounded JSON, lacks a numeric "white" or "percentile", or whose white
+/// point is negative or not finite.
+double luminanceAttributeWhite(const std::string& text, double percentile,
+                               const std::string& where);
+
+/// nebtone: reads every frame whole and its statistics from its pixels before it writes any
+/// PNG (a damaged or missing frame fails the run with no PNG written; a frame's
+/// nebula:luminance that disagrees with its pixels is a warning), leaves a frame whose white
+/// point is a million-fold from the sequence's median out of the smoothing (a warning),
+/// computes the curves (sequenceToneCurves()) and writes each PNG atomically. Output names
+/// must end in .png; --skip-existing skips a frame whose PNG decodes whole (pngReadsBack()).
 void toneSequence(const ToneSequenceOptions& opts, const Run& run);
 
 } // namespace nebula

@@ -1,0 +1,61 @@
+#pragma once
+/// @file input.h
+/// Every input's way in, the counterpart of atomic_file.h: a file, "-" (stdin), /dev/stdin,
+/// /dev/fd/N, a FIFO or a process substitution is read once, as the stream it is, with a size
+/// limit, and the format's first bytes are checked as soon as they arrive, before the rest is
+/// read. So an endless or huge input (/dev/zero, gigabytes of anything on a pipe) is refused
+/// after its first bytes or at the limit, naming the file and the option, never read whole
+/// first; and a config file from a pipe is the same text that is checked and applied.
+
+#include <cstdint>
+#include <functional>
+#include <string>
+#include <string_view>
+
+namespace nebula {
+
+/// The largest JSON document (stars, dust, camera paths, metadata) or config file read [bytes].
+inline constexpr std::uint64_t MAX_TEXT_INPUT_BYTES = std::uint64_t(16) << 20;
+/// The largest VDB file or stream read [bytes] (also refused beyond the machine's memory).
+inline constexpr std::uint64_t MAX_GRID_INPUT_BYTES = std::uint64_t(64) << 30;
+
+/// What readInput() reads and how it recognises it.
+struct InputSpec
+{
+    /// Names the input in messages with its option, e.g. "--stars", "-i", "--config".
+    std::string option;
+    /// The format in words, for messages: "a JSON file", "a VDB file", "a config file".
+    std::string format;
+    std::uint64_t limit = MAX_TEXT_INPUT_BYTES;
+    /// Checks the first bytes: returns true once @p head (everything read so far) is known
+    /// to start as this format, false while it needs more bytes (it is called again with
+    /// more, and with @p atEnd true at the end of the input), and throws Error naming
+    /// @p source when the bytes cannot be this format. Empty: no check.
+    std::function<bool(std::string_view head, bool atEnd, const std::string& source)> head;
+    /// Also refuse an input larger than the machine's memory (requireMemory()).
+    bool checkMemory = false;
+};
+
+/// The name of @p path in messages: "<stdin>" for "-", else the path.
+std::string inputName(const std::string& path);
+
+/// Reads all of @p path ("-" = stdin) as @p spec says. Throws Error "<path> (<option>): ..."
+/// ("<path>: ..." for -i, the tool's main input, as every later message about it reads)
+/// when it cannot be opened or read, is a folder, is larger than spec.limit (a regular
+/// file's size is checked before reading; a stream is refused as soon as it passes the
+/// limit; both sizes in the message), or its head is not the format. A terminal on stdin is
+/// a UsageError.
+std::string readInput(const std::string& path, const InputSpec& spec);
+
+/// A head check for JSON: the first byte that is not white space must open an object or an
+/// array (@p opens, e.g. "[" or "{["). An empty or all-blank input is refused too.
+std::function<bool(std::string_view, bool, const std::string&)> jsonHead(const std::string& opens,
+                                                                         const std::string& what);
+
+/// A head check for text (config files): no NUL or other control byte except tab, CR and LF
+/// in the first 4 KiB. Messages start with @p name ("--config: c.toml"), or with readInput()'s
+/// name of the input if @p name is empty.
+std::function<bool(std::string_view, bool, const std::string&)>
+textHead(const std::string& name = "");
+
+} // namespace nebula

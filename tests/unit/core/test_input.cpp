@@ -1,0 +1,137 @@
+/// @file test_input.cpp
+/// core/input.h: every input read once, as the stream it is: a regular file's size checked
+/// before reading, a pipe refused as it passes the limit, the head checked after the first
+/// bytes (so an endless stream is refused at once), folders and missing files named.
+
+#include "nebula/core/input.h"
+
+#include "nebula/core/error.h"
+
+#include "test_util.h"
+
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <csignal>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <random>
+#include <string>
+#include <thread>
+
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+namespace fs = std::filesystem;
+
+using nebula::InputSpec;
+using nebula::readInput;
+using nebula::test::contains;
+using nebula::test::errorMessage;
+
+namespace {
+
+class Input : public ::testing::Test
+{
+protected:
+    void SetUp() override
+    {
+        std::random_device rd;
+        dir = fs::temp_directory_path() /
+              ("nebula_input_" + std::to_string(::getpid()) + "_" + std::to_string(rd()));
+        fs::create_directories(dir);
+    }
+    void TearDown() override
+    {
+        std::error_code ec;
+        fs::remove_all(dir, ec);
+    }
+    std::string path(const std::string& name) const { return (dir / name).string(); }
+    fs::path dir;
+};
+
+InputSpec jsonSpec(std::uint64_t limit)
+{
+    InputSpec spec;
+    spec.option = "--stars";
+    spec.format = "a JSON file";
+    spec.limit = limit;
+    spec.head = nebula::jsonHead("[", "a JSON array of stars");
+    return spec;
+}
+
+TEST_F(Input, RegularFilesAreReadWholeWithinTheLimit)
+{
+    std::ofstream(path("a.json")) << "  [1, 2]\n";
+    EXPECT_EQ(readInput(path("a.json"), jsonSpec(100)), "  [1, 2]\n");
+    // One byte over: refused by its size, before reading; both sizes named.
+    std::ofstream(path("b.json")) << "[" << std::string(100, ' ') << "]";
+    const std::string msg = errorMessage([&] { readInput(path("b.json"), jsonSpec(100)); });
+    EXPECT_EQ(msg, path("b.json") + " (--stars): the file has 102 B, more than the 100 B nebula "
+                                    "reads of a JSON file (README, Failure behaviour)");
+}
+
+TEST_F(Input, HeadsAreCheckedAfterTheFirstBytes)
+{
+    std::ofstream(path("c.json")) << "\n\t {\"a\": 1}";
+    EXPECT_EQ(errorMessage([&] { readInput(path("c.json"), jsonSpec(100)); }),
+              path("c.json") + " (--stars): not a JSON array of stars: it starts with '{', "
+                               "expected '['");
+    std::ofstream(path("blank.json")) << " \n ";
+    EXPECT_EQ(errorMessage([&] { readInput(path("blank.json"), jsonSpec(100)); }),
+              path("blank.json") + " (--stars): empty: expected a JSON array of stars");
+    // /dev/zero never ends: its first byte decides.
+    const auto start = std::chrono::steady_clock::now();
+    EXPECT_TRUE(contains(errorMessage([&] { readInput("/dev/zero", jsonSpec(1 << 30)); }),
+                         "/dev/zero (--stars): not a JSON array of stars: it starts with byte "
+                         "0x00"));
+    EXPECT_LT(std::chrono::steady_clock::now() - start, std::chrono::seconds(5));
+    // Text heads (config files) name the line and column of the first control byte.
+    InputSpec text;
+    text.option = "--config";
+    text.format = "a config file";
+    text.head = nebula::textHead();
+    std::ofstream(path("c.toml"), std::ios::binary) << "res = 16\nseed\x01 = 2\n";
+    EXPECT_EQ(errorMessage([&] { readInput(path("c.toml"), text); }),
+              path("c.toml") + " (--config), line 2: byte 0x01 at column 5 is not text; a config "
+                               "file holds lines \"key = value\"");
+}
+
+TEST_F(Input, PipesAreStreamsReadOnceUpToTheLimit)
+{
+    // A FIFO, as a process substitution gives: its bytes read once, as they arrive.
+    const std::string fifo = path("f.json");
+    ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+    std::thread writer([&] {
+        std::ofstream out(fifo, std::ios::binary);
+        out << "[" << std::string(5000, ' ') << "]";
+    });
+    EXPECT_EQ(readInput(fifo, jsonSpec(10000)).size(), 5002u);
+    writer.join();
+    // More than the limit: refused as it passes it, naming the limit.
+    std::thread writer2([&] {
+        std::signal(SIGPIPE, SIG_IGN);
+        std::ofstream out(fifo, std::ios::binary);
+        out << "[" << std::string(200000, ' ') << "]";
+    });
+    EXPECT_EQ(errorMessage([&] { readInput(fifo, jsonSpec(100000)); }),
+              fifo + " (--stars): more than 97.7 KiB arrived, the most nebula reads of a JSON "
+                     "file (README, Failure behaviour)");
+    writer2.join();
+}
+
+TEST_F(Input, FoldersAndMissingFilesAreNamed)
+{
+    EXPECT_EQ(errorMessage([&] { readInput(dir.string(), jsonSpec(100)); }),
+              dir.string() + " (--stars): is a folder, not a JSON file");
+    EXPECT_EQ(errorMessage([&] { readInput(path("none.json"), jsonSpec(100)); }),
+              path("none.json") + " (--stars): cannot open file (No such file or directory)");
+    InputSpec vdb = jsonSpec(100);
+    vdb.option = "-i";
+    EXPECT_EQ(errorMessage([&] { readInput(path("none.vdb"), vdb); }),
+              path("none.vdb") + ": cannot open file (No such file or directory)");
+}
+
+} // namespace
