@@ -170,6 +170,8 @@ TEST_F(Hardening, DeepJsonIsRefusedInEveryConsumer)
             expectClean(cmd, 1, "nested deeper than 64 levels");
         }
     }
+    expectClean("nebphase --t-count 2 --mu-bins 2 --photons 100 -i deepdust.vdb -o x.vdb", 1,
+                "nested deeper than 64 levels");
     expectClean("nebillum -i deephistory.vdb -o x.vdb", 1,
                 "metadata nebula:history is JSON nested deeper than 64 levels");
 }
@@ -335,6 +337,17 @@ TEST_F(Hardening, NebtoneSequencesAreAllOrNothing)
     EXPECT_TRUE(nebula::pngReadsBack(path("k/f.0002.png")));
     EXPECT_EQ(fs::last_write_time(path("k/f.0004.png")), whole);
     EXPECT_NE(r.err.find("wrote 2 frames"), std::string::npos) << r.err;
+    // nebrender's --skip-existing re-renders a frame whose PNG does not decode whole.
+    ASSERT_EQ(run("mkdir r && nebrender -i lit.vdb --camera-path path.json --res 16x16 "
+                  "-o 'r/f.####.exr'")
+                  .code,
+              0);
+    fs::resize_file(path("r/f.0002.png"), fs::file_size(path("r/f.0002.png")) - 20);
+    r = run("nebrender -i lit.vdb --camera-path path.json --res 16x16 --skip-existing -v "
+            "-o 'r/f.####.exr'");
+    ASSERT_EQ(r.code, 0) << r.err;
+    EXPECT_TRUE(nebula::pngReadsBack(path("r/f.0002.png")));
+    EXPECT_NE(r.err.find("4 of 5 frames existed and were skipped"), std::string::npos) << r.err;
 }
 
 // Two voxels a million voxels apart: a clear refusal naming the file, the grid and both

@@ -49,6 +49,16 @@ void Progress::add(std::uint64_t n)
     draw(false);
 }
 
+std::string timeLeftText(double elapsed, double fraction)
+{
+    if (!(fraction > 0.0 && fraction < 1.0) || !(elapsed > 2.0)) return "";
+    const double left = elapsed * (1.0 - fraction) / fraction;
+    return left < 120.0      ? fmt::format(" {:.0f} s left", left)
+           : left < 7200.0   ? fmt::format(" {:.0f} min left", left / 60.0)
+           : left < 172800.0 ? fmt::format(" {:.1f} h left", left / 3600.0)
+                             : fmt::format(" {:.0f} days left", left / 86400.0);
+}
+
 void Progress::draw(bool final)
 {
     const double f = std::min(1.0, double(mDone.load()) / double(mTotal));
@@ -56,18 +66,13 @@ void Progress::draw(bool final)
     const int filled = int(f * width + 0.5);
     std::string bar(std::size_t(filled), '#');
     bar.resize(std::size_t(width), '.');
-    // The time left, once there is enough of a rate to tell it (padded so that a shorter
-    // text overwrites a longer one).
-    std::string eta;
-    const double elapsed =
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - mStart).count();
-    if (!final && f > 0.0 && elapsed > 2.0) {
-        const double left = elapsed * (1.0 - f) / f;
-        eta = left < 120.0    ? fmt::format(" {:.0f} s left", left)
-              : left < 7200.0 ? fmt::format(" {:.0f} min left", left / 60.0)
-              : left < 172800 ? fmt::format(" {:.1f} h left", left / 3600.0)
-                              : fmt::format(" {:.0f} days left", left / 86400.0);
-    }
+    // The time left, once there is enough of a rate to tell it.
+    std::string eta =
+        final
+            ? std::string()
+            : timeLeftText(
+                  std::chrono::duration<double>(std::chrono::steady_clock::now() - mStart).count(),
+                  f);
     eta.resize(std::max<std::size_t>(eta.size(), 16), ' ');
     std::fprintf(stderr, "\r%s [%s] %3d%%%s%s", mLabel.c_str(), bar.c_str(), int(f * 100 + 0.5),
                  final ? "" : eta.c_str(), final ? "                \n" : "");

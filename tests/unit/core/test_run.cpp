@@ -226,3 +226,17 @@ TEST(Run, ProgressOnANullRunDoesNothingAndCounts)
 }
 
 } // namespace
+
+// The time left a progress bar shows: the rate so far extrapolated, in the unit that reads
+// best; nothing before 2 s of work (no rate yet) or when done.
+TEST(Run, TimeLeftIsExtrapolatedFromTheRateSoFar)
+{
+    EXPECT_EQ(nebula::timeLeftText(1.0, 0.5), "");
+    EXPECT_EQ(nebula::timeLeftText(10.0, 0.0), "");
+    EXPECT_EQ(nebula::timeLeftText(10.0, 1.0), "");
+    EXPECT_EQ(nebula::timeLeftText(10.0, 0.25), " 30 s left");
+    EXPECT_EQ(nebula::timeLeftText(60.0, 0.2), " 4 min left");
+    EXPECT_EQ(nebula::timeLeftText(3600.0, 0.25), " 3.0 h left");
+    // 2^40 packets at a million per 15 s: what the bound on --packets prevents.
+    EXPECT_EQ(nebula::timeLeftText(15.0, 1e6 / 1099511627776.0), " 191 days left");
+}

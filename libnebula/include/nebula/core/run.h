@@ -46,8 +46,15 @@ private:
     bool mProgress = false;
 };
 
+/// " 12 s left", " 7 min left", " 3.2 h left", " 41 days left": the time a task that has run
+/// @p elapsed seconds and done @p fraction of its work needs to finish at its rate so far;
+/// "" until it has run 2 s (or when done). What a progress bar shows after its percentage.
+std::string timeLeftText(double elapsed, double fraction);
+
 /// A thread-safe progress bar on stderr, drawn only when the run shows progress; redrawn at
-/// most 10 times a second with '\r', finished with a newline. A null run draws nothing.
+/// most 10 times a second with '\r' (with the time left, timeLeftText()), finished with a
+/// newline. A null run draws nothing.
+
 class Progress
 {
 public:
