@@ -280,6 +280,12 @@ TEST_F(Hardening, WorkThatWouldNotFinishIsRefusedAtOnce)
     expectClean("nebrender -i lit.vdb --camera-path path.json --frames 2-9:2 --res 8x8 "
                 "-o 'f.####.exr'",
                 2, "frame 6 is beyond the end of path.json, which has 5 frames");
+    expectClean("nebphase --photons 10000000000 -o x.vdb", 2,
+                "10000000000 photons per t; at most 1e+09");
+    expectClean("nebphase --t-count 1000 --photons 1000000000 -o x.vdb", 2,
+                "--t-count 1000 x 1000000000 photons per t is 1e+12 photons; at most 1e+11");
+    expectClean("nebphase --slab --tau 1 --photons 100000000000", 2,
+                "--photons must be in [1, 1e10] for --slab");
     expectClean("nebtone -i 'f.####.exr' --frames 1-1000000000 -o 'f.####.png'", 2,
                 "at most 1000000 frames in one range");
 }

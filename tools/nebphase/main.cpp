@@ -23,6 +23,9 @@
 #include <sstream>
 #include <string>
 
+/// The most photons of a --slab run (a work bound, README "Failure behaviour").
+constexpr std::uint64_t MAX_SLAB_PHOTONS = 10000000000ULL;
+
 namespace {
 
 using nebula::detail::numberText;
@@ -202,7 +205,11 @@ void slabMode(const nebula::Run& run, const nebula::CommonOptions& common,
     }
     nebula::McSettings set;
     set.photons = opts.photons.value_or(opts.slabPhotons);
-    if (set.photons == 0) throw nebula::UsageError("--photons must be > 0");
+    if (set.photons == 0 || set.photons > MAX_SLAB_PHOTONS) {
+        throw nebula::UsageError("--photons must be in [1, 1e10] for --slab (1e6, the default, "
+                                 "takes about a second), got " +
+                                 std::to_string(set.photons));
+    }
     set.seed = opts.table.seed;
     set.muBins = 2 * opts.bins;
     set.estimator =

@@ -38,6 +38,19 @@ void PhaseTableSpec::validate() const
     if (!(targetError > 0.0) || !std::isfinite(targetError)) {
         throw UsageError("--error must be a finite number > 0, got " + numberText(targetError));
     }
+    // Work bounds: photons per t, and in all (README, Failure behaviour).
+    if (maxPhotons > MAX_PHOTONS_PER_T) {
+        throw UsageError("--photons / --max-photons: " + std::to_string(maxPhotons) +
+                         " photons per t; at most " + numberText(double(MAX_PHOTONS_PER_T)) +
+                         " (the default is at most 4194304, about a second per t on 2 cores)");
+    }
+    const double total = double(tCount) * double(maxPhotons);
+    if (total > MAX_TABLE_PHOTONS) {
+        throw UsageError("--t-count " + std::to_string(tCount) + " x " +
+                         std::to_string(maxPhotons) + " photons per t is " + numberText(total) +
+                         " photons; at most " + numberText(MAX_TABLE_PHOTONS) +
+                         " (the default table: 64 x 4194304 = 2.7e+08)");
+    }
     // phi, error and single, and the three grids they are written as.
     requireMemory(double(tCount) * double(muBins) * 6.0 * sizeof(float),
                   "--t-count " + std::to_string(tCount) + " x --mu-bins " + std::to_string(muBins) +

@@ -12,6 +12,10 @@
 
 namespace nebula {
 
+/// Work bounds of a table (PhaseTableSpec::validate()): photons per t, and in all.
+inline constexpr std::uint64_t MAX_PHOTONS_PER_T = 1000000000;
+inline constexpr double MAX_TABLE_PHOTONS = 1e11;
+
 /// What to tabulate and how accurately.
 struct PhaseTableSpec
 {
