@@ -5,6 +5,7 @@
 #include "nebula/io/grid_io.h"
 
 #include <openvdb/openvdb.h>
+#include <png.h>
 
 #include <gtest/gtest.h>
 
@@ -119,6 +120,23 @@ inline double maxValue(const openvdb::FloatGrid& g)
     for (auto it = g.cbeginValueOn(); it; ++it)
         m = std::max(m, double(*it));
     return m;
+}
+
+/// The RGBA pixels of an 8-bit or 16-bit PNG, as 8-bit RGBA (libpng's simplified API), and
+/// its size; empty on failure.
+inline std::vector<unsigned char> pngPixels(const std::string& p, int* width = nullptr,
+                                            int* height = nullptr)
+{
+    png_image image{};
+    image.version = PNG_IMAGE_VERSION;
+    std::vector<unsigned char> pixels;
+    if (!png_image_begin_read_from_file(&image, p.c_str())) return pixels;
+    image.format = PNG_FORMAT_RGBA;
+    pixels.resize(PNG_IMAGE_SIZE(image));
+    if (!png_image_finish_read(&image, nullptr, pixels.data(), 0, nullptr)) pixels.clear();
+    if (width) *width = int(image.width);
+    if (height) *height = int(image.height);
+    return pixels;
 }
 
 /// Writes @p grids as another program would: with OpenVDB, and without nebula's checksums of

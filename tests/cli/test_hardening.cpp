@@ -9,7 +9,6 @@
 #include "nebula/physics/stars.h"
 
 #include <openvdb/openvdb.h>
-#include <png.h>
 
 #include <gtest/gtest.h>
 
@@ -27,19 +26,6 @@ namespace {
 std::string deepArray(std::size_t depth)
 {
     return std::string(depth, '[') + std::string(depth, ']');
-}
-
-/// The RGBA pixels of a PNG (libpng's simplified API); empty on failure.
-std::vector<unsigned char> pngPixels(const std::string& p)
-{
-    png_image image{};
-    image.version = PNG_IMAGE_VERSION;
-    std::vector<unsigned char> pixels;
-    if (!png_image_begin_read_from_file(&image, p.c_str())) return pixels;
-    image.format = PNG_FORMAT_RGBA;
-    pixels.resize(PNG_IMAGE_SIZE(image));
-    if (!png_image_finish_read(&image, nullptr, pixels.data(), 0, nullptr)) pixels.clear();
-    return pixels;
 }
 
 void writeText(const std::string& p, const std::string& text)

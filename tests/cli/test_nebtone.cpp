@@ -5,11 +5,8 @@
 
 #include "nebula/io/image.h"
 
-#include <png.h>
-
 #include <gtest/gtest.h>
 
-#include <cstring>
 #include <fstream>
 #include <map>
 #include <string>
@@ -25,22 +22,6 @@ std::string bytesOf(const std::string& p)
     std::ostringstream s;
     s << in.rdbuf();
     return s.str();
-}
-
-/// The RGBA pixels of a PNG at @p bits per sample (libpng's simplified API); empty on failure.
-std::vector<unsigned char> pngPixels(const std::string& p, int& width, int& height)
-{
-    png_image image;
-    std::memset(&image, 0, sizeof image);
-    image.version = PNG_IMAGE_VERSION;
-    std::vector<unsigned char> pixels;
-    if (!png_image_begin_read_from_file(&image, p.c_str())) return pixels;
-    image.format = PNG_FORMAT_RGBA;
-    pixels.resize(PNG_IMAGE_SIZE(image));
-    if (!png_image_finish_read(&image, nullptr, pixels.data(), 0, nullptr)) pixels.clear();
-    width = int(image.width);
-    height = int(image.height);
-    return pixels;
 }
 
 } // namespace
@@ -67,8 +48,8 @@ TEST_F(Cli, NebtoneTonesASequenceWithOneSmoothCurve)
     EXPECT_NE(r.err.find("5 frames, window 1 s at 8 fps"), std::string::npos) << r.err;
     // A static camera: the same frames, the same curve, the same pixels.
     int w = 0, h = 0;
-    const auto first = pngPixels(path("d/f.0001.png"), w, h);
-    const auto last = pngPixels(path("d/f.0005.png"), w, h);
+    const auto first = pngPixels(path("d/f.0001.png"), &w, &h);
+    const auto last = pngPixels(path("d/f.0005.png"), &w, &h);
     ASSERT_EQ(first.size(), std::size_t(24 * 24 * 4));
     EXPECT_EQ(first, last);
     std::size_t lit = 0;

@@ -16,7 +16,6 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
-#include <random>
 #include <string>
 #include <thread>
 
@@ -33,24 +32,7 @@ using nebula::test::errorMessage;
 
 namespace {
 
-class Input : public ::testing::Test
-{
-protected:
-    void SetUp() override
-    {
-        std::random_device rd;
-        dir = fs::temp_directory_path() /
-              ("nebula_input_" + std::to_string(::getpid()) + "_" + std::to_string(rd()));
-        fs::create_directories(dir);
-    }
-    void TearDown() override
-    {
-        std::error_code ec;
-        fs::remove_all(dir, ec);
-    }
-    std::string path(const std::string& name) const { return (dir / name).string(); }
-    fs::path dir;
-};
+using Input = nebula::test::TempFolder;
 
 InputSpec jsonSpec(std::uint64_t limit)
 {

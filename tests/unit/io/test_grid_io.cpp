@@ -20,7 +20,6 @@
 #include <fstream>
 #include <iostream>
 #include <limits>
-#include <random>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -35,25 +34,14 @@ using nebula::test::errorMessage;
 
 namespace {
 
-class GridIoTest : public ::testing::Test
+class GridIoTest : public nebula::test::TempFolder
 {
 protected:
     void SetUp() override
     {
         openvdb::initialize();
-        std::random_device rd;
-        dir = fs::temp_directory_path() /
-              ("nebula_grid_io_" + std::to_string(::getpid()) + "_" + std::to_string(rd()));
-        fs::create_directories(dir);
+        TempFolder::SetUp();
     }
-    void TearDown() override
-    {
-        std::error_code ec;
-        fs::remove_all(dir, ec);
-    }
-    std::string path(const std::string& name) const { return (dir / name).string(); }
-
-    fs::path dir;
 };
 
 openvdb::FloatGrid::Ptr floatGrid(const std::string& name, float scale)
