@@ -41,30 +41,25 @@ openvdb::CoordBBox activeBounds(const std::vector<openvdb::FloatGrid::ConstPtr>&
     return box;
 }
 
-DenseVolume denseFromGrids(const std::vector<openvdb::FloatGrid::ConstPtr>& grids,
-                           const openvdb::CoordBBox& bounds, const std::string& source)
+DenseVolume emptyDenseVolume(const openvdb::CoordBBox& bounds, int channels,
+                             const std::string& what)
 {
     // The lattice spans the grids' active bounding box: two voxels far apart would need more
     // memory than the machine has (a clear error, before anything is allocated).
     double voxels = 1.0;
     for (int a = 0; a < 3; ++a)
         voxels *= double(std::int64_t(bounds.max()[a]) - std::int64_t(bounds.min()[a]) + 1);
-    std::string names;
-    for (const auto& g : grids)
-        names += (names.empty() ? "\"" : ", \"") + g->getName() + "\"";
     const auto extent = [&](int a) {
         return std::to_string(std::int64_t(bounds.max()[a]) - std::int64_t(bounds.min()[a]) + 1);
     };
-    const std::string what = source + ": grid" + (grids.size() > 1 ? "s " : " ") + names +
-                             ": the active voxels span " + extent(0) + " x " + extent(1) + " x " +
-                             extent(2) + " voxels; as the dense lattice the stages use";
+    const std::string span = what + ": the active voxels span " + extent(0) + " x " + extent(1) +
+                             " x " + extent(2) + " voxels; as the dense lattice the stages use";
     try {
-        requireMemory(voxels * double(std::max<std::size_t>(grids.size(), 1)) * sizeof(float),
-                      what);
+        requireMemory(voxels * double(std::max(channels, 1)) * sizeof(float), span);
         for (int a = 0; a < 3; ++a) {
             if (std::int64_t(bounds.max()[a]) - std::int64_t(bounds.min()[a]) + 1 >
                 std::numeric_limits<int>::max()) {
-                throw UsageError(what + ", an axis longer than " +
+                throw UsageError(span + ", an axis longer than " +
                                  std::to_string(std::numeric_limits<int>::max()) +
                                  " voxels is not supported");
             }
@@ -73,8 +68,59 @@ DenseVolume denseFromGrids(const std::vector<openvdb::FloatGrid::ConstPtr>& grid
         throw Error(e.what());
     }
     const auto dim = bounds.dim();
-    DenseVolume vol({bounds.min().x(), bounds.min().y(), bounds.min().z()},
-                    {dim.x(), dim.y(), dim.z()}, int(grids.size()));
+    return DenseVolume({bounds.min().x(), bounds.min().y(), bounds.min().z()},
+                       {dim.x(), dim.y(), dim.z()}, channels);
+}
+
+namespace {
+
+/// Applies @p op(value, active value) to channel @p c of every lattice point of @p vol where
+/// @p grid has an active voxel or tile: leaves in parallel (each writes its own voxels), then
+/// tiles serially.
+template <typename Op>
+void forEachActive(DenseVolume& vol, const openvdb::FloatGrid& grid, int c, const Op& op)
+{
+    openvdb::tree::LeafManager<const openvdb::FloatTree> leaves(grid.tree());
+    leaves.foreach ([&](const openvdb::FloatTree::LeafNodeType& leaf, std::size_t) {
+        for (auto it = leaf.cbeginValueOn(); it; ++it) {
+            const auto& p = it.getCoord();
+            if (vol.contains(p.x(), p.y(), p.z())) {
+                float& v = vol.voxel(vol.index(p.x(), p.y(), p.z()))[c];
+                v = op(v, *it);
+            }
+        }
+    });
+    const auto& lo = vol.lo();
+    const auto& dims = vol.dims();
+    const openvdb::CoordBBox bounds(
+        openvdb::Coord(lo[0], lo[1], lo[2]),
+        openvdb::Coord(lo[0] + dims[0] - 1, lo[1] + dims[1] - 1, lo[2] + dims[2] - 1));
+    auto it = grid.tree().cbeginValueOn();
+    it.setMaxDepth(openvdb::FloatTree::ValueOnCIter::LEAF_DEPTH - 1); // tiles only
+    for (; it; ++it) {
+        openvdb::CoordBBox tile;
+        it.getBoundingBox(tile);
+        tile.intersect(bounds);
+        // A tile outside the bounds leaves an empty box, which OpenVDB's box iterator
+        // does not notice in x and y: skip it rather than write out of the lattice.
+        if (tile.empty()) continue;
+        for (auto p = tile.beginXYZ(); p; ++p) {
+            float& v = vol.voxel(vol.index((*p).x(), (*p).y(), (*p).z()))[c];
+            v = op(v, *it);
+        }
+    }
+}
+
+} // namespace
+
+DenseVolume denseFromGrids(const std::vector<openvdb::FloatGrid::ConstPtr>& grids,
+                           const openvdb::CoordBBox& bounds, const std::string& source)
+{
+    std::string names;
+    for (const auto& g : grids)
+        names += (names.empty() ? "\"" : ", \"") + g->getName() + "\"";
+    DenseVolume vol = emptyDenseVolume(bounds, int(grids.size()),
+                                       source + ": grid" + (grids.size() > 1 ? "s " : " ") + names);
     if (!grids.empty()) vol.indexToWorld = affineFromTransform(grids[0]->transform());
     for (std::size_t c = 0; c < grids.size(); ++c) {
         const auto& grid = *grids[c];
@@ -83,31 +129,16 @@ DenseVolume denseFromGrids(const std::vector<openvdb::FloatGrid::ConstPtr>& grid
                         "\" does not share the transform of grid \"" + grids[0]->getName() +
                         "\"; resample it onto the same voxels first");
         }
-        // Leaves in parallel (each writes its own voxels), then tiles serially.
-        openvdb::tree::LeafManager<const openvdb::FloatTree> leaves(grid.tree());
-        leaves.foreach ([&](const openvdb::FloatTree::LeafNodeType& leaf, std::size_t) {
-            for (auto it = leaf.cbeginValueOn(); it; ++it) {
-                const auto& p = it.getCoord();
-                if (vol.contains(p.x(), p.y(), p.z())) {
-                    vol.voxel(vol.index(p.x(), p.y(), p.z()))[c] = *it;
-                }
-            }
-        });
-        auto it = grid.tree().cbeginValueOn();
-        it.setMaxDepth(openvdb::FloatTree::ValueOnCIter::LEAF_DEPTH - 1); // tiles only
-        for (; it; ++it) {
-            openvdb::CoordBBox tile;
-            it.getBoundingBox(tile);
-            tile.intersect(bounds);
-            // A tile outside the bounds leaves an empty box, which OpenVDB's box iterator
-            // does not notice in x and y: skip it rather than write out of the lattice.
-            if (tile.empty()) continue;
-            for (auto p = tile.beginXYZ(); p; ++p) {
-                vol.voxel(vol.index((*p).x(), (*p).y(), (*p).z()))[c] = *it;
-            }
-        }
+        forEachActive(vol, grid, int(c), [](float, float value) { return value; });
     }
     return vol;
+}
+
+void addGridToVolume(DenseVolume& vol, const openvdb::FloatGrid& grid, int channel, double factor,
+                     double scale)
+{
+    forEachActive(vol, grid, channel,
+                  [&](float sum, float value) { return sum + float(factor * value * scale); });
 }
 
 openvdb::FloatGrid::Ptr gridFromField(const DenseVolume& lattice, const std::vector<float>& field,

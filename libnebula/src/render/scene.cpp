@@ -5,9 +5,9 @@
 #include "nebula/core/units.h"
 #include "nebula/io/grid_io.h"
 #include "nebula/io/grid_names.h"
+#include "nebula/io/scatter_field_vdb.h"
 #include "nebula/io/volume_vdb.h"
 #include "nebula/physics/colour.h"
-#include "nebula/physics/spherical_harmonics.h"
 #include "nebula/render/scatter_field.h"
 
 #include <fmt/format.h>
@@ -124,12 +124,12 @@ RenderLevel readLevel(const GridSet& grids, const RenderOptions& opts,
     return level;
 }
 
-/// "a, b, c" of three numbers.
-std::string tripleText(const nlohmann::json& v)
+/// "a, b, c" of the numbers.
+std::string listText(const std::vector<double>& v)
 {
     std::string t;
-    for (const auto& x : v)
-        t += (t.empty() ? "" : ", ") + numberText(x.get<double>());
+    for (const double x : v)
+        t += (t.empty() ? "" : ", ") + numberText(x);
     return t;
 }
 
@@ -138,73 +138,54 @@ bool close(double a, double b, double rel = 1e-9)
     return std::abs(a - b) <= rel * std::max({std::abs(a), std::abs(b), 1e-300});
 }
 
-/// Reads nebscatter's field (DESIGN §5b) into scene.scatter, checking that it was made for
-/// this scene; see buildScene(). @p spectral: the spectral field (nebscatter --spectral,
-/// for the spectral renderer) instead of the R, G, B one.
+/// What differs between the stars a field was made for and the scene's ("" if nothing):
+/// names, places, colours, and (for a summed field) luminosities; a per-star field is
+/// scaled to the scene's.
+std::string starDifference(const std::vector<Star>& fieldStars, const std::vector<Star>& stars,
+                           bool perStar)
+{
+    if (fieldStars.size() != stars.size()) {
+        return std::to_string(fieldStars.size()) + " stars, the scene has " +
+               std::to_string(stars.size());
+    }
+    for (std::size_t s = 0; s < fieldStars.size(); ++s) {
+        const Star& a = fieldStars[s];
+        const Star& b = stars[s];
+        if (a.name != b.name) {
+            return "star " + std::to_string(s + 1) + " \"" + a.name + "\", the scene's is \"" +
+                   b.name + "\"";
+        }
+        if (!close(a.position[0], b.position[0]) || !close(a.position[1], b.position[1]) ||
+            !close(a.position[2], b.position[2])) {
+            return "star \"" + a.name + "\" at another position";
+        }
+        if (!close(a.temperature, b.temperature)) {
+            return "star \"" + a.name + "\" at " + numberText(a.temperature) +
+                   " K, the scene's at " + numberText(b.temperature) + " K";
+        }
+        if (!perStar && !close(a.luminosity, b.luminosity)) {
+            return "star \"" + a.name + "\" of luminosity " + numberText(a.luminosity) +
+                   " L_sun, the scene's is " + numberText(b.luminosity) +
+                   " (nebscatter --per-star makes a field that follows the luminosity)";
+        }
+    }
+    return "";
+}
+
+/// Reads nebscatter's field (DESIGN §5b, io/scatter_field_vdb.h) into scene.scatter, checking
+/// that it was made for this scene; see buildScene(). @p spectral: the spectral field
+/// (nebscatter --spectral, for the spectral renderer) instead of the R, G, B one.
 void readScatterField(const GridSet& grids, const RenderOptions& opts, const DustParams& dust,
                       RenderScene& scene, bool spectral)
 {
-    const char* metaKey = spectral ? META_SCATTER_SPECTRAL : META_SCATTER;
-    const std::string metaText = grids.metaString(metaKey);
-    if (metaText.empty()) {
-        for (const auto& g : grids.grids) {
-            const std::string& name = g->getName();
-            const bool spectralGrid = name.rfind(SPECTRAL_SCATTER_PREFIX, 0) == 0;
-            if (spectral ? spectralGrid : name.rfind("scatter.", 0) == 0 && !spectralGrid) {
-                throw Error(grids.source + ": grid \"" + name + "\" looks like a " +
-                            (spectral ? "spectral " : "") +
-                            "scattered-light field but the file has no " + metaKey +
-                            " metadata saying what it was made for; rerun nebscatter" +
-                            (spectral ? " --spectral" : "") + ", or pass --no-scatter-field");
-            }
-        }
-        return;
-    }
+    const auto found = readScatterFieldMeta(grids, spectral);
+    if (!found) return;
+    const ScatterFieldMeta& meta = *found;
     const std::string what = grids.source + ": the " + (spectral ? "spectral " : "") +
                              "scattered-light field (nebscatter" + (spectral ? " --spectral" : "") +
                              ")";
     const std::string rerun = "; rerun nebscatter" + std::string(spectral ? " --spectral" : "") +
                               " on this scene, or pass --no-scatter-field";
-    nlohmann::json meta;
-    int order = 0, level = 0;
-    std::vector<std::string> sources;
-    std::vector<Star> fieldStars;
-    DustParams fieldDust;
-    std::vector<double> wl;
-    std::array<double, 12> a0{};
-    double minStar = 0.0;
-    std::string densityName, emissionName;
-    detail::checkJsonBounds(metaText, grids.source, std::string(metaKey) + " metadata is ");
-    try {
-        meta = nlohmann::json::parse(metaText);
-        order = meta.at("order").get<int>();
-        level = meta.at("level").get<int>();
-        for (const auto& src : meta.at("sources"))
-            sources.push_back(src.at("name").get<std::string>());
-        fieldStars = parseStars(meta.at("stars").dump(), grids.source + " (" + metaKey + ")");
-        fieldDust =
-            DustParams::fromJson(meta.at("dust").dump(), grids.source + " (" + metaKey + ")");
-        wl = meta.at("wavelengths").get<std::vector<double>>();
-        a0 = meta.at("index_to_world").get<std::array<double, 12>>();
-        minStar = meta.at("min_star_distance").get<double>();
-        densityName = meta.at("density_grid").get<std::string>();
-        emissionName = meta.at("emission_grid").get<std::string>();
-    } catch (const nlohmann::json::exception& e) {
-        throw Error(grids.source + ": " + metaKey +
-                    " metadata is not nebscatter's: " + detail::jsonErrorText(e));
-    }
-    if (order < 0 || order > SH_MAX_DEGREE || level < 0 || level > 16) {
-        throw Error(grids.source + ": " + metaKey + " has order " + std::to_string(order) +
-                    " and level " + std::to_string(level) + "; expected 0..4 and 0..16");
-    }
-    bool wlOk = spectral ? wl.size() >= 2 : wl.size() == 3;
-    for (std::size_t i = 0; i < wl.size() && wlOk; ++i)
-        wlOk = std::isfinite(wl[i]) && wl[i] > 0.0 && (i == 0 || wl[i] > wl[i - 1] || !spectral);
-    if (!wlOk) {
-        throw Error(grids.source + ": " + metaKey + " has wavelengths " +
-                    tripleText(meta.at("wavelengths")) + "; expected " +
-                    (spectral ? "at least 2 increasing" : "3 (R, G, B)") + " wavelengths > 0 nm");
-    }
     if (opts.phaseTable || opts.levels > 0) {
         throw UsageError(grids.source +
                          " has a scattered-light field (nebscatter), which "
@@ -213,6 +194,7 @@ void readScatterField(const GridSet& grids, const RenderOptions& opts, const Dus
                          "--no-scatter-field to use the table and levels instead");
     }
     // Dust.
+    const DustParams& fieldDust = meta.dust;
     const bool sameDust = close(fieldDust.albedo, dust.albedo) && close(fieldDust.g, dust.g) &&
                           fieldDust.phase == dust.phase && close(fieldDust.kappa_V, dust.kappa_V) &&
                           fieldDust.curve == dust.curve && close(fieldDust.R_V, dust.R_V);
@@ -220,60 +202,38 @@ void readScatterField(const GridSet& grids, const RenderOptions& opts, const Dus
         throw Error(what + " was made for other dust: " + fieldDust.toJson() +
                     ", but the scene's is " + dust.toJson() + rerun);
     }
+    const auto& wl = meta.wavelengths;
     for (int c = 0; c < 3 && !spectral; ++c) {
         if (!close(wl[std::size_t(c)], opts.wavelengths[std::size_t(c)])) {
-            throw Error(what + " was made for channel wavelengths " +
-                        tripleText(meta.at("wavelengths")) + " nm, but --wavelengths is " +
-                        numberText(opts.wavelengths[0]) + ", " + numberText(opts.wavelengths[1]) +
-                        ", " + numberText(opts.wavelengths[2]) + rerun);
+            throw Error(what + " was made for channel wavelengths " + listText(wl) +
+                        " nm, but --wavelengths is " + numberText(opts.wavelengths[0]) + ", " +
+                        numberText(opts.wavelengths[1]) + ", " + numberText(opts.wavelengths[2]) +
+                        rerun);
         }
     }
-    if (!close(minStar, opts.minStarDistance)) {
-        throw Error(what + " was made with --min-star-distance " + numberText(minStar) +
-                    ", but this render uses " + numberText(opts.minStarDistance) + rerun);
+    if (!close(meta.minStarDistance, opts.minStarDistance)) {
+        throw Error(what + " was made with --min-star-distance " +
+                    numberText(meta.minStarDistance) + ", but this render uses " +
+                    numberText(opts.minStarDistance) + rerun);
     }
-    if (densityName != opts.densityGrid || emissionName != opts.emissionGrid) {
-        throw Error(what + " was made from the grids \"" + densityName + "\" and \"" +
-                    emissionName + "\", but this render uses \"" + opts.densityGrid + "\" and \"" +
-                    opts.emissionGrid + "\"" + rerun);
+    if (meta.densityGrid != opts.densityGrid || meta.emissionGrid != opts.emissionGrid) {
+        throw Error(what + " was made from the grids \"" + meta.densityGrid + "\" and \"" +
+                    meta.emissionGrid + "\", but this render uses \"" + opts.densityGrid +
+                    "\" and \"" + opts.emissionGrid + "\"" + rerun);
     }
-    // Stars: the same ones in the same places and colours; a summed field also needs the
-    // same luminosities, a per-star field is scaled to the scene's.
-    const bool perStar = meta.value("per_star", false);
-    std::string starDiff;
-    if (fieldStars.size() != scene.stars.size()) {
-        starDiff = std::to_string(fieldStars.size()) + " stars, the scene has " +
-                   std::to_string(scene.stars.size());
-    } else {
-        for (std::size_t s = 0; s < fieldStars.size() && starDiff.empty(); ++s) {
-            const Star& a = fieldStars[s];
-            const Star& b = scene.stars[s];
-            if (a.name != b.name) {
-                starDiff = "star " + std::to_string(s + 1) + " \"" + a.name +
-                           "\", the scene's is \"" + b.name + "\"";
-            } else if (!close(a.position[0], b.position[0]) ||
-                       !close(a.position[1], b.position[1]) ||
-                       !close(a.position[2], b.position[2])) {
-                starDiff = "star \"" + a.name + "\" at another position";
-            } else if (!close(a.temperature, b.temperature)) {
-                starDiff = "star \"" + a.name + "\" at " + numberText(a.temperature) +
-                           " K, the scene's at " + numberText(b.temperature) + " K";
-            } else if (!perStar && !close(a.luminosity, b.luminosity)) {
-                starDiff = "star \"" + a.name + "\" of luminosity " + numberText(a.luminosity) +
-                           " L_sun, the scene's is " + numberText(b.luminosity) +
-                           " (nebscatter --per-star makes a field that follows the luminosity)";
-            }
-        }
-    }
+    const std::string starDiff = starDifference(meta.stars, scene.stars, meta.perStar);
     if (!starDiff.empty()) throw Error(what + " was made for other stars: " + starDiff + rerun);
     // Transform: level 0's, and each grid on the field level's.
     const Affine& s0 = scene.fields.indexToWorld;
-    const double row[12] = {s0.m[0], s0.m[1], s0.m[2], s0.t.x,  s0.m[3], s0.m[4],
-                            s0.m[5], s0.t.y,  s0.m[6], s0.m[7], s0.m[8], s0.t.z};
+    const Affine& a0 = meta.indexToWorld;
     double worst = 0.0, size = 0.0;
-    for (int i = 0; i < 12; ++i) {
-        worst = std::max(worst, std::abs(row[i] - a0[std::size_t(i)]));
-        size = std::max(size, std::abs(row[i]));
+    for (std::size_t i = 0; i < 9; ++i) {
+        worst = std::max(worst, std::abs(s0.m[i] - a0.m[i]));
+        size = std::max(size, std::abs(s0.m[i]));
+    }
+    for (int i = 0; i < 3; ++i) {
+        worst = std::max(worst, std::abs(s0.t[i] - a0.t[i]));
+        size = std::max(size, std::abs(s0.t[i]));
     }
     if (worst > 1e-9 * std::max(size, 1e-300)) {
         throw Error(what +
@@ -281,63 +241,15 @@ void readScatterField(const GridSet& grids, const RenderOptions& opts, const Dus
                     "orientation or position) than \"" +
                     opts.densityGrid + "\"" + rerun);
     }
-    const Affine expected = fieldLevelMap(s0, level);
+    if (meta.sources.empty()) return;
 
-    const int nm = shCount(order);
-    const int C = int(wl.size()); // channels per moment
-    std::vector<openvdb::FloatGrid::ConstPtr> jGrids;
-    std::vector<std::vector<openvdb::FloatGrid::ConstPtr>> perSource;
-    for (const auto& src : sources) {
-        if (spectral && src == "emission") {
-            throw Error(what + " has an emission source, which a spectral field does not have" +
-                        rerun);
-        }
-        std::vector<openvdb::FloatGrid::ConstPtr> list;
-        for (int l = 0; l <= order; ++l)
-            for (int m = -l; m <= l; ++m)
-                for (int c = 0; c < C; ++c) {
-                    const std::string name =
-                        spectral ? spectralScatterGridName(src, l, m, wl[std::size_t(c)])
-                                 : scatterGridName(src, l, m, c);
-                    const auto base = grids.find(name);
-                    if (!base) throw Error(what + " lacks its grid \"" + name + "\"" + rerun);
-                    const auto g = grids.floatGrid(name, "");
-                    const Affine a = affineFromTransform(g->transform());
-                    double off = 0.0, norm = 0.0;
-                    for (std::size_t i = 0; i < 9; ++i) {
-                        off = std::max(off, std::abs(a.m[i] - expected.m[i]));
-                        norm = std::max(norm, std::abs(expected.m[i]));
-                    }
-                    off =
-                        std::max({off, std::abs(a.t.x - expected.t.x),
-                                  std::abs(a.t.y - expected.t.y), std::abs(a.t.z - expected.t.z)});
-                    if (off > 1e-6 * norm) {
-                        throw Error(what + ": grid \"" + name + "\" is not on field level " +
-                                    std::to_string(level) + "'s transform (cells of " +
-                                    std::to_string(1 << level) + " voxels of \"" +
-                                    opts.densityGrid + "\")" + rerun);
-                    }
-                    if (l == 0) jGrids.push_back(g);
-                    list.push_back(g);
-                }
-        perSource.push_back(std::move(list));
-    }
-    if (sources.empty()) return;
-    const auto bounds = activeBounds(jGrids, 1);
-    SceneScatterField& out = scene.scatter;
-    out.order = order;
-    out.level = level;
-    if (spectral) out.wavelengths = wl;
-    const double c00 = 4.0 * PI * (0.5 / std::sqrt(PI)); // J -> c_00
-    for (std::size_t si = 0; si < sources.size(); ++si) {
-        const DenseVolume v = denseFromGrids(perSource[si], bounds, grids.source);
-        if (si == 0) {
-            out.moments = DenseVolume(v.lo(), v.dims(), nm * C);
-            out.moments.indexToWorld = v.indexToWorld;
-        }
-        // Each channel's factor: a star's luminosity ratio, the emission's scale and colour.
-        std::vector<double> factor(std::size_t(C), 1.0);
-        const std::string& src = sources[si];
+    // Each source's factor per channel: a star's luminosity ratio, the emission's scale and
+    // colour.
+    const std::size_t C = wl.size();
+    std::vector<std::vector<double>> factors;
+    for (const auto& source : meta.sources) {
+        std::vector<double> factor(C, 1.0);
+        const std::string& src = source.name;
         if (src == "emission") {
             for (int c = 0; c < 3; ++c)
                 factor[std::size_t(c)] = opts.emissionScale * opts.emissionColor[std::size_t(c)];
@@ -345,17 +257,23 @@ void readScatterField(const GridSet& grids, const RenderOptions& opts, const Dus
             for (std::size_t s = 0; s < scene.stars.size(); ++s)
                 if ("star_" + scene.stars[s].name == src)
                     std::fill(factor.begin(), factor.end(),
-                              scene.stars[s].luminosity / fieldStars[s].luminosity);
+                              scene.stars[s].luminosity / meta.stars[s].luminosity);
         }
-        addScatterMoments(out.moments, v, factor, c00);
+        factors.push_back(std::move(factor));
     }
+    SceneScatterField& out = scene.scatter;
+    out.moments = readScatterMoments(grids, meta, spectral, factors, fieldLevelMap(s0, meta.level),
+                                     what, rerun);
+    out.order = meta.order;
+    out.level = meta.level;
+    if (spectral) out.wavelengths = wl;
     std::string names;
-    for (const auto& s : sources)
-        names += (names.empty() ? "" : ", ") + s;
+    for (const auto& s : meta.sources)
+        names += (names.empty() ? "" : ", ") + s.name;
     out.description = fmt::format(
         "{}scattered-light field: order {}, level {} (cells of {}^3 "
         "voxels), sources {}{}",
-        spectral ? "spectral " : "", order, level, 1 << level, names,
+        spectral ? "spectral " : "", meta.order, meta.level, 1 << meta.level, names,
         spectral ? fmt::format(", {} wavelengths {:g}-{:g} nm", C, wl.front(), wl.back())
                  : std::string());
 }

@@ -1,14 +1,12 @@
 #include "nebula/stages/scatter.h"
 
 #include "nebula/core/error.h"
-#include "nebula/core/units.h"
-#include "nebula/io/grid_names.h"
+#include "nebula/io/scatter_field_vdb.h"
 #include "nebula/physics/spherical_harmonics.h"
 #include "nebula/render/scene.h"
 #include "nebula/stages/pyramid.h"
 
 #include <fmt/format.h>
-#include <nlohmann/json.hpp>
 
 #include <chrono>
 #include <cmath>
@@ -59,91 +57,32 @@ ScatterField scatter(GridSet& grids, const ScatterStageOptions& opts, const Run&
         std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     run.info(fmt::format("field computed in {:.3g} s", seconds));
 
-    // Replace any earlier field of the same kind (R, G, B or spectral).
-    const auto density = grids.find(opts.densityGrid);
-    const auto xform = levelTransform(density->transform(), field.level);
-    if (opts.onlyNew) grids.grids.clear();
-    openvdb::GridPtrVec kept;
-    for (auto& g : grids.grids) {
-        const std::string& name = g->getName();
-        const bool spectralGrid = name.rfind(SPECTRAL_SCATTER_PREFIX, 0) == 0;
-        const bool fieldGrid =
-            spectral ? spectralGrid : name.rfind("scatter.", 0) == 0 && !spectralGrid;
-        if (!fieldGrid) kept.push_back(g);
-    }
-    grids.grids = kept;
-
-    const int L = field.order;
-    const int C = spectral ? int(wavelengths.size()) : 3; // channels per moment
-    nlohmann::json sources = nlohmann::json::array();
+    ScatterFieldMeta meta;
+    meta.order = field.order;
+    meta.level = field.level;
+    meta.perStar = fopts.perStar;
+    meta.packets = fopts.packets;
+    meta.seed = fopts.seed;
+    std::vector<const DenseVolume*> moments;
     for (const auto& src : field.sources) {
-        const DenseVolume& m = src.moments;
-        const double j0 = 0.5 / std::sqrt(PI); // Y_00: J = c_00 / (4 pi Y_00)
-        for (int l = 0; l <= L; ++l)
-            for (int mm = -l; mm <= l; ++mm)
-                for (int c = 0; c < C; ++c) {
-                    const int ch = shIndex(l, mm) * C + c;
-                    const double scale = l == 0 ? 1.0 / (4.0 * PI * j0) : 1.0;
-                    auto grid = openvdb::FloatGrid::create(0.0f);
-                    auto acc = grid->getAccessor();
-                    for (int K = m.lo()[2]; K < m.lo()[2] + m.dims()[2]; ++K)
-                        for (int J = m.lo()[1]; J < m.lo()[1] + m.dims()[1]; ++J)
-                            for (int I = m.lo()[0]; I < m.lo()[0] + m.dims()[0]; ++I) {
-                                const std::size_t v = m.index(I, J, K);
-                                if (!field.active[v]) continue;
-                                acc.setValue(openvdb::Coord(I, J, K),
-                                             float(m.voxel(v)[ch] * scale));
-                            }
-                    grid->setTransform(xform->copy());
-                    grid->setName(spectral ? spectralScatterGridName(src.name, l, mm,
-                                                                     wavelengths[std::size_t(c)])
-                                           : scatterGridName(src.name, l, mm, c));
-                    grid->setGridClass(openvdb::GRID_UNKNOWN);
-                    const char* units =
-                        spectral ? (l == 0 ? "L_sun pc^-2 sr^-1 nm^-1 (mean intensity J per nm)"
-                                           : "L_sun pc^-2 nm^-1 (c_lm per nm)")
-                                 : (l == 0 ? "L_sun pc^-2 sr^-1 (mean intensity J)"
-                                           : "L_sun pc^-2 (c_lm)");
-                    grid->insertMeta("units", openvdb::StringMetadata(units));
-                    if (spectral) {
-                        grid->insertMeta("wavelength_nm",
-                                         openvdb::DoubleMetadata(wavelengths[std::size_t(c)]));
-                    }
-                    grid->insertMeta("source", openvdb::StringMetadata(src.name));
-                    grid->insertMeta("l", openvdb::Int32Metadata(l));
-                    grid->insertMeta("m", openvdb::Int32Metadata(mm));
-                    grid->insertMeta("level", openvdb::Int32Metadata(field.level));
-                    grids.replace(grid);
-                }
-        sources.push_back({{"name", src.name},
-                           {"packets", src.packets},
-                           {"flights", src.flights},
-                           {"power", src.power},
-                           {"escaped", src.escaped},
-                           {"absorbed", src.absorbed},
-                           {"relative_error", src.relativeError}});
+        meta.sources.push_back({src.name, src.packets, src.flights, src.power, src.escaped,
+                                src.absorbed, src.relativeError});
+        moments.push_back(&src.moments);
     }
-    const Affine& a0 = scene.fields.indexToWorld;
-    nlohmann::json meta = {{"order", L},
-                           {"level", field.level},
-                           {"per_star", fopts.perStar},
-                           {"packets", fopts.packets},
-                           {"seed", fopts.seed},
-                           {"sources", sources},
-                           {"dust", nlohmann::json::parse(dust.toJson())},
-                           {"stars", nlohmann::json::parse(starsToJson(scene.stars))},
-                           {"wavelengths", spectral ? wavelengths
-                                                    : std::vector<double>(opts.wavelengths.begin(),
-                                                                          opts.wavelengths.end())},
-                           {"min_star_distance", opts.minStarDistance},
-                           {"exact_star_depth", opts.exactStarDepth},
-                           {"density_grid", opts.densityGrid},
-                           {"emission_grid", opts.emissionGrid},
-                           {"index_to_world",
-                            {a0.m[0], a0.m[1], a0.m[2], a0.t.x, a0.m[3], a0.m[4], a0.m[5], a0.t.y,
-                             a0.m[6], a0.m[7], a0.m[8], a0.t.z}},
-                           {"seconds", seconds}};
-    grids.setMetaString(spectral ? META_SCATTER_SPECTRAL : META_SCATTER, meta.dump());
+    meta.dust = dust;
+    meta.stars = scene.stars;
+    meta.wavelengths = spectral
+                           ? wavelengths
+                           : std::vector<double>(opts.wavelengths.begin(), opts.wavelengths.end());
+    meta.minStarDistance = opts.minStarDistance;
+    meta.exactStarDepth = opts.exactStarDepth;
+    meta.densityGrid = opts.densityGrid;
+    meta.emissionGrid = opts.emissionGrid;
+    meta.indexToWorld = scene.fields.indexToWorld;
+    meta.seconds = seconds;
+    const auto xform = levelTransform(grids.find(opts.densityGrid)->transform(), field.level);
+    if (opts.onlyNew) grids.grids.clear();
+    writeScatterField(grids, meta, moments, field.active, *xform, spectral);
     return field;
 }
 

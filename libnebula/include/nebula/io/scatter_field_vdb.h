@@ -1,0 +1,83 @@
+#pragma once
+/// @file scatter_field_vdb.h
+/// nebscatter's field as grids (DESIGN §5b), written and read here only: per source, per
+/// moment (l, m) of degree l <= order and per channel, one FloatGrid on the field level's
+/// transform (cells of 2^level voxels) named by scatterGridName() (R, G, B) or
+/// spectralScatterGridName() (a spectral field), active on the cells the renderer reads;
+/// the l = 0 grids hold the mean intensity J, the others c_lm. What the field was made for
+/// (dust, stars, wavelengths, grids, level 0's transform) is ScatterFieldMeta, the JSON of
+/// the file metadata `nebula:scatter` (`nebula:scatter_spectral`).
+
+#include "nebula/io/grid_io.h"
+#include "nebula/physics/dust.h"
+#include "nebula/physics/stars.h"
+#include "nebula/volume/volume.h"
+
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace nebula {
+
+/// One source's Monte Carlo summary (nebscatter -v, the README's error figures).
+struct ScatterSourceSummary
+{
+    std::string name; ///< "stars", "star_<name>" (--per-star) or "emission"
+    std::uint64_t packets = 0;
+    std::uint64_t flights = 0;
+    std::vector<double> power, escaped, absorbed; ///< per channel [L_sun]
+    double relativeError = 0.0;
+};
+
+/// What a field was made for, and how.
+struct ScatterFieldMeta
+{
+    int order = 0; ///< highest spherical-harmonic degree, 0..SH_MAX_DEGREE
+    int level = 0; ///< field level: cells of 2^level voxels, 0..16
+    bool perStar = false;
+    std::uint64_t packets = 0;
+    std::uint64_t seed = 0;
+    std::vector<ScatterSourceSummary> sources;
+    DustParams dust;
+    std::vector<Star> stars;
+    /// R, G, B: 3 channel wavelengths; a spectral field: at least 2, increasing [nm].
+    std::vector<double> wavelengths;
+    double minStarDistance = 0.0;
+    bool exactStarDepth = false;
+    std::string densityGrid, emissionGrid;
+    Affine indexToWorld; ///< level 0's (the density grid's) index-to-world map
+    double seconds = 0.0;
+};
+
+/// The metadata key of a field of the kind: META_SCATTER or META_SCATTER_SPECTRAL.
+const char* scatterMetaKey(bool spectral);
+
+/// Replaces any field of the kind (R, G, B or @p spectral) in @p grids by this one:
+/// moments[s] (shCount(meta.order) x meta.wavelengths.size() channels, channel
+/// shIndex(l, m) * C + c, the l = 0 one holding c_00 = 4 pi Y_00 J) becomes source s's grids,
+/// written on the cells where @p active is 1 (one byte per cell of the moments' lattice),
+/// on @p fieldTransform; @p meta becomes the file metadata.
+void writeScatterField(GridSet& grids, const ScatterFieldMeta& meta,
+                       const std::vector<const DenseVolume*>& moments,
+                       const std::vector<std::uint8_t>& active,
+                       const openvdb::math::Transform& fieldTransform, bool spectral);
+
+/// The metadata of the field of the kind in @p grids; nullopt if there is none. Throws
+/// Error naming grids.source if field grids have no metadata, or the metadata is not
+/// nebscatter's (not JSON, a field missing or mistyped, order or level out of range,
+/// wavelengths not as the kind needs).
+std::optional<ScatterFieldMeta> readScatterFieldMeta(const GridSet& grids, bool spectral);
+
+/// The field as one dense volume: the sum over sources s of factors[s][c] times source s's
+/// grids (the l = 0 ones turned into c_00), channel shIndex(l, m) * C + c, on the lattice
+/// of the J grids' active voxels with a one-cell border and the index-to-world map
+/// @p fieldMap. Each grid is read straight into the sum (no per-source copy). Throws Error
+/// naming @p what and the grid if one is missing or not on @p fieldMap, or the lattice
+/// would not fit in memory.
+DenseVolume readScatterMoments(const GridSet& grids, const ScatterFieldMeta& meta, bool spectral,
+                               const std::vector<std::vector<double>>& factors,
+                               const Affine& fieldMap, const std::string& what,
+                               const std::string& rerun);
+
+} // namespace nebula

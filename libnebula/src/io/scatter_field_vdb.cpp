@@ -1,0 +1,265 @@
+#include "nebula/io/scatter_field_vdb.h"
+
+#include "nebula/core/error.h"
+#include "nebula/core/format.h"
+#include "nebula/core/units.h"
+#include "nebula/io/grid_names.h"
+#include "nebula/io/volume_vdb.h"
+#include "nebula/physics/spherical_harmonics.h"
+
+#include <nlohmann/json.hpp>
+
+#include <algorithm>
+#include <cmath>
+
+namespace nebula {
+
+using detail::numberText;
+
+namespace {
+
+/// "a, b, c" of the numbers.
+std::string listText(const std::vector<double>& v)
+{
+    std::string t;
+    for (const double x : v)
+        t += (t.empty() ? "" : ", ") + numberText(x);
+    return t;
+}
+
+/// A field grid of the kind: "scatter.*" (R, G, B) or "scatter.spectral.*".
+bool isFieldGrid(const std::string& name, bool spectral)
+{
+    const bool spectralGrid = name.rfind(SPECTRAL_SCATTER_PREFIX, 0) == 0;
+    return spectral ? spectralGrid : name.rfind("scatter.", 0) == 0 && !spectralGrid;
+}
+
+std::string gridName(const std::string& source, int l, int m, int c,
+                     const std::vector<double>& wavelengths, bool spectral)
+{
+    return spectral ? spectralScatterGridName(source, l, m, wavelengths[std::size_t(c)])
+                    : scatterGridName(source, l, m, c);
+}
+
+} // namespace
+
+const char* scatterMetaKey(bool spectral)
+{
+    return spectral ? META_SCATTER_SPECTRAL : META_SCATTER;
+}
+
+void writeScatterField(GridSet& grids, const ScatterFieldMeta& meta,
+                       const std::vector<const DenseVolume*>& moments,
+                       const std::vector<std::uint8_t>& active,
+                       const openvdb::math::Transform& fieldTransform, bool spectral)
+{
+    // Replace any earlier field of the same kind (R, G, B or spectral).
+    openvdb::GridPtrVec kept;
+    for (auto& g : grids.grids)
+        if (!isFieldGrid(g->getName(), spectral)) kept.push_back(g);
+    grids.grids = kept;
+
+    const int L = meta.order;
+    const int C = int(meta.wavelengths.size()); // channels per moment
+    nlohmann::json sources = nlohmann::json::array();
+    for (std::size_t s = 0; s < meta.sources.size(); ++s) {
+        const ScatterSourceSummary& src = meta.sources[s];
+        const DenseVolume& m = *moments[s];
+        const double j0 = 0.5 / std::sqrt(PI); // Y_00: J = c_00 / (4 pi Y_00)
+        for (int l = 0; l <= L; ++l)
+            for (int mm = -l; mm <= l; ++mm)
+                for (int c = 0; c < C; ++c) {
+                    const int ch = shIndex(l, mm) * C + c;
+                    const double scale = l == 0 ? 1.0 / (4.0 * PI * j0) : 1.0;
+                    auto grid = openvdb::FloatGrid::create(0.0f);
+                    auto acc = grid->getAccessor();
+                    for (int K = m.lo()[2]; K < m.lo()[2] + m.dims()[2]; ++K)
+                        for (int J = m.lo()[1]; J < m.lo()[1] + m.dims()[1]; ++J)
+                            for (int I = m.lo()[0]; I < m.lo()[0] + m.dims()[0]; ++I) {
+                                const std::size_t v = m.index(I, J, K);
+                                if (!active[v]) continue;
+                                acc.setValue(openvdb::Coord(I, J, K),
+                                             float(m.voxel(v)[ch] * scale));
+                            }
+                    grid->setTransform(fieldTransform.copy());
+                    grid->setName(gridName(src.name, l, mm, c, meta.wavelengths, spectral));
+                    grid->setGridClass(openvdb::GRID_UNKNOWN);
+                    const char* units =
+                        spectral ? (l == 0 ? "L_sun pc^-2 sr^-1 nm^-1 (mean intensity J per nm)"
+                                           : "L_sun pc^-2 nm^-1 (c_lm per nm)")
+                                 : (l == 0 ? "L_sun pc^-2 sr^-1 (mean intensity J)"
+                                           : "L_sun pc^-2 (c_lm)");
+                    grid->insertMeta("units", openvdb::StringMetadata(units));
+                    if (spectral) {
+                        grid->insertMeta("wavelength_nm",
+                                         openvdb::DoubleMetadata(meta.wavelengths[std::size_t(c)]));
+                    }
+                    grid->insertMeta("source", openvdb::StringMetadata(src.name));
+                    grid->insertMeta("l", openvdb::Int32Metadata(l));
+                    grid->insertMeta("m", openvdb::Int32Metadata(mm));
+                    grid->insertMeta("level", openvdb::Int32Metadata(meta.level));
+                    grids.replace(grid);
+                }
+        sources.push_back({{"name", src.name},
+                           {"packets", src.packets},
+                           {"flights", src.flights},
+                           {"power", src.power},
+                           {"escaped", src.escaped},
+                           {"absorbed", src.absorbed},
+                           {"relative_error", src.relativeError}});
+    }
+    const Affine& a0 = meta.indexToWorld;
+    const nlohmann::json json = {{"order", L},
+                                 {"level", meta.level},
+                                 {"per_star", meta.perStar},
+                                 {"packets", meta.packets},
+                                 {"seed", meta.seed},
+                                 {"sources", sources},
+                                 {"dust", nlohmann::json::parse(meta.dust.toJson())},
+                                 {"stars", nlohmann::json::parse(starsToJson(meta.stars))},
+                                 {"wavelengths", meta.wavelengths},
+                                 {"min_star_distance", meta.minStarDistance},
+                                 {"exact_star_depth", meta.exactStarDepth},
+                                 {"density_grid", meta.densityGrid},
+                                 {"emission_grid", meta.emissionGrid},
+                                 {"index_to_world",
+                                  {a0.m[0], a0.m[1], a0.m[2], a0.t.x, a0.m[3], a0.m[4], a0.m[5],
+                                   a0.t.y, a0.m[6], a0.m[7], a0.m[8], a0.t.z}},
+                                 {"seconds", meta.seconds}};
+    grids.setMetaString(scatterMetaKey(spectral), json.dump());
+}
+
+std::optional<ScatterFieldMeta> readScatterFieldMeta(const GridSet& grids, bool spectral)
+{
+    const char* metaKey = scatterMetaKey(spectral);
+    const std::string metaText = grids.metaString(metaKey);
+    if (metaText.empty()) {
+        for (const auto& g : grids.grids) {
+            const std::string& name = g->getName();
+            if (isFieldGrid(name, spectral)) {
+                throw Error(grids.source + ": grid \"" + name + "\" looks like a " +
+                            (spectral ? "spectral " : "") +
+                            "scattered-light field but the file has no " + metaKey +
+                            " metadata saying what it was made for; rerun nebscatter" +
+                            (spectral ? " --spectral" : "") + ", or pass --no-scatter-field");
+            }
+        }
+        return std::nullopt;
+    }
+    ScatterFieldMeta meta;
+    detail::checkJsonBounds(metaText, grids.source, std::string(metaKey) + " metadata is ");
+    try {
+        const nlohmann::json json = nlohmann::json::parse(metaText);
+        meta.order = json.at("order").get<int>();
+        meta.level = json.at("level").get<int>();
+        for (const auto& src : json.at("sources")) {
+            ScatterSourceSummary s;
+            s.name = src.at("name").get<std::string>();
+            s.packets = src.value("packets", std::uint64_t(0));
+            s.flights = src.value("flights", std::uint64_t(0));
+            s.power = src.value("power", std::vector<double>());
+            s.escaped = src.value("escaped", std::vector<double>());
+            s.absorbed = src.value("absorbed", std::vector<double>());
+            s.relativeError = src.value("relative_error", 0.0);
+            meta.sources.push_back(s);
+        }
+        meta.stars = parseStars(json.at("stars").dump(), grids.source + " (" + metaKey + ")");
+        meta.dust =
+            DustParams::fromJson(json.at("dust").dump(), grids.source + " (" + metaKey + ")");
+        meta.wavelengths = json.at("wavelengths").get<std::vector<double>>();
+        const auto a = json.at("index_to_world").get<std::array<double, 12>>();
+        meta.indexToWorld.m = {a[0], a[1], a[2], a[4], a[5], a[6], a[8], a[9], a[10]};
+        meta.indexToWorld.t = Vec3(a[3], a[7], a[11]);
+        meta.minStarDistance = json.at("min_star_distance").get<double>();
+        meta.densityGrid = json.at("density_grid").get<std::string>();
+        meta.emissionGrid = json.at("emission_grid").get<std::string>();
+        meta.perStar = json.value("per_star", false);
+        meta.packets = json.value("packets", std::uint64_t(0));
+        meta.seed = json.value("seed", std::uint64_t(0));
+        meta.exactStarDepth = json.value("exact_star_depth", false);
+        meta.seconds = json.value("seconds", 0.0);
+    } catch (const nlohmann::json::exception& e) {
+        throw Error(grids.source + ": " + metaKey +
+                    " metadata is not nebscatter's: " + detail::jsonErrorText(e));
+    }
+    if (meta.order < 0 || meta.order > SH_MAX_DEGREE || meta.level < 0 || meta.level > 16) {
+        throw Error(grids.source + ": " + metaKey + " has order " + std::to_string(meta.order) +
+                    " and level " + std::to_string(meta.level) + "; expected 0..4 and 0..16");
+    }
+    const auto& wl = meta.wavelengths;
+    bool wlOk = spectral ? wl.size() >= 2 : wl.size() == 3;
+    for (std::size_t i = 0; i < wl.size() && wlOk; ++i)
+        wlOk = std::isfinite(wl[i]) && wl[i] > 0.0 && (i == 0 || wl[i] > wl[i - 1] || !spectral);
+    if (!wlOk) {
+        throw Error(grids.source + ": " + metaKey + " has wavelengths " + listText(wl) +
+                    "; expected " + (spectral ? "at least 2 increasing" : "3 (R, G, B)") +
+                    " wavelengths > 0 nm");
+    }
+    for (const auto& src : meta.sources) {
+        if (spectral && src.name == "emission") {
+            throw Error(grids.source + ": the spectral scattered-light field (nebscatter "
+                                       "--spectral) has an emission source, which a spectral "
+                                       "field does not have; rerun nebscatter --spectral on "
+                                       "this scene, or pass --no-scatter-field");
+        }
+    }
+    return meta;
+}
+
+DenseVolume readScatterMoments(const GridSet& grids, const ScatterFieldMeta& meta, bool spectral,
+                               const std::vector<std::vector<double>>& factors,
+                               const Affine& fieldMap, const std::string& what,
+                               const std::string& rerun)
+{
+    const int C = int(meta.wavelengths.size()); // channels per moment
+    // Every grid, checked to be on the field level's transform, before any is read.
+    std::vector<std::vector<openvdb::FloatGrid::ConstPtr>> perSource;
+    std::vector<openvdb::FloatGrid::ConstPtr> jGrids;
+    for (const auto& src : meta.sources) {
+        std::vector<openvdb::FloatGrid::ConstPtr> list;
+        for (int l = 0; l <= meta.order; ++l)
+            for (int m = -l; m <= l; ++m)
+                for (int c = 0; c < C; ++c) {
+                    const std::string name =
+                        gridName(src.name, l, m, c, meta.wavelengths, spectral);
+                    if (!grids.find(name)) {
+                        throw Error(what + " lacks its grid \"" + name + "\"" + rerun);
+                    }
+                    const auto g = grids.floatGrid(name, "");
+                    const Affine a = affineFromTransform(g->transform());
+                    double off = 0.0, norm = 0.0;
+                    for (std::size_t i = 0; i < 9; ++i) {
+                        off = std::max(off, std::abs(a.m[i] - fieldMap.m[i]));
+                        norm = std::max(norm, std::abs(fieldMap.m[i]));
+                    }
+                    off =
+                        std::max({off, std::abs(a.t.x - fieldMap.t.x),
+                                  std::abs(a.t.y - fieldMap.t.y), std::abs(a.t.z - fieldMap.t.z)});
+                    if (off > 1e-6 * norm) {
+                        throw Error(what + ": grid \"" + name + "\" is not on field level " +
+                                    std::to_string(meta.level) + "'s transform (cells of " +
+                                    std::to_string(1 << meta.level) + " voxels of \"" +
+                                    meta.densityGrid + "\")" + rerun);
+                    }
+                    if (l == 0) jGrids.push_back(g);
+                    list.push_back(g);
+                }
+        perSource.push_back(std::move(list));
+    }
+    const int channels = shCount(meta.order) * C;
+    const double c00PerJ =
+        4.0 * PI * (0.5 / std::sqrt(PI)); // the l = 0 grids hold J = c_00 / (4 pi Y_00)
+    DenseVolume out = emptyDenseVolume(
+        activeBounds(jGrids, 1), channels,
+        what + ": its " + std::to_string(perSource.size() * std::size_t(channels)) + " grids");
+    out.indexToWorld =
+        perSource.empty() ? fieldMap : affineFromTransform(perSource[0][0]->transform());
+    // Channel k * C + c of source s is its grid k * C + c, in the order of the loop above.
+    for (std::size_t s = 0; s < perSource.size(); ++s)
+        for (int q = 0; q < channels; ++q)
+            addGridToVolume(out, *perSource[s][std::size_t(q)], q, factors[s][std::size_t(q % C)],
+                            q < C ? c00PerJ : 1.0);
+    return out;
+}
+
+} // namespace nebula

@@ -1,0 +1,204 @@
+// nebscatter's field as grids (io/scatter_field_vdb.h): the round trip of the grids and the
+// metadata, the sum readScatterMoments() forms, and its errors.
+#include "nebula/io/scatter_field_vdb.h"
+
+#include "nebula/core/error.h"
+#include "nebula/core/units.h"
+#include "nebula/io/grid_names.h"
+#include "nebula/io/volume_vdb.h"
+#include "nebula/physics/spherical_harmonics.h"
+
+#include <openvdb/openvdb.h>
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <functional>
+#include <string>
+
+using namespace nebula;
+
+namespace {
+
+std::string errorOf(const std::function<void()>& f)
+{
+    try {
+        f();
+    } catch (const Error& e) {
+        return e.what();
+    }
+    return "(no error)";
+}
+
+/// A small R, G, B field of order 1 with two sources on a 4^3 lattice at lo (-1, 0, 2); each
+/// channel's value a distinct function of the point, the source and the channel.
+struct SmallField
+{
+    ScatterFieldMeta meta;
+    DenseVolume a, b;
+    std::vector<std::uint8_t> active;
+    openvdb::math::Transform::Ptr xform = openvdb::math::Transform::createLinearTransform(2.0);
+
+    static float value(std::size_t v, int ch, int source)
+    {
+        return float(v + 1) * 0.5f + ch + 100 * source;
+    }
+
+    SmallField()
+    {
+        meta.order = 1;
+        meta.level = 1;
+        meta.perStar = true;
+        meta.packets = 1000;
+        meta.seed = 7;
+        meta.sources = {{"star_a", 1000, 3000, {1, 2, 3}, {0.1, 0.2, 0.3}, {0.4, 0.5, 0.6}, 0.02},
+                        {"emission", 1000, 2000, {4, 5, 6}, {0, 0, 0}, {1, 1, 1}, 0.03}};
+        meta.stars = {Star{"a", {1, 2, 3}, 2.0, 6000.0}};
+        meta.wavelengths = {650, 550, 450};
+        meta.minStarDistance = 0.25;
+        meta.densityGrid = "density";
+        meta.emissionGrid = "emission";
+        meta.indexToWorld.m = {1, 0, 0, 0, 1, 0, 0, 0, 1};
+        meta.indexToWorld.t = Vec3(0.5, 0.5, 0.5);
+        meta.seconds = 1.5;
+        const int channels = shCount(1) * 3;
+        a = DenseVolume({-1, 0, 2}, {4, 4, 4}, channels);
+        b = DenseVolume({-1, 0, 2}, {4, 4, 4}, channels);
+        active.assign(a.voxelCount(), 0);
+        for (std::size_t v = 0; v < a.voxelCount(); ++v) {
+            active[v] = v % 3 != 0; // some cells are not written
+            for (int ch = 0; ch < channels; ++ch) {
+                a.voxel(v)[ch] = value(v, ch, 0);
+                b.voxel(v)[ch] = value(v, ch, 1);
+            }
+        }
+    }
+
+    GridSet written() const
+    {
+        GridSet grids;
+        grids.source = "field.vdb";
+        writeScatterField(grids, meta, {&a, &b}, active, *xform, false);
+        return grids;
+    }
+};
+
+const std::string WHAT = "field.vdb: the field";
+const std::string RERUN = "; rerun";
+
+} // namespace
+
+TEST(ScatterFieldVdb, MetadataRoundTrip)
+{
+    openvdb::initialize();
+    const SmallField f;
+    const GridSet grids = f.written();
+    EXPECT_EQ(grids.grids.size(), 2u * 4u * 3u); // 2 sources x 4 moments x R, G, B
+    ASSERT_TRUE(grids.find(scatterGridName("star_a", 1, -1, 2)));
+    const auto back = readScatterFieldMeta(grids, false);
+    ASSERT_TRUE(back);
+    EXPECT_EQ(back->order, 1);
+    EXPECT_EQ(back->level, 1);
+    EXPECT_TRUE(back->perStar);
+    EXPECT_EQ(back->packets, 1000u);
+    EXPECT_EQ(back->seed, 7u);
+    ASSERT_EQ(back->sources.size(), 2u);
+    EXPECT_EQ(back->sources[1].name, "emission");
+    EXPECT_EQ(back->sources[0].flights, 3000u);
+    EXPECT_EQ(back->sources[0].escaped, (std::vector<double>{0.1, 0.2, 0.3}));
+    EXPECT_DOUBLE_EQ(back->sources[1].relativeError, 0.03);
+    ASSERT_EQ(back->stars.size(), 1u);
+    EXPECT_EQ(back->stars[0].name, "a");
+    EXPECT_DOUBLE_EQ(back->stars[0].position[2], 3.0);
+    EXPECT_EQ(back->wavelengths, f.meta.wavelengths);
+    EXPECT_DOUBLE_EQ(back->minStarDistance, 0.25);
+    EXPECT_EQ(back->densityGrid, "density");
+    EXPECT_DOUBLE_EQ(back->indexToWorld.t.y, 0.5);
+    EXPECT_DOUBLE_EQ(back->indexToWorld.m[4], 1.0);
+    // No spectral field in this file.
+    EXPECT_FALSE(readScatterFieldMeta(grids, true));
+}
+
+// The sum of the sources, each times its factor, with J turned back into c_00; cells not
+// written are zero.
+TEST(ScatterFieldVdb, MomentsAreTheFactoredSumOfTheSources)
+{
+    openvdb::initialize();
+    const SmallField f;
+    const GridSet grids = f.written();
+    const auto meta = *readScatterFieldMeta(grids, false);
+    const std::vector<std::vector<double>> factors{{2.0, 2.0, 2.0}, {0.5, 1.0, 3.0}};
+    const Affine fieldMap = affineFromTransform(*f.xform);
+    const DenseVolume m = readScatterMoments(grids, meta, false, factors, fieldMap, WHAT, RERUN);
+    ASSERT_EQ(m.channels(), f.a.channels());
+    EXPECT_DOUBLE_EQ(m.indexToWorld.m[0], 2.0);
+    int checked = 0;
+    for (int k = 2; k < 6; ++k)
+        for (int j = 0; j < 4; ++j)
+            for (int i = -1; i < 3; ++i) {
+                ASSERT_TRUE(m.contains(i, j, k));
+                const std::size_t v = f.a.index(i, j, k);
+                for (int ch = 0; ch < m.channels(); ++ch) {
+                    const int c = ch % 3;
+                    const double expected =
+                        f.active[v] ? factors[0][std::size_t(c)] * SmallField::value(v, ch, 0) +
+                                          factors[1][std::size_t(c)] * SmallField::value(v, ch, 1)
+                                    : 0.0;
+                    EXPECT_NEAR(m.voxel(m.index(i, j, k))[ch], expected, 1e-5 * expected)
+                        << i << " " << j << " " << k << " channel " << ch;
+                    ++checked;
+                }
+            }
+    EXPECT_EQ(checked, 64 * 12);
+    // One border cell around the written ones.
+    EXPECT_TRUE(m.contains(-2, -1, 1));
+    EXPECT_EQ(m.voxel(m.index(-2, -1, 1))[0], 0.0f);
+}
+
+TEST(ScatterFieldVdb, MissingOrMisplacedGridsAndBrokenMetadataNameTheirCause)
+{
+    openvdb::initialize();
+    const SmallField f;
+    const std::vector<std::vector<double>> factors{{1, 1, 1}, {1, 1, 1}};
+    const Affine fieldMap = affineFromTransform(*f.xform);
+    {
+        GridSet grids = f.written();
+        const auto meta = *readScatterFieldMeta(grids, false);
+        const std::string name = scatterGridName("emission", 1, 0, 1);
+        openvdb::GridPtrVec kept;
+        for (auto& g : grids.grids)
+            if (g->getName() != name) kept.push_back(g);
+        grids.grids = kept;
+        EXPECT_EQ(errorOf([&] {
+                      readScatterMoments(grids, meta, false, factors, fieldMap, WHAT, RERUN);
+                  }),
+                  WHAT + " lacks its grid \"" + name + "\"" + RERUN);
+    }
+    {
+        GridSet grids = f.written();
+        const auto meta = *readScatterFieldMeta(grids, false);
+        const std::string name = scatterGridName("star_a", 0, 0, 0);
+        grids.find(name)->setTransform(openvdb::math::Transform::createLinearTransform(1.0));
+        const std::string e = errorOf(
+            [&] { readScatterMoments(grids, meta, false, factors, fieldMap, WHAT, RERUN); });
+        EXPECT_NE(e.find("grid \"" + name + "\" is not on field level 1's transform"),
+                  std::string::npos)
+            << e;
+    }
+    {
+        GridSet grids = f.written();
+        grids.setMetaString(META_SCATTER, "{\"order\": 9}");
+        const std::string e = errorOf([&] { readScatterFieldMeta(grids, false); });
+        EXPECT_NE(e.find("field.vdb: nebula:scatter metadata is not nebscatter's"),
+                  std::string::npos)
+            << e;
+    }
+    {
+        GridSet grids = f.written();
+        grids.setMetaString(META_SCATTER, "");
+        const std::string e = errorOf([&] { readScatterFieldMeta(grids, false); });
+        EXPECT_NE(e.find("looks like a scattered-light field but the file has no nebula:scatter"),
+                  std::string::npos)
+            << e;
+    }
+}
