@@ -1,0 +1,462 @@
+#pragma once
+/// @file scatter_transport.h
+/// Internal to render/: nebscatter's Monte Carlo (DESIGN §5b) beneath computeField()
+/// (scatter_field.cpp): the channels one walk carries, the sampler packets start from, the
+/// Transport every flight reads (fields, occupancy, the tallies' layout, the spherical-harmonic
+/// track-length tally), and runPacket() (scatter_packets.cpp): one packet through every order
+/// of scattering.
+
+#include "nebula/core/units.h"
+#include "nebula/physics/spherical_harmonics.h"
+#include "nebula/render/scatter_field.h"
+#include "nebula/render/scene.h"
+#include "nebula/render/star_depth.h"
+#include "nebula/volume/block_walk.h"
+
+#include <algorithm>
+#include <array>
+#include <atomic>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace nebula::detail {
+
+constexpr double INF = std::numeric_limits<double>::infinity();
+/// A flight stops walking once even the least dimmed channel is below e^-17 (4e-8).
+constexpr double TAU_CUTOFF = 17.0;
+/// Russian roulette below this channel weight (initial weights are about 1).
+constexpr double ROULETTE_WEIGHT = 0.25;
+constexpr std::uint64_t MAX_FLIGHTS = 1000000;
+
+/// Fixed-point quantum 2^-e of the tallies (weight x length in voxels; weights): the
+/// finest for which @p packets packets cannot overflow an int64 sum (a bound of 64 flights
+/// per packet crossing a cell, weights up to 4, field cells of 2^level voxels). 2^-32 for
+/// 2 million packets at level 1: a tally of 10^-6 is rounded by 2e-4 of itself.
+inline double fixedQuantum(std::uint64_t packets, int level)
+{
+    const double bound = double(packets) * 64.0 * 4.0 * 2.0 * std::ldexp(1.0, level);
+    const int e = std::min(40, int(std::floor(62.0 - std::log2(std::max(bound, 1.0)))));
+    return std::ldexp(1.0, -e);
+}
+
+/// Adds @p scaled (a value over the quantum) to @p p, rounded to the nearest integer, as an
+/// integer addition (atomic when @p atomic): the sum does not depend on the order.
+inline void addFixed(std::int64_t* p, double scaled, bool atomic)
+{
+    // Rounded half away from zero, as llround, without its library call (a tenth of the
+    // walk's time at L = 4).
+    const auto q = std::int64_t(scaled + std::copysign(0.5, scaled));
+    if (q == 0) return;
+    if (atomic) {
+        __atomic_fetch_add(p, q, __ATOMIC_RELAXED);
+    } else {
+        *p += q;
+    }
+}
+
+/// The channels one walk carries: R, G, B (the scene's channel dust and star colours) or a
+/// spectral field's wavelengths.
+struct Channels
+{
+    std::vector<double> wavelengths;            ///< a spectral field's [nm]; empty: R, G, B
+    std::vector<double> r;                      ///< A(lambda_c)/A_V per channel
+    std::vector<std::vector<double>> starPower; ///< per star and channel [L_sun (nm^-1)]
+    std::size_t size() const { return r.size(); }
+};
+
+/// The most channels one walk carries (a spectral field's wavelengths).
+constexpr std::size_t MAX_CHANNELS = SPECTRAL_FIELD_MAX_WAVELENGTHS;
+
+inline Channels rgbChannels(const RenderScene& scene)
+{
+    Channels ch;
+    ch.r.assign(scene.dust.r.begin(), scene.dust.r.end());
+    for (const auto& c : scene.starColor)
+        ch.starPower.emplace_back(c.begin(), c.end());
+    return ch;
+}
+
+/// One piece of a flight (a half-voxel cell) with dust: where it starts (world distance),
+/// its length [pc], its constant V extinction [1/pc] and the V optical depth before it.
+struct Piece
+{
+    double t, len, k, tau0;
+};
+
+/// A source: the cells packets start from (lattice cells [i, i+1]^3 given by their lower
+/// corner's linear index), with cumulative weights.
+struct Sampler
+{
+    std::vector<std::uint32_t> cell;
+    std::vector<float> proxy; ///< the cell's weight: mean of eta over its 8 corners
+    std::vector<double> cdf;  ///< inclusive prefix sums of proxy
+    double total = 0.0;
+};
+
+/// Per-voxel source strength eta (summed over channels) -> the sampler of lattice cells.
+inline Sampler buildSampler(const DenseVolume& lattice, const std::vector<float>& eta)
+{
+    Sampler s;
+    const auto& lo = lattice.lo();
+    const auto& d = lattice.dims();
+    double sum = 0.0;
+    for (int k = lo[2]; k < lo[2] + d[2] - 1; ++k)
+        for (int j = lo[1]; j < lo[1] + d[1] - 1; ++j)
+            for (int i = lo[0]; i < lo[0] + d[0] - 1; ++i) {
+                double m = 0.0;
+                for (int c = 0; c < 8; ++c)
+                    m += eta[lattice.index(i + (c & 1), j + ((c >> 1) & 1), k + (c >> 2))];
+                if (!(m > 0.0)) continue;
+                s.cell.push_back(std::uint32_t(lattice.index(i, j, k)));
+                s.proxy.push_back(float(m / 8.0));
+                sum += double(s.proxy.back());
+                s.cdf.push_back(sum);
+            }
+    s.total = sum;
+    return s;
+}
+
+/// Everything a flight needs, shared by all packets.
+class Transport
+{
+public:
+    Transport(const RenderScene& scene, const RenderOptions& ropts, const ScatterOptions& opts,
+              Channels channels)
+        : mScene(scene), mDust(scene.dust), mCh(std::move(channels)), mC(int(mCh.size())),
+          mOrder(opts.order), mNm(shCount(opts.order)), mScale(1 << opts.fieldLevel)
+    {
+        const DenseVolume& f = scene.fields;
+        mDensity = f.channel(0);
+        mW2I = f.indexToWorld.inverse();
+        mVoxel = voxelSize(f.indexToWorld);
+        mRmin2 = std::pow(ropts.minStarDistance * mVoxel, 2);
+        for (int a = 0; a < 3; ++a) {
+            mLo[a] = f.lo()[a];
+            mHi[a] = f.lo()[a] + f.dims()[a] - 1;
+            mFLo[a] = floorDiv(mLo[a]) - 1;
+            mFDims[a] = floorDiv(mHi[a]) + 1 - mFLo[a] + 1;
+        }
+        mRMin = *std::min_element(mCh.r.begin(), mCh.r.end());
+        // Lattice cells without dust (all 8 corners zero): nothing to sample there.
+        mEmpty.assign(f.voxelCount(), 1);
+        for (int k = mLo[2]; k < mHi[2]; ++k)
+            for (int j = mLo[1]; j < mHi[1]; ++j)
+                for (int i = mLo[0]; i < mHi[0]; ++i) {
+                    bool empty = true;
+                    for (int c = 0; c < 8 && empty; ++c)
+                        empty = !(f.voxel(f.index(i + (c & 1), j + ((c >> 1) & 1),
+                                                  k + (c >> 2)))[0] > 0.0f);
+                    mEmpty[f.index(i, j, k)] = empty ? 1 : 0;
+                }
+        // Dust per field cell (n_H summed over its voxels), and the cells the renderer
+        // reads: those holding dust and their 26 neighbours.
+        mCellDust.assign(fieldCells(), 0.0);
+        for (int k = mLo[2]; k <= mHi[2]; ++k)
+            for (int j = mLo[1]; j <= mHi[1]; ++j)
+                for (int i = mLo[0]; i <= mHi[0]; ++i) {
+                    const float n = f.voxel(f.index(i, j, k))[0];
+                    if (n > 0.0f)
+                        mCellDust[cellIndex(floorDiv(i) - mFLo[0], floorDiv(j) - mFLo[1],
+                                            floorDiv(k) - mFLo[2])] += n;
+                }
+        mActive.assign(fieldCells(), 0);
+        for (int K = 0; K < mFDims[2]; ++K)
+            for (int J = 0; J < mFDims[1]; ++J)
+                for (int I = 0; I < mFDims[0]; ++I) {
+                    if (!(mCellDust[cellIndex(I, J, K)] > 0.0)) continue;
+                    for (int c = 0; c < 27; ++c) {
+                        const int a = I + c % 3 - 1, b = J + (c / 3) % 3 - 1, e = K + c / 9 - 1;
+                        if (a >= 0 && b >= 0 && e >= 0 && a < mFDims[0] && b < mFDims[1] &&
+                            e < mFDims[2])
+                            mActive[cellIndex(a, b, e)] = 1;
+                    }
+                }
+        // The tallies hold only the active cells (slots in cell order).
+        mSlot.assign(fieldCells(), -1);
+        for (std::size_t c = 0; c < mActive.size(); ++c)
+            if (mActive[c]) mSlot[c] = std::int32_t(mSlots++);
+        for (const auto& s : scene.stars)
+            mStarPos.emplace_back(s.position[0], s.position[1], s.position[2]);
+        if (ropts.exactStarDepth) mDepth.emplace(scene);
+    }
+
+    /// Each star's tau_V at index point @p pI into fv[2 + s] (the fields sampled there):
+    /// exact where it bends (StarDepth), as the renderers take it.
+    void starDepths(const Vec3& pI, float* fv) const
+    {
+        if (!mDepth || !mDepth->anyCurved(pI)) return;
+        for (std::size_t s = 0; s < mStarPos.size(); ++s)
+            if (mDepth->curved(s, pI)) fv[2 + s] = float(mDepth->march(s, pI));
+    }
+
+    std::size_t fieldCells() const { return std::size_t(mFDims[0]) * mFDims[1] * mFDims[2]; }
+    int channels() const { return mC; }
+    /// The channel whose J's noise is reported: green, a spectral field's middle wavelength.
+    int noiseChannel() const { return mC / 2; }
+    const Channels& channelSet() const { return mCh; }
+
+    /// The light of star @p s first scattered at a point with dust @p n [cm^-3], squared
+    /// distance @p r2 [pc^2] from the star (already clamped) and V optical depth @p tau from
+    /// it, per channel: eta_c = k_c a E_c [L_sun pc^-3], integrated over directions.
+    void firstScatteringSource(std::size_t s, double n, double r2, double tau, double* eta) const
+    {
+        for (int c = 0; c < mC; ++c)
+            eta[c] = mDust.kappa_V * mCh.r[std::size_t(c)] * n * mDust.albedo *
+                     mCh.starPower[s][std::size_t(c)] / (4.0 * PI * r2) *
+                     std::exp(-mCh.r[std::size_t(c)] * tau);
+    }
+    int moments() const { return mNm; }
+    int order() const { return mOrder; }
+    const std::array<int, 3>& fieldLo() const { return mFLo; }
+    const std::array<int, 3>& fieldDims() const { return mFDims; }
+    double voxel() const { return mVoxel; }
+    double rmin2() const { return mRmin2; }
+    const std::vector<Vec3>& starPos() const { return mStarPos; }
+    const DenseVolume& density() const { return mDensity; }
+
+    /// Linear index of field cell (I, J, K) (0-based on the field lattice).
+    std::size_t cellIndex(int I, int J, int K) const
+    {
+        return (std::size_t(K) * mFDims[1] + std::size_t(J)) * mFDims[0] + std::size_t(I);
+    }
+    /// Per field cell: 1 if the renderer reads it (dust in it or next to it).
+    const std::vector<std::uint8_t>& active() const { return mActive; }
+    /// Per field cell: its place among the active cells in the tallies, or -1.
+    const std::vector<std::int32_t>& slots() const { return mSlot; }
+    /// The number of active cells (tally slots).
+    std::size_t slotCount() const { return mSlots; }
+    /// Per field cell: n_H summed over its voxels [cm^-3].
+    const std::vector<double>& cellDust() const { return mCellDust; }
+
+    /// Field cell of level-0 index coordinate @p p along one axis.
+    int floorDiv(double p) const { return int(std::floor((p + 0.5) / mScale)); }
+
+    /// The overlap of field cell @p I with the walked box [lo, hi], in index units^3.
+    double cellVolume(const std::array<int, 3>& I) const
+    {
+        double v = 1.0;
+        for (int a = 0; a < 3; ++a) {
+            const double c0 = double(mScale) * I[a] - 0.5, c1 = c0 + mScale;
+            v *= std::max(0.0, std::min(c1, double(mHi[a])) - std::max(c0, double(mLo[a])));
+        }
+        return v;
+    }
+
+    /// Where a flight adds its tallies: moments (cell, k, c) and squared green J per cell,
+    /// fixed point (quantum q, squares q * 2^8), atomically into a shared buffer or plainly
+    /// into the thread's own.
+    struct Tally
+    {
+        std::int64_t* sum = nullptr;
+        std::int64_t* sq = nullptr;
+        bool atomic = true;
+        double invQ = 1.0, invQSq = 1.0;
+    };
+
+    /// Walks the flight from world point @p x along unit @p d with channel weights @p w:
+    /// tallies (if @p tally) the expected track length times Y_lm(d) into @p out, and
+    /// records the pieces with dust; returns the V optical depth walked.
+    double walk(const Vec3& x, const Vec3& d, const double* w, bool tally, const double* Y,
+                const Tally* out, std::vector<Piece>& pieces) const
+    {
+        pieces.clear();
+        const Vec3 oI = mW2I.apply(x), dI = mW2I.applyLinear(d);
+        double ta = 0.0, tb = INF;
+        for (int a = 0; a < 3; ++a) {
+            if (std::abs(dI[a]) < 1e-300) {
+                if (oI[a] < mLo[a] || oI[a] > mHi[a]) return 0.0;
+                continue;
+            }
+            const double t1 = (mLo[a] - oI[a]) / dI[a], t2 = (mHi[a] - oI[a]) / dI[a];
+            ta = std::max(ta, std::min(t1, t2));
+            tb = std::min(tb, std::max(t1, t2));
+        }
+        if (!(ta < tb)) return 0.0;
+        // Half-voxel cells: q = floor(2 p) along each axis; every such cell lies inside one
+        // lattice cell (the trilinear density is one cubic along the piece: Simpson is
+        // exact) and inside one field cell (boundaries at half-integers).
+        int q[3], step[3], li[3], fi[3];
+        double tNext[3], tDelta[3];
+        const Vec3 p0 = oI + dI * (0.5 * (ta + std::min(tb, ta + 1e-6))); // inside the box
+        for (int a = 0; a < 3; ++a) {
+            q[a] = std::clamp(int(std::floor(2.0 * p0[a])), 2 * mLo[a], 2 * mHi[a] - 1);
+            if (dI[a] > 0.0) {
+                step[a] = 1;
+                tNext[a] = ((q[a] + 1) * 0.5 - oI[a]) / dI[a];
+                tDelta[a] = 0.5 / dI[a];
+            } else if (dI[a] < 0.0) {
+                step[a] = -1;
+                tNext[a] = (q[a] * 0.5 - oI[a]) / dI[a];
+                tDelta[a] = -0.5 / dI[a];
+            } else {
+                step[a] = 0;
+                tNext[a] = INF;
+                tDelta[a] = INF;
+            }
+            li[a] = floorDiv2(q[a]);
+            fi[a] = fieldIndex(q[a], a);
+        }
+        double t = ta, tau = 0.0;
+        float nPrev = mDensity.sample0(oI + dI * ta);
+        double att[MAX_CHANNELS], acc[MAX_CHANNELS];
+        for (int ch = 0; ch < mC; ++ch) {
+            att[ch] = w[ch]; // w_c e^-tau_c before the piece
+            acc[ch] = 0.0;
+        }
+        long cell = -1, slot = -1; // the piece's field cell and its tally slot (-1: none)
+        const double kappa = mDust.kappa_V;
+        while (t < tb) {
+            int a = 0;
+            if (tNext[1] < tNext[a]) a = 1;
+            if (tNext[2] < tNext[a]) a = 2;
+            const double tn = std::min(tNext[a], tb);
+            const double len = tn - t;
+            if (len > 0.0) {
+                // The piece's lattice cell and field cell follow its half-voxel cell q.
+                double dTau = 0.0;
+                if (!mEmpty[mDensity.index(li[0], li[1], li[2])]) {
+                    float nm, ne;
+                    mDensity.sampleChannels(oI + dI * (0.5 * (t + tn)), 0, 1, &nm);
+                    mDensity.sampleChannels(oI + dI * tn, 0, 1, &ne);
+                    dTau = kappa * len * (double(nPrev) + 4.0 * nm + ne) / 6.0;
+                    nPrev = ne;
+                } else {
+                    nPrev = 0.0f; // the faces of an empty cell are empty
+                }
+                if (tally) {
+                    const long c = long(cellIndex(fi[0], fi[1], fi[2]));
+                    if (c != cell) {
+                        flush(slot, acc, Y, out);
+                        cell = c;
+                        slot = mSlot[std::size_t(c)];
+                        if (slot >= 0) prefetchSlot(slot, out);
+                    }
+                }
+                if (dTau > 0.0) {
+                    for (int ch = 0; ch < mC; ++ch) {
+                        const double xc = mCh.r[std::size_t(ch)] * dTau;
+                        const double em1 = -std::expm1(-xc); // 1 - e^-x
+                        if (slot >= 0) {
+                            // integral of w e^-tau over the piece, in voxel lengths
+                            const double frac = xc > 1e-9 ? em1 / xc : 1.0 - 0.5 * xc;
+                            acc[ch] += att[ch] * frac * len / mVoxel;
+                        }
+                        att[ch] *= 1.0 - em1;
+                    }
+                    pieces.push_back({t, len, dTau / len, tau});
+                    tau += dTau;
+                    if (mRMin * tau > TAU_CUTOFF) break;
+                } else if (slot >= 0) {
+                    for (int ch = 0; ch < mC; ++ch)
+                        acc[ch] += att[ch] * len / mVoxel;
+                }
+            }
+            t = tn;
+            tNext[a] += tDelta[a];
+            q[a] += step[a];
+            if (q[a] < 2 * mLo[a] || q[a] > 2 * mHi[a] - 1) break; // left the box
+            li[a] = floorDiv2(q[a]);
+            fi[a] = fieldIndex(q[a], a);
+        }
+        if (tally) flush(slot, acc, Y, out);
+        return tau;
+    }
+
+    const RenderScene& mScene;
+    const ChannelDust& mDust;
+
+private:
+    Channels mCh;
+    int mC; ///< channels per walk
+    static int floorDiv2(int q) { return q >= 0 ? q / 2 : -((1 - q) / 2); }
+
+    /// Field cell index (0-based) along axis @p a of half-voxel cell @p q: the cell holding
+    /// level-0 coordinates [q / 2, (q + 1) / 2], i.e. floor((q + 1) / 2^(k+1)).
+    int fieldIndex(int q, int a) const
+    {
+        const int n = q + 1, d = 2 * mScale;
+        const int f = n >= 0 ? n / d : -((d - 1 - n) / d);
+        return std::clamp(f - mFLo[a], 0, mFDims[a] - 1);
+    }
+
+    /// Starts loading slot @p slot's tallies while the flight crosses its cell: they are
+    /// added to when it leaves, and the cells along a flight are far apart in memory (the
+    /// walk waited on these loads a third of its time at L = 4).
+    void prefetchSlot(long slot, const Tally* out) const
+    {
+        const std::size_t n = std::size_t(mNm) * std::size_t(mC);
+        const char* p = reinterpret_cast<const char*>(out->sum + std::size_t(slot) * n);
+        for (std::size_t b = 0; b < n * sizeof(std::int64_t); b += 64)
+            __builtin_prefetch(p + b, 1);
+        __builtin_prefetch(out->sq + slot, 1);
+    }
+
+    /// Adds the track lengths @p acc gathered in one field cell (tally slot @p slot, -1:
+    /// none) times Y_lm to the tallies, and clears them.
+    void flush(long slot, double* acc, const double* Y, const Tally* out) const
+    {
+        bool any = false;
+        for (int c = 0; c < mC; ++c)
+            any = any || acc[c] > 0.0;
+        if (slot < 0 || !any) {
+            std::fill(acc, acc + mC, 0.0);
+            return;
+        }
+        std::int64_t* m = out->sum + std::size_t(slot) * std::size_t(mNm) * std::size_t(mC);
+        for (int c = 0; c < mC; ++c)
+            acc[c] *= out->invQ;
+        for (int k = 0; k < mNm; ++k)
+            for (int c = 0; c < mC; ++c)
+                addFixed(m + k * mC + c, acc[c] * Y[k], out->atomic);
+        const double g = acc[noiseChannel()];
+        addFixed(out->sq + slot, g * g * out->invQSq / (out->invQ * out->invQ), out->atomic);
+        std::fill(acc, acc + mC, 0.0);
+    }
+
+    int mOrder, mNm, mScale;
+    DenseVolume mDensity;
+    Affine mW2I;
+    double mVoxel = 1.0, mRmin2 = 0.0, mRMin = 1.0;
+    std::array<int, 3> mLo{}, mHi{}, mFLo{}, mFDims{};
+    std::vector<Vec3> mStarPos;
+    std::vector<std::uint8_t> mEmpty;  ///< per lattice cell (lower corner's index): no dust
+    std::vector<std::uint8_t> mActive; ///< per field cell: read by the renderer
+    std::vector<std::int32_t> mSlot;   ///< per field cell: its tally slot, -1 if not active
+    std::size_t mSlots = 0;            ///< active cells
+    std::vector<double> mCellDust;     ///< per field cell: n_H summed over its voxels
+    std::optional<StarDepth> mDepth;   ///< with RenderOptions::exactStarDepth
+};
+
+/// Integer sums of a source's energy statistics (weights, fixed point).
+struct EnergySums
+{
+    std::int64_t power[MAX_CHANNELS] = {}, escaped[MAX_CHANNELS] = {}, absorbed[MAX_CHANNELS] = {};
+    std::atomic<std::uint64_t> flights{0};
+};
+
+/// What a source is: a set of stars (their first-scattering source), or the emission.
+struct SourceSpec
+{
+    std::string name;
+    std::vector<std::size_t> stars; ///< empty: the emission
+};
+
+/// What one thread's packets reuse from packet to packet (no allocation per packet).
+struct PacketScratch
+{
+    std::vector<Piece> pieces;  ///< the current flight's pieces with dust
+    std::vector<float> fv;      ///< the scene's fields at the starting point
+    std::vector<double> etaS;   ///< per star and channel: its first-scattering source there
+    std::vector<double> etaSum; ///< per star: summed over channels
+};
+
+/// Follows packet @p index of @p src through every order of scattering.
+void runPacket(const Transport& tr, const SourceSpec& src, const Sampler& sampler,
+               std::uint64_t index, std::uint64_t seed, std::uint64_t sourceIndex,
+               const Transport::Tally& tally, EnergySums& energy, PacketScratch& sc);
+
+} // namespace nebula::detail
