@@ -1,0 +1,222 @@
+/// @file spectral_scene.cpp
+/// nebrender --spectral's scene (DESIGN §7): buildSpectralScene() reads the emission grids and
+/// their lines, the temperature and velocity grids onto the RGB scene's lattice, and checks
+/// the spectral options; the integrator is in spectral.cpp.
+
+#include "nebula/render/spectral.h"
+
+#include "nebula/core/error.h"
+#include "nebula/core/format.h"
+#include "nebula/io/grid_names.h"
+#include "nebula/io/spectral_grids.h"
+#include "nebula/io/volume_vdb.h"
+#include "nebula/physics/blackbody.h"
+#include "nebula/physics/colour.h"
+#include "nebula/physics/motion.h"
+
+#include <openvdb/tools/ValueTransformer.h>
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+namespace nebula {
+
+namespace {
+
+/// UsageError for options the spectral renderer cannot honour.
+void checkSpectralOptions(const RenderOptions& opts)
+{
+    const SpectralOptions& so = opts.spectral;
+    if (opts.integrator == Integrator::Path) {
+        throw UsageError("--spectral is for the fast integrator (--integrator fast)");
+    }
+    if (opts.phaseTable) {
+        throw UsageError("--spectral does not use --phase (the table's gain depends on the "
+                         "wavelength through the voxel's optical thickness); its multiple "
+                         "scattering comes from nebscatter --spectral's field");
+    }
+    if (opts.levels > 0) throw UsageError("--spectral does not use pyramid levels (--levels)");
+    if (so.bands < 0 || so.bands > MAX_SPECTRAL_BANDS) {
+        throw UsageError(fmt::format("--bands must be in [1, {}] (bands of 0.1 nm at the most; 0: "
+                                     "piecewise-linear spectra), got {}",
+                                     MAX_SPECTRAL_BANDS, so.bands));
+    }
+    if (!(so.continuumStep >= MIN_CONTINUUM_STEP && so.continuumStep <= 50.0)) {
+        throw UsageError(fmt::format("--continuum-step must be in [{:g}, 50] nm, got {}",
+                                     MIN_CONTINUUM_STEP, detail::numberText(so.continuumStep)));
+    }
+    if (!(so.lineWidth > 0.0) || !std::isfinite(so.lineWidth)) {
+        throw UsageError("--line-width must be a finite number > 0 [km/s]");
+    }
+    if (!(so.exaggerateVelocity > 0.0) || !std::isfinite(so.exaggerateVelocity)) {
+        throw UsageError("--exaggerate-velocity must be a finite number > 0 (1: true speeds)");
+    }
+    if (!(so.blackbodyScale >= 0.0) || !std::isfinite(so.blackbodyScale)) {
+        throw UsageError("--blackbody-scale must be a finite number >= 0");
+    }
+    if (!(so.temperatureScale > 0.0) || !std::isfinite(so.temperatureScale)) {
+        throw UsageError("--temperature-scale must be a finite number > 0");
+    }
+    if (so.layers < 0 || so.layers > 470) throw UsageError("--spectral-layers must be in [0, 470]");
+}
+
+/// The emission grids: opts.emissionGrid, then every other FloatGrid with nebula:lines, each
+/// with its lines and the unit that gives the line mix the RGB mode's luminance.
+std::vector<openvdb::FloatGrid::ConstPtr>
+emissionGrids(const GridSet& grids, const RenderOptions& opts, SpectralScene& scene)
+{
+    const SpectralOptions& so = opts.spectral;
+    // Emission grids: the main one, then every other FloatGrid that says what it emits.
+    std::vector<openvdb::FloatGrid::ConstPtr> emitGrids;
+    std::vector<SpectralLine> fallback;
+    try {
+        fallback = parseLineList(so.lines.empty() ? DEFAULT_EMISSION_LINES : so.lines, "--lines");
+    } catch (const UsageError&) {
+        throw;
+    } catch (const Error& e) {
+        throw UsageError(e.what()); // a bad option value: usage error (exit 2)
+    }
+    const double targetY = linearSRGBToXYZ(opts.emissionColor)[1] * opts.emissionScale;
+    auto addEmitter = [&](const openvdb::FloatGrid::Ptr& g, bool main) {
+        requireFiniteNonNegative(*g, grids.source);
+        SpectralEmitter e;
+        e.grid = g->getName();
+        e.lines = (main && !so.lines.empty()) ? fallback : gridLines(*g, grids.source, fallback);
+        double Y = 0.0;
+        for (const auto& l : e.lines)
+            Y += l.strength * cmfAt(l.wavelength)[1];
+        if (!(Y > 0.0)) {
+            throw Error(grids.source + ": grid \"" + e.grid + "\" emits only lines outside " +
+                        "360-830 nm (" + lineListToString(e.lines) + "): nothing to see");
+        }
+        e.unit = targetY / Y;
+        scene.emitters.push_back(e);
+        emitGrids.push_back(g);
+    };
+    if (grids.find(opts.emissionGrid)) {
+        addEmitter(grids.floatGrid(opts.emissionGrid, "--emission-grid"), true);
+    }
+    for (const auto& g : grids.grids) {
+        if (!g || g->getName() == opts.emissionGrid) continue;
+        if (!g->getMetadata<openvdb::StringMetadata>(META_LINES)) continue;
+        addEmitter(grids.floatGrid(g->getName(), ""), false);
+    }
+
+    return emitGrids;
+}
+
+/// The velocity grid's three components as FloatGrids (empty without one); UsageError if
+/// --exaggerate-velocity makes any gas as fast as light.
+std::vector<openvdb::FloatGrid::Ptr> velocityComponents(const GridSet& grids,
+                                                        const SpectralOptions& so)
+{
+    std::vector<openvdb::FloatGrid::Ptr> velocity;
+    if (grids.find(so.velocityGrid)) {
+        const auto v = velocityGrid(grids, so.velocityGrid, "--velocity-grid");
+        for (int c = 0; c < 3; ++c) {
+            auto comp = openvdb::FloatGrid::create(0.0f);
+            comp->setTransform(v->transform().copy());
+            comp->setName(so.velocityGrid + "xyz"[c]);
+            auto acc = comp->getAccessor();
+            for (auto it = v->cbeginValueOn(); it; ++it) {
+                if (it.isVoxelValue()) {
+                    acc.setValue(it.getCoord(), (*it)[c]);
+                } else {
+                    openvdb::CoordBBox box;
+                    it.getBoundingBox(box);
+                    comp->tree().fill(box, (*it)[c], true);
+                }
+            }
+            velocity.push_back(comp);
+        }
+        // Gas as fast as light (after exaggeration) has no Doppler factor: refuse it.
+        double vmax2 = 0.0;
+        for (auto it = v->cbeginValueOn(); it; ++it)
+            vmax2 = std::max(vmax2, double((*it).lengthSqr()));
+        const double vmax = std::sqrt(vmax2) * std::abs(so.exaggerateVelocity);
+        if (vmax >= SPEED_OF_LIGHT_KMS) {
+            throw UsageError("--exaggerate-velocity " + std::to_string(so.exaggerateVelocity) +
+                             " makes the fastest gas of grid \"" + so.velocityGrid + "\" move at " +
+                             std::to_string(vmax) + " km/s, not slower than light (" +
+                             std::to_string(SPEED_OF_LIGHT_KMS) + " km/s)");
+        }
+    }
+
+    return velocity;
+}
+
+} // namespace
+
+SpectralScene buildSpectralScene(const GridSet& grids, const RenderOptions& opts,
+                                 const DustParams& dust)
+{
+    const SpectralOptions& so = opts.spectral;
+    checkSpectralOptions(opts);
+    SpectralScene scene;
+    scene.dust = dust;
+    RenderOptions base = opts;
+    base.levels = 0;
+    scene.base = buildScene(grids, base, dust);
+    const auto emitGrids = emissionGrids(grids, opts, scene);
+    openvdb::FloatGrid::Ptr temperature;
+    if (grids.find(so.temperatureGrid)) {
+        temperature = grids.floatGrid(so.temperatureGrid, "--temperature-grid");
+        requireValidTemperature(*temperature, grids.source);
+        float hottest = 0.0f;
+        for (auto it = temperature->cbeginValueOn(); it; ++it)
+            hottest = std::max(hottest, *it);
+        if (!(double(hottest) * so.temperatureScale <= MAX_STAR_TEMPERATURE)) {
+            throw UsageError(grids.source + ": --temperature-scale " +
+                             detail::numberText(so.temperatureScale) + " times grid \"" +
+                             so.temperatureGrid + "\"'s hottest voxel, " +
+                             fmt::format("{:.4g}", hottest) + " K, exceeds " +
+                             detail::numberText(MAX_STAR_TEMPERATURE) +
+                             " K, beyond any dust or star; use a smaller --temperature-scale");
+        }
+    }
+    const auto velocity = velocityComponents(grids, so);
+
+    // One lattice for everything: channels as documented in SpectralScene.
+    const auto density = grids.floatGrid(opts.densityGrid, "--density-grid");
+    std::vector<openvdb::FloatGrid::ConstPtr> boundsGrids{density};
+    for (const auto& g : emitGrids)
+        boundsGrids.push_back(g);
+    std::vector<openvdb::FloatGrid::ConstPtr> fields{density};
+    auto empty = openvdb::FloatGrid::create(0.0f);
+    empty->setTransform(density->transform().copy());
+    fields.push_back(empty); // channel 1: filled below with the sum of the emission grids
+    for (const auto& s : scene.base.stars)
+        fields.push_back(grids.floatGrid(tauGridName(s.name), ""));
+    int ch = int(fields.size());
+    for (std::size_t k = 0; k < emitGrids.size(); ++k) {
+        scene.emitters[k].channel = ch++;
+        fields.push_back(emitGrids[k]);
+    }
+    if (temperature) {
+        scene.temperatureChannel = ch++;
+        fields.push_back(temperature);
+    }
+    if (!velocity.empty()) {
+        scene.velocityChannel = ch;
+        ch += 3;
+        for (const auto& v : velocity)
+            fields.push_back(v);
+    }
+    DenseVolume vol = denseFromGrids(fields, activeBounds(boundsGrids, 1), grids.source);
+    const int C = vol.channels();
+    for (std::size_t i = 0; i < vol.voxelCount(); ++i) {
+        float* q = vol.data().data() + i * std::size_t(C);
+        float sum = 0.0f;
+        for (const auto& e : scene.emitters)
+            sum += q[e.channel];
+        q[1] = sum;
+    }
+    scene.base.fields = std::move(vol);
+    scene.base.buildOccupancy();
+    return scene;
+}
+
+} // namespace nebula
