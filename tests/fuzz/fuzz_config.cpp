@@ -15,43 +15,61 @@
 #include <unistd.h>
 #include <vector>
 
-extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size)
+namespace {
+
+/// A tool's options, built once (CLI11 apps are slow to build): every input clears the
+/// parse results and parses again.
+struct Tool
 {
-    const std::string text(reinterpret_cast<const char*>(data), size);
-    CLI::App app("nebfuzz", "nebfuzz");
+    CLI::App app{"nebfuzz", "nebfuzz"};
     nebula::CommonOptions common;
     int res = 16;
     double scale = 1.0;
     std::vector<std::string> lines;
     bool flag = false;
     std::array<double, 3> eye{0, 0, -5};
-    nebula::cli::addCommon(app, common, nebula::cli::DENSITY_GRID);
-    app.add_option("--res", res)->check(nebula::cli::integerIn(8, 4096));
-    app.add_option("--scale", scale)->check(nebula::cli::positive());
-    app.add_option("--lines", lines);
-    app.add_flag("--flag", flag);
-    nebula::cli::addVec3(app, "--eye", eye, "Eye [pc]");
-    nebula::cli::checkNumbers(app);
+    int fd = -1; ///< the memory file CLI11 reads the config from, rewritten for every input
+
+    Tool()
+    {
+        nebula::cli::addCommon(app, common, nebula::cli::DENSITY_GRID);
+        app.add_option("--res", res)->check(nebula::cli::integerIn(8, 4096));
+        app.add_option("--scale", scale)->check(nebula::cli::positive());
+        app.add_option("--lines", lines);
+        app.add_flag("--flag", flag);
+        nebula::cli::addVec3(app, "--eye", eye, "Eye [pc]");
+        nebula::cli::checkNumbers(app);
+        fd = int(::memfd_create("fuzz-config", MFD_CLOEXEC));
+    }
+};
+
+} // namespace
+
+extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size)
+{
+    static Tool tool;
+    const std::string text(reinterpret_cast<const char*>(data), size);
+    tool.app.clear();
     try {
-        nebula::cli::checkConfigText(app, text, "fuzz.toml", "nebfuzz");
+        nebula::cli::checkConfigText(tool.app, text, "fuzz.toml", "nebfuzz");
     } catch (const nebula::Error&) {
         return 0;
     }
-    const int fd = int(::memfd_create("fuzz-config", MFD_CLOEXEC));
-    if (fd < 0) return 0;
+    if (tool.fd < 0 || ::ftruncate(tool.fd, 0) != 0) return 0;
     std::size_t done = 0;
     while (done < text.size()) {
-        const ssize_t n = ::write(fd, text.data() + done, text.size() - done);
-        if (n <= 0) break;
+        const ssize_t n = ::pwrite(tool.fd, text.data() + done, text.size() - done, off_t(done));
+        if (n <= 0) return 0;
         done += std::size_t(n);
     }
-    std::string arg0 = "nebfuzz", arg1 = "--config", arg2 = "/proc/self/fd/" + std::to_string(fd);
+    std::string arg0 = "nebfuzz", arg1 = "--config",
+                arg2 = "/proc/self/fd/" + std::to_string(tool.fd);
     char* argv[] = {arg0.data(), arg1.data(), arg2.data()};
+    tool.app.clear();
     try {
-        app.parse(3, argv);
+        tool.app.parse(3, argv);
     } catch (const CLI::ParseError&) {
     } catch (const nebula::Error&) {
     }
-    ::close(fd);
     return 0;
 }
