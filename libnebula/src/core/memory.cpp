@@ -5,6 +5,8 @@
 #include <fmt/format.h>
 
 #include <cmath>
+#include <cstdlib>
+#include <sys/mman.h>
 #include <unistd.h>
 
 namespace nebula {
@@ -15,6 +17,22 @@ std::uint64_t physicalMemory()
     const long pageSize = ::sysconf(_SC_PAGESIZE);
     if (pages <= 0 || pageSize <= 0) return 0;
     return std::uint64_t(pages) * std::uint64_t(pageSize);
+}
+
+void* allocateLargePages(std::size_t bytes)
+{
+    const std::size_t rounded = (bytes + HUGE_PAGE_BYTES - 1) / HUGE_PAGE_BYTES * HUGE_PAGE_BYTES;
+    if (rounded < bytes) throw std::bad_alloc();
+    void* p = std::aligned_alloc(HUGE_PAGE_BYTES, rounded);
+    if (!p) throw std::bad_alloc();
+    // Advice only: where transparent huge pages are off, the block has 4 KiB pages.
+    (void)::madvise(p, rounded, MADV_HUGEPAGE);
+    return p;
+}
+
+void freeLargePages(void* p) noexcept
+{
+    std::free(p);
 }
 
 std::string bytesText(double bytes)

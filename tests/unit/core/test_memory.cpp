@@ -15,6 +15,8 @@
 #include <string>
 
 using nebula::bytesText;
+using nebula::HUGE_PAGE_BYTES;
+using nebula::LargeFloatArray;
 using nebula::requireMemory;
 using nebula::test::errorMessage;
 
@@ -55,6 +57,26 @@ TEST(Memory, RequireMemoryNamesTheAllocationAndBothSizes)
     // The machine's own memory: nothing fits 1e30 bytes.
     EXPECT_THROW(requireMemory(1e30, "x"), nebula::UsageError);
     EXPECT_NO_THROW(requireMemory(1024.0, "x"));
+}
+
+// Large arrays sit on 2 MiB boundaries (so that the kernel can back them with huge pages),
+// small ones come from the ordinary allocator; both are zeroed and usable end to end.
+TEST(Memory, LargeArraysAreAlignedForHugePages)
+{
+    LargeFloatArray big(3 * HUGE_PAGE_BYTES / sizeof(float) + 5);
+    EXPECT_EQ(reinterpret_cast<std::uintptr_t>(big.data()) % HUGE_PAGE_BYTES, 0u);
+    EXPECT_EQ(big.front(), 0.0f);
+    EXPECT_EQ(big.back(), 0.0f);
+    big.back() = 2.5f;
+    LargeFloatArray copy = big; // the copy is on huge pages too
+    EXPECT_EQ(reinterpret_cast<std::uintptr_t>(copy.data()) % HUGE_PAGE_BYTES, 0u);
+    EXPECT_EQ(copy.back(), 2.5f);
+    LargeFloatArray small(100, 1.0f);
+    EXPECT_EQ(small[99], 1.0f);
+    small.resize(HUGE_PAGE_BYTES / sizeof(float)); // grows from ordinary into huge pages
+    EXPECT_EQ(reinterpret_cast<std::uintptr_t>(small.data()) % HUGE_PAGE_BYTES, 0u);
+    EXPECT_EQ(small[99], 1.0f);
+    EXPECT_EQ(small.back(), 0.0f);
 }
 
 } // namespace

@@ -4,8 +4,12 @@
 /// footprint, grid resolution): refuse it with a usage error that says how much memory it
 /// would need and how much the machine has, instead of dying with std::bad_alloc.
 
+#include <cstddef>
 #include <cstdint>
+#include <memory>
+#include <new>
 #include <string>
+#include <vector>
 
 namespace nebula {
 
@@ -23,5 +27,52 @@ void requireMemory(double bytes, const std::string& what);
 
 /// requireMemory() against @p available bytes instead of the machine's memory (for tests).
 void requireMemory(double bytes, const std::string& what, std::uint64_t available);
+
+/// Blocks of at least this many bytes are given transparent huge pages (LargePageAllocator).
+inline constexpr std::size_t HUGE_PAGE_BYTES = std::size_t(2) << 20;
+
+/// A block of @p bytes (>= HUGE_PAGE_BYTES) aligned to, and rounded up to, HUGE_PAGE_BYTES
+/// and marked madvise(MADV_HUGEPAGE), so that the kernel backs it with 2 MiB pages: one page
+/// fault where 4 KiB pages take 512, and one TLB entry where they take 512 (zeroing an 86 MB
+/// volume: 330 ms with 4 KiB pages, 40 ms with 2 MiB ones on a 2-core VM). Throws
+/// std::bad_alloc if there is no memory. Free it with freeLargePages().
+void* allocateLargePages(std::size_t bytes);
+void freeLargePages(void* p) noexcept;
+
+/// std::allocator, except that blocks of HUGE_PAGE_BYTES and more come from
+/// allocateLargePages(): for the big dense arrays (volumes, tallies, images).
+template <typename T> struct LargePageAllocator
+{
+    using value_type = T;
+    LargePageAllocator() = default;
+    template <typename U> LargePageAllocator(const LargePageAllocator<U>&) noexcept {}
+    T* allocate(std::size_t n)
+    {
+        if (n > std::size_t(-1) / sizeof(T)) throw std::bad_alloc();
+        if (n * sizeof(T) >= HUGE_PAGE_BYTES) {
+            return static_cast<T*>(allocateLargePages(n * sizeof(T)));
+        }
+        return std::allocator<T>().allocate(n);
+    }
+    void deallocate(T* p, std::size_t n) noexcept
+    {
+        if (n * sizeof(T) >= HUGE_PAGE_BYTES) {
+            freeLargePages(p);
+        } else {
+            std::allocator<T>().deallocate(p, n);
+        }
+    }
+    template <typename U> bool operator==(const LargePageAllocator<U>&) const noexcept
+    {
+        return true;
+    }
+    template <typename U> bool operator!=(const LargePageAllocator<U>&) const noexcept
+    {
+        return false;
+    }
+};
+
+/// A float array on huge pages when large (DenseVolume's storage).
+using LargeFloatArray = std::vector<float, LargePageAllocator<float>>;
 
 } // namespace nebula

@@ -5,6 +5,8 @@
 /// with trilinear sampling in index space and the grid's affine index-to-world map.
 /// No OpenVDB here: hot code includes this header only (volume_vdb.h converts).
 
+#include "nebula/core/memory.h"
+
 #include <array>
 #include <cmath>
 #include <cstddef>
@@ -81,8 +83,8 @@ public:
     {
         return mData.data() + idx * std::size_t(mChannels);
     }
-    std::vector<float>& data() { return mData; }
-    const std::vector<float>& data() const { return mData; }
+    LargeFloatArray& data() { return mData; }
+    const LargeFloatArray& data() const { return mData; }
 
     /// Channel @p c alone as a one-channel volume on the same lattice and transform.
     DenseVolume channel(int c) const
@@ -162,7 +164,7 @@ private:
     std::array<int, 3> mLo{0, 0, 0};
     std::array<int, 3> mDims{0, 0, 0};
     int mChannels = 0;
-    std::vector<float> mData;
+    LargeFloatArray mData; ///< on huge pages when large (core/memory.h)
 };
 
 } // namespace nebula
