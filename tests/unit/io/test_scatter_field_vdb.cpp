@@ -10,25 +10,17 @@
 
 #include <openvdb/openvdb.h>
 
+#include "test_util.h"
+
 #include <gtest/gtest.h>
 
 #include <cmath>
-#include <functional>
 #include <string>
 
 using namespace nebula;
+using nebula::test::errorMessage;
 
 namespace {
-
-std::string errorOf(const std::function<void()>& f)
-{
-    try {
-        f();
-    } catch (const Error& e) {
-        return e.what();
-    }
-    return "(no error)";
-}
 
 /// A small R, G, B field of order 1 with two sources on a 4^3 lattice at lo (-1, 0, 2); each
 /// channel's value a distinct function of the point, the source and the channel.
@@ -169,7 +161,7 @@ TEST(ScatterFieldVdb, MissingOrMisplacedGridsAndBrokenMetadataNameTheirCause)
         for (auto& g : grids.grids)
             if (g->getName() != name) kept.push_back(g);
         grids.grids = kept;
-        EXPECT_EQ(errorOf([&] {
+        EXPECT_EQ(errorMessage([&] {
                       readScatterMoments(grids, meta, false, factors, fieldMap, WHAT, RERUN);
                   }),
                   WHAT + " lacks its grid \"" + name + "\"" + RERUN);
@@ -179,7 +171,7 @@ TEST(ScatterFieldVdb, MissingOrMisplacedGridsAndBrokenMetadataNameTheirCause)
         const auto meta = *readScatterFieldMeta(grids, false);
         const std::string name = scatterGridName("star_a", 0, 0, 0);
         grids.find(name)->setTransform(openvdb::math::Transform::createLinearTransform(1.0));
-        const std::string e = errorOf(
+        const std::string e = errorMessage(
             [&] { readScatterMoments(grids, meta, false, factors, fieldMap, WHAT, RERUN); });
         EXPECT_NE(e.find("grid \"" + name + "\" is not on field level 1's transform"),
                   std::string::npos)
@@ -188,7 +180,7 @@ TEST(ScatterFieldVdb, MissingOrMisplacedGridsAndBrokenMetadataNameTheirCause)
     {
         GridSet grids = f.written();
         grids.setMetaString(META_SCATTER, "{\"order\": 9}");
-        const std::string e = errorOf([&] { readScatterFieldMeta(grids, false); });
+        const std::string e = errorMessage([&] { readScatterFieldMeta(grids, false); });
         EXPECT_NE(e.find("field.vdb: nebula:scatter metadata is not nebscatter's"),
                   std::string::npos)
             << e;
@@ -196,7 +188,7 @@ TEST(ScatterFieldVdb, MissingOrMisplacedGridsAndBrokenMetadataNameTheirCause)
     {
         GridSet grids = f.written();
         grids.setMetaString(META_SCATTER, "");
-        const std::string e = errorOf([&] { readScatterFieldMeta(grids, false); });
+        const std::string e = errorMessage([&] { readScatterFieldMeta(grids, false); });
         EXPECT_NE(e.find("looks like a scattered-light field but the file has no nebula:scatter"),
                   std::string::npos)
             << e;
