@@ -337,7 +337,8 @@ int main(int argc, char** argv)
             ->check(nebula::cli::integerIn(2, 1000000)),
         tbl->add_option("--max-photons", opts.maxPhotons,
                         "Photons per t at most (default " + std::to_string(spec.maxPhotons) +
-                            ", or --photons if larger)")
+                            ", or --photons if larger; at most 1e9 per t and 1e11 in the "
+                            "table)")
             ->check(nebula::cli::integerIn(1, UINT64_MAX)),
         tbl->add_option("--error", opts.table.targetError,
                         "Target relative standard error of Phi (mu > 0 bins, t <= " +

@@ -96,7 +96,7 @@ int main(int argc, char** argv)
     app.add_option("--frames", framesText,
                    "With --camera-path: render frames A-B[:STEP] in one process (the scene is\n"
                    "loaded once); -o (and --png) then need a frame pattern: f.####.exr or\n"
-                   "f.%04d.exr")
+                   "f.%04d.exr; at most 1e6 frames in one range")
         ->excludes(frameOpt);
     app.add_flag("--skip-existing", out.skipExisting,
                  "Skip frames whose EXR (and PNG) exist and read back whole: a killed batch\n"
@@ -158,7 +158,9 @@ int main(int argc, char** argv)
                    "Carlo path tracer, all orders of scattering (--spp, --seed)")
         ->check(CLI::IsMember({"fast", "path"}))
         ->capture_default_str();
-    app.add_option("--spp", opts.spp, "Path tracer: random walks per pixel (one serves R, G and B)")
+    app.add_option("--spp", opts.spp,
+                   "Path tracer: random walks per pixel (one serves R, G and B); --spp x the\n"
+                   "pixels at most 1e10, a work bound refused with its estimate")
         ->capture_default_str()
         ->check(nebula::cli::integerIn(1, 1 << 30));
     app.add_option("--seed", opts.seed, "Path tracer: random seed (same seed, same image)")

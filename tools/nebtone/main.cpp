@@ -32,7 +32,8 @@ int main(int argc, char** argv)
                    "PNG frames: a name with a frame pattern, ending in .png")
         ->required();
     app.add_option("--frames", framesText,
-                   "Frames A-B[:STEP] (default: every frame of the pattern that exists)");
+                   "Frames A-B[:STEP] (default: every frame of the pattern that exists); at most\n"
+                   "1e6 frames in one range");
     app.add_option("--window", window,
                    "Smoothing window [s]: Gaussian weights of standard deviation window/2 over\n"
                    "the frames' log white point and log-mean luminance; 0: every frame its own\n"
