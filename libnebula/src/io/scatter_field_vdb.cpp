@@ -18,15 +18,6 @@ using detail::numberText;
 
 namespace {
 
-/// "a, b, c" of the numbers.
-std::string listText(const std::vector<double>& v)
-{
-    std::string t;
-    for (const double x : v)
-        t += (t.empty() ? "" : ", ") + numberText(x);
-    return t;
-}
-
 /// A field grid of the kind: "scatter.*" (R, G, B) or "scatter.spectral.*".
 bool isFieldGrid(const std::string& name, bool spectral)
 {
@@ -191,7 +182,7 @@ std::optional<ScatterFieldMeta> readScatterFieldMeta(const GridSet& grids, bool 
     for (std::size_t i = 0; i < wl.size() && wlOk; ++i)
         wlOk = std::isfinite(wl[i]) && wl[i] > 0.0 && (i == 0 || wl[i] > wl[i - 1] || !spectral);
     if (!wlOk) {
-        throw Error(grids.source + ": " + metaKey + " has wavelengths " + listText(wl) +
+        throw Error(grids.source + ": " + metaKey + " has wavelengths " + detail::numbersText(wl) +
                     "; expected " + (spectral ? "at least 2 increasing" : "3 (R, G, B)") +
                     " wavelengths > 0 nm");
     }

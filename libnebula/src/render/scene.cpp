@@ -124,15 +124,6 @@ RenderLevel readLevel(const GridSet& grids, const RenderOptions& opts,
     return level;
 }
 
-/// "a, b, c" of the numbers.
-std::string listText(const std::vector<double>& v)
-{
-    std::string t;
-    for (const double x : v)
-        t += (t.empty() ? "" : ", ") + numberText(x);
-    return t;
-}
-
 bool close(double a, double b, double rel = 1e-9)
 {
     return std::abs(a - b) <= rel * std::max({std::abs(a), std::abs(b), 1e-300});
@@ -205,7 +196,7 @@ void readScatterField(const GridSet& grids, const RenderOptions& opts, const Dus
     const auto& wl = meta.wavelengths;
     for (int c = 0; c < 3 && !spectral; ++c) {
         if (!close(wl[std::size_t(c)], opts.wavelengths[std::size_t(c)])) {
-            throw Error(what + " was made for channel wavelengths " + listText(wl) +
+            throw Error(what + " was made for channel wavelengths " + detail::numbersText(wl) +
                         " nm, but --wavelengths is " + numberText(opts.wavelengths[0]) + ", " +
                         numberText(opts.wavelengths[1]) + ", " + numberText(opts.wavelengths[2]) +
                         rerun);

@@ -9,6 +9,7 @@
 #include <cstdlib>
 #include <sstream>
 #include <string>
+#include <vector>
 
 namespace nebula::detail {
 
@@ -117,6 +118,15 @@ inline std::string numberText(double value)
         text = out.str();
         if (!std::isfinite(value) || std::strtod(text.c_str(), nullptr) == value) break;
     }
+    return text;
+}
+
+/// numberText() of each value, joined by ", ": "650, 550, 450".
+inline std::string numbersText(const std::vector<double>& values)
+{
+    std::string text;
+    for (const double v : values)
+        text += (text.empty() ? "" : ", ") + numberText(v);
     return text;
 }
 
