@@ -9,6 +9,7 @@
 #include "nebula/io/grid_io.h"
 #include "nebula/io/grid_names.h"
 #include "nebula/io/image.h"
+#include "nebula/stages/generate.h"
 
 #include <nlohmann/json.hpp>
 
@@ -203,12 +204,17 @@ TEST_F(Cli, AllocationsTooLargeForTheMachineAreRefused)
         double bytes; // what the tool needs
     };
     const double pixels = 65536.0 * 65536.0;
+    nebula::NebulaParams big;
+    big.res = 2048;
+    big.spectral.enabled = true;
+    big.spectral.oiii = 1.0;
+    const double spectral2048 = nebula::generateBytes(big); // the grids where dust may be
     const std::vector<Case> cases = {
         // R,G,B,A + 2 stars' and the transmittance's RGB layers, tone curve and PNG buffers.
         {"nebrender -i lit.vdb --res 65536x65536 -o f.exr", "--res 65536x65536: the image needs ",
          pixels * ((4 + 3 * 3) * 4 + 20)},
-        {"nebgen --res 1500 -o big.vdb", "--res 1500: generating the grids needs ",
-         1500.0 * 1500.0 * 1500.0 * 2 * (4 + 4.125)},
+        {"nebgen --res 2048 --spectral --oiii 1 -o big.vdb",
+         "--res 2048: generating the grids needs ", spectral2048},
     };
     for (const auto& c : cases) {
         if (machine >= c.bytes) continue; // would run (for minutes) on this machine

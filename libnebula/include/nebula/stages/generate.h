@@ -109,9 +109,21 @@ inline double dustTemperature(double U)
 /// A star near its edge.
 std::vector<Star> exampleStars();
 
-/// The most memory [bytes] generateNebula() may need for @p params: its dense arrays plus,
-/// at worst (every voxel active), the grids made from them.
+/// The most memory [bytes] generateNebula() may need for @p params: its grids, at worst
+/// (every voxel active). It holds no dense arrays: it builds the grids leaf by leaf.
 double generateBytes(const NebulaParams& params);
+
+/// The procedural fields at one voxel: dust density n_H [cm^-3], gas emission and the [O III]
+/// zone's emission.
+struct NebulaVoxel
+{
+    double density = 0.0, emission = 0.0, oiii = 0.0;
+};
+
+/// The fields at voxel (i, j, k) of a params.res^3 cube, evaluated there whatever the support:
+/// what generateNebula()'s grids hold at that voxel (as float; inactive where zero). The
+/// reference its tests compare every voxel against. Throws as generateNebula() does.
+NebulaVoxel nebulaVoxel(const NebulaParams& params, int i, int j, int k);
 
 /// Builds the `density` (fog volume, n_H [cm^-3]) and `emission` grids (with `nebula:lines`
 /// metadata) and sets the stars and dust metadata. Zero voxels are inactive, trees pruned.
@@ -123,8 +135,12 @@ double generateBytes(const NebulaParams& params);
 ///   metadata units = "km/s"): MotionField(motionParams(params), size) on the same voxels;
 /// - `emission.oiii` if spectral.oiii > 0 (see SpectralParams::oiii), with nebula:lines
 ///   OIII_EMISSION_LINES.
-/// The result depends only on the parameters, not on the thread count. @p progress gets
-/// z-slices done. Throws UsageError naming nebgen's option for a bad parameter, and (naming
+/// The grids are built leaf by leaf (8^3 voxels) in parallel: a leaf wholly outside the
+/// fields' support (beyond the dust envelope's largest radius and the emission's ball or
+/// shell) is never evaluated, and a leaf of zeros is never stored, so time and memory follow
+/// the nebula, not the cube. The result depends only on the parameters, not on the thread
+/// count. @p progress gets z-slices done. Throws UsageError naming nebgen's option for a bad
+/// parameter, and (naming
 /// --res, requireMemory()) before allocating if generateBytes() exceeds the machine's memory.
 GridSet generateNebula(const NebulaParams& params,
                        const std::function<void(std::size_t)>& progress = {});
