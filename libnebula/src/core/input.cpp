@@ -6,11 +6,14 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <cstring>
 #include <fcntl.h>
+#include <sys/mman.h>
 #include <sys/stat.h>
 #include <unistd.h>
+#include <utility>
 #include <vector>
 
 namespace nebula {
@@ -35,47 +38,64 @@ struct Fd
 
 } // namespace
 
-std::string readInput(const std::string& path, const InputSpec& spec)
+namespace {
+
+/// An input opened for reading: its descriptor, status and name in messages.
+struct Opened
+{
+    Fd in;
+    struct stat st = {};
+    std::string where;
+};
+
+void openInput(const std::string& path, const InputSpec& spec, Opened& o)
 {
     // The main input is named by its path alone, as every later message about it is.
-    const std::string where =
-        spec.option == "-i" ? inputName(path) : inputName(path) + " (" + spec.option + ")";
-    Fd in;
+    o.where = spec.option == "-i" ? inputName(path) : inputName(path) + " (" + spec.option + ")";
     if (path == "-") {
         if (::isatty(STDIN_FILENO)) {
             throw UsageError(spec.option + " -: stdin is a terminal; pipe " + spec.format +
                              " in or give a file");
         }
-        in.fd = STDIN_FILENO;
+        o.in.fd = STDIN_FILENO;
     } else {
-        in.fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
-        if (in.fd < 0) {
-            throw Error(where + ": cannot open file (" + std::strerror(errno) + ")");
+        o.in.fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+        if (o.in.fd < 0) {
+            throw Error(o.where + ": cannot open file (" + std::strerror(errno) + ")");
         }
-        in.owned = true;
+        o.in.owned = true;
     }
-    struct stat st;
-    if (::fstat(in.fd, &st) != 0) {
-        throw Error(where + ": cannot read file (" + std::strerror(errno) + ")");
+    if (::fstat(o.in.fd, &o.st) != 0) {
+        throw Error(o.where + ": cannot read file (" + std::strerror(errno) + ")");
     }
-    if (S_ISDIR(st.st_mode)) throw Error(where + ": is a folder, not " + spec.format);
-    const bool regular = S_ISREG(st.st_mode);
-    std::string bytes;
-    if (regular && st.st_size > 0) {
-        const auto size = std::uint64_t(st.st_size);
+    if (S_ISDIR(o.st.st_mode)) throw Error(o.where + ": is a folder, not " + spec.format);
+    if (S_ISREG(o.st.st_mode) && o.st.st_size > 0) {
+        const auto size = std::uint64_t(o.st.st_size);
         if (size > spec.limit) {
             throw Error(fmt::format("{}: the file has {}, more than the {} nebula reads of {} "
                                     "(README, Failure behaviour)",
-                                    where, bytesText(double(size)), bytesText(double(spec.limit)),
+                                    o.where, bytesText(double(size)), bytesText(double(spec.limit)),
                                     spec.format));
         }
-        if (spec.checkMemory) requireMemory(double(size), where + ": reading the file");
+    }
+}
+
+/// Reads all of an opened input (see readInput()).
+std::string readOpened(const Opened& o, const InputSpec& spec)
+{
+    const std::string& where = o.where;
+    const struct stat& st = o.st;
+    const int fd = o.in.fd;
+    const bool regular = S_ISREG(st.st_mode);
+    std::string bytes;
+    if (regular && st.st_size > 0 && spec.checkMemory) {
+        requireMemory(double(st.st_size), where + ": reading the file");
     }
     bool headKnown = !spec.head;
     // Small reads until the head is known, so that a wrong stream is refused at once.
     std::vector<char> chunk(std::size_t(64) << 10);
     for (;;) {
-        const ssize_t n = ::read(in.fd, chunk.data(), chunk.size());
+        const ssize_t n = ::read(fd, chunk.data(), chunk.size());
         if (n < 0 && errno == EINTR) continue;
         if (n < 0) throw Error(where + ": read failed (" + std::strerror(errno) + ")");
         if (n == 0) break;
@@ -97,6 +117,82 @@ std::string readInput(const std::string& path, const InputSpec& spec)
         }
     }
     if (!headKnown) spec.head(bytes, true, where);
+    return bytes;
+}
+
+} // namespace
+
+std::string readInput(const std::string& path, const InputSpec& spec)
+{
+    Opened o;
+    openInput(path, spec, o);
+    return readOpened(o, spec);
+}
+
+InputBytes InputBytes::borrow(std::string_view bytes)
+{
+    InputBytes in;
+    in.mData = bytes.data() ? bytes.data() : "";
+    in.mSize = bytes.size();
+    return in;
+}
+
+InputBytes::InputBytes(InputBytes&& other) noexcept
+    : mData(std::exchange(other.mData, nullptr)), mSize(std::exchange(other.mSize, 0)),
+      mMapped(std::exchange(other.mMapped, false)), mBytes(std::move(other.mBytes))
+{}
+
+InputBytes& InputBytes::operator=(InputBytes&& other) noexcept
+{
+    if (this != &other) {
+        unmap();
+        mData = std::exchange(other.mData, nullptr);
+        mSize = std::exchange(other.mSize, 0);
+        mMapped = std::exchange(other.mMapped, false);
+        mBytes = std::move(other.mBytes);
+    }
+    return *this;
+}
+
+InputBytes::~InputBytes()
+{
+    unmap();
+}
+
+void InputBytes::unmap() noexcept
+{
+    if (mMapped) ::munmap(const_cast<char*>(mData), mSize);
+    mMapped = false;
+}
+
+void InputBytes::release(std::size_t begin, std::size_t end) const
+{
+    if (!mMapped) return;
+    const auto page = std::size_t(::sysconf(_SC_PAGESIZE));
+    end = std::min(end, mSize);
+    const std::size_t first = (begin + page - 1) / page * page; // whole pages only
+    const std::size_t last = end == mSize ? end : end / page * page;
+    if (last <= first) return;
+    // Advice only: a failure leaves the pages mapped, which costs memory, not correctness.
+    (void)::madvise(const_cast<char*>(mData) + first, last - first, MADV_DONTNEED);
+}
+
+InputBytes mapInput(const std::string& path, const InputSpec& spec)
+{
+    Opened o;
+    openInput(path, spec, o);
+    if (!S_ISREG(o.st.st_mode) || o.st.st_size <= 0) return InputBytes(readOpened(o, spec));
+    const auto size = std::size_t(o.st.st_size);
+    void* p = ::mmap(nullptr, size, PROT_READ, MAP_PRIVATE, o.in.fd, 0);
+    if (p == MAP_FAILED) {
+        throw Error(o.where + ": cannot map file (" + std::strerror(errno) + ")");
+    }
+    (void)::madvise(p, size, MADV_SEQUENTIAL);
+    InputBytes bytes;
+    bytes.mData = static_cast<const char*>(p);
+    bytes.mSize = size;
+    bytes.mMapped = true;
+    if (spec.head) spec.head(bytes.view(), true, o.where);
     return bytes;
 }
 

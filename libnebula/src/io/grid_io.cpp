@@ -233,31 +233,59 @@ nlohmann::json GridSet::historyWith(const std::string& tool, const std::string& 
 
 namespace {
 
-/// A read-only std::streambuf over bytes in memory (no copy), seekable.
+/// A read-only, seekable std::streambuf over an input's bytes (no copy). It hands them out in
+/// windows and, for a mapped file, releases the pages well behind the reader
+/// (InputBytes::release()), so a file being parsed into grids does not also stay in memory.
 class MemoryBuf : public std::streambuf
 {
 public:
-    MemoryBuf(const char* data, std::size_t size)
+    explicit MemoryBuf(const InputBytes& bytes) : mBytes(bytes), mData(bytes.view())
     {
-        char* p = const_cast<char*>(data); // std::streambuf's get area is non-const; never written
-        setg(p, p, p + size);
+        setWindow(0);
     }
 
 protected:
+    int_type underflow() override
+    {
+        const std::size_t pos = std::size_t(gptr() - eback());
+        if (pos >= mData.size()) return traits_type::eof();
+        setWindow(pos);
+        return traits_type::to_int_type(*gptr());
+    }
     pos_type seekoff(off_type off, std::ios_base::seekdir dir, std::ios_base::openmode) override
     {
+        const off_type size = off_type(mData.size());
         const off_type base = dir == std::ios_base::beg   ? 0
                               : dir == std::ios_base::cur ? off_type(gptr() - eback())
-                                                          : off_type(egptr() - eback());
+                                                          : size;
         const off_type pos = base + off;
-        if (pos < 0 || pos > off_type(egptr() - eback())) return pos_type(off_type(-1));
-        setg(eback(), eback() + pos, egptr());
+        if (pos < 0 || pos > size) return pos_type(off_type(-1));
+        setWindow(std::size_t(pos));
         return pos_type(pos);
     }
     pos_type seekpos(pos_type pos, std::ios_base::openmode mode) override
     {
         return seekoff(off_type(pos), std::ios_base::beg, mode);
     }
+
+private:
+    static constexpr std::size_t WINDOW = std::size_t(8) << 20;
+    /// Kept behind the reader: OpenVDB seeks back a little (to a grid's descriptor).
+    static constexpr std::size_t KEEP = std::size_t(4) << 20;
+
+    void setWindow(std::size_t pos)
+    {
+        if (mBytes.mapped() && pos > mReleased + KEEP + WINDOW) {
+            mBytes.release(mReleased, pos - KEEP);
+            mReleased = pos - KEEP;
+        }
+        char* p = const_cast<char*>(mData.data()); // the get area is never written
+        setg(p, p + pos, p + std::min(mData.size(), pos + WINDOW));
+    }
+
+    const InputBytes& mBytes;
+    std::string_view mData;
+    std::size_t mReleased = 0;
 };
 
 /// The VDB magic number's 8 bytes (vdb_check.cpp checks them again with the rest).
@@ -349,22 +377,29 @@ GridSet readGrids(const std::string& path, const std::string& option)
     spec.limit = MAX_GRID_INPUT_BYTES;
     spec.head = vdbHead;
     spec.checkMemory = true;
-    return readGridsFromMemory(readInput(path, spec), inputName(path));
+    return readGridsFromBytes(mapInput(path, spec), inputName(path));
 }
 
 GridSet readGridsFromMemory(const std::string& bytes, const std::string& source)
+{
+    return readGridsFromBytes(InputBytes::borrow(bytes), source);
+}
+
+GridSet readGridsFromBytes(const InputBytes& bytes, const std::string& source)
 {
     GridSet set;
     set.source = source;
     // Structure first: OpenVDB trusts the lengths in the file (a damaged one can make it
     // allocate gigabytes or overrun a buffer).
-    checkVdbStructure(bytes, set.source);
+    checkVdbStructure(bytes.view(), set.source);
+    bytes.release(0, bytes.view().size()); // checked; read back as the parser goes
     try {
-        MemoryBuf buf(bytes.data(), bytes.size());
+        MemoryBuf buf(bytes);
         std::istream in(&buf);
         openvdb::io::Stream stream(in, /*delayLoad=*/false);
         set.grids = *stream.getGrids();
         if (auto m = stream.getMetadata()) set.meta = *m;
+        bytes.release(0, bytes.view().size());
     } catch (const Error&) {
         throw;
     } catch (const std::exception& e) {

@@ -117,3 +117,70 @@ TEST_F(Input, FoldersAndMissingFilesAreNamed)
 }
 
 } // namespace
+
+namespace {
+
+/// This process's resident anonymous memory [bytes] (RssAnon in /proc/self/status).
+std::uint64_t residentAnonymous()
+{
+    std::ifstream status("/proc/self/status");
+    std::string key;
+    while (status >> key) {
+        if (key == "RssAnon:") {
+            std::uint64_t kib = 0;
+            status >> kib;
+            return kib * 1024;
+        }
+        status.ignore(1 << 20, '\n');
+    }
+    return 0;
+}
+
+} // namespace
+
+TEST_F(Input, RegularFilesAreMappedNotCopied)
+{
+    // 48 MiB with a JSON head: mapped, the same checks, the same bytes, no copy in this
+    // process's anonymous memory (a read would add 48 MiB; allow 8 for the test's own noise).
+    const std::size_t size = std::size_t(48) << 20;
+    {
+        std::string text = "[" + std::string(size - 2, ' ') + "]";
+        for (std::size_t i = 1; i + 1 < size; i += 4099)
+            text[i] = '1';
+        std::ofstream(path("big.json"), std::ios::binary) << text;
+    }
+    const std::uint64_t before = residentAnonymous();
+    const nebula::InputBytes bytes = nebula::mapInput(path("big.json"), jsonSpec(size));
+    ASSERT_TRUE(bytes.mapped());
+    const std::string_view v = bytes.view();
+    ASSERT_EQ(v.size(), size);
+    std::size_t ones = 0;
+    for (const char c : v)
+        ones += c == '1';
+    EXPECT_EQ(ones, (size - 3) / 4099 + 1);
+    EXPECT_LT(residentAnonymous(), before + (std::uint64_t(8) << 20));
+    // Released pages read back the same bytes.
+    bytes.release(0, size);
+    EXPECT_EQ(v[0], '[');
+    EXPECT_EQ(v[1], '1');
+    EXPECT_EQ(v[size - 1], ']');
+    // The same refusals as readInput(): over the limit (before mapping), a wrong head.
+    EXPECT_EQ(errorMessage([&] { nebula::mapInput(path("big.json"), jsonSpec(size - 1)); }),
+              path("big.json") + " (--stars): the file has 48 MiB, more than the 48 MiB nebula "
+                                 "reads of a JSON file (README, Failure behaviour)");
+    std::ofstream(path("c.json")) << "{}";
+    EXPECT_EQ(errorMessage([&] { nebula::mapInput(path("c.json"), jsonSpec(100)); }),
+              path("c.json") + " (--stars): not a JSON array of stars: it starts with '{', "
+                               "expected '['");
+    // Streams and empty files are read as readInput() reads them.
+    std::ofstream(path("empty.json")).flush();
+    EXPECT_EQ(errorMessage([&] { nebula::mapInput(path("empty.json"), jsonSpec(100)); }),
+              path("empty.json") + " (--stars): empty: expected a JSON array of stars");
+    const std::string fifo = path("f.json");
+    ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+    std::thread writer([&] { std::ofstream(fifo, std::ios::binary) << "[1]"; });
+    const nebula::InputBytes piped = nebula::mapInput(fifo, jsonSpec(100));
+    writer.join();
+    EXPECT_FALSE(piped.mapped());
+    EXPECT_EQ(piped.view(), "[1]");
+}

@@ -7,6 +7,7 @@
 /// after its first bytes or at the limit, naming the file and the option, never read whole
 /// first; and a config file from a pipe is the same text that is checked and applied.
 
+#include <cstddef>
 #include <cstdint>
 #include <functional>
 #include <string>
@@ -46,6 +47,50 @@ std::string inputName(const std::string& path);
 /// limit; both sizes in the message), or its head is not the format. A terminal on stdin is
 /// a UsageError.
 std::string readInput(const std::string& path, const InputSpec& spec);
+
+/// An input's bytes without a second copy in memory: a regular file is mapped read-only (its
+/// pages are the kernel's page cache, shared, dropped under memory pressure), a stream's bytes
+/// are held as read. Move-only.
+class InputBytes
+{
+public:
+    InputBytes() = default;
+    /// Bytes read into memory (a stream).
+    explicit InputBytes(std::string bytes) : mBytes(std::move(bytes)) {}
+    /// Bytes someone else holds, for as long as this lives (a test's or a fuzzer's buffer).
+    static InputBytes borrow(std::string_view bytes);
+    InputBytes(InputBytes&& other) noexcept;
+    InputBytes& operator=(InputBytes&& other) noexcept;
+    InputBytes(const InputBytes&) = delete;
+    InputBytes& operator=(const InputBytes&) = delete;
+    ~InputBytes();
+
+    std::string_view view() const
+    {
+        return mData ? std::string_view(mData, mSize) : std::string_view(mBytes);
+    }
+    /// True when the bytes are a mapped file (release() then frees memory).
+    bool mapped() const { return mMapped; }
+    /// Drops the whole pages of [begin, end) from this process's memory: a mapped file's pages
+    /// are read back from the page cache if touched again, so a reader that has parsed them
+    /// stops paying for them (a 4 GiB file parsed into grids does not count twice). Nothing
+    /// for bytes in memory.
+    void release(std::size_t begin, std::size_t end) const;
+
+private:
+    friend InputBytes mapInput(const std::string& path, const InputSpec& spec);
+    void unmap() noexcept;
+    const char* mData = nullptr; ///< a mapping or borrowed bytes; else mBytes
+    std::size_t mSize = 0;
+    bool mMapped = false;
+    std::string mBytes;
+};
+
+/// readInput(), except that a non-empty regular file is mapped, not read: the same checks
+/// (size limit, head), no copy. Streams (stdin, FIFOs, process substitutions) are read as
+/// readInput() reads them. spec.checkMemory applies to streams only: a mapped file takes no
+/// memory of its own.
+InputBytes mapInput(const std::string& path, const InputSpec& spec);
 
 /// A head check for JSON: the first byte that is not white space must open an object or an
 /// array (@p opens, e.g. "[" or "{["). An empty or all-blank input is refused too.

@@ -5,6 +5,7 @@
 /// file metadata that records provenance, stars and dust.
 
 #include "nebula/core/atomic_file.h"
+#include "nebula/core/input.h"
 #include "nebula/core/run.h"
 #include "nebula/io/grid_names.h"
 #include "nebula/physics/dust.h"
@@ -60,9 +61,10 @@ struct GridSet
     void setMetaString(const std::string& key, const std::string& value);
 };
 
-/// Reads every grid of @p path ("-" = stdin), given by @p option (for messages). The file or
-/// stream is read once (readInput(): its first 8 bytes must be the VDB magic number, and it
-/// may hold at most MAX_GRID_INPUT_BYTES and the machine's memory) and its structure checked
+/// Reads every grid of @p path ("-" = stdin), given by @p option (for messages). A file is
+/// mapped, a stream read once (mapInput(): its first 8 bytes must be the VDB magic number, and
+/// it may hold at most MAX_GRID_INPUT_BYTES; a stream also at most the machine's memory), with
+/// no second copy of a file in memory; its structure is checked
 /// (checkVdbStructure()) before OpenVDB parses it; grid names must be unique; the grids are
 /// verified against `nebula:checksums` where the file has it. Throws Error naming the file
 /// (and grid): missing, not a VDB, too large, truncated, damaged or unreadable.
@@ -71,6 +73,10 @@ GridSet readGrids(const std::string& path, const std::string& option = "-i");
 /// readGrids() of a whole file or stream already in memory; @p source names it in messages.
 /// (The fuzzer's entry point: tests/fuzz.)
 GridSet readGridsFromMemory(const std::string& bytes, const std::string& source);
+
+/// readGrids() of an input's bytes (mapInput()): a mapped file's pages are released once
+/// checked and again behind the parser, so the file is never held whole besides its grids.
+GridSet readGridsFromBytes(const InputBytes& bytes, const std::string& source);
 
 /// readGrids(), reporting what it read under -v ("read <file>: 3 grids: density, ...").
 GridSet readGrids(const std::string& path, const Run& run, const std::string& option = "-i");
