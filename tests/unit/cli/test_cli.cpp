@@ -561,3 +561,21 @@ TEST(CliChecks, ConfigFileLines)
     std::error_code ec;
     fs::remove_all(dir, ec);
 }
+
+TEST(CliRun, HugePageMallocOnlyWhereTheKernelWaitsToBeAsked)
+{
+    using nebula::cli::hugePageTunables;
+    const std::string madvise = "always [madvise] never", always = "[always] madvise never",
+                      never = "always madvise [never]";
+    EXPECT_EQ(hugePageTunables(nullptr, madvise), "glibc.malloc.hugetlb=1");
+    EXPECT_EQ(hugePageTunables("", madvise), "glibc.malloc.hugetlb=1");
+    // Other tunables are kept; the user's own choice of this one is left alone.
+    EXPECT_EQ(hugePageTunables("glibc.malloc.arena_max=2", madvise),
+              "glibc.malloc.arena_max=2:glibc.malloc.hugetlb=1");
+    EXPECT_EQ(hugePageTunables("glibc.malloc.hugetlb=0", madvise), std::nullopt);
+    EXPECT_EQ(hugePageTunables("glibc.malloc.hugetlb=1", madvise), std::nullopt);
+    // THP for every mapping already, or none at all, or no THP in this kernel: nothing to gain.
+    EXPECT_EQ(hugePageTunables(nullptr, always), std::nullopt);
+    EXPECT_EQ(hugePageTunables(nullptr, never), std::nullopt);
+    EXPECT_EQ(hugePageTunables(nullptr, ""), std::nullopt);
+}

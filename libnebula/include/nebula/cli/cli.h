@@ -16,6 +16,7 @@
 #include <functional>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -56,8 +57,19 @@ void addCommon(CLI::App& app, CommonOptions& opts, unsigned flags);
 
 namespace cli {
 
-/// Parses @p argv into @p app, checks the file options (checkFileOptions()), sets up threads
-/// and the Run, calls @p body, and maps the outcome to an exit code: 0 ok (also --help,
+/// The GLIBC_TUNABLES a tool runs again with (see run()), or nullopt to run as it is: where
+/// the kernel gives transparent huge pages only on request (@p thpMode, the first line of
+/// /sys/kernel/mm/transparent_hugepage/enabled, selects "[madvise]") and @p tunables (the
+/// variable, or null) does not name glibc.malloc.hugetlb already (the user's choice, e.g. 0),
+/// @p tunables with glibc.malloc.hugetlb=1 added.
+std::optional<std::string> hugePageTunables(const char* tunables, const std::string& thpMode);
+
+/// First, where hugePageTunables() says so (glibc 2.35 and later; not for --help and
+/// --version, nor under AddressSanitizer), runs the program again, before reading anything,
+/// with that GLIBC_TUNABLES, so that OpenVDB's trees sit on transparent huge pages (README,
+/// Performance). Then parses @p argv into @p app, checks the file options
+/// (checkFileOptions()), sets up threads and the Run, calls @p body, and maps the outcome to an
+/// exit code: 0 ok (also --help,
 /// --version), 2 usage error (CLI11 errors, UsageError), 1 any other error, printed as
 /// "tool: error: message" on stderr.
 int run(CLI::App& app, const std::string& tool, CommonOptions& opts, int argc, char** argv,
