@@ -35,7 +35,9 @@ double unitIntegral(const DenseVolume& n, const std::uint8_t* dusty, const Vec3&
         tNext[ax] = (plane - a[ax]) / d[ax];
         tStep[ax] = 1.0 / std::abs(d[ax]);
     }
-    const std::size_t sy = std::size_t(dims[0]), sz = sy * std::size_t(dims[1]);
+    // Voxel strides (vy, vz) and float strides of channel 0 (ex, ey, ez).
+    const std::size_t vy = std::size_t(dims[0]), vz = vy * std::size_t(dims[1]);
+    const std::size_t ex = std::size_t(n.channels()), ey = ex * vy, ez = ey * std::size_t(dims[1]);
     double t0 = 0.0, f0 = 0.0, sum = 0.0;
     bool haveF0 = false;
     for (;;) {
@@ -47,11 +49,12 @@ double unitIntegral(const DenseVolume& n, const std::uint8_t* dusty, const Vec3&
             const bool inside =
                 i >= 0 && j >= 0 && k >= 0 && i + 1 < dims[0] && j + 1 < dims[1] && k + 1 < dims[2];
             const std::size_t base =
-                inside ? (std::size_t(k) * sz + std::size_t(j) * sy + std::size_t(i)) : 0;
+                inside ? (std::size_t(k) * vz + std::size_t(j) * vy + std::size_t(i)) : 0;
             if (inside && dusty[base]) {
-                const float* q = n.data().data() + base;
-                const double c000 = q[0], c100 = q[1], c010 = q[sy], c110 = q[sy + 1], c001 = q[sz],
-                             c101 = q[sz + 1], c011 = q[sz + sy], c111 = q[sz + sy + 1];
+                const float* q = n.data().data() + base * ex;
+                const double c000 = q[0], c100 = q[ex], c010 = q[ey], c110 = q[ey + ex],
+                             c001 = q[ez], c101 = q[ez + ex], c011 = q[ez + ey],
+                             c111 = q[ez + ey + ex];
                 const auto f = [&](double t) {
                     const double u = a.x + d.x * t - cell[0], v = a.y + d.y * t - cell[1],
                                  w = a.z + d.z * t - cell[2];
@@ -86,21 +89,22 @@ Vec3 latticePoint(const DenseVolume& n, std::size_t idx)
                 double(lo[2] + int(idx / (nx * ny))));
 }
 
-/// Per lattice cell (indexed by its lower corner): 1 if any of its 8 corners is non-zero.
+/// Per lattice cell (indexed by its lower corner): 1 if any of its 8 corners is non-zero in
+/// channel 0.
 std::vector<std::uint8_t> dustyCells(const DenseVolume& n)
 {
-    if (n.channels() != 1) throw Error("optical depth: the density volume must have one channel");
     const auto& dims = n.dims();
-    const std::size_t sy = std::size_t(dims[0]), sz = sy * std::size_t(dims[1]);
+    const std::size_t vy = std::size_t(dims[0]), vz = vy * std::size_t(dims[1]);
+    const std::size_t ex = std::size_t(n.channels()), ey = ex * vy, ez = ey * std::size_t(dims[1]);
     std::vector<std::uint8_t> dusty(n.voxelCount(), 0);
-    const float* v = n.data().data();
     tbb::parallel_for(0, dims[2] - 1, [&](int k) {
         for (int j = 0; j + 1 < dims[1]; ++j)
             for (int i = 0; i + 1 < dims[0]; ++i) {
-                const std::size_t b = std::size_t(k) * sz + std::size_t(j) * sy + std::size_t(i);
-                dusty[b] = (v[b] != 0.0f) | (v[b + 1] != 0.0f) | (v[b + sy] != 0.0f) |
-                           (v[b + sy + 1] != 0.0f) | (v[b + sz] != 0.0f) | (v[b + sz + 1] != 0.0f) |
-                           (v[b + sz + sy] != 0.0f) | (v[b + sz + sy + 1] != 0.0f);
+                const std::size_t b = std::size_t(k) * vz + std::size_t(j) * vy + std::size_t(i);
+                const float* v = n.data().data() + b * ex;
+                dusty[b] = (v[0] != 0.0f) | (v[ex] != 0.0f) | (v[ey] != 0.0f) |
+                           (v[ey + ex] != 0.0f) | (v[ez] != 0.0f) | (v[ez + ex] != 0.0f) |
+                           (v[ez + ey] != 0.0f) | (v[ez + ey + ex] != 0.0f);
             }
     });
     return dusty;

@@ -3,53 +3,107 @@
 
 #include "nebula/render/star_depth.h"
 
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
 #include <algorithm>
 #include <cmath>
 
 namespace nebula {
 
+namespace {
+
+/// Packs one byte per lattice point (non-zero: set) into one bit each, in parallel over
+/// 64-bit words (no word is shared between threads).
+std::vector<std::uint64_t> packBits(const std::vector<std::uint8_t>& bytes)
+{
+    const std::size_t n = bytes.size(), words = (n + 63) / 64;
+    std::vector<std::uint64_t> bits(words, 0);
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, words, 4096),
+                      [&](const tbb::blocked_range<std::size_t>& r) {
+                          for (std::size_t w = r.begin(); w != r.end(); ++w) {
+                              std::uint64_t word = 0;
+                              const std::size_t end = std::min(n, w * 64 + 64);
+                              for (std::size_t v = w * 64; v < end; ++v)
+                                  word |= std::uint64_t(bytes[v] != 0) << (v - w * 64);
+                              bits[w] = word;
+                          }
+                      });
+    return bits;
+}
+
+} // namespace
+
 StarDepth::StarDepth(const RenderScene& scene)
-    : mScene(scene), mDensity(scene.fields.channel(0)), mColumn(mDensity), mLo(scene.fields.lo()),
-      mDims(scene.fields.dims()), mKappa(scene.dust.kappa_V)
+    : mScene(scene), mColumn(scene.fields), mLo(scene.fields.lo()), mDims(scene.fields.dims()),
+      mKappa(scene.dust.kappa_V)
 {
     const DenseVolume& f = scene.fields;
-    const std::size_t n = f.voxelCount(), words = (n + 63) / 64;
+    const std::size_t n = f.voxelCount();
     const std::size_t sx = 1, sy = std::size_t(mDims[0]), sz = sy * std::size_t(mDims[1]);
-    mAny.assign(words, 0);
-    // Lattice points within one voxel of dust (where nebillum wrote tau), then the cells
-    // whose 8 corners all are.
-    std::vector<std::uint8_t> near(n, 0);
-    for (int k = 0; k < mDims[2]; ++k)
-        for (int j = 0; j < mDims[1]; ++j)
-            for (int i = 0; i < mDims[0]; ++i) {
-                const std::size_t v = std::size_t(k) * sz + std::size_t(j) * sy + std::size_t(i);
-                if (!(f.voxel(v)[0] > 0.0f)) continue;
-                for (int c = 0; c < 27; ++c) {
-                    const int a = i + c % 3 - 1, b = j + (c / 3) % 3 - 1, e = k + c / 9 - 1;
-                    if (a >= 0 && b >= 0 && e >= 0 && a < mDims[0] && b < mDims[1] && e < mDims[2])
-                        near[std::size_t(e) * sz + std::size_t(b) * sy + std::size_t(a)] = 1;
-                }
+    const int nx = mDims[0], ny = mDims[1], nz = mDims[2];
+    const auto index = [&](int i, int j, int k) {
+        return std::size_t(k) * sz + std::size_t(j) * sy + std::size_t(i);
+    };
+    // Every pass below is parallel over z-slices, each thread writing only its own slice.
+    const auto forSlices = [&](int k0, int k1, const auto& body) {
+        tbb::parallel_for(std::max(0, k0), std::max(0, k1), [&](int k) { body(k); });
+    };
+    // Lattice points within one voxel of dust (where nebillum wrote tau): the dust dilated by
+    // one in each of x, y and z in turn (the 27-point neighbourhood, separably), then the
+    // cells whose 8 corners all are.
+    std::vector<std::uint8_t> near(n, 0), tmp(n, 0);
+    forSlices(0, nz, [&](int k) {
+        for (int j = 0; j < ny; ++j)
+            for (int i = 0; i < nx; ++i) {
+                bool d = false;
+                for (int a = std::max(0, i - 1); a <= std::min(nx - 1, i + 1) && !d; ++a)
+                    d = f.voxel(index(a, j, k))[0] > 0.0f;
+                tmp[index(i, j, k)] = d;
             }
-    mValid.assign(words, 0);
-    for (int k = 0; k + 1 < mDims[2]; ++k)
-        for (int j = 0; j + 1 < mDims[1]; ++j)
-            for (int i = 0; i + 1 < mDims[0]; ++i) {
-                const std::size_t v = std::size_t(k) * sz + std::size_t(j) * sy + std::size_t(i);
+    });
+    forSlices(0, nz, [&](int k) {
+        for (int j = 0; j < ny; ++j)
+            for (int i = 0; i < nx; ++i) {
+                bool d = false;
+                for (int b = std::max(0, j - 1); b <= std::min(ny - 1, j + 1) && !d; ++b)
+                    d = tmp[index(i, b, k)] != 0;
+                near[index(i, j, k)] = d;
+            }
+    });
+    forSlices(0, nz, [&](int k) {
+        for (int j = 0; j < ny; ++j)
+            for (int i = 0; i < nx; ++i) {
+                bool d = false;
+                for (int e = std::max(0, k - 1); e <= std::min(nz - 1, k + 1) && !d; ++e)
+                    d = near[index(i, j, e)] != 0;
+                tmp[index(i, j, k)] = d;
+            }
+    });
+    near.swap(tmp);
+    std::fill(tmp.begin(), tmp.end(), 0);
+    forSlices(0, nz - 1, [&](int k) {
+        for (int j = 0; j + 1 < ny; ++j)
+            for (int i = 0; i + 1 < nx; ++i) {
+                const std::size_t v = index(i, j, k);
                 bool all = true;
                 for (int c = 0; c < 8 && all; ++c)
                     all = near[v + (c & 1) * sx + ((c >> 1) & 1) * sy + (c >> 2) * sz] != 0;
-                if (all) mValid[v >> 6] |= std::uint64_t(1) << (v & 63);
+                tmp[v] = all;
             }
-    std::vector<std::uint8_t> bends(n);
+    });
+    mValid = packBits(tmp);
+    mAny.assign(mValid.size(), 0);
+    std::vector<std::uint8_t>& bends = tmp;
+    std::vector<std::uint8_t> cells(n, 0);
     for (std::size_t s = 0; s < scene.stars.size(); ++s) {
         // Per lattice point: whether tau's second difference along an axis reaches CURVED.
         const auto tau = [&](std::size_t v) { return double(f.voxel(v)[2 + s]); };
         std::fill(bends.begin(), bends.end(), 0);
-        for (int k = 1; k + 1 < mDims[2]; ++k)
-            for (int j = 1; j + 1 < mDims[1]; ++j)
-                for (int i = 1; i + 1 < mDims[0]; ++i) {
-                    const std::size_t v =
-                        std::size_t(k) * sz + std::size_t(j) * sy + std::size_t(i);
+        forSlices(1, nz - 1, [&](int k) {
+            for (int j = 1; j + 1 < ny; ++j)
+                for (int i = 1; i + 1 < nx; ++i) {
+                    const std::size_t v = index(i, j, k);
                     if (!near[v]) continue;
                     // Along each axis whose three points hold tau (beyond the active band
                     // the grid reads 0, which is no bend of the true tau).
@@ -60,22 +114,22 @@ StarDepth::StarDepth(const RenderScene& scene)
                                   std::abs(tau(v - st) - t + tau(v + st)) >= CURVED);
                     bends[v] = b;
                 }
+        });
         // A cell is curved if one of its corners is.
-        std::vector<std::uint64_t> cells(words, 0);
-        for (int k = 0; k + 1 < mDims[2]; ++k)
-            for (int j = 0; j + 1 < mDims[1]; ++j)
-                for (int i = 0; i + 1 < mDims[0]; ++i) {
-                    const std::size_t v =
-                        std::size_t(k) * sz + std::size_t(j) * sy + std::size_t(i);
+        forSlices(0, nz - 1, [&](int k) {
+            for (int j = 0; j + 1 < ny; ++j)
+                for (int i = 0; i + 1 < nx; ++i) {
+                    const std::size_t v = index(i, j, k);
                     bool any = false;
                     for (int c = 0; c < 8 && !any; ++c)
                         any = bends[v + (c & 1) * sx + ((c >> 1) & 1) * sy + (c >> 2) * sz] != 0;
-                    if (any) {
-                        cells[v >> 6] |= std::uint64_t(1) << (v & 63);
-                        mAny[v >> 6] |= std::uint64_t(1) << (v & 63);
-                    }
+                    cells[v] = any;
                 }
-        mCurved.push_back(std::move(cells));
+        });
+        auto bits = packBits(cells);
+        for (std::size_t w = 0; w < bits.size(); ++w)
+            mAny[w] |= bits[w];
+        mCurved.push_back(std::move(bits));
     }
     const Affine w2i = f.indexToWorld.inverse();
     for (const auto& s : scene.stars)

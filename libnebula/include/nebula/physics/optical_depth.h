@@ -17,13 +17,14 @@
 namespace nebula {
 
 /// Exact column density  integral n dl [cm^-3 pc] along the segment a -> b (index space)
-/// of channel 0 of @p n, trilinear between lattice points, zero outside the lattice.
+/// of channel 0 of @p n (any number of channels: the renderers integrate their fields' density
+/// in place), trilinear between lattice points, zero outside the lattice.
 /// Along a line the trilinear interpolant is a cubic inside each cell, so Simpson's rule
 /// per cell segment is exact (up to rounding).
 double columnDensity(const DenseVolume& n, const Vec3& a, const Vec3& b);
 
-/// columnDensity() for many segments through one volume: the per-cell occupancy it skips
-/// empty cells with is built once.
+/// columnDensity() for many segments through one volume (channel 0 of it; it keeps a
+/// reference): the per-cell occupancy it skips empty cells with is built once, in parallel.
 class ColumnIntegrator
 {
 public:

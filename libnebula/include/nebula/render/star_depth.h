@@ -89,8 +89,7 @@ private:
     }
 
     const RenderScene& mScene;
-    DenseVolume mDensity; ///< channel 0 of the scene's fields (ColumnIntegrator's input)
-    ColumnIntegrator mColumn;
+    ColumnIntegrator mColumn; ///< on channel 0 (density) of the scene's fields, in place
     std::vector<std::vector<std::uint64_t>> mCurved; ///< per star: a bit per lattice cell
     std::vector<std::uint64_t> mAny;                 ///< a bit per lattice cell: any star
     /// A bit per lattice cell: its 8 corners lie within one voxel of dust (the tau grids
