@@ -9,6 +9,7 @@
 #include <openvdb/openvdb.h>
 #include <tbb/global_control.h>
 
+#include <cctype>
 #include <cerrno>
 #include <cmath>
 #include <cstdint>
@@ -21,6 +22,7 @@
 #include <map>
 #include <new>
 #include <optional>
+#include <set>
 #include <sstream>
 #include <sys/mman.h>
 #include <sys/stat.h>
@@ -337,12 +339,44 @@ bool hasValidator(CLI::Option& opt, const std::string& name)
     }
 }
 
+/// A flag's value (--verbose=N, "v = N" in a config file): what CLI11's to_flag_value()
+/// reads without throwing a std::exception past its parser (it calls std::stoll on anything it
+/// does not know, which throws on "abc" and past 19 digits): true, false, on, off, yes, no,
+/// enable, disable, one of "0123456789ftny+-", or a count of at most 9 digits.
+CLI::Validator flagValue()
+{
+    return CLI::Validator(
+        [](std::string& text) -> std::string {
+            std::string v = text;
+            for (char& c : v)
+                c = char(std::tolower(static_cast<unsigned char>(c)));
+            static const std::set<std::string> words{"",    "true", "false",  "on",     "off",
+                                                     "yes", "no",   "enable", "disable"};
+            if (words.count(v) || (v.size() == 1 && std::strchr("0123456789ftny+-", v[0]))) {
+                return "";
+            }
+            const std::size_t i = (v[0] == '+' || v[0] == '-') ? 1 : 0;
+            if (i < v.size() && v.size() - i <= 9 &&
+                v.find_first_not_of("0123456789", i) == std::string::npos) {
+                return "";
+            }
+            return "expected true, false or a count of at most 9 digits, got " + printable(text);
+        },
+        "", "nebula-flag");
+}
+
 } // namespace
 
 void checkNumbers(CLI::App& app)
 {
     for (CLI::Option* opt : app.get_options()) {
-        if (opt->get_expected_min() == 0) continue; // a flag
+        if (opt->get_expected_min() == 0) { // a flag
+            if (!hasValidator(*opt, "nebula-flag") && opt->get_name() != "--help" &&
+                opt->get_name() != "--version") {
+                opt->check(flagValue());
+            }
+            continue;
+        }
         const std::string type = opt->get_type_name();
         if (type.rfind("FLOAT", 0) == 0) {
             if (!hasValidator(*opt, "nebula-number")) opt->check(finite());

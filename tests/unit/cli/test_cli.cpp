@@ -168,6 +168,26 @@ TEST(CliRun, UsageErrorsAreTwo)
     EXPECT_TRUE(contains(o.err, "--frobnicate")) << o.err;
 }
 
+TEST(CliRun, FlagValuesCli11CannotCountAreUsageErrors)
+{
+    // CLI11 reads a flag's value with std::stoll, which threw past its parser (an abort) on
+    // "abc" and past 19 digits, from the command line or a config file (found by fuzz_config).
+    for (const std::string bad : {"--verbose=88888888888888888888888", "--verbose=abc",
+                                  "--quiet=1234567890", "--write-through=888\xb9"}) {
+        const Outcome o = runTool(ALL, {"-i", "a", "-o", "b", bad});
+        EXPECT_EQ(o.code, 2) << bad << ": " << o.err;
+        EXPECT_FALSE(o.bodyRan) << bad;
+        EXPECT_TRUE(contains(o.err, "expected true, false or a count of at most 9 digits"))
+            << bad << ": " << o.err;
+    }
+    for (const std::string good :
+         {"--verbose=2", "-vv", "--quiet=true", "--write-through=off", "--verbose=123456789"}) {
+        const Outcome o = runTool(ALL, {"-i", "a", "-o", "b", good});
+        EXPECT_EQ(o.code, 0) << good << ": " << o.err;
+        EXPECT_TRUE(o.bodyRan) << good;
+    }
+}
+
 TEST(CliRun, ErrorsThrownByTheBody)
 {
     // nebula::Error: 1, "tool: error: message".
