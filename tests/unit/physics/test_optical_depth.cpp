@@ -180,6 +180,32 @@ TEST(OpticalDepth, ExactMatchesBruteForceOnRandomGrid)
     }
 }
 
+// The renderers integrate the density in place, as channel 0 of their multi-channel fields:
+// the same column as on a one-channel copy, bit for bit, whatever the other channels hold.
+TEST(OpticalDepth, ChannelZeroOfAnyVolumeIsIntegratedInPlace)
+{
+    std::mt19937 rng(5);
+    std::uniform_real_distribution<double> U(0.0, 1.0);
+    const auto one = makeVolume(14, -4, 0.25, [&](int i, int j, int k) {
+        const bool border = i == -4 || j == -4 || k == -4 || i == 9 || j == 9 || k == 9;
+        return border || U(rng) < 0.3 ? 0.0 : 50.0 * U(rng);
+    });
+    DenseVolume four(one.lo(), one.dims(), 4);
+    four.indexToWorld = one.indexToWorld;
+    for (std::size_t v = 0; v < one.voxelCount(); ++v) {
+        four.voxel(v)[0] = one.voxel(v)[0];
+        for (int c = 1; c < 4; ++c)
+            four.voxel(v)[c] = float(1e3 * U(rng)); // never read
+    }
+    const ColumnIntegrator a(one), b(four);
+    for (int trial = 0; trial < 200; ++trial) {
+        const Vec3 p(-6 + 17 * U(rng), -6 + 17 * U(rng), -6 + 17 * U(rng));
+        const Vec3 q(-6 + 17 * U(rng), -6 + 17 * U(rng), -6 + 17 * U(rng));
+        EXPECT_EQ(a(p, q), b(p, q)) << trial;
+        EXPECT_EQ(columnDensity(one, p, q), columnDensity(four, p, q)) << trial;
+    }
+}
+
 // The production path (cell walk with empty-cell skipping) against the independent simple
 // reference, on a random clumpy cloud with empty regions, for a star inside and one outside
 // the lattice: the same exact integral, so they agree to float rounding.
