@@ -54,33 +54,27 @@ StarDepth::StarDepth(const RenderScene& scene)
     // cells whose 8 corners all are.
     std::vector<std::uint8_t> near(n, 0), tmp(n, 0);
     forSlices(0, nz, [&](int k) {
-        for (int j = 0; j < ny; ++j)
-            for (int i = 0; i < nx; ++i) {
-                bool d = false;
-                for (int a = std::max(0, i - 1); a <= std::min(nx - 1, i + 1) && !d; ++a)
-                    d = f.voxel(index(a, j, k))[0] > 0.0f;
-                tmp[index(i, j, k)] = d;
-            }
+        for (std::size_t v = index(0, 0, k), end = v + sz; v < end; ++v)
+            tmp[v] = f.voxel(v)[0] > 0.0f;
     });
-    forSlices(0, nz, [&](int k) {
-        for (int j = 0; j < ny; ++j)
-            for (int i = 0; i < nx; ++i) {
-                bool d = false;
-                for (int b = std::max(0, j - 1); b <= std::min(ny - 1, j + 1) && !d; ++b)
-                    d = tmp[index(i, b, k)] != 0;
-                near[index(i, j, k)] = d;
-            }
-    });
-    forSlices(0, nz, [&](int k) {
-        for (int j = 0; j < ny; ++j)
-            for (int i = 0; i < nx; ++i) {
-                bool d = false;
-                for (int e = std::max(0, k - 1); e <= std::min(nz - 1, k + 1) && !d; ++e)
-                    d = near[index(i, j, e)] != 0;
-                tmp[index(i, j, k)] = d;
-            }
-    });
-    near.swap(tmp);
+    // dst = src dilated by one lattice point along @p axis (clipped to the lattice).
+    const auto dilate = [&](const std::vector<std::uint8_t>& src, std::vector<std::uint8_t>& dst,
+                            int axis) {
+        const int len = mDims[std::size_t(axis)];
+        const std::size_t stride = axis == 0 ? sx : axis == 1 ? sy : sz;
+        forSlices(0, nz, [&](int k) {
+            for (int j = 0; j < ny; ++j)
+                for (int i = 0; i < nx; ++i) {
+                    const int at = axis == 0 ? i : axis == 1 ? j : k;
+                    const std::size_t v = index(i, j, k);
+                    dst[v] =
+                        src[v] || (at > 0 && src[v - stride]) || (at + 1 < len && src[v + stride]);
+                }
+        });
+    };
+    dilate(tmp, near, 0);
+    dilate(near, tmp, 1);
+    dilate(tmp, near, 2);
     std::fill(tmp.begin(), tmp.end(), 0);
     forSlices(0, nz - 1, [&](int k) {
         for (int j = 0; j + 1 < ny; ++j)
