@@ -7,9 +7,12 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cerrno>
+#include <csignal>
 #include <cstring>
 #include <fcntl.h>
+#include <mutex>
 #include <sys/mman.h>
 #include <sys/stat.h>
 #include <unistd.h>
@@ -129,6 +132,91 @@ std::string readInput(const std::string& path, const InputSpec& spec)
     return readOpened(o, spec);
 }
 
+namespace {
+
+// ---- A mapped file that shrinks while it is read ---------------------------------------------
+//
+// Reading a page of a mapping past the end of its file raises SIGBUS: another program truncated
+// or rewrote the file in place while a tool read it. The handler names the file and exits 1,
+// as any other read error does, instead of dying of the signal. It makes async-signal-safe
+// calls only: it scans a fixed table (no allocation, no locks) and writes to stderr.
+
+constexpr int MAX_MAPPINGS = 16;
+constexpr int MAP_FREE = 0, MAP_BUSY = 1, MAP_READY = 2;
+std::atomic<int> gMapState[MAX_MAPPINGS];
+const char* gMapBegin[MAX_MAPPINGS];
+std::size_t gMapSize[MAX_MAPPINGS];
+char gMapName[MAX_MAPPINGS][512];
+struct sigaction gOldBus; ///< the handler before ours (a sanitizer's), for other addresses
+
+void writeAll(const char* text)
+{
+    std::size_t left = std::strlen(text);
+    while (left > 0) {
+        const ssize_t n = ::write(STDERR_FILENO, text, left);
+        if (n <= 0) return;
+        text += n;
+        left -= std::size_t(n);
+    }
+}
+
+extern "C" void mappedFileShrank(int sig, siginfo_t* info, void* context)
+{
+    const char* at = static_cast<const char*>(info->si_addr);
+    for (int i = 0; i < MAX_MAPPINGS; ++i) {
+        if (gMapState[i].load() != MAP_READY) continue;
+        if (at >= gMapBegin[i] && at < gMapBegin[i] + gMapSize[i]) {
+            writeAll(program_invocation_short_name);
+            writeAll(": error: ");
+            writeAll(gMapName[i]);
+            writeAll(": the file shrank while it was read (another program truncated or "
+                     "rewrote it in place); run again once it is complete\n");
+            ::_exit(1);
+        }
+    }
+    // Not a mapped input's page: what would have happened without this handler.
+    if ((gOldBus.sa_flags & SA_SIGINFO) != 0 && gOldBus.sa_sigaction != nullptr) {
+        gOldBus.sa_sigaction(sig, info, context);
+        return;
+    }
+    if (gOldBus.sa_handler != SIG_DFL && gOldBus.sa_handler != SIG_IGN &&
+        gOldBus.sa_handler != nullptr) {
+        gOldBus.sa_handler(sig);
+        return;
+    }
+    std::signal(sig, SIG_DFL);
+    std::raise(sig);
+}
+
+/// Registers a mapping for the handler; its slot, or -1 if the table is full.
+int registerMapping(const char* begin, std::size_t size, const std::string& name)
+{
+    static std::once_flag once;
+    std::call_once(once, [] {
+        struct sigaction act;
+        std::memset(&act, 0, sizeof act);
+        act.sa_sigaction = mappedFileShrank;
+        act.sa_flags = SA_SIGINFO;
+        sigemptyset(&act.sa_mask);
+        ::sigaction(SIGBUS, &act, &gOldBus);
+    });
+    for (int i = 0; i < MAX_MAPPINGS; ++i) {
+        int expected = MAP_FREE;
+        if (gMapState[i].compare_exchange_strong(expected, MAP_BUSY)) {
+            gMapBegin[i] = begin;
+            gMapSize[i] = size;
+            const std::size_t n = std::min(name.size(), sizeof gMapName[i] - 1);
+            std::memcpy(gMapName[i], name.data(), n);
+            gMapName[i][n] = '\0';
+            gMapState[i].store(MAP_READY);
+            return i;
+        }
+    }
+    return -1;
+}
+
+} // namespace
+
 InputBytes InputBytes::borrow(std::string_view bytes)
 {
     InputBytes in;
@@ -139,7 +227,8 @@ InputBytes InputBytes::borrow(std::string_view bytes)
 
 InputBytes::InputBytes(InputBytes&& other) noexcept
     : mData(std::exchange(other.mData, nullptr)), mSize(std::exchange(other.mSize, 0)),
-      mMapped(std::exchange(other.mMapped, false)), mBytes(std::move(other.mBytes))
+      mMapped(std::exchange(other.mMapped, false)), mSlot(std::exchange(other.mSlot, -1)),
+      mBytes(std::move(other.mBytes))
 {}
 
 InputBytes& InputBytes::operator=(InputBytes&& other) noexcept
@@ -149,6 +238,7 @@ InputBytes& InputBytes::operator=(InputBytes&& other) noexcept
         mData = std::exchange(other.mData, nullptr);
         mSize = std::exchange(other.mSize, 0);
         mMapped = std::exchange(other.mMapped, false);
+        mSlot = std::exchange(other.mSlot, -1);
         mBytes = std::move(other.mBytes);
     }
     return *this;
@@ -161,6 +251,8 @@ InputBytes::~InputBytes()
 
 void InputBytes::unmap() noexcept
 {
+    if (mSlot >= 0) gMapState[mSlot].store(MAP_FREE);
+    mSlot = -1;
     if (mMapped) ::munmap(const_cast<char*>(mData), mSize);
     mMapped = false;
 }
@@ -192,6 +284,7 @@ InputBytes mapInput(const std::string& path, const InputSpec& spec)
     bytes.mData = static_cast<const char*>(p);
     bytes.mSize = size;
     bytes.mMapped = true;
+    bytes.mSlot = registerMapping(bytes.mData, size, o.where);
     if (spec.head) spec.head(bytes.view(), true, o.where);
     return bytes;
 }

@@ -184,3 +184,39 @@ TEST_F(Input, RegularFilesAreMappedNotCopied)
     EXPECT_FALSE(piped.mapped());
     EXPECT_EQ(piped.view(), "[1]");
 }
+
+#if defined(__has_feature)
+#if __has_feature(address_sanitizer)
+#define NEBULA_TEST_UNDER_ASAN 1
+#endif
+#endif
+#if defined(__SANITIZE_ADDRESS__)
+#define NEBULA_TEST_UNDER_ASAN 1
+#endif
+
+TEST_F(Input, AMappedFileThatShrinksIsAnErrorNotACrash)
+{
+    // Another program truncating the file while a tool reads it: the pages past the new end
+    // raise SIGBUS; the tool names the file and exits 1.
+    const std::size_t size = std::size_t(1) << 20;
+    std::ofstream(path("shrinks.json"), std::ios::binary)
+        << "[" << std::string(size - 2, ' ') << "]";
+    const std::string file = path("shrinks.json");
+#ifdef NEBULA_TEST_UNDER_ASAN
+    // AddressSanitizer may keep SIGBUS to itself; it reports the fault and exits 1 too.
+    const std::string shrankMessage;
+#else
+    const std::string shrankMessage = "error: " + file +
+                                      " \\(--stars\\): the file shrank while it was read "
+                                      "\\(another program truncated or rewrote it in place\\)";
+#endif
+    EXPECT_EXIT(
+        {
+            const nebula::InputBytes bytes = nebula::mapInput(file, jsonSpec(size));
+            if (::truncate(file.c_str(), 4096) != 0) std::_Exit(3);
+            volatile char c = bytes.view()[size - 1]; // past the new end
+            (void)c;
+            std::_Exit(4);
+        },
+        ::testing::ExitedWithCode(1), shrankMessage);
+}

@@ -83,13 +83,16 @@ private:
     const char* mData = nullptr; ///< a mapping or borrowed bytes; else mBytes
     std::size_t mSize = 0;
     bool mMapped = false;
+    int mSlot = -1; ///< the mapping's entry in the SIGBUS handler's table (mapInput())
     std::string mBytes;
 };
 
 /// readInput(), except that a non-empty regular file is mapped, not read: the same checks
-/// (size limit, head), no copy. Streams (stdin, FIFOs, process substitutions) are read as
-/// readInput() reads them. spec.checkMemory applies to streams only: a mapped file takes no
-/// memory of its own.
+/// (size limit, head), no copy. If another program truncates the file while it is mapped,
+/// reading past its new end ends the tool with "<tool>: error: <file>: the file shrank while
+/// it was read ..." and exit status 1 (a SIGBUS handler), not a crash. Streams (stdin, FIFOs,
+/// process substitutions) are read as readInput() reads them. spec.checkMemory applies to streams
+/// only: a mapped file takes no memory of its own.
 InputBytes mapInput(const std::string& path, const InputSpec& spec);
 
 /// A head check for JSON: the first byte that is not white space must open an object or an
