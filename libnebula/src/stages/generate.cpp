@@ -202,6 +202,29 @@ constexpr double sparseBytesPerVoxel(double floats)
 
 namespace {
 
+/// The least and greatest distance from @p c to the box [a, b].
+double minDistance(const std::array<double, 3>& c, const std::array<double, 3>& a,
+                   const std::array<double, 3>& b)
+{
+    double s = 0.0;
+    for (size_t d = 0; d < 3; ++d) {
+        const double e = std::max({a[d] - c[d], 0.0, c[d] - b[d]});
+        s += e * e;
+    }
+    return std::sqrt(s);
+}
+
+double maxDistance(const std::array<double, 3>& c, const std::array<double, 3>& a,
+                   const std::array<double, 3>& b)
+{
+    double s = 0.0;
+    for (size_t d = 0; d < 3; ++d) {
+        const double e = std::max(std::abs(a[d] - c[d]), std::abs(b[d] - c[d]));
+        s += e * e;
+    }
+    return std::sqrt(s);
+}
+
 /// The procedural nebula (DESIGN §2): domain-warped fBm dust in a perturbed spherical
 /// envelope with cavities around the stars, and gas emission in a sphere or shell, with an
 /// inner [O III] zone.
@@ -257,6 +280,37 @@ public:
         return v;
     }
 
+    /// False only if every voxel centre of [lo, hi] (inclusive, index space) has zero
+    /// density, emission and [O III] emission, exactly as at() computes them: the generator
+    /// skips such a box without evaluating the noise. fBm is a weighted mean of Perlin noise,
+    /// and Perlin noise is a convex blend of gradient dot products of at most 2 in magnitude,
+    /// so |fBm| <= 2: the dust envelope's edge is at most min(0.5, 1.7 envelope) from the
+    /// centre, where env = 0.
+    bool mayHoldNebula(const openvdb::Coord& lo, const openvdb::Coord& hi) const
+    {
+        const NebulaParams& p = mP;
+        // Bounds of the voxel centres in cube units, [-0.5, 0.5]^3.
+        const double n = p.res;
+        std::array<double, 3> a{}, b{};
+        for (int d = 0; d < 3; ++d) {
+            a[size_t(d)] = (lo[d] + 0.5) / n - 0.5;
+            b[size_t(d)] = (hi[d] + 0.5) / n - 0.5;
+        }
+        const std::array<double, 3> origin{0.0, 0.0, 0.0}, centre{mCx, mCy, mCz};
+        const double margin = 1e-9; // far above the rounding of r in at()
+        // The dust: env = 0 where r >= edge (> 0).
+        const double dustEdge = std::min(0.5, p.envelope * (1.0 + 0.35 * 2.0));
+        if (!(p.envelope > 0.0) || minDistance(origin, a, b) < dustEdge + margin) return true;
+        if (!(p.emissionPeak > 0.0)) return false; // no emission anywhere
+        if (mShell) {
+            // 1 - smoothstep(0, wR, |dc - R|) = 0 where |dc - R| >= wR (> 0, validated).
+            return minDistance(centre, a, b) < mR + mWR + margin &&
+                   maxDistance(centre, a, b) > mR - mWR - margin;
+        }
+        // The ball: 1 - smoothstep(0.4 R, R, r) = 0 where r >= R (> 0).
+        return !(mR > 0.0) || minDistance(origin, a, b) < mR + margin;
+    }
+
 private:
     /// Dust at cube point (x, y, z), distance r from the centre, warped point q: the fBm
     /// shaped into clumps inside a soft envelope, emptied around each star.
@@ -290,105 +344,47 @@ private:
     double mCx = 0, mCy = 0, mCz = 0, mR = 0, mWR = 0, mR0 = 0, mR1 = 0;
 };
 
-/// Where the procedural fields can be non-zero, conservatively: a box of voxels outside it
-/// holds only zeros, exactly as NebulaField::at() computes them, so the generator skips it
-/// without evaluating the noise. fBm is a weighted mean of Perlin noise, and Perlin noise is
-/// a convex blend of gradient dot products of at most 2 in magnitude, so |fBm| <= 2: the
-/// dust envelope's edge is at most min(0.5, 1.7 envelope) from the centre, where env = 0.
-class NebulaSupport
-{
-public:
-    NebulaSupport(const NebulaParams& p) : mP(p)
-    {
-        const auto centrePc = motionCentre(p);
-        mCentre = {centrePc[0] / p.size, centrePc[1] / p.size, centrePc[2] / p.size};
-        mDustEdge = std::min(0.5, p.envelope * (1.0 + 0.35 * 2.0));
-    }
-    /// False only if every voxel centre of [lo, hi] (inclusive, index space) has zero density,
-    /// emission and [O III] emission.
-    bool mayHoldNebula(const openvdb::Coord& lo, const openvdb::Coord& hi) const
-    {
-        // Bounds of the voxel centres in cube units, [-0.5, 0.5]^3.
-        const double n = mP.res;
-        std::array<double, 3> a{}, b{};
-        for (int d = 0; d < 3; ++d) {
-            a[size_t(d)] = (lo[d] + 0.5) / n - 0.5;
-            b[size_t(d)] = (hi[d] + 0.5) / n - 0.5;
-        }
-        const std::array<double, 3> origin{0.0, 0.0, 0.0};
-        const double margin = 1e-9; // far above the rounding of r in at()
-        // The dust: env = 0 where r >= edge (> 0).
-        if (!(mP.envelope > 0.0) || minDistance(origin, a, b) < mDustEdge + margin) return true;
-        if (!(mP.emissionPeak > 0.0)) return false; // no emission anywhere
-        const double R = mP.emissionRadius;
-        if (mP.emissionShape == EmissionShape::Shell) {
-            // 1 - smoothstep(0, wR, |dc - R|) = 0 where |dc - R| >= wR (> 0, validated).
-            const double wR = mP.shellWidth * R;
-            return minDistance(mCentre, a, b) < R + wR + margin &&
-                   maxDistance(mCentre, a, b) > R - wR - margin;
-        }
-        // The ball: 1 - smoothstep(0.4 R, R, r) = 0 where r >= R (> 0).
-        return !(R > 0.0) || minDistance(origin, a, b) < R + margin;
-    }
-
-private:
-    static double minDistance(const std::array<double, 3>& c, const std::array<double, 3>& a,
-                              const std::array<double, 3>& b)
-    {
-        double s = 0.0;
-        for (size_t d = 0; d < 3; ++d) {
-            const double e = std::max({a[d] - c[d], 0.0, c[d] - b[d]});
-            s += e * e;
-        }
-        return std::sqrt(s);
-    }
-    static double maxDistance(const std::array<double, 3>& c, const std::array<double, 3>& a,
-                              const std::array<double, 3>& b)
-    {
-        double s = 0.0;
-        for (size_t d = 0; d < 3; ++d) {
-            const double e = std::max(std::abs(a[d] - c[d]), std::abs(b[d] - c[d]));
-            s += e * e;
-        }
-        return std::sqrt(s);
-    }
-    const NebulaParams& mP;
-    std::array<double, 3> mCentre{};
-    double mDustEdge = 0.5;
-};
-
 using FloatLeaf = openvdb::FloatTree::LeafNodeType;
 
-/// Calls f(lo, hi) (inclusive voxel bounds) for each leaf of the res^3 cube that
-/// NebulaSupport::mayHoldNebula(), in parallel over columns of leaves along x; then
-/// columnDone(kb) once each column of layer kb is done.
+/// Calls f(lo, hi, column) (inclusive voxel bounds) for each leaf of the res^3 cube that
+/// NebulaField::mayHoldNebula(), in parallel over columns of leaves along x; then
+/// columnDone(kb, jb) once each column of layer kb is done.
 template <typename F>
-void forEachSupportLeaf(const NebulaParams& p, F&& f,
+void forEachSupportLeaf(const NebulaField& field, int n, F&& f,
                         const std::function<void(int kb, int jb)>& columnDone = {})
 {
-    const NebulaSupport support(p);
-    const int n = p.res, dim = int(FloatLeaf::DIM), nb = (n + dim - 1) / dim;
+    const int dim = int(FloatLeaf::DIM), nb = (n + dim - 1) / dim;
     tbb::parallel_for(0, nb * nb, [&](int col) {
         const int kb = col / nb, jb = col % nb;
         for (int ib = 0; ib < nb; ++ib) {
             const openvdb::Coord lo(ib * dim, jb * dim, kb * dim);
             const openvdb::Coord hi =
                 openvdb::Coord::minComponent(lo.offsetBy(dim - 1), openvdb::Coord(n - 1));
-            if (support.mayHoldNebula(lo, hi)) f(lo, hi, col);
+            if (field.mayHoldNebula(lo, hi)) f(lo, hi, col);
         }
         if (columnDone) columnDone(kb, jb);
     });
 }
 
-/// A fog-volume FloatGrid of @p leaves (their non-zero voxels active), pruned.
-openvdb::FloatGrid::Ptr fogGrid(std::vector<std::unique_ptr<FloatLeaf>>& leaves,
+/// The leaves generateNebula() keeps from one column of leaves, per grid.
+struct LeafColumn
+{
+    std::vector<std::unique_ptr<FloatLeaf>> density, emission, oiii;
+};
+
+/// A fog-volume FloatGrid of the leaves @p field of every column (their non-zero voxels
+/// active), pruned; the leaves move into it.
+openvdb::FloatGrid::Ptr fogGrid(std::vector<LeafColumn>& columns,
+                                std::vector<std::unique_ptr<FloatLeaf>> LeafColumn::*field,
                                 openvdb::math::Transform::Ptr xform, const std::string& name,
                                 const std::string& units)
 {
     auto grid = openvdb::FloatGrid::create(0.0f);
-    for (auto& leaf : leaves)
-        grid->tree().addLeaf(leaf.release());
-    leaves.clear();
+    for (auto& column : columns) {
+        for (auto& leaf : column.*field)
+            grid->tree().addLeaf(leaf.release());
+        (column.*field).clear();
+    }
     openvdb::tools::prune(grid->tree());
     grid->setTransform(xform);
     grid->setName(name);
@@ -410,10 +406,11 @@ double generateBytes(const NebulaParams& p)
     double perVoxel = fields * sparseBytesPerVoxel(1.0);
     if (p.spectral.enabled) perVoxel += sparseBytesPerVoxel(1.0) + sparseBytesPerVoxel(3.0);
     std::atomic<std::uint64_t> voxels{0};
-    forEachSupportLeaf(p, [&](const openvdb::Coord& lo, const openvdb::Coord& hi, int) {
-        voxels += std::uint64_t(hi.x() - lo.x() + 1) * std::uint64_t(hi.y() - lo.y() + 1) *
-                  std::uint64_t(hi.z() - lo.z() + 1);
-    });
+    forEachSupportLeaf(
+        NebulaField(p), p.res, [&](const openvdb::Coord& lo, const openvdb::Coord& hi, int) {
+            voxels += std::uint64_t(hi.x() - lo.x() + 1) * std::uint64_t(hi.y() - lo.y() + 1) *
+                      std::uint64_t(hi.z() - lo.z() + 1);
+        });
     return double(voxels.load()) * perVoxel;
 }
 
@@ -439,71 +436,53 @@ GridSet generateNebula(const NebulaParams& p, const std::function<void(std::size
     // the fields' support are never evaluated, and leaves of zeros never stored.
     const NebulaField field(p);
     const int dim = int(FloatLeaf::DIM), nb = (n + dim - 1) / dim;
-    struct Column
-    {
-        std::vector<std::unique_ptr<FloatLeaf>> density, emission, oiii;
-    };
-    std::vector<Column> columns(std::size_t(nb) * std::size_t(nb));
+    std::vector<LeafColumn> columns(std::size_t(nb) * std::size_t(nb));
     std::vector<std::atomic<int>> layerDone(static_cast<std::size_t>(nb));
     const auto fill = [&](const openvdb::Coord& lo, const openvdb::Coord& hi, int col) {
-        Column& out = columns[std::size_t(col)];
         auto d = std::make_unique<FloatLeaf>(lo, 0.0f, false);
         auto e = std::make_unique<FloatLeaf>(lo, 0.0f, false);
         std::unique_ptr<FloatLeaf> o;
         if (oiiiOn) o = std::make_unique<FloatLeaf>(lo, 0.0f, false);
         bool anyD = false, anyE = false, anyO = false;
+        // Zero (and -0) voxels stay inactive, as in a fog volume.
+        const auto keep = [](FloatLeaf& leaf, const openvdb::Coord& c, double value, bool& any) {
+            if (const float x = float(value); x != 0.0f) {
+                leaf.setValueOn(c, x);
+                any = true;
+            }
+        };
         for (int k = lo.z(); k <= hi.z(); ++k) {
             for (int j = lo.y(); j <= hi.y(); ++j) {
                 for (int i = lo.x(); i <= hi.x(); ++i) {
                     const openvdb::Coord c(i, j, k);
                     const NebulaVoxel v = field.at(i, j, k, oiiiOn);
-                    // Zero (and -0) voxels stay inactive, as in a fog volume.
-                    if (const float x = float(v.density); x != 0.0f) {
-                        d->setValueOn(c, x);
-                        anyD = true;
-                    }
-                    if (const float x = float(v.emission); x != 0.0f) {
-                        e->setValueOn(c, x);
-                        anyE = true;
-                    }
-                    if (o && v.emission > 0.0) {
-                        if (const float x = float(v.oiii); x != 0.0f) {
-                            o->setValueOn(c, x);
-                            anyO = true;
-                        }
-                    }
+                    keep(*d, c, v.density, anyD);
+                    keep(*e, c, v.emission, anyE);
+                    if (o && v.emission > 0.0) keep(*o, c, v.oiii, anyO);
                 }
             }
         }
+        LeafColumn& out = columns[std::size_t(col)];
         if (anyD) out.density.push_back(std::move(d));
         if (anyE) out.emission.push_back(std::move(e));
         if (anyO) out.oiii.push_back(std::move(o));
     };
-    forEachSupportLeaf(p, fill, [&](int kb, int) {
+    forEachSupportLeaf(field, n, fill, [&](int kb, int) {
         if (++layerDone[std::size_t(kb)] == nb && progress) {
             progress(std::size_t(std::min(dim, n - kb * dim))); // z-slices done
         }
     });
-    std::vector<std::unique_ptr<FloatLeaf>> dLeaves, eLeaves, oLeaves;
-    for (auto& c : columns) {
-        for (auto& l : c.density)
-            dLeaves.push_back(std::move(l));
-        for (auto& l : c.emission)
-            eLeaves.push_back(std::move(l));
-        for (auto& l : c.oiii)
-            oLeaves.push_back(std::move(l));
-    }
-    columns.clear();
 
     const std::string emissionUnits = "emission [L_sun pc^-3 sr^-1]";
-    auto dGrid = fogGrid(dLeaves, xform, "density", "n_H [cm^-3]");
-    auto eGrid = fogGrid(eLeaves, xform->copy(), "emission", emissionUnits);
+    auto dGrid = fogGrid(columns, &LeafColumn::density, xform, "density", "n_H [cm^-3]");
+    auto eGrid = fogGrid(columns, &LeafColumn::emission, xform->copy(), "emission", emissionUnits);
     eGrid->insertMeta(META_LINES, openvdb::StringMetadata(lineListToString(p.lines)));
     GridSet set;
     set.source = "nebgen";
     set.grids = {dGrid, eGrid};
     if (oiiiOn) {
-        auto oGrid = fogGrid(oLeaves, xform->copy(), "emission.oiii", emissionUnits);
+        auto oGrid =
+            fogGrid(columns, &LeafColumn::oiii, xform->copy(), "emission.oiii", emissionUnits);
         oGrid->insertMeta(META_LINES, openvdb::StringMetadata(lineListToString(
                                           parseLineList(OIII_EMISSION_LINES, "[O III] lines"))));
         set.grids.push_back(oGrid);
