@@ -75,21 +75,26 @@ StarDepth::StarDepth(const RenderScene& scene)
     dilate(tmp, near, 0);
     dilate(near, tmp, 1);
     dilate(tmp, near, 2);
-    std::fill(tmp.begin(), tmp.end(), 0);
-    forSlices(0, nz - 1, [&](int k) {
-        for (int j = 0; j + 1 < ny; ++j)
-            for (int i = 0; i + 1 < nx; ++i) {
-                const std::size_t v = index(i, j, k);
-                bool all = true;
-                for (int c = 0; c < 8 && all; ++c)
-                    all = near[v + (c & 1) * sx + ((c >> 1) & 1) * sy + (c >> 2) * sz] != 0;
-                tmp[v] = all;
-            }
-    });
-    mValid = packBits(tmp);
+    // A bit per lattice cell (its lower corner): whether all (@p all) or any of its 8 corners
+    // are set in @p points. Cells on the lattice's upper faces have no 8 corners: unset.
+    std::vector<std::uint8_t> cells(n, 0);
+    const auto cornerCells = [&](const std::vector<std::uint8_t>& points, bool all) {
+        forSlices(0, nz - 1, [&](int k) {
+            for (int j = 0; j + 1 < ny; ++j)
+                for (int i = 0; i + 1 < nx; ++i) {
+                    const std::size_t v = index(i, j, k);
+                    bool result = all;
+                    for (int c = 0; c < 8 && result == all; ++c)
+                        result =
+                            points[v + (c & 1) * sx + ((c >> 1) & 1) * sy + (c >> 2) * sz] != 0;
+                    cells[v] = result;
+                }
+        });
+        return packBits(cells);
+    };
+    mValid = cornerCells(near, true);
     mAny.assign(mValid.size(), 0);
     std::vector<std::uint8_t>& bends = tmp;
-    std::vector<std::uint8_t> cells(n, 0);
     for (std::size_t s = 0; s < scene.stars.size(); ++s) {
         // Per lattice point: whether tau's second difference along an axis reaches CURVED.
         const auto tau = [&](std::size_t v) { return double(f.voxel(v)[2 + s]); };
@@ -110,17 +115,7 @@ StarDepth::StarDepth(const RenderScene& scene)
                 }
         });
         // A cell is curved if one of its corners is.
-        forSlices(0, nz - 1, [&](int k) {
-            for (int j = 0; j + 1 < ny; ++j)
-                for (int i = 0; i + 1 < nx; ++i) {
-                    const std::size_t v = index(i, j, k);
-                    bool any = false;
-                    for (int c = 0; c < 8 && !any; ++c)
-                        any = bends[v + (c & 1) * sx + ((c >> 1) & 1) * sy + (c >> 2) * sz] != 0;
-                    cells[v] = any;
-                }
-        });
-        auto bits = packBits(cells);
+        auto bits = cornerCells(bends, false);
         for (std::size_t w = 0; w < bits.size(); ++w)
             mAny[w] |= bits[w];
         mCurved.push_back(std::move(bits));
