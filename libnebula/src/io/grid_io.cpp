@@ -239,22 +239,19 @@ namespace {
 class MemoryBuf : public std::streambuf
 {
 public:
-    explicit MemoryBuf(const InputBytes& bytes) : mBytes(bytes), mData(bytes.view())
-    {
-        setWindow(0);
-    }
+    explicit MemoryBuf(const InputBytes& bytes) : mBytes(bytes) { setWindow(0); }
 
 protected:
     int_type underflow() override
     {
         const std::size_t pos = std::size_t(gptr() - eback());
-        if (pos >= mData.size()) return traits_type::eof();
+        if (pos >= mBytes.view().size()) return traits_type::eof();
         setWindow(pos);
         return traits_type::to_int_type(*gptr());
     }
     pos_type seekoff(off_type off, std::ios_base::seekdir dir, std::ios_base::openmode) override
     {
-        const off_type size = off_type(mData.size());
+        const off_type size = off_type(mBytes.view().size());
         const off_type base = dir == std::ios_base::beg   ? 0
                               : dir == std::ios_base::cur ? off_type(gptr() - eback())
                                                           : size;
@@ -279,12 +276,12 @@ private:
             mBytes.release(mReleased, pos - KEEP);
             mReleased = pos - KEEP;
         }
-        char* p = const_cast<char*>(mData.data()); // the get area is never written
-        setg(p, p + pos, p + std::min(mData.size(), pos + WINDOW));
+        const std::string_view data = mBytes.view();
+        char* p = const_cast<char*>(data.data()); // the get area is never written
+        setg(p, p + pos, p + std::min(data.size(), pos + WINDOW));
     }
 
     const InputBytes& mBytes;
-    std::string_view mData;
     std::size_t mReleased = 0;
 };
 

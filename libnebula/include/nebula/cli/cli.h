@@ -67,11 +67,10 @@ std::optional<std::string> hugePageTunables(const char* tunables, const std::str
 /// First, where hugePageTunables() says so (glibc 2.35 and later; not for --help and
 /// --version, nor under AddressSanitizer), runs the program again, before reading anything,
 /// with that GLIBC_TUNABLES, so that OpenVDB's trees sit on transparent huge pages (README,
-/// "Rendering a fly-through on a Slurm cluster"). Then parses @p argv into @p app, checks the file
-/// options (checkFileOptions()), sets up threads and the Run, calls @p body, and maps the outcome
-/// to an exit code: 0 ok (also --help,
-/// --version), 2 usage error (CLI11 errors, UsageError), 1 any other error, printed as
-/// "tool: error: message" on stderr.
+/// "Rendering a fly-through on a Slurm cluster"). Then parses @p argv into @p app, checks the
+/// file options (checkFileOptions()), sets up threads and the Run, calls @p body, and maps the
+/// outcome to an exit code: 0 ok (also --help, --version), 2 usage error (CLI11 errors,
+/// UsageError), 1 any other error, printed as "tool: error: message" on stderr.
 int run(CLI::App& app, const std::string& tool, CommonOptions& opts, int argc, char** argv,
         const std::function<void(Run&)>& body);
 

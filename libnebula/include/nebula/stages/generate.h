@@ -140,8 +140,8 @@ NebulaVoxel nebulaVoxel(const NebulaParams& params, int i, int j, int k);
 /// shell) is never evaluated, and a leaf of zeros is never stored, so time and memory follow
 /// the nebula, not the cube. The result depends only on the parameters, not on the thread
 /// count. @p progress gets z-slices done. Throws UsageError naming nebgen's option for a bad
-/// parameter, and (naming
-/// --res, requireMemory()) before allocating if generateBytes() exceeds the machine's memory.
+/// parameter, and (naming --res, requireMemory()) before allocating if generateBytes() exceeds
+/// the machine's memory.
 GridSet generateNebula(const NebulaParams& params,
                        const std::function<void(std::size_t)>& progress = {});
 
