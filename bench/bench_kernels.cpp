@@ -47,13 +47,14 @@ std::vector<nebula::Vec3> randomPoints(std::size_t count, double lo, double hi,
 }
 
 /// An N^3 volume, lattice [0, N-1]^3, voxel 1, every channel uniform random in [0, 1).
-nebula::DenseVolume randomVolume(int N, int channels)
+nebula::SparseVolume randomVolume(int N, int channels)
 {
-    nebula::DenseVolume v({0, 0, 0}, {N, N, N}, channels);
+    nebula::SparseVolume v({0, 0, 0}, {N, N, N}, channels);
     std::mt19937_64 rng(SEED);
     std::uniform_real_distribution<float> u(0.0f, 1.0f);
-    for (float& x : v.data())
-        x = u(rng);
+    for (std::size_t i = 0; i < v.voxelCount(); ++i)
+        for (int c = 0; c < channels; ++c)
+            v.writable(i)[c] = u(rng);
     return v;
 }
 
@@ -95,7 +96,7 @@ BENCHMARK(BM_Fbm)->Arg(6)->ArgName("octaves");
 void BM_ColumnIntegrator(benchmark::State& state)
 {
     constexpr int N = 64;
-    const nebula::DenseVolume vol = randomVolume(N, 1);
+    const nebula::SparseVolume vol = randomVolume(N, 1);
     const nebula::ColumnIntegrator integrate(vol);
     const auto a = randomPoints(POINTS, 0.0, N - 1.0, SEED);
     const auto b = randomPoints(POINTS, 0.0, N - 1.0, SEED + 1);
@@ -119,12 +120,12 @@ void BM_ColumnIntegrator(benchmark::State& state)
 }
 BENCHMARK(BM_ColumnIntegrator);
 
-// ---- volume.h: DenseVolume::sample, 4 channels (nebrender: density, emission, 2 tau) ---
+// ---- volume.h: SparseVolume::sample, 4 channels (nebrender: density, emission, 2 tau) ---
 
 void BM_DenseSample4(benchmark::State& state)
 {
     constexpr int N = 64;
-    const nebula::DenseVolume vol = randomVolume(N, 4);
+    const nebula::SparseVolume vol = randomVolume(N, 4);
     const auto p = randomPoints(POINTS, 0.0, N - 1.0);
     float out[4];
     std::size_t i = 0;

@@ -25,7 +25,7 @@ int main(int argc, char** argv)
 
     const auto grids = nebula::generateNebula(params);
     const auto density = grids.floatGrid("density", "");
-    const auto n = nebula::denseFromGrids({density}, nebula::activeBounds({density}, 1), "bench");
+    const auto n = nebula::volumeFromGrids({density}, nebula::activeBounds({density}, 1), "bench");
     const std::vector<std::uint32_t> points = nebula::tauSupport(*density, n).points;
     std::printf("res %d^3: %zu output voxels (active + neighbours) of %zu lattice points\n",
                 params.res, points.size(), n.voxelCount());

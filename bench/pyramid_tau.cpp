@@ -65,7 +65,7 @@ int main(int argc, char** argv)
     // The level-0 dense lattice that --tau average needs for the voxels it has no level-0
     // tau for (built once for all levels), and the exact reference.
     start = std::chrono::steady_clock::now();
-    const auto fine = nebula::denseFromGrids({density}, nebula::activeBounds({density}, 1), "");
+    const auto fine = nebula::volumeFromGrids({density}, nebula::activeBounds({density}, 1), "");
     const nebula::ColumnIntegrator column(fine);
     const nebula::Affine worldToFine = fine.indexToWorld.inverse();
     std::printf("level-0 dense lattice for --tau average (once): %.3f s\n", secondsSince(start));

@@ -13,18 +13,33 @@ inline constexpr double H = 0.1; // voxel size [pc]
 inline constexpr int N = 41;     // lattice 0..40; dust on 1..39, zero border
 inline constexpr double KAPPA = 1.5e-3;
 
+/// Every channel of every lattice point of @p v, z slowest and x fastest: to compare volumes.
+inline std::vector<float> latticeValues(const SparseVolume& v)
+{
+    std::vector<float> out;
+    const auto& lo = v.lo();
+    const auto& d = v.dims();
+    for (int k = lo[2]; k < lo[2] + d[2]; ++k)
+        for (int j = lo[1]; j < lo[1] + d[1]; ++j)
+            for (int i = lo[0]; i < lo[0] + d[0]; ++i) {
+                const float* q = v.voxel(v.index(i, j, k));
+                out.insert(out.end(), q, q + v.channels());
+            }
+    return out;
+}
+
 /// A uniform cube: density n0 and emission e0 on lattice points 1..39, zero on the border, so
 /// along an axis through it the trilinear profile integrates to 39 voxels (38 + two half
 /// ramps). One star per entry of @p stars with tau channel 0 (its light arrives unattenuated).
 inline RenderScene cube(double n0, double e0, const std::vector<Star>& stars)
 {
     RenderScene scene;
-    scene.fields = DenseVolume({0, 0, 0}, {N, N, N}, 2 + int(stars.size()));
+    scene.fields = SparseVolume({0, 0, 0}, {N, N, N}, 2 + int(stars.size()));
     scene.fields.indexToWorld.m = {H, 0, 0, 0, H, 0, 0, 0, H};
     for (int k = 1; k < N - 1; ++k)
         for (int j = 1; j < N - 1; ++j)
             for (int i = 1; i < N - 1; ++i) {
-                float* v = scene.fields.voxel(scene.fields.index(i, j, k));
+                float* v = scene.fields.writable(scene.fields.index(i, j, k));
                 v[0] = float(n0);
                 v[1] = float(e0);
             }
@@ -66,8 +81,8 @@ inline Star farStar(const Vec3& dir)
 /// star (nebillum's integrator), for scenes whose stars are near enough to integrate from.
 inline void fillStarTau(RenderScene& scene)
 {
-    const DenseVolume& v = scene.fields;
-    const DenseVolume n = v.channel(0);
+    const SparseVolume& v = scene.fields;
+    const SparseVolume n = v.channel(0);
     std::vector<std::uint32_t> points(v.voxelCount());
     for (std::size_t i = 0; i < v.voxelCount(); ++i)
         points[i] = std::uint32_t(i);
@@ -77,7 +92,7 @@ inline void fillStarTau(RenderScene& scene)
         const auto tau =
             opticalDepthAt(n, w2i.apply(Vec3(p[0], p[1], p[2])), scene.dust.kappa_V, points);
         for (std::size_t i = 0; i < v.voxelCount(); ++i)
-            scene.fields.voxel(i)[2 + s] = tau[i];
+            scene.fields.writable(i)[2 + s] = tau[i];
     }
 }
 
@@ -90,14 +105,14 @@ inline RenderScene slab(double tau, double albedo, double g)
     const double dz = 0.01;
     const int nz = int(std::lround(tau / dz)) + 1; // dust on points 1..nz-1: tau in total
     RenderScene scene;
-    scene.fields = DenseVolume({-20, -20, 0}, {41, 41, nz + 1}, 3);
+    scene.fields = SparseVolume({-20, -20, 0}, {41, 41, nz + 1}, 3);
     scene.fields.indexToWorld.m = {1, 0, 0, 0, 1, 0, 0, 0, dz};
     scene.fields.indexToWorld.t = Vec3(0, 0, -0.5 * dz); // dust from z = 0.5 dz .. tau + 0.5 dz
     const double n0 = 1.0 / KAPPA;
     for (int k = 1; k <= nz - 1; ++k)
         for (int j = -19; j <= 19; ++j)
             for (int i = -19; i <= 19; ++i)
-                scene.fields.voxel(scene.fields.index(i, j, k))[0] = float(n0);
+                scene.fields.writable(scene.fields.index(i, j, k))[0] = float(n0);
     Star s;
     s.name = "far";
     s.position = {0, 0, -1e5};

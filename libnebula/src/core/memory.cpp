@@ -35,6 +35,38 @@ void freeLargePages(void* p) noexcept
     std::free(p);
 }
 
+void* reserveAddressSpace(std::size_t bytes, const std::string& what)
+{
+    const std::size_t rounded = (bytes + HUGE_PAGE_BYTES - 1) / HUGE_PAGE_BYTES * HUGE_PAGE_BYTES;
+    // One huge page more than asked, so that the block can start on a huge-page boundary.
+    const std::size_t mapped = rounded + HUGE_PAGE_BYTES;
+    if (rounded < bytes || mapped < rounded) {
+        throw Error(what + ": " + bytesText(double(bytes)) + " of address space is too large");
+    }
+    void* p = ::mmap(nullptr, mapped, PROT_READ | PROT_WRITE,
+                     MAP_PRIVATE | MAP_ANONYMOUS | MAP_NORESERVE, -1, 0);
+    if (p == MAP_FAILED) {
+        throw Error(what + ": cannot reserve " + bytesText(double(bytes)) + " of address space");
+    }
+    // Unmap the unaligned head and the tail beyond the block.
+    const auto at = reinterpret_cast<std::uintptr_t>(p);
+    const std::uintptr_t start = (at + HUGE_PAGE_BYTES - 1) / HUGE_PAGE_BYTES * HUGE_PAGE_BYTES;
+    if (start > at) ::munmap(p, start - at);
+    const std::size_t tail = (at + mapped) - (start + rounded);
+    if (tail > 0) ::munmap(reinterpret_cast<void*>(start + rounded), tail);
+    // Advice only: where transparent huge pages are off, the block has 4 KiB pages.
+    if (rounded >= HUGE_PAGE_BYTES)
+        (void)::madvise(reinterpret_cast<void*>(start), rounded, MADV_HUGEPAGE);
+    return reinterpret_cast<void*>(start);
+}
+
+void releaseAddressSpace(void* p, std::size_t bytes) noexcept
+{
+    if (!p) return;
+    const std::size_t rounded = (bytes + HUGE_PAGE_BYTES - 1) / HUGE_PAGE_BYTES * HUGE_PAGE_BYTES;
+    ::munmap(p, rounded);
+}
+
 std::string bytesText(double bytes)
 {
     static const char* const UNITS[] = {"B", "KiB", "MiB", "GiB", "TiB", "PiB", "EiB"};

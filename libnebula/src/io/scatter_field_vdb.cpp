@@ -40,7 +40,7 @@ const char* scatterMetaKey(bool spectral)
 }
 
 void writeScatterField(GridSet& grids, const ScatterFieldMeta& meta,
-                       const std::vector<const DenseVolume*>& moments,
+                       const std::vector<const SparseVolume*>& moments,
                        const std::vector<std::uint8_t>& active,
                        const openvdb::math::Transform& fieldTransform, bool spectral)
 {
@@ -55,7 +55,7 @@ void writeScatterField(GridSet& grids, const ScatterFieldMeta& meta,
     nlohmann::json sources = nlohmann::json::array();
     for (std::size_t s = 0; s < meta.sources.size(); ++s) {
         const ScatterSourceSummary& src = meta.sources[s];
-        const DenseVolume& m = *moments[s];
+        const SparseVolume& m = *moments[s];
         const double j0 = 0.5 / std::sqrt(PI); // Y_00: J = c_00 / (4 pi Y_00)
         for (int l = 0; l <= L; ++l)
             for (int mm = -l; mm <= l; ++mm)
@@ -67,10 +67,15 @@ void writeScatterField(GridSet& grids, const ScatterFieldMeta& meta,
                     for (int K = m.lo()[2]; K < m.lo()[2] + m.dims()[2]; ++K)
                         for (int J = m.lo()[1]; J < m.lo()[1] + m.dims()[1]; ++J)
                             for (int I = m.lo()[0]; I < m.lo()[0] + m.dims()[0]; ++I) {
-                                const std::size_t v = m.index(I, J, K);
-                                if (!active[v]) continue;
+                                // active: x fastest, then y, then z (ScatterField::active).
+                                const std::size_t cell =
+                                    (std::size_t(K - m.lo()[2]) * std::size_t(m.dims()[1]) +
+                                     std::size_t(J - m.lo()[1])) *
+                                        std::size_t(m.dims()[0]) +
+                                    std::size_t(I - m.lo()[0]);
+                                if (!active[cell]) continue;
                                 acc.setValue(openvdb::Coord(I, J, K),
-                                             float(m.voxel(v)[ch] * scale));
+                                             float(m.voxel(m.index(I, J, K))[ch] * scale));
                             }
                     grid->setTransform(fieldTransform.copy());
                     grid->setName(gridName(src.name, l, mm, c, meta.wavelengths, spectral));
@@ -197,10 +202,10 @@ std::optional<ScatterFieldMeta> readScatterFieldMeta(const GridSet& grids, bool 
     return meta;
 }
 
-DenseVolume readScatterMoments(const GridSet& grids, const ScatterFieldMeta& meta, bool spectral,
-                               const std::vector<std::vector<double>>& factors,
-                               const Affine& fieldMap, const std::string& what,
-                               const std::string& rerun)
+SparseVolume readScatterMoments(const GridSet& grids, const ScatterFieldMeta& meta, bool spectral,
+                                const std::vector<std::vector<double>>& factors,
+                                const Affine& fieldMap, const std::string& what,
+                                const std::string& rerun)
 {
     const int C = int(meta.wavelengths.size()); // channels per moment
     // Every grid, checked to be on the field level's transform, before any is read.
@@ -240,7 +245,7 @@ DenseVolume readScatterMoments(const GridSet& grids, const ScatterFieldMeta& met
     const int channels = shCount(meta.order) * C;
     const double c00PerJ =
         4.0 * PI * (0.5 / std::sqrt(PI)); // the l = 0 grids hold J = c_00 / (4 pi Y_00)
-    DenseVolume out = emptyDenseVolume(
+    SparseVolume out = emptyVolume(
         activeBounds(jGrids, 1), channels,
         what + ": its " + std::to_string(perSource.size() * std::size_t(channels)) + " grids");
     out.indexToWorld =

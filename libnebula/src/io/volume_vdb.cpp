@@ -12,6 +12,8 @@
 
 #include <tbb/parallel_for.h>
 
+#include <fmt/format.h>
+
 namespace nebula {
 
 Affine affineFromTransform(const openvdb::math::Transform& transform)
@@ -41,35 +43,82 @@ openvdb::CoordBBox activeBounds(const std::vector<openvdb::FloatGrid::ConstPtr>&
     return box;
 }
 
-DenseVolume emptyDenseVolume(const openvdb::CoordBBox& bounds, int channels,
-                             const std::string& what)
+SparseVolume emptyVolume(const openvdb::CoordBBox& bounds, int channels, const std::string& what)
 {
-    // The lattice spans the grids' active bounding box: two voxels far apart would need more
+    // The lattice spans the grids' active bounding box; its bricks hold memory only where
+    // written, but the table of bricks is dense: two voxels very far apart would need more
     // memory than the machine has (a clear error, before anything is allocated).
-    double voxels = 1.0;
-    for (int a = 0; a < 3; ++a)
-        voxels *= double(std::int64_t(bounds.max()[a]) - std::int64_t(bounds.min()[a]) + 1);
+    double bricks = 1.0;
+    for (int a = 0; a < 3; ++a) {
+        bricks *= double((std::int64_t(bounds.max()[a]) >> SparseVolume::BRICK_LOG2) -
+                         (std::int64_t(bounds.min()[a]) >> SparseVolume::BRICK_LOG2) + 1);
+    }
     const auto extent = [&](int a) {
         return std::to_string(std::int64_t(bounds.max()[a]) - std::int64_t(bounds.min()[a]) + 1);
     };
     const std::string span = what + ": the active voxels span " + extent(0) + " x " + extent(1) +
-                             " x " + extent(2) + " voxels; as the dense lattice the stages use";
+                             " x " + extent(2) + " voxels; the table of the volume's " +
+                             fmt::format("{:.3g}", bricks) + " bricks of " +
+                             std::to_string(SparseVolume::BRICK) + "^3 voxels";
     try {
-        requireMemory(voxels * double(std::max(channels, 1)) * sizeof(float), span);
+        requireMemory(bricks * double(sizeof(std::uint32_t)), span);
         for (int a = 0; a < 3; ++a) {
             if (std::int64_t(bounds.max()[a]) - std::int64_t(bounds.min()[a]) + 1 >
                 std::numeric_limits<int>::max()) {
-                throw UsageError(span + ", an axis longer than " +
+                throw UsageError(span + ": an axis longer than " +
                                  std::to_string(std::numeric_limits<int>::max()) +
                                  " voxels is not supported");
             }
+        }
+        if (bricks > double(std::numeric_limits<std::uint32_t>::max() - 2)) {
+            throw UsageError(span + ": more than " +
+                             std::to_string(std::numeric_limits<std::uint32_t>::max() - 2) +
+                             " bricks is not supported");
         }
     } catch (const UsageError& e) {
         throw Error(e.what());
     }
     const auto dim = bounds.dim();
-    return DenseVolume({bounds.min().x(), bounds.min().y(), bounds.min().z()},
-                       {dim.x(), dim.y(), dim.z()}, channels);
+    return SparseVolume({bounds.min().x(), bounds.min().y(), bounds.min().z()},
+                        {dim.x(), dim.y(), dim.z()}, channels);
+}
+
+double volumeBytes(const std::vector<openvdb::FloatGrid::ConstPtr>& grids,
+                   const openvdb::CoordBBox& bounds, int channels)
+{
+    // The bricks the grids' active leaves and tiles touch (leaves and bricks share their
+    // alignment, so a leaf is one brick); tiles may count a brick twice: an upper bound.
+    constexpr int L = SparseVolume::BRICK_LOG2;
+    std::vector<std::array<int, 3>> leaves;
+    double tileBricks = 0.0;
+    for (const auto& g : grids) {
+        if (!g) continue;
+        for (auto it = g->tree().cbeginLeaf(); it; ++it) {
+            if (it->isEmpty()) continue;
+            const auto o = it->origin();
+            if (!bounds.hasOverlap(openvdb::CoordBBox::createCube(o, SparseVolume::BRICK))) {
+                continue;
+            }
+            leaves.push_back({o.x(), o.y(), o.z()});
+        }
+        auto it = g->tree().cbeginValueOn();
+        it.setMaxDepth(openvdb::FloatTree::ValueOnCIter::LEAF_DEPTH - 1); // tiles only
+        for (; it; ++it) {
+            openvdb::CoordBBox tile;
+            it.getBoundingBox(tile);
+            tile.intersect(bounds);
+            if (tile.empty()) continue;
+            double n = 1.0;
+            for (int a = 0; a < 3; ++a)
+                n *= double((tile.max()[a] >> L) - (tile.min()[a] >> L) + 1);
+            tileBricks += n;
+        }
+    }
+    std::sort(leaves.begin(), leaves.end());
+    const double bricks =
+        double(std::unique(leaves.begin(), leaves.end()) - leaves.begin()) + tileBricks;
+    return bricks * double(SparseVolume::BRICK_VOXELS) * double(std::max(channels, 1)) *
+           double(sizeof(float));
 }
 
 namespace {
@@ -78,14 +127,14 @@ namespace {
 /// @p grid has an active voxel or tile: leaves in parallel (each writes its own voxels), then
 /// tiles serially.
 template <typename Op>
-void forEachActive(DenseVolume& vol, const openvdb::FloatGrid& grid, int c, const Op& op)
+void forEachActive(SparseVolume& vol, const openvdb::FloatGrid& grid, int c, const Op& op)
 {
     openvdb::tree::LeafManager<const openvdb::FloatTree> leaves(grid.tree());
     leaves.foreach ([&](const openvdb::FloatTree::LeafNodeType& leaf, std::size_t) {
         for (auto it = leaf.cbeginValueOn(); it; ++it) {
             const auto& p = it.getCoord();
             if (vol.contains(p.x(), p.y(), p.z())) {
-                float& v = vol.voxel(vol.index(p.x(), p.y(), p.z()))[c];
+                float& v = vol.writable(vol.index(p.x(), p.y(), p.z()))[c];
                 v = op(v, *it);
             }
         }
@@ -105,7 +154,7 @@ void forEachActive(DenseVolume& vol, const openvdb::FloatGrid& grid, int c, cons
         // does not notice in x and y: skip it rather than write out of the lattice.
         if (tile.empty()) continue;
         for (auto p = tile.beginXYZ(); p; ++p) {
-            float& v = vol.voxel(vol.index((*p).x(), (*p).y(), (*p).z()))[c];
+            float& v = vol.writable(vol.index((*p).x(), (*p).y(), (*p).z()))[c];
             v = op(v, *it);
         }
     }
@@ -113,14 +162,21 @@ void forEachActive(DenseVolume& vol, const openvdb::FloatGrid& grid, int c, cons
 
 } // namespace
 
-DenseVolume denseFromGrids(const std::vector<openvdb::FloatGrid::ConstPtr>& grids,
-                           const openvdb::CoordBBox& bounds, const std::string& source)
+SparseVolume volumeFromGrids(const std::vector<openvdb::FloatGrid::ConstPtr>& grids,
+                             const openvdb::CoordBBox& bounds, const std::string& source)
 {
     std::string names;
     for (const auto& g : grids)
         names += (names.empty() ? "\"" : ", \"") + g->getName() + "\"";
-    DenseVolume vol = emptyDenseVolume(bounds, int(grids.size()),
-                                       source + ": grid" + (grids.size() > 1 ? "s " : " ") + names);
+    const std::string what = source + ": grid" + (grids.size() > 1 ? "s " : " ") + names;
+    try {
+        requireMemory(volumeBytes(grids, bounds, int(grids.size())),
+                      what + ": the bricks of " + std::to_string(SparseVolume::BRICK) +
+                          "^3 voxels their active values fill");
+    } catch (const UsageError& e) {
+        throw Error(e.what());
+    }
+    SparseVolume vol = emptyVolume(bounds, int(grids.size()), what);
     if (!grids.empty()) vol.indexToWorld = affineFromTransform(grids[0]->transform());
     for (std::size_t c = 0; c < grids.size(); ++c) {
         const auto& grid = *grids[c];
@@ -134,14 +190,14 @@ DenseVolume denseFromGrids(const std::vector<openvdb::FloatGrid::ConstPtr>& grid
     return vol;
 }
 
-void addGridToVolume(DenseVolume& vol, const openvdb::FloatGrid& grid, int channel, double factor,
+void addGridToVolume(SparseVolume& vol, const openvdb::FloatGrid& grid, int channel, double factor,
                      double scale)
 {
     forEachActive(vol, grid, channel,
                   [&](float sum, float value) { return sum + float(factor * value * scale); });
 }
 
-openvdb::FloatGrid::Ptr gridFromField(const DenseVolume& lattice, const std::vector<float>& field,
+openvdb::FloatGrid::Ptr gridFromField(const SparseVolume& lattice, const std::vector<float>& field,
                                       const openvdb::FloatGrid& topology)
 {
     auto grid = openvdb::FloatGrid::create(0.0f);

@@ -16,7 +16,7 @@ namespace {
 /// cell by cell (Amanatides-Woo), and inside a cell, where the interpolant is a cubic in t,
 /// Simpson's rule is exact. Each cell's 8 corners are loaded once; cells whose corners are
 /// all zero (and cells off the lattice) contribute nothing and are not sampled.
-double unitIntegral(const DenseVolume& n, const std::uint8_t* dusty, const Vec3& a, const Vec3& d)
+double unitIntegral(const SparseVolume& n, const std::uint64_t* dusty, const Vec3& a, const Vec3& d)
 {
     const auto& lo = n.lo();
     const auto& dims = n.dims();
@@ -35,11 +35,9 @@ double unitIntegral(const DenseVolume& n, const std::uint8_t* dusty, const Vec3&
         tNext[ax] = (plane - a[ax]) / d[ax];
         tStep[ax] = 1.0 / std::abs(d[ax]);
     }
-    // Voxel strides (vy, vz) and float strides of channel 0 (ex, ey, ez).
-    const std::size_t vy = std::size_t(dims[0]), vz = vy * std::size_t(dims[1]);
-    const std::size_t ex = std::size_t(n.channels()), ey = ex * vy, ez = ey * std::size_t(dims[1]);
     double t0 = 0.0, f0 = 0.0, sum = 0.0;
     bool haveF0 = false;
+    std::size_t idx = 0;
     for (;;) {
         const int ax =
             tNext[0] < tNext[1] ? (tNext[0] < tNext[2] ? 0 : 2) : (tNext[1] < tNext[2] ? 1 : 2);
@@ -48,13 +46,14 @@ double unitIntegral(const DenseVolume& n, const std::uint8_t* dusty, const Vec3&
             const int i = cell[0] - lo[0], j = cell[1] - lo[1], k = cell[2] - lo[2];
             const bool inside =
                 i >= 0 && j >= 0 && k >= 0 && i + 1 < dims[0] && j + 1 < dims[1] && k + 1 < dims[2];
-            const std::size_t base =
-                inside ? (std::size_t(k) * vz + std::size_t(j) * vy + std::size_t(i)) : 0;
-            if (inside && dusty[base]) {
-                const float* q = n.data().data() + base * ex;
-                const double c000 = q[0], c100 = q[ex], c010 = q[ey], c110 = q[ey + ex],
-                             c001 = q[ez], c101 = q[ez + ex], c011 = q[ez + ey],
-                             c111 = q[ez + ey + ex];
+            if (inside) {
+                idx = n.index(cell[0], cell[1], cell[2]);
+            }
+            if (inside && (dusty[idx >> 6] >> (idx & 63) & 1u)) {
+                const float* q[8];
+                n.cellCorners(cell[0], cell[1], cell[2], q);
+                const double c000 = q[0][0], c100 = q[1][0], c010 = q[2][0], c110 = q[3][0],
+                             c001 = q[4][0], c101 = q[5][0], c011 = q[6][0], c111 = q[7][0];
                 const auto f = [&](double t) {
                     const double u = a.x + d.x * t - cell[0], v = a.y + d.y * t - cell[1],
                                  w = a.z + d.z * t - cell[2];
@@ -80,37 +79,53 @@ double unitIntegral(const DenseVolume& n, const std::uint8_t* dusty, const Vec3&
     return sum;
 }
 
-Vec3 latticePoint(const DenseVolume& n, std::size_t idx)
+Vec3 latticePoint(const SparseVolume& n, std::size_t idx)
 {
-    const auto& lo = n.lo();
-    const auto& dims = n.dims();
-    const std::size_t nx = std::size_t(dims[0]), ny = std::size_t(dims[1]);
-    return Vec3(double(lo[0] + int(idx % nx)), double(lo[1] + int((idx / nx) % ny)),
-                double(lo[2] + int(idx / (nx * ny))));
+    const auto p = n.point(idx);
+    return Vec3(double(p[0]), double(p[1]), double(p[2]));
 }
 
-/// Per lattice cell (indexed by its lower corner): 1 if any of its 8 corners is non-zero in
-/// channel 0.
-std::vector<std::uint8_t> dustyCells(const DenseVolume& n)
+/// A bit per lattice cell (at the voxel index of its lower corner): whether any of its 8
+/// corners is non-zero in channel 0. Bricks are visited in parallel, and only those that
+/// hold a corner of a dusty cell: the brick or one of its upper neighbours is stored.
+std::vector<std::uint64_t> dustyCells(const SparseVolume& n)
 {
+    constexpr int B = SparseVolume::BRICK;
+    const auto& lo = n.lo();
     const auto& dims = n.dims();
-    const std::size_t vy = std::size_t(dims[0]), vz = vy * std::size_t(dims[1]);
-    const std::size_t ex = std::size_t(n.channels()), ey = ex * vy, ez = ey * std::size_t(dims[1]);
-    std::vector<std::uint8_t> dusty(n.voxelCount(), 0);
-    tbb::parallel_for(0, dims[2] - 1, [&](int k) {
-        for (int j = 0; j + 1 < dims[1]; ++j)
-            for (int i = 0; i + 1 < dims[0]; ++i) {
-                const std::size_t b = std::size_t(k) * vz + std::size_t(j) * vy + std::size_t(i);
-                const float* v = n.data().data() + b * ex;
-                dusty[b] = (v[0] != 0.0f) | (v[ex] != 0.0f) | (v[ey] != 0.0f) |
-                           (v[ey + ex] != 0.0f) | (v[ez] != 0.0f) | (v[ez + ex] != 0.0f) |
-                           (v[ez + ey] != 0.0f) | (v[ez + ey + ex] != 0.0f);
-            }
+    std::vector<std::uint64_t> dusty((n.voxelCount() + 63) / 64, 0);
+    const std::size_t bricks = n.voxelCount() / SparseVolume::BRICK_VOXELS;
+    tbb::parallel_for(std::size_t(0), bricks, [&](std::size_t b) {
+        const auto p0 = n.point(b * SparseVolume::BRICK_VOXELS); // the brick's first point
+        bool any = false;
+        for (int c = 0; c < 8 && !any; ++c) {
+            const int i = p0[0] + (c & 1) * B, j = p0[1] + (c >> 1 & 1) * B,
+                      k = p0[2] + (c >> 2) * B;
+            // A neighbour's stored state where it overlaps the lattice (clamped to it).
+            const int ci = std::clamp(i, lo[0], lo[0] + dims[0] - 1);
+            const int cj = std::clamp(j, lo[1], lo[1] + dims[1] - 1);
+            const int ck = std::clamp(k, lo[2], lo[2] + dims[2] - 1);
+            any = n.stored(n.index(ci, cj, ck));
+        }
+        if (!any) return;
+        const float* q[8];
+        for (int k = std::max(p0[2], lo[2]); k < std::min(p0[2] + B, lo[2] + dims[2] - 1); ++k)
+            for (int j = std::max(p0[1], lo[1]); j < std::min(p0[1] + B, lo[1] + dims[1] - 1); ++j)
+                for (int i = std::max(p0[0], lo[0]); i < std::min(p0[0] + B, lo[0] + dims[0] - 1);
+                     ++i) {
+                    n.cellCorners(i, j, k, q);
+                    bool set = false;
+                    for (int c = 0; c < 8; ++c)
+                        set = set || q[c][0] != 0.0f;
+                    if (!set) continue;
+                    const std::size_t idx = n.index(i, j, k); // this brick's words only
+                    dusty[idx >> 6] |= std::uint64_t(1) << (idx & 63);
+                }
     });
     return dusty;
 }
 
-bool insideLattice(const DenseVolume& n, const Vec3& p)
+bool insideLattice(const SparseVolume& n, const Vec3& p)
 {
     for (int ax = 0; ax < 3; ++ax) {
         if (!(p[ax] >= n.lo()[ax] && p[ax] <= n.lo()[ax] + n.dims()[ax] - 1)) return false;
@@ -119,7 +134,7 @@ bool insideLattice(const DenseVolume& n, const Vec3& p)
 }
 
 /// The part [t0, t1] of o + e t, t in [0, 1], inside the lattice's box; false if none.
-bool clipToLattice(const DenseVolume& n, const Vec3& o, const Vec3& e, double& t0, double& t1)
+bool clipToLattice(const SparseVolume& n, const Vec3& o, const Vec3& e, double& t0, double& t1)
 {
     t0 = 0.0;
     t1 = 1.0;
@@ -140,7 +155,7 @@ bool clipToLattice(const DenseVolume& n, const Vec3& o, const Vec3& e, double& t
 /// integral n dl [cm^-3 pc] from a to b. Only the chord inside the lattice is walked, so a
 /// star's distance costs nothing; the chord is measured from the end inside the lattice (a
 /// voxel), so a star 1e12 grid widths away still gives it to full precision.
-double column(const DenseVolume& n, const std::uint8_t* dusty, const Vec3& a, const Vec3& b)
+double column(const SparseVolume& n, const std::uint64_t* dusty, const Vec3& a, const Vec3& b)
 {
     for (int ax = 0; ax < 3; ++ax) {
         if (!std::isfinite(a[ax]) || !std::isfinite(b[ax])) {
@@ -166,14 +181,14 @@ double column(const DenseVolume& n, const std::uint8_t* dusty, const Vec3& a, co
 
 } // namespace
 
-ColumnIntegrator::ColumnIntegrator(const DenseVolume& n) : mN(n), mDusty(dustyCells(n)) {}
+ColumnIntegrator::ColumnIntegrator(const SparseVolume& n) : mN(n), mDusty(dustyCells(n)) {}
 
 double ColumnIntegrator::operator()(const Vec3& a, const Vec3& b) const
 {
     return column(mN, mDusty.data(), a, b);
 }
 
-double columnDensity(const DenseVolume& n, const Vec3& a, const Vec3& b)
+double columnDensity(const SparseVolume& n, const Vec3& a, const Vec3& b)
 {
     // One ray: build the occupancy of just the cells it can touch would be cleverer; a whole
     // lattice pass is fine for the few rays (star sprites, tests) that call this.
@@ -181,10 +196,10 @@ double columnDensity(const DenseVolume& n, const Vec3& a, const Vec3& b)
     return column(n, dusty.data(), a, b);
 }
 
-double columnDensityReference(const DenseVolume& n, const Vec3& a, const Vec3& b)
+double columnDensityReference(const SparseVolume& n, const Vec3& a, const Vec3& b)
 {
     // Every parameter where the segment crosses a lattice plane, sorted; between two of them
-    // the trilinear interpolant is a cubic in t and Simpson's rule (via DenseVolume::sample)
+    // the trilinear interpolant is a cubic in t and Simpson's rule (via SparseVolume::sample)
     // is exact. No cell walk, no occupancy: deliberately independent of ColumnIntegrator.
     const Vec3 d = b - a;
     std::vector<double> ts{0.0, 1.0};
@@ -210,7 +225,7 @@ double columnDensityReference(const DenseVolume& n, const Vec3& a, const Vec3& b
     return sum * n.indexToWorld.applyLinear(d).length();
 }
 
-std::vector<float> opticalDepthReference(const DenseVolume& n, const Vec3& starIndex,
+std::vector<float> opticalDepthReference(const SparseVolume& n, const Vec3& starIndex,
                                          double kappa_V)
 {
     std::vector<float> tau(n.voxelCount());
@@ -220,7 +235,7 @@ std::vector<float> opticalDepthReference(const DenseVolume& n, const Vec3& starI
     return tau;
 }
 
-std::vector<float> opticalDepthAt(const DenseVolume& n, const Vec3& starIndex, double kappa_V,
+std::vector<float> opticalDepthAt(const SparseVolume& n, const Vec3& starIndex, double kappa_V,
                                   const std::vector<std::uint32_t>& points,
                                   const std::function<void(std::size_t)>& progress)
 {

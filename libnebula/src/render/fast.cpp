@@ -264,7 +264,7 @@ private:
     /// segment's (1 - e^-x) / k. A negative sum (noise, truncation) counts as none.
     void scatterField(const Vec3& xW, const double* oneMinus, RayState& ray) const
     {
-        // Trilinear in the cell around p (zero outside the lattice, as DenseVolume::sample)
+        // Trilinear in the cell around p (zero outside the lattice, as SparseVolume::sample)
         // of the corners' weighted sums: the same as weighting the interpolated moments.
         int ijk[3];
         double frac[3];
@@ -353,8 +353,8 @@ private:
     double mLogTMax = 0.0;
     double mOff0[3] = {0, 0, 0};
     std::vector<std::array<double, 3>> mOffLevel;
-    const DenseVolume* mField = nullptr; ///< the scattered-light field, if any
-    std::optional<StarDepth> mDepth;     ///< with RenderOptions::exactStarDepth
+    const SparseVolume* mField = nullptr; ///< the scattered-light field, if any
+    std::optional<StarDepth> mDepth;      ///< with RenderOptions::exactStarDepth
     Affine mFieldW2I;
     int mFieldMoments = 0;
     double mFieldPl[shCount(SH_MAX_DEGREE)] = {}; ///< a p_l per moment index

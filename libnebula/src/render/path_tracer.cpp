@@ -31,7 +31,7 @@ constexpr double RATIO_TRACKING_SCALE = 2.0; ///< majorant multiple for transmit
 /// block and channel, and the stars.
 struct PathScene
 {
-    DenseVolume fields; ///< 0 density n_H, 1 emission
+    SparseVolume fields; ///< 0 density n_H, 1 emission
     Affine w2i;
     std::array<int, 3> blocks{0, 0, 0};
     std::vector<std::array<float, 3>> majorant; ///< per block: per channel [1/pc]
@@ -46,12 +46,16 @@ PathScene buildPathScene(const RenderScene& scene, const RenderOptions& opts)
 {
     PathScene ps;
     ps.scene = &scene;
-    const DenseVolume& v = scene.fields;
-    ps.fields = DenseVolume(v.lo(), v.dims(), 2);
+    const SparseVolume& v = scene.fields;
+    ps.fields = SparseVolume(v.lo(), v.dims(), 2);
     ps.fields.indexToWorld = v.indexToWorld;
-    for (std::size_t i = 0; i < v.voxelCount(); ++i) {
-        ps.fields.voxel(i)[0] = v.voxel(i)[0];
-        ps.fields.voxel(i)[1] = v.voxel(i)[1];
+    for (std::size_t b = 0; b < v.voxelCount(); b += SparseVolume::BRICK_VOXELS) {
+        if (!v.stored(b)) continue; // the bricks stored, nothing else
+        for (std::size_t i = b; i < b + SparseVolume::BRICK_VOXELS; ++i) {
+            float* q = ps.fields.writable(i);
+            q[0] = v.voxel(i)[0];
+            q[1] = v.voxel(i)[1];
+        }
     }
     ps.w2i = v.indexToWorld.inverse();
     const double voxelWorld = voxelSize(v.indexToWorld);

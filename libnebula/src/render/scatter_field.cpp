@@ -136,7 +136,7 @@ ScatterField computeField(const RenderScene& scene, const RenderOptions& ropts,
     const Transport tr(scene, ropts, opts, std::move(channels));
     const int C = tr.channels();
     const std::size_t UC = std::size_t(C);
-    const DenseVolume& f = scene.fields;
+    const SparseVolume& f = scene.fields;
     const std::size_t S = scene.stars.size();
     const double detA = std::pow(voxelSize(f.indexToWorld), 3); // world volume of a voxel
 
@@ -202,7 +202,7 @@ ScatterField computeField(const RenderScene& scene, const RenderOptions& ropts,
         out.power.assign(UC, 0.0);
         out.escaped.assign(UC, 0.0);
         out.absorbed.assign(UC, 0.0);
-        out.moments = DenseVolume(fLo, fDims, nm * C);
+        out.moments = SparseVolume(fLo, fDims, nm * C);
         out.moments.indexToWorld = fieldMap;
         if (sampler.total > 0.0) {
             // Integer sums: per-thread buffers added at the end, or one shared buffer with
@@ -272,7 +272,8 @@ ScatterField computeField(const RenderScene& scene, const RenderOptions& ropts,
                         const std::int32_t slot = tr.slots()[c];
                         if (!(vol > 0.0) || slot < 0) continue; // not active: stays 0
                         const double scale = quantum * U * tr.voxel() / vol;
-                        float* m = out.moments.voxel(c);
+                        float* m = out.moments.writable(
+                            out.moments.index(I + fLo[0], J + fLo[1], K + fLo[2]));
                         const std::int64_t* t =
                             sumAll.data() + std::size_t(slot) * std::size_t(nm) * UC;
                         for (int q = 0; q < nm * C; ++q)
@@ -299,7 +300,7 @@ ScatterField computeField(const RenderScene& scene, const RenderOptions& ropts,
                         if (I2 == I && J2 == J && K2 == K) continue;
                         const float* src = out.moments.voxel(
                             out.moments.index(I2 + fLo[0], J2 + fLo[1], K2 + fLo[2]));
-                        float* dst = out.moments.voxel(
+                        float* dst = out.moments.writable(
                             out.moments.index(I + fLo[0], J + fLo[1], K + fLo[2]));
                         std::copy(src, src + nm * C, dst);
                     }
@@ -334,16 +335,19 @@ ScatterField computeScatterField(const RenderScene& scene, const RenderOptions& 
     return computeField(scene, ropts, opts, rgbChannels(scene), run);
 }
 
-void addScatterMoments(DenseVolume& total, const DenseVolume& src,
+void addScatterMoments(SparseVolume& total, const SparseVolume& src,
                        const std::vector<double>& factor, double c00Factor)
 {
     const std::size_t C = std::size_t(src.channels());
     const std::size_t per = factor.size(); // channels per moment: it divides C
-    const auto& a = src.data();
-    auto& b = total.data();
-    for (std::size_t i = 0; i < a.size(); ++i) {
-        const std::size_t q = i % C; // k * per + c
-        b[i] += float(factor[q % per] * a[i] * (q < per ? c00Factor : 1.0));
+    for (std::size_t v = 0; v < src.voxelCount(); v += SparseVolume::BRICK_VOXELS) {
+        if (!src.stored(v)) continue; // zeros add nothing
+        const float* a = src.voxel(v);
+        float* b = total.writable(v);
+        for (std::size_t i = 0; i < SparseVolume::BRICK_VOXELS * C; ++i) {
+            const std::size_t q = i % C; // k * per + c
+            b[i] += float(factor[q % per] * a[i] * (q < per ? c00Factor : 1.0));
+        }
     }
 }
 
@@ -412,14 +416,16 @@ ScatterField spectralFieldSubset(const ScatterField& field, std::size_t stride)
     }
     const int nm = shCount(field.order);
     for (std::size_t si = 0; si < field.sources.size(); ++si) {
-        const DenseVolume& a = field.sources[si].moments;
-        DenseVolume b(a.lo(), a.dims(), nm * int(keep.size()));
+        const SparseVolume& a = field.sources[si].moments;
+        SparseVolume b(a.lo(), a.dims(), nm * int(keep.size()));
         b.indexToWorld = a.indexToWorld;
-        for (std::size_t v = 0; v < a.voxelCount(); ++v)
+        for (std::size_t v = 0; v < a.voxelCount(); ++v) {
+            if (!a.stored(v)) continue;
+            float* q = b.writable(v);
             for (int k = 0; k < nm; ++k)
                 for (std::size_t i = 0; i < keep.size(); ++i)
-                    b.voxel(v)[std::size_t(k) * keep.size() + i] =
-                        a.voxel(v)[std::size_t(k) * N + keep[i]];
+                    q[std::size_t(k) * keep.size() + i] = a.voxel(v)[std::size_t(k) * N + keep[i]];
+        }
         ScatterSourceField& out = sub.sources[si];
         out.moments = std::move(b);
         for (auto* per : {&out.power, &out.escaped, &out.absorbed}) {
@@ -440,7 +446,7 @@ SceneScatterField sceneScatterField(const ScatterField& field, const RenderOptio
     out.level = field.level;
     out.wavelengths = field.wavelengths;
     out.moments = field.sources[0].moments;
-    std::fill(out.moments.data().begin(), out.moments.data().end(), 0.0f);
+    out.moments.setZero();
     for (const auto& src : field.sources) {
         std::vector<double> factor(field.wavelengths.empty() ? 3 : field.wavelengths.size(), 1.0);
         if (src.name == "emission" && field.wavelengths.empty()) {

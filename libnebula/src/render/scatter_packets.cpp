@@ -26,15 +26,10 @@ void runPacket(const Transport& tr, const SourceSpec& src, const Sampler& sample
     auto it = std::upper_bound(sampler.cdf.begin(), sampler.cdf.end(), u);
     if (it == sampler.cdf.end()) --it;
     const std::size_t ci = std::size_t(it - sampler.cdf.begin());
-    const DenseVolume& f = scene.fields;
-    std::size_t lin = sampler.cell[ci];
-    const auto& lo = f.lo();
-    const auto& dims = f.dims();
-    const int i = int(lin % std::size_t(dims[0])) + lo[0];
-    lin /= std::size_t(dims[0]);
-    const int j = int(lin % std::size_t(dims[1])) + lo[1];
-    const int k = int(lin / std::size_t(dims[1])) + lo[2];
-    const Vec3 pI(i + rng.uniformDouble(), j + rng.uniformDouble(), k + rng.uniformDouble());
+    const SparseVolume& f = scene.fields;
+    const auto cell = f.point(sampler.cell[ci]);
+    const Vec3 pI(cell[0] + rng.uniformDouble(), cell[1] + rng.uniformDouble(),
+                  cell[2] + rng.uniformDouble());
     Vec3 x = f.indexToWorld.apply(pI);
     fv.resize(std::size_t(f.channels()));
     f.sample(pI, fv.data());

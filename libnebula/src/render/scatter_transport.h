@@ -98,7 +98,7 @@ struct Sampler
 };
 
 /// Per-voxel source strength eta (summed over channels) -> the sampler of lattice cells.
-inline Sampler buildSampler(const DenseVolume& lattice, const std::vector<float>& eta)
+inline Sampler buildSampler(const SparseVolume& lattice, const std::vector<float>& eta)
 {
     Sampler s;
     const auto& lo = lattice.lo();
@@ -129,7 +129,7 @@ public:
         : mScene(scene), mDust(scene.dust), mCh(std::move(channels)), mC(int(mCh.size())),
           mOrder(opts.order), mNm(shCount(opts.order)), mScale(1 << opts.fieldLevel)
     {
-        const DenseVolume& f = scene.fields;
+        const SparseVolume& f = scene.fields;
         mDensity = f.channel(0);
         mW2I = f.indexToWorld.inverse();
         mVoxel = voxelSize(f.indexToWorld);
@@ -216,7 +216,7 @@ public:
     double voxel() const { return mVoxel; }
     double rmin2() const { return mRmin2; }
     const std::vector<Vec3>& starPos() const { return mStarPos; }
-    const DenseVolume& density() const { return mDensity; }
+    const SparseVolume& density() const { return mDensity; }
 
     /// Linear index of field cell (I, J, K) (0-based on the field lattice).
     std::size_t cellIndex(int I, int J, int K) const
@@ -418,7 +418,7 @@ private:
     }
 
     int mOrder, mNm, mScale;
-    DenseVolume mDensity;
+    SparseVolume mDensity;
     Affine mW2I;
     double mVoxel = 1.0, mRmin2 = 0.0, mRMin = 1.0;
     std::array<int, 3> mLo{}, mHi{}, mFLo{}, mFDims{};

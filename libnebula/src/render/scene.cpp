@@ -107,7 +107,7 @@ RenderLevel readLevel(const GridSet& grids, const RenderOptions& opts,
     }
     RenderLevel level;
     level.level = k;
-    level.fields = denseFromGrids(lf, activeBounds({dk}, 1), grids.source);
+    level.fields = volumeFromGrids(lf, activeBounds({dk}, 1), grids.source);
     // Voxels 2^k times level 0's (same orientation): compare the linear maps.
     const auto& ak = level.fields.indexToWorld;
     const double scale = double(1 << k);
@@ -285,7 +285,7 @@ float largestValue(const openvdb::FloatGrid& grid)
 /// Throws UsageError naming --emission-scale (and the grid's largest value) if @p scale times
 /// @p emission's largest value across @p lattice's diagonal exceeds MAX_RADIANCE.
 void requireFiniteEmission(const openvdb::FloatGrid& emission, double scale,
-                           const DenseVolume& lattice, const std::string& source)
+                           const SparseVolume& lattice, const std::string& source)
 {
     const double largest = largestValue(emission);
     const auto& d = lattice.dims();
@@ -330,7 +330,7 @@ RenderScene buildScene(const GridSet& grids, const RenderOptions& opts, const Du
         requireSameKappa(grids, *tau, dust);
         fields.push_back(tau);
     }
-    scene.fields = denseFromGrids(fields, activeBounds({density, fields[1]}, 1), grids.source);
+    scene.fields = volumeFromGrids(fields, activeBounds({density, fields[1]}, 1), grids.source);
     requireFiniteEmission(*emission, opts.emissionScale, scene.fields, grids.source);
 
     for (const auto& s : scene.stars) {

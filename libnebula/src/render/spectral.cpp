@@ -605,7 +605,7 @@ private:
         std::size_t i0 = 0, i1 = 0; ///< the field wavelengths a continuum node lies between
         double frac = 0.0;          ///< its position between them
     };
-    const DenseVolume* mField = nullptr;
+    const SparseVolume* mField = nullptr;
     std::optional<StarDepth> mDepth; ///< with RenderOptions::exactStarDepth
     Affine mFieldW2I;
     int mFieldMoments = 0;

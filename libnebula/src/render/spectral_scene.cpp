@@ -205,10 +205,10 @@ SpectralScene buildSpectralScene(const GridSet& grids, const RenderOptions& opts
         for (const auto& v : velocity)
             fields.push_back(v);
     }
-    DenseVolume vol = denseFromGrids(fields, activeBounds(boundsGrids, 1), grids.source);
-    const int C = vol.channels();
+    SparseVolume vol = volumeFromGrids(fields, activeBounds(boundsGrids, 1), grids.source);
     for (std::size_t i = 0; i < vol.voxelCount(); ++i) {
-        float* q = vol.data().data() + i * std::size_t(C);
+        if (!vol.stored(i)) continue; // zeros sum to zero
+        float* q = vol.writable(i);
         float sum = 0.0f;
         for (const auto& e : scene.emitters)
             sum += q[e.channel];

@@ -39,7 +39,7 @@ void drawStarSprites(Image& img, const RenderScene& scene, const RenderOptions& 
     const Projection cam(opts.camera);
     const int W = opts.camera.width, H = opts.camera.height;
     const std::size_t S = scene.stars.size();
-    const DenseVolume& vol = scene.fields;
+    const SparseVolume& vol = scene.fields;
     const Affine& i2w = vol.indexToWorld;
     const Affine w2i = i2w.inverse();
     const auto& dust = scene.dust;
@@ -51,13 +51,9 @@ void drawStarSprites(Image& img, const RenderScene& scene, const RenderOptions& 
     // small Gaussian footprint whose radiance times pixel solid angle sums to F_c.
     if (S > 0) {
         requireSpriteMemory(opts); // before R below, which it keeps within an int
-        // Column density eye -> star through the dust, exact; the density channel and the
-        // integrator's cell occupancy are built once for all stars.
-        DenseVolume density(vol.lo(), vol.dims(), 1);
-        density.indexToWorld = i2w;
-        for (std::size_t i = 0; i < vol.voxelCount(); ++i)
-            density.voxel(i)[0] = vol.voxel(i)[0];
-        const ColumnIntegrator column(density);
+        // Column density eye -> star through the dust (channel 0), exact; the integrator's
+        // cell occupancy is built once for all stars.
+        const ColumnIntegrator column(vol);
         for (std::size_t s = 0; s < S; ++s) {
             double sx, sy;
             if (!cam.project(starPos[s], sx, sy)) continue;

@@ -13,7 +13,7 @@
 
 namespace nebula {
 
-TauSupport tauSupport(const openvdb::FloatGrid& density, const DenseVolume& n)
+TauSupport tauSupport(const openvdb::FloatGrid& density, const SparseVolume& n)
 {
     TauSupport support;
     support.grid = density.deepCopy();
@@ -35,7 +35,7 @@ void addOpticalDepths(GridSet& products, const openvdb::FloatGrid& density,
 {
     // Dense density with a zero border, so the trilinear field falls to zero at the edge.
     const openvdb::FloatGrid::ConstPtr source = density.copy(); // shares the tree
-    const DenseVolume n = denseFromGrids({source}, activeBounds({source}, 1), products.source);
+    const SparseVolume n = volumeFromGrids({source}, activeBounds({source}, 1), products.source);
     const Affine worldToIndex = n.indexToWorld.inverse();
     run.info("density " + std::to_string(n.dims()[0]) + "x" + std::to_string(n.dims()[1]) + "x" +
              std::to_string(n.dims()[2]) + " voxels, " + std::to_string(stars.size()) + " stars");

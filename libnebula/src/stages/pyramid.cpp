@@ -291,7 +291,7 @@ std::vector<openvdb::FloatGrid::Ptr> levelZeroTaus(const GridSet& grids,
 /// exact where it has none (@p column0 through the level-0 density @p n0).
 void averagedTaus(GridSet& taus, const openvdb::FloatGrid& coarse, int k,
                   const std::vector<openvdb::FloatGrid::Ptr>& tau0, const std::vector<Star>& stars,
-                  const DustParams& dust, const DenseVolume& n0, const ColumnIntegrator& column0)
+                  const DustParams& dust, const SparseVolume& n0, const ColumnIntegrator& column0)
 {
     const Affine worldToIndex0 = n0.indexToWorld.inverse();
     for (std::size_t s = 0; s < stars.size(); ++s) {
@@ -333,10 +333,10 @@ void buildPyramid(GridSet& grids, const PyramidOptions& opts, const Run& run)
         average ? levelZeroTaus(grids, *density, stars) : std::vector<openvdb::FloatGrid::Ptr>{};
     // The level-0 density as a dense lattice (zero border), for the exact tau of the coarse
     // voxels that --tau average has no level-0 tau for.
-    std::optional<DenseVolume> n0;
+    std::optional<SparseVolume> n0;
     std::optional<ColumnIntegrator> column0;
     if (average) {
-        n0.emplace(denseFromGrids({density}, activeBounds({density}, 1), grids.source));
+        n0.emplace(volumeFromGrids({density}, activeBounds({density}, 1), grids.source));
         column0.emplace(*n0);
     }
 

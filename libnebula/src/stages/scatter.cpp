@@ -63,7 +63,7 @@ ScatterField scatter(GridSet& grids, const ScatterStageOptions& opts, const Run&
     meta.perStar = fopts.perStar;
     meta.packets = fopts.packets;
     meta.seed = fopts.seed;
-    std::vector<const DenseVolume*> moments;
+    std::vector<const SparseVolume*> moments;
     for (const auto& src : field.sources) {
         meta.sources.push_back({src.name, src.packets, src.flights, src.power, src.escaped,
                                 src.absorbed, src.relativeError});

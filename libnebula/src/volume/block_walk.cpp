@@ -5,7 +5,7 @@
 
 namespace nebula {
 
-void blockMaxima(const DenseVolume& v, std::array<int, 3>& blocks,
+void blockMaxima(const SparseVolume& v, std::array<int, 3>& blocks,
                  std::vector<std::array<float, 2>>& maxima)
 {
     const int B = OCCUPANCY_BLOCK;

@@ -2,6 +2,12 @@
 
 #include "nebula/core/error.h"
 
+#include <fmt/format.h>
+
+#include <cstring>
+#include <limits>
+#include <thread>
+
 namespace nebula {
 
 Affine Affine::inverse() const
@@ -21,13 +27,148 @@ Affine Affine::inverse() const
     return r;
 }
 
-DenseVolume::DenseVolume(std::array<int, 3> lo, std::array<int, 3> dims, int channels)
+SparseVolume::SparseVolume(std::array<int, 3> lo, std::array<int, 3> dims, int channels)
     : mLo(lo), mDims(dims), mChannels(channels)
 {
     if (channels <= 0 || dims[0] <= 0 || dims[1] <= 0 || dims[2] <= 0) {
-        throw Error("DenseVolume: empty volume");
+        throw Error("SparseVolume: empty volume");
     }
-    mData.assign(voxelCount() * std::size_t(channels), 0.0f);
+    double slots = 1.0;
+    for (std::size_t a = 0; a < 3; ++a) {
+        // Floor to a multiple of BRICK (an arithmetic shift floors negative numbers too).
+        const std::int64_t first = std::int64_t(lo[a]) >> BRICK_LOG2;
+        const std::int64_t last = (std::int64_t(lo[a]) + dims[a] - 1) >> BRICK_LOG2;
+        mOrigin[a] = int(first * BRICK);
+        mBricks[a] = int(last - first + 1);
+        slots *= double(mBricks[a]);
+    }
+    if (slots > double(std::numeric_limits<std::uint32_t>::max() - 2)) {
+        throw Error(fmt::format("a volume of {}x{}x{} voxels has {:.3g} bricks of {}^3 voxels, "
+                                "more than the {} a volume can index",
+                                dims[0], dims[1], dims[2], slots, BRICK,
+                                std::numeric_limits<std::uint32_t>::max() - 2));
+    }
+    mSlots.assign(std::size_t(slots), 0);
+    mReserved = (mSlots.size() + 1) * brickFloats() * sizeof(float);
+    mBase = static_cast<float*>(
+        reserveAddressSpace(mReserved, fmt::format("a volume of {}x{}x{} voxels, {} channels",
+                                                   dims[0], dims[1], dims[2], channels)));
+}
+
+SparseVolume::SparseVolume(const SparseVolume& o)
+    : indexToWorld(o.indexToWorld), mLo(o.mLo), mDims(o.mDims), mOrigin(o.mOrigin),
+      mBricks(o.mBricks), mChannels(o.mChannels), mSlots(o.mSlots), mReserved(o.mReserved),
+      mUsed(o.mUsed)
+{
+    if (!o.mBase) return;
+    mBase = static_cast<float*>(reserveAddressSpace(mReserved, "a copy of a volume"));
+    // The stored bricks (id 0, the zero brick, stays unwritten).
+    std::memcpy(mBase + brickFloats(), o.mBase + brickFloats(),
+                std::size_t(mUsed - 1) * brickFloats() * sizeof(float));
+}
+
+SparseVolume::SparseVolume(SparseVolume&& o) noexcept
+    : indexToWorld(o.indexToWorld), mLo(o.mLo), mDims(o.mDims), mOrigin(o.mOrigin),
+      mBricks(o.mBricks), mChannels(o.mChannels), mSlots(std::move(o.mSlots)), mBase(o.mBase),
+      mReserved(o.mReserved), mUsed(o.mUsed)
+{
+    o.mBase = nullptr;
+    o.mReserved = 0;
+    o.mUsed = 1;
+    o.mSlots.clear();
+}
+
+SparseVolume& SparseVolume::operator=(const SparseVolume& o)
+{
+    if (this != &o) *this = SparseVolume(o);
+    return *this;
+}
+
+SparseVolume& SparseVolume::operator=(SparseVolume&& o) noexcept
+{
+    if (this == &o) return *this;
+    release();
+    indexToWorld = o.indexToWorld;
+    mLo = o.mLo;
+    mDims = o.mDims;
+    mOrigin = o.mOrigin;
+    mBricks = o.mBricks;
+    mChannels = o.mChannels;
+    mSlots = std::move(o.mSlots);
+    mBase = o.mBase;
+    mReserved = o.mReserved;
+    mUsed = o.mUsed;
+    o.mBase = nullptr;
+    o.mReserved = 0;
+    o.mUsed = 1;
+    o.mSlots.clear();
+    return *this;
+}
+
+SparseVolume::~SparseVolume()
+{
+    release();
+}
+
+void SparseVolume::release() noexcept
+{
+    releaseAddressSpace(mBase, mReserved);
+    mBase = nullptr;
+    mReserved = 0;
+}
+
+std::uint32_t SparseVolume::storeBrick(std::size_t slot)
+{
+    constexpr std::uint32_t BUSY = std::numeric_limits<std::uint32_t>::max();
+    std::uint32_t* entry = &mSlots[slot];
+    std::uint32_t id = __atomic_load_n(entry, __ATOMIC_ACQUIRE);
+    while (id == 0 || id == BUSY) {
+        std::uint32_t expected = 0;
+        if (id == 0 && __atomic_compare_exchange_n(entry, &expected, BUSY, false, __ATOMIC_ACQ_REL,
+                                                   __ATOMIC_ACQUIRE)) {
+            // This thread stores the brick: the next id (its memory is still untouched, zero).
+            id = __atomic_fetch_add(&mUsed, 1u, __ATOMIC_RELAXED);
+            __atomic_store_n(entry, id, __ATOMIC_RELEASE);
+            return id;
+        }
+        std::this_thread::yield(); // another thread is storing it
+        id = __atomic_load_n(entry, __ATOMIC_ACQUIRE);
+    }
+    return id;
+}
+
+std::array<int, 3> SparseVolume::point(std::size_t idx) const
+{
+    const std::size_t slot = idx >> (3 * BRICK_LOG2);
+    const int at = int(idx & (BRICK_VOXELS - 1));
+    const std::size_t bx = std::size_t(mBricks[0]), by = std::size_t(mBricks[1]);
+    constexpr int M = BRICK - 1;
+    return {mOrigin[0] + int(slot % bx) * BRICK + (at & M),
+            mOrigin[1] + int((slot / bx) % by) * BRICK + ((at >> BRICK_LOG2) & M),
+            mOrigin[2] + int(slot / (bx * by)) * BRICK + (at >> (2 * BRICK_LOG2))};
+}
+
+void SparseVolume::setZero()
+{
+    if (mBase && mUsed > 1) {
+        std::memset(mBase + brickFloats(), 0,
+                    std::size_t(mUsed - 1) * brickFloats() * sizeof(float));
+    }
+}
+
+SparseVolume SparseVolume::channel(int c) const
+{
+    SparseVolume v(mLo, mDims, 1);
+    v.indexToWorld = indexToWorld;
+    const std::size_t C = std::size_t(mChannels);
+    for (std::size_t s = 0; s < mSlots.size(); ++s) {
+        if (!mSlots[s]) continue;
+        const float* src = brickData(mSlots[s]) + c;
+        float* dst = v.writable(s * BRICK_VOXELS);
+        for (std::size_t i = 0; i < BRICK_VOXELS; ++i)
+            dst[i] = src[i * C];
+    }
+    return v;
 }
 
 } // namespace nebula

@@ -27,7 +27,7 @@ namespace {
 struct SmallField
 {
     ScatterFieldMeta meta;
-    DenseVolume a, b;
+    SparseVolume a, b;
     std::vector<std::uint8_t> active;
     openvdb::math::Transform::Ptr xform = openvdb::math::Transform::createLinearTransform(2.0);
 
@@ -54,14 +54,15 @@ struct SmallField
         meta.indexToWorld.t = Vec3(0.5, 0.5, 0.5);
         meta.seconds = 1.5;
         const int channels = shCount(1) * 3;
-        a = DenseVolume({-1, 0, 2}, {4, 4, 4}, channels);
-        b = DenseVolume({-1, 0, 2}, {4, 4, 4}, channels);
-        active.assign(a.voxelCount(), 0);
+        a = SparseVolume({-1, 0, 2}, {4, 4, 4}, channels);
+        b = SparseVolume({-1, 0, 2}, {4, 4, 4}, channels);
+        active.assign(64, 0); // per lattice cell, x fastest
+        for (std::size_t c = 0; c < active.size(); ++c)
+            active[c] = c % 3 != 0; // some cells are not written
         for (std::size_t v = 0; v < a.voxelCount(); ++v) {
-            active[v] = v % 3 != 0; // some cells are not written
             for (int ch = 0; ch < channels; ++ch) {
-                a.voxel(v)[ch] = value(v, ch, 0);
-                b.voxel(v)[ch] = value(v, ch, 1);
+                a.writable(v)[ch] = value(v, ch, 0);
+                b.writable(v)[ch] = value(v, ch, 1);
             }
         }
     }
@@ -121,7 +122,7 @@ TEST(ScatterFieldVdb, MomentsAreTheFactoredSumOfTheSources)
     const auto meta = *readScatterFieldMeta(grids, false);
     const std::vector<std::vector<double>> factors{{2.0, 2.0, 2.0}, {0.5, 1.0, 3.0}};
     const Affine fieldMap = affineFromTransform(*f.xform);
-    const DenseVolume m = readScatterMoments(grids, meta, false, factors, fieldMap, WHAT, RERUN);
+    const SparseVolume m = readScatterMoments(grids, meta, false, factors, fieldMap, WHAT, RERUN);
     ASSERT_EQ(m.channels(), f.a.channels());
     EXPECT_DOUBLE_EQ(m.indexToWorld.m[0], 2.0);
     int checked = 0;
@@ -130,12 +131,14 @@ TEST(ScatterFieldVdb, MomentsAreTheFactoredSumOfTheSources)
             for (int i = -1; i < 3; ++i) {
                 ASSERT_TRUE(m.contains(i, j, k));
                 const std::size_t v = f.a.index(i, j, k);
+                const std::size_t cell = std::size_t(((k - 2) * 4 + j) * 4 + i + 1);
                 for (int ch = 0; ch < m.channels(); ++ch) {
                     const int c = ch % 3;
                     const double expected =
-                        f.active[v] ? factors[0][std::size_t(c)] * SmallField::value(v, ch, 0) +
-                                          factors[1][std::size_t(c)] * SmallField::value(v, ch, 1)
-                                    : 0.0;
+                        f.active[cell]
+                            ? factors[0][std::size_t(c)] * SmallField::value(v, ch, 0) +
+                                  factors[1][std::size_t(c)] * SmallField::value(v, ch, 1)
+                            : 0.0;
                     EXPECT_NEAR(m.voxel(m.index(i, j, k))[ch], expected, 1e-5 * expected)
                         << i << " " << j << " " << k << " channel " << ch;
                     ++checked;

@@ -1,5 +1,5 @@
 /// @file test_volume_vdb.cpp
-/// io/volume_vdb.h: OpenVDB grids <-> DenseVolume: the affine map of a transform, the
+/// io/volume_vdb.h: OpenVDB grids <-> SparseVolume: the affine map of a transform, the
 /// active bounds, dense channels holding the active values (voxels and tiles) and zero
 /// elsewhere, and a grid made from a lattice field on another grid's topology.
 
@@ -93,7 +93,7 @@ TEST(VolumeVdb, DenseHoldsActiveValuesAndZeroElsewhere)
     a->tree().addTile(1, openvdb::Coord(16, 16, 16), 2.5f, true);
 
     const auto bounds = nebula::activeBounds({a, b}, 1);
-    const nebula::DenseVolume d = nebula::denseFromGrids({a, b}, bounds, "cloud.vdb");
+    const nebula::SparseVolume d = nebula::volumeFromGrids({a, b}, bounds, "cloud.vdb");
     EXPECT_EQ(d.channels(), 2);
     EXPECT_EQ(d.lo(), (std::array<int, 3>{bounds.min().x(), bounds.min().y(), bounds.min().z()}));
     EXPECT_EQ(d.dims(), (std::array<int, 3>{bounds.dim().x(), bounds.dim().y(), bounds.dim().z()}));
@@ -116,7 +116,7 @@ TEST(VolumeVdb, DenseHoldsActiveValuesAndZeroElsewhere)
 
     // Bounds that cut through a tile: the part inside is filled, nothing else changes.
     const openvdb::CoordBBox cut(openvdb::Coord(12, 12, 12), openvdb::Coord(19, 19, 19));
-    const nebula::DenseVolume e = nebula::denseFromGrids({a}, cut, "cloud.vdb");
+    const nebula::SparseVolume e = nebula::volumeFromGrids({a}, cut, "cloud.vdb");
     for (int k = 12; k <= 19; ++k)
         for (int j = 12; j <= 19; ++j)
             for (int i = 12; i <= 19; ++i) {
@@ -136,7 +136,7 @@ TEST(VolumeVdb, DenseIgnoresTilesOutsideTheBounds)
         g->tree().setValue(openvdb::Coord(3, 3, 3), 1.0f);
         g->tree().addTile(1, origin, 7.0f, true);
         const openvdb::CoordBBox bounds(openvdb::Coord(0), openvdb::Coord(7));
-        const nebula::DenseVolume d = nebula::denseFromGrids({g}, bounds, "cloud.vdb");
+        const nebula::SparseVolume d = nebula::volumeFromGrids({g}, bounds, "cloud.vdb");
         for (int k = 0; k < 8; ++k)
             for (int j = 0; j < 8; ++j)
                 for (int i = 0; i < 8; ++i) {
@@ -156,7 +156,7 @@ TEST(VolumeVdb, DenseRefusesGridsOnOtherVoxels)
     b->setName("tau.alpha");
     b->setTransform(openvdb::math::Transform::createLinearTransform(0.5));
     const std::string msg = errorMessage([&] {
-        nebula::denseFromGrids({a, b}, nebula::activeBounds({a}, 1), "cloud.vdb");
+        nebula::volumeFromGrids({a, b}, nebula::activeBounds({a}, 1), "cloud.vdb");
     });
     EXPECT_EQ(msg.rfind("cloud.vdb: ", 0), 0u) << msg;
     EXPECT_TRUE(contains(msg, "\"tau.alpha\"")) << msg;
@@ -171,7 +171,7 @@ TEST(VolumeVdb, GridFromFieldOnAnotherGridsTopology)
     topo->tree().setValue(openvdb::Coord(4, 4, 4), 1.0f);
     topo->tree().setValue(openvdb::Coord(40, 0, 0), 1.0f);        // off the lattice below
     topo->tree().addTile(1, openvdb::Coord(8, 0, 0), 1.0f, true); // an active tile
-    const nebula::DenseVolume lattice({0, 0, 0}, {16, 8, 8}, 1);
+    const nebula::SparseVolume lattice({0, 0, 0}, {16, 8, 8}, 1);
     std::vector<float> field(lattice.voxelCount());
     for (std::size_t i = 0; i < field.size(); ++i)
         field[i] = float(i) + 0.5f;

@@ -17,24 +17,24 @@ namespace {
 constexpr double KAPPA = 1.5e-3;
 
 /// A cube lattice of edge @p n with lower corner @p lo, voxel size @p h [pc], filled by f.
-template <typename F> DenseVolume makeVolume(int n, int lo, double h, F f)
+template <typename F> SparseVolume makeVolume(int n, int lo, double h, F f)
 {
-    DenseVolume v({lo, lo, lo}, {n, n, n}, 1);
+    SparseVolume v({lo, lo, lo}, {n, n, n}, 1);
     v.indexToWorld.m = {h, 0, 0, 0, h, 0, 0, 0, h};
     for (int k = lo; k < lo + n; ++k)
         for (int j = lo; j < lo + n; ++j)
             for (int i = lo; i < lo + n; ++i)
-                v.voxel(v.index(i, j, k))[0] = float(f(i, j, k));
+                v.writable(v.index(i, j, k))[0] = float(f(i, j, k));
     return v;
 }
 
-double fieldAt(const DenseVolume& v, const std::vector<float>& field, int i, int j, int k)
+double fieldAt(const SparseVolume& v, const std::vector<float>& field, int i, int j, int k)
 {
     return field[v.index(i, j, k)];
 }
 
 /// Production tau (opticalDepthAt) at every lattice point.
-std::vector<float> productionTau(const DenseVolume& v, const Vec3& star)
+std::vector<float> productionTau(const SparseVolume& v, const Vec3& star)
 {
     std::vector<std::uint32_t> all(v.voxelCount());
     for (std::size_t i = 0; i < all.size(); ++i)
@@ -126,11 +126,11 @@ TEST(OpticalDepth, UniformSlabObliqueRaysAnyAffine)
     const int nx = 64, nz = 24;
     const double n0 = 500.0;
     const int k0 = 9, k1 = 13;
-    DenseVolume vol({0, 0, 0}, {nx, nx, nz}, 1);
+    SparseVolume vol({0, 0, 0}, {nx, nx, nz}, 1);
     for (int k = k0; k <= k1; ++k)
         for (int j = 0; j < nx; ++j)
             for (int i = 0; i < nx; ++i)
-                vol.voxel(vol.index(i, j, k))[0] = float(n0);
+                vol.writable(vol.index(i, j, k))[0] = float(n0);
     // World = R * diag(0.2, 0.2, 0.5) * index, with R a rotation about y plus a mirror in x.
     const double c = std::cos(0.7), s = std::sin(0.7);
     const double sx = 0.2, sz = 0.5;
@@ -190,12 +190,12 @@ TEST(OpticalDepth, ChannelZeroOfAnyVolumeIsIntegratedInPlace)
         const bool border = i == -4 || j == -4 || k == -4 || i == 9 || j == 9 || k == 9;
         return border || U(rng) < 0.3 ? 0.0 : 50.0 * U(rng);
     });
-    DenseVolume four(one.lo(), one.dims(), 4);
+    SparseVolume four(one.lo(), one.dims(), 4);
     four.indexToWorld = one.indexToWorld;
     for (std::size_t v = 0; v < one.voxelCount(); ++v) {
-        four.voxel(v)[0] = one.voxel(v)[0];
+        four.writable(v)[0] = one.voxel(v)[0];
         for (int c = 1; c < 4; ++c)
-            four.voxel(v)[c] = float(1e3 * U(rng)); // never read
+            four.writable(v)[c] = float(1e3 * U(rng)); // never read
     }
     const ColumnIntegrator a(one), b(four);
     for (int trial = 0; trial < 200; ++trial) {
@@ -251,12 +251,12 @@ TEST(OpticalDepth, NeverNegative)
 {
     std::mt19937 rng(11);
     std::uniform_real_distribution<double> u(0.0, 1.0);
-    DenseVolume n({0, 0, 0}, {20, 20, 20}, 1);
+    SparseVolume n({0, 0, 0}, {20, 20, 20}, 1);
     n.indexToWorld.m = {0.156, 0, 0, 0, 0.156, 0, 0, 0, 0.156};
     std::vector<std::uint32_t> points;
     for (std::size_t i = 0; i < n.voxelCount(); ++i) {
         // Sparse, spiky, many decades: isolated dense voxels beside empty ones.
-        n.voxel(i)[0] = u(rng) < 0.3 ? float(std::pow(10.0, 6.0 * u(rng) - 1.0)) : 0.0f;
+        n.writable(i)[0] = u(rng) < 0.3 ? float(std::pow(10.0, 6.0 * u(rng) - 1.0)) : 0.0f;
         points.push_back(std::uint32_t(i));
     }
     for (const Vec3 star : {Vec3(3.3, 17.1, 9.6), Vec3(-30, 4, 50), Vec3(10, 10, 10)}) {
@@ -275,11 +275,11 @@ TEST(OpticalDepth, FarStarsGiveTheChordClosedForms)
     const int nx = 64, nz = 24;
     const double n0 = 500.0, h = 0.2;
     const int k0 = 9, k1 = 13;
-    DenseVolume vol({0, 0, 0}, {nx, nx, nz}, 1);
+    SparseVolume vol({0, 0, 0}, {nx, nx, nz}, 1);
     for (int k = k0; k <= k1; ++k)
         for (int j = 0; j < nx; ++j)
             for (int i = 0; i < nx; ++i)
-                vol.voxel(vol.index(i, j, k))[0] = float(n0);
+                vol.writable(vol.index(i, j, k))[0] = float(n0);
     vol.indexToWorld.m = {h, 0, 0, 0, h, 0, 0, 0, h};
     for (const double widths : {10.0, 1e3, 1e6, 1e12}) {
         const double D = widths * nx;

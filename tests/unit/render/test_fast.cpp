@@ -197,7 +197,7 @@ TEST(Render, PyramidLevelAddsTheGainOfDoubledVoxels)
     RenderLevel level;
     level.level = 1;
     const int M = (N + 1) / 2; // coarse lattice 0..20 covers fine 0..41
-    level.fields = DenseVolume({0, 0, 0}, {M, M, M}, 3);
+    level.fields = SparseVolume({0, 0, 0}, {M, M, M}, 3);
     level.fields.indexToWorld.m = {2 * H, 0, 0, 0, 2 * H, 0, 0, 0, 2 * H};
     level.fields.indexToWorld.t = Vec3(0.5 * H, 0.5 * H, 0.5 * H); // block centres
     for (int k = 0; k < M; ++k)
@@ -211,7 +211,7 @@ TEST(Render, PyramidLevelAddsTheGainOfDoubledVoxels)
                         sum += scene.fields.voxel(scene.fields.index(fi, fj, fk))[0];
                     }
                 }
-                level.fields.voxel(level.fields.index(i, j, k))[0] = float(sum / 8.0);
+                level.fields.writable(level.fields.index(i, j, k))[0] = float(sum / 8.0);
             }
     scene.levels.push_back(std::move(level));
 

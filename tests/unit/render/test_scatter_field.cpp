@@ -26,12 +26,12 @@ const double Y00 = 0.5 / std::sqrt(PI);
 template <class Density> RenderScene ball(int n, const std::vector<Star>& stars, Density&& density)
 {
     RenderScene scene;
-    scene.fields = DenseVolume({0, 0, 0}, {n, n, n}, 2 + int(stars.size()));
+    scene.fields = SparseVolume({0, 0, 0}, {n, n, n}, 2 + int(stars.size()));
     scene.fields.indexToWorld.m = {H, 0, 0, 0, H, 0, 0, 0, H};
     for (int k = 0; k < n; ++k)
         for (int j = 0; j < n; ++j)
             for (int i = 0; i < n; ++i)
-                scene.fields.voxel(scene.fields.index(i, j, k))[0] =
+                scene.fields.writable(scene.fields.index(i, j, k))[0] =
                     float(density(Vec3(i * H, j * H, k * H)));
     scene.stars = stars;
     for (const auto& s : stars)
@@ -132,8 +132,8 @@ TEST(ScatterField, ThinShellMatchesTheSingleScatteringIntegral)
     const ScatterSourceField& f = field.sources[0];
     // Brute force at point y: J = (1/4 pi) sum over directions of the light arriving from
     // along -w: integral of k(x) a p(mu) E(x) ds, x = y - s w, marched in steps of H/20 over
-    // the trilinear density (DenseVolume::sample), E with the exact optical depth.
-    const DenseVolume& v = scene.fields;
+    // the trilinear density (SparseVolume::sample), E with the exact optical depth.
+    const SparseVolume& v = scene.fields;
     const Affine w2i = v.indexToWorld.inverse();
     const auto brute = [&](const Vec3& y, int c) {
         const int M = 3000;
@@ -211,7 +211,7 @@ TEST(ScatterField, SameSeedSameFieldWhateverTheThreadCount)
 {
     auto scene = ball(17, {starAt(Vec3(0.8, 0.8, 0.8), 10.0)}, [](const Vec3&) { return 900.0; });
     for (std::size_t i = 0; i < scene.fields.voxelCount(); ++i)
-        scene.fields.voxel(i)[1] = 0.5f; // emission too
+        scene.fields.writable(i)[1] = 0.5f; // emission too
     RenderOptions ropts;
     ScatterOptions so;
     so.packets = 20000;
@@ -221,7 +221,7 @@ TEST(ScatterField, SameSeedSameFieldWhateverTheThreadCount)
     tbb::task_arena(2).execute([&] { two = computeScatterField(scene, ropts, so, nullptr); });
     ASSERT_EQ(one.sources.size(), 2u); // stars and emission
     for (std::size_t s = 0; s < 2; ++s) {
-        EXPECT_EQ(one.sources[s].moments.data(), two.sources[s].moments.data());
+        EXPECT_EQ(latticeValues(one.sources[s].moments), latticeValues(two.sources[s].moments));
         EXPECT_EQ(one.sources[s].escaped, two.sources[s].escaped);
     }
     // One shared buffer with atomic additions (what large grids use) gives the same sums.
@@ -231,10 +231,10 @@ TEST(ScatterField, SameSeedSameFieldWhateverTheThreadCount)
     tbb::task_arena(2).execute(
         [&] { atomic = computeScatterField(scene, ropts, shared, nullptr); });
     for (std::size_t s = 0; s < 2; ++s)
-        EXPECT_EQ(one.sources[s].moments.data(), atomic.sources[s].moments.data());
+        EXPECT_EQ(latticeValues(one.sources[s].moments), latticeValues(atomic.sources[s].moments));
     so.seed = 2;
-    EXPECT_NE(computeScatterField(scene, ropts, so, nullptr).sources[0].moments.data(),
-              one.sources[0].moments.data());
+    EXPECT_NE(latticeValues(computeScatterField(scene, ropts, so, nullptr).sources[0].moments),
+              latticeValues(one.sources[0].moments));
 }
 
 TEST(ScatterField, RefusesBadOptions)
@@ -266,14 +266,14 @@ TEST(ScatterField, AutoFieldLevelFollowsGridSizeOpticalThicknessAndMemory)
     // with a dense core of fewer than 1 % of the voxels.
     const auto box = [](int n, double nH, double core = 0.0) {
         RenderScene s;
-        s.fields = DenseVolume({0, 0, 0}, {n, n, n}, 2);
+        s.fields = SparseVolume({0, 0, 0}, {n, n, n}, 2);
         s.fields.indexToWorld.m = {H, 0, 0, 0, H, 0, 0, 0, H};
         for (int k = 1; k < n - 1; ++k)
             for (int j = 1; j < n - 1; ++j)
                 for (int i = 1; i < n - 1; ++i) {
                     const bool inCore = std::abs(i - n / 2) < 4 && std::abs(j - n / 2) < 4 &&
                                         std::abs(k - n / 2) < 4;
-                    s.fields.voxel(s.fields.index(i, j, k))[0] =
+                    s.fields.writable(s.fields.index(i, j, k))[0] =
                         float(inCore && core > 0.0 ? core : nH);
                 }
         s.dust.kappa_V = KAPPA;

@@ -30,12 +30,12 @@ SpectralScene makeScene(D density, E emission, V velocity, std::vector<Star> sta
     SpectralScene s;
     const int S = int(stars.size());
     const int C = 2 + S + 1 + 3;
-    s.base.fields = DenseVolume({0, 0, 0}, {N, N, N}, C);
+    s.base.fields = SparseVolume({0, 0, 0}, {N, N, N}, C);
     s.base.fields.indexToWorld.m = {H, 0, 0, 0, H, 0, 0, 0, H};
     for (int k = 0; k < N; ++k)
         for (int j = 0; j < N; ++j)
             for (int i = 0; i < N; ++i) {
-                float* q = s.base.fields.voxel(s.base.fields.index(i, j, k));
+                float* q = s.base.fields.writable(s.base.fields.index(i, j, k));
                 // The velocity everywhere (also on the border, so that it does not ramp to 0).
                 const auto v = velocity(i, j, k);
                 for (int c = 0; c < 3; ++c)
@@ -190,12 +190,12 @@ TEST(SpectralRender, BlackBodyEmissionFollowsKirchhoff)
     // interpolation of B); the trilinear ramps at the faces change nothing (uniform T).
     const double n0 = 2000.0, T = 5000.0;
     SpectralScene s;
-    s.base.fields = DenseVolume({0, 0, 0}, {N, N, N}, 3); // density, emission sum, T
+    s.base.fields = SparseVolume({0, 0, 0}, {N, N, N}, 3); // density, emission sum, T
     s.base.fields.indexToWorld.m = {H, 0, 0, 0, H, 0, 0, 0, H};
     for (int k = 0; k < N; ++k)
         for (int j = 0; j < N; ++j)
             for (int i = 0; i < N; ++i) {
-                float* q = s.base.fields.voxel(s.base.fields.index(i, j, k));
+                float* q = s.base.fields.writable(s.base.fields.index(i, j, k));
                 q[2] = float(T);
                 const bool inside = i > 0 && j > 0 && k > 0 && i < N - 1 && j < N - 1 && k < N - 1;
                 q[0] = inside ? float(n0) : 0.0f;
@@ -343,7 +343,7 @@ TEST(SpectralRender, AgreesWithRgbModeForGreyDustAndABlackBodyStar)
             for (int k = 0; k < N; ++k)
                 for (int j = 0; j < N; ++j)
                     for (int i = 0; i < N; ++i) {
-                        float* q = b.fields.voxel(b.fields.index(i, j, k));
+                        float* q = b.fields.writable(b.fields.index(i, j, k));
                         const double d = std::sqrt(std::pow(i - 10, 2) + std::pow(j - 10, 2) +
                                                    std::pow(k - 10, 2));
                         q[2] = float(KAPPA * 300.0 * d * H); // a plausible optical depth

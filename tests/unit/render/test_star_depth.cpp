@@ -42,7 +42,7 @@ TEST(StarDepth, ExactAtTheLitFaceOfThickVoxels)
 {
     const RenderScene scene = thickCube(5.0);
     const StarDepth depth(scene);
-    const DenseVolume n = scene.fields.channel(0);
+    const SparseVolume n = scene.fields.channel(0);
     const Vec3 star = starIndex(scene, 0);
     for (const Vec3 p : {Vec3(0.5, 20.3, 17.7), Vec3(0.9, 3.2, 30.5), Vec3(1.4, 12.6, 12.1)}) {
         float interp = 0.0f;
@@ -83,7 +83,7 @@ TEST(StarDepth, SingleScatteringAtTheLitFaceMatchesBruteForce)
     RenderScene scene = thickCube(5.0);
     scene.dust.albedo = 0.5;
     scene.dust.g = 0.0;
-    const DenseVolume n = scene.fields.channel(0);
+    const SparseVolume n = scene.fields.channel(0);
     const Vec3 star = starIndex(scene, 0);
     RenderOptions o;
     o.camera.eye = Vec3(-8.0, 2.037, 2.061);

@@ -16,8 +16,8 @@
 #include <vector>
 
 using nebula::Affine;
-using nebula::DenseVolume;
 using nebula::OCCUPANCY_BLOCK;
+using nebula::SparseVolume;
 using nebula::Vec3;
 
 namespace {
@@ -26,14 +26,15 @@ constexpr int B = OCCUPANCY_BLOCK;
 
 /// A 2-channel volume with non-negative random values in a random subset of its lattice
 /// points (the rest zero), so that some blocks are empty.
-DenseVolume randomVolume(std::array<int, 3> lo, std::array<int, 3> dims, double fill, unsigned seed)
+SparseVolume randomVolume(std::array<int, 3> lo, std::array<int, 3> dims, double fill,
+                          unsigned seed)
 {
-    DenseVolume v(lo, dims, 2);
+    SparseVolume v(lo, dims, 2);
     std::mt19937_64 rng(seed);
     std::uniform_real_distribution<double> u(0.0, 1.0);
     for (std::size_t i = 0; i < v.voxelCount(); ++i) {
-        if (u(rng) < fill) v.voxel(i)[0] = float(u(rng) * 10.0);
-        if (u(rng) < fill) v.voxel(i)[1] = float(u(rng) * 3.0);
+        if (u(rng) < fill) v.writable(i)[0] = float(u(rng) * 10.0);
+        if (u(rng) < fill) v.writable(i)[1] = float(u(rng) * 3.0);
     }
     return v;
 }
@@ -41,7 +42,7 @@ DenseVolume randomVolume(std::array<int, 3> lo, std::array<int, 3> dims, double 
 /// Brute force: the largest value of each channel over the corners of every cell of each
 /// block. Block b holds cells b B .. b B + B - 1 per axis, whose corners are the lattice
 /// points b B .. b B + B (clipped to the lattice).
-std::vector<std::array<float, 2>> bruteMaxima(const DenseVolume& v, std::array<int, 3>& blocks)
+std::vector<std::array<float, 2>> bruteMaxima(const SparseVolume& v, std::array<int, 3>& blocks)
 {
     for (int a = 0; a < 3; ++a)
         blocks[a] = (v.dims()[a] + B - 1) / B;
@@ -63,7 +64,7 @@ std::vector<std::array<float, 2>> bruteMaxima(const DenseVolume& v, std::array<i
     return m;
 }
 
-std::vector<std::uint8_t> occupancy(const DenseVolume& v, std::array<int, 3>& blocks)
+std::vector<std::uint8_t> occupancy(const SparseVolume& v, std::array<int, 3>& blocks)
 {
     std::vector<std::array<float, 2>> maxima;
     nebula::blockMaxima(v, blocks, maxima);
@@ -105,7 +106,7 @@ TEST(BlockMaxima, MaxOfCornerValuesPerBlock)
     };
     unsigned seed = 10;
     for (const Case& c : cases) {
-        const DenseVolume v = randomVolume(c.lo, c.dims, c.fill, seed++);
+        const SparseVolume v = randomVolume(c.lo, c.dims, c.fill, seed++);
         std::array<int, 3> blocks{}, expectedBlocks{};
         std::vector<std::array<float, 2>> maxima;
         nebula::blockMaxima(v, blocks, maxima);
@@ -122,9 +123,9 @@ TEST(BlockMaxima, MaxOfCornerValuesPerBlock)
 TEST(BlockMaxima, ALatticePointOnABlockFaceCountsForBothBlocks)
 {
     // Point 8 is the corner shared by cell 7 (block 0) and cell 8 (block 1).
-    DenseVolume v({0, 0, 0}, {20, 4, 4}, 2);
-    v.voxel(v.index(8, 1, 1))[0] = 4.0f;
-    v.voxel(v.index(3, 2, 2))[1] = 2.0f;
+    SparseVolume v({0, 0, 0}, {20, 4, 4}, 2);
+    v.writable(v.index(8, 1, 1))[0] = 4.0f;
+    v.writable(v.index(3, 2, 2))[1] = 2.0f;
     std::array<int, 3> blocks{};
     std::vector<std::array<float, 2>> maxima;
     nebula::blockMaxima(v, blocks, maxima);
@@ -228,7 +229,7 @@ TEST(Marcher, StepsCoverExactlyTheOccupiedBlocks)
 {
     // A lattice with a few occupied blocks, a scaled, rotated and shifted index-to-world map,
     // eyes outside and inside the box, random directions and the axes.
-    DenseVolume v({-4, 2, 7}, {37, 29, 45}, 2);
+    SparseVolume v({-4, 2, 7}, {37, 29, 45}, 2);
     std::mt19937_64 rng(77);
     std::uniform_real_distribution<double> u(0.0, 1.0);
     for (int n = 0; n < 12; ++n) {
@@ -237,7 +238,7 @@ TEST(Marcher, StepsCoverExactlyTheOccupiedBlocks)
         for (int k = bk * B + 2; k < std::min(bk * B + 7, 45); ++k)
             for (int j = bj * B + 2; j < std::min(bj * B + 7, 29); ++j)
                 for (int i = bi * B + 2; i < std::min(bi * B + 7, 37); ++i)
-                    v.voxel(v.index(-4 + i, 2 + j, 7 + k))[0] = 1.0f;
+                    v.writable(v.index(-4 + i, 2 + j, 7 + k))[0] = 1.0f;
     }
     v.indexToWorld = scaledRotated(0.15, 0.6, Vec3(3, -1, 2));
     std::array<int, 3> blocks{};
@@ -346,9 +347,9 @@ TEST(Marcher, FullyOccupiedBoxIsTheClippedChord)
 {
     // Every block occupied: the steps cover the whole segment of the ray in the box, exactly,
     // in full steps but the last.
-    DenseVolume v({0, 0, 0}, {17, 17, 17}, 2);
+    SparseVolume v({0, 0, 0}, {17, 17, 17}, 2);
     for (std::size_t i = 0; i < v.voxelCount(); ++i)
-        v.voxel(i)[1] = 1.0f;
+        v.writable(i)[1] = 1.0f;
     v.indexToWorld.m = {0.5, 0, 0, 0, 0.5, 0, 0, 0, 0.5};
     std::array<int, 3> blocks{};
     const auto occ = occupancy(v, blocks);
@@ -375,9 +376,9 @@ TEST(Marcher, FullyOccupiedBoxIsTheClippedChord)
 
 TEST(Marcher, MissStopAndEmptyVolume)
 {
-    DenseVolume v({0, 0, 0}, {17, 17, 17}, 2);
+    SparseVolume v({0, 0, 0}, {17, 17, 17}, 2);
     for (std::size_t i = 0; i < v.voxelCount(); ++i)
-        v.voxel(i)[0] = 1.0f;
+        v.writable(i)[0] = 1.0f;
     std::array<int, 3> blocks{};
     const auto occ = occupancy(v, blocks);
     int calls = 0;
@@ -401,7 +402,7 @@ TEST(Marcher, MissStopAndEmptyVolume)
     }));
     EXPECT_EQ(calls, 7);
     // No occupied block: the ray meets the box but takes no step.
-    DenseVolume empty({0, 0, 0}, {17, 17, 17}, 2);
+    SparseVolume empty({0, 0, 0}, {17, 17, 17}, 2);
     std::array<int, 3> emptyBlocks{};
     const auto none = occupancy(empty, emptyBlocks);
     const nebula::Marcher e(empty, emptyBlocks, none, Vec3(-5, 8, 8));

@@ -1,5 +1,5 @@
 /// @file test_volume.cpp
-/// volume/volume.h: Vec3, the affine maps (apply, inverse) and DenseVolume (lattice
+/// volume/volume.h: Vec3, the affine maps (apply, inverse) and SparseVolume (lattice
 /// indexing, interleaved channels, trilinear sampling: exact for fields that are linear in
 /// each coordinate, zero outside the lattice).
 
@@ -9,12 +9,14 @@
 
 #include <gtest/gtest.h>
 
+#include <sys/resource.h>
+
 #include <cmath>
 #include <random>
 #include <vector>
 
 using nebula::Affine;
-using nebula::DenseVolume;
+using nebula::SparseVolume;
 using nebula::Vec3;
 
 namespace {
@@ -138,26 +140,35 @@ TEST(Affine, SingularMapHasNoInverse)
     EXPECT_THROW(notANumber.inverse(), nebula::Error);
 }
 
-// ---- DenseVolume --------------------------------------------------------------------------
+// ---- SparseVolume --------------------------------------------------------------------------
 
-TEST(DenseVolume, LatticeIndexingAndChannels)
+TEST(SparseVolume, LatticeIndexingAndChannels)
 {
-    const DenseVolume empty;
+    const SparseVolume empty;
     EXPECT_EQ(empty.voxelCount(), 0u);
     EXPECT_EQ(empty.channels(), 0);
 
-    DenseVolume v({-2, 3, 10}, {4, 5, 6}, 3);
-    EXPECT_EQ(v.voxelCount(), 120u);
+    // x: -2..1 (bricks from -8 and 0), y: 3..7 (one brick), z: 10..15 (the brick from 8).
+    SparseVolume v({-2, 3, 10}, {4, 5, 6}, 3);
+    EXPECT_EQ(v.voxelCount(), 2u * SparseVolume::BRICK_VOXELS);
     EXPECT_EQ(v.channels(), 3);
-    EXPECT_EQ(v.data().size(), 360u);
-    for (float f : v.data())
-        EXPECT_EQ(f, 0.0f); // zero-initialised
-    // x fastest, then y, then z, in absolute index coordinates.
-    EXPECT_EQ(v.index(-2, 3, 10), 0u);
-    EXPECT_EQ(v.index(-1, 3, 10), 1u);
-    EXPECT_EQ(v.index(-2, 4, 10), 4u);
-    EXPECT_EQ(v.index(-2, 3, 11), 20u);
-    EXPECT_EQ(v.index(1, 7, 15), 119u);
+    EXPECT_EQ(v.storedBricks(), 0u);
+    // Every lattice point has its own index, point() inverts index(), and all read zero.
+    std::vector<int> seen(v.voxelCount(), 0);
+    for (int k = 10; k < 16; ++k)
+        for (int j = 3; j < 8; ++j)
+            for (int i = -2; i < 2; ++i) {
+                const std::size_t idx = v.index(i, j, k);
+                ASSERT_LT(idx, v.voxelCount());
+                EXPECT_EQ(seen[idx]++, 0);
+                EXPECT_EQ(v.point(idx), (std::array<int, 3>{i, j, k}));
+                for (int c = 0; c < 3; ++c)
+                    EXPECT_EQ(v.voxel(idx)[c], 0.0f);
+            }
+    // Brick-major: the bricks are aligned to multiples of 8 in index space, x fastest inside.
+    EXPECT_EQ(v.index(-2, 3, 10), 6u + 3u * 8u + 2u * 64u);
+    EXPECT_EQ(v.index(-1, 3, 10), v.index(-2, 3, 10) + 1u);
+    EXPECT_EQ(v.index(0, 0 + 3, 10), SparseVolume::BRICK_VOXELS + 3u * 8u + 2u * 64u);
     // contains(): exactly the lattice [lo, lo + dims - 1].
     EXPECT_TRUE(v.contains(-2, 3, 10));
     EXPECT_TRUE(v.contains(1, 7, 15));
@@ -166,35 +177,106 @@ TEST(DenseVolume, LatticeIndexingAndChannels)
     EXPECT_FALSE(v.contains(0, 8, 12));
     EXPECT_FALSE(v.contains(0, 5, 9));
     EXPECT_FALSE(v.contains(0, 5, 16));
-    // A voxel's channels are adjacent.
-    float* q = v.voxel(v.index(0, 5, 12));
+    // A voxel's channels are adjacent; writing stores its brick only.
+    float* q = v.writable(v.index(0, 5, 12));
     q[0] = 1.0f;
     q[1] = 2.0f;
     q[2] = 3.0f;
-    const std::size_t at = v.index(0, 5, 12) * 3;
-    EXPECT_EQ(v.data()[at], 1.0f);
-    EXPECT_EQ(v.data()[at + 1], 2.0f);
-    EXPECT_EQ(v.data()[at + 2], 3.0f);
-    const DenseVolume& cv = v;
+    EXPECT_EQ(v.storedBricks(), 1u);
+    EXPECT_TRUE(v.stored(v.index(1, 7, 15)));
+    EXPECT_FALSE(v.stored(v.index(-1, 5, 12)));
+    EXPECT_EQ(v.voxel(v.index(-1, 5, 12))[0], 0.0f);
+    const SparseVolume& cv = v;
     EXPECT_EQ(cv.voxel(v.index(0, 5, 12))[2], 3.0f);
+    EXPECT_EQ(cv.voxel(v.index(1, 5, 12))[0], 0.0f);
+    // Copies and channels keep the values and the sparsity.
+    const SparseVolume copy = v;
+    EXPECT_EQ(copy.storedBricks(), 1u);
+    EXPECT_EQ(copy.voxel(copy.index(0, 5, 12))[1], 2.0f);
+    const SparseVolume second = v.channel(1);
+    EXPECT_EQ(second.channels(), 1);
+    EXPECT_EQ(second.storedBricks(), 1u);
+    EXPECT_EQ(second.voxel(second.index(0, 5, 12))[0], 2.0f);
+    v.setZero();
+    EXPECT_EQ(v.voxel(v.index(0, 5, 12))[1], 0.0f);
+    EXPECT_EQ(copy.voxel(copy.index(0, 5, 12))[1], 2.0f);
 
-    EXPECT_THROW(DenseVolume({0, 0, 0}, {0, 4, 4}, 1), nebula::Error);
-    EXPECT_THROW(DenseVolume({0, 0, 0}, {4, 4, 4}, 0), nebula::Error);
-    EXPECT_THROW(DenseVolume({0, 0, 0}, {4, -1, 4}, 1), nebula::Error);
+    EXPECT_THROW(SparseVolume({0, 0, 0}, {0, 4, 4}, 1), nebula::Error);
+    EXPECT_THROW(SparseVolume({0, 0, 0}, {4, 4, 4}, 0), nebula::Error);
+    EXPECT_THROW(SparseVolume({0, 0, 0}, {4, -1, 4}, 1), nebula::Error);
+    // More bricks than a volume can index: an error, nothing allocated.
+    EXPECT_THROW(SparseVolume({0, 0, 0}, {1 << 30, 1 << 30, 1 << 30}, 1), nebula::Error);
 }
 
-TEST(DenseVolume, TrilinearSampleIsExactForMultilinearFields)
+TEST(SparseVolume, CellCornersAcrossBricksMatchTheVoxels)
+{
+    // Every cell, inside a brick or straddling up to 8 of them: the 8 corners' values.
+    SparseVolume v({-9, -1, 5}, {20, 11, 13}, 2);
+    for (int k = 5; k < 18; ++k)
+        for (int j = -1; j < 10; ++j)
+            for (int i = -9; i < 11; ++i) {
+                if ((i * 7 + j * 3 + k) % 5 == 0) continue; // some bricks stay unstored
+                float* q = v.writable(v.index(i, j, k));
+                q[0] = float(i + 100 * j + 10000 * k);
+                q[1] = -q[0];
+            }
+    for (int k = 5; k < 17; ++k)
+        for (int j = -1; j < 9; ++j)
+            for (int i = -9; i < 10; ++i) {
+                const float* q[8];
+                v.cellCorners(i, j, k, q);
+                for (int c = 0; c < 8; ++c) {
+                    const float* want =
+                        v.voxel(v.index(i + (c & 1), j + (c >> 1 & 1), k + (c >> 2)));
+                    ASSERT_EQ(q[c][0], want[0]) << i << "," << j << "," << k << " corner " << c;
+                    ASSERT_EQ(q[c][1], want[1]);
+                }
+            }
+}
+
+TEST(SparseVolume, MemoryFollowsTheBricksWritten)
+{
+    // A 512^3 lattice of 4 channels is 2 GiB dense; 64 bricks written cost 64 x 8 KiB and
+    // the table (256 KiB), whatever the bounding box.
+    rusage before{};
+    ::getrusage(RUSAGE_SELF, &before);
+    SparseVolume v({0, 0, 0}, {512, 512, 512}, 4);
+    for (int b = 0; b < 64; ++b) {
+        const int at = 8 * (b * 7 % 64);
+        for (int k = 0; k < 8; ++k)
+            for (int j = 0; j < 8; ++j)
+                for (int i = 0; i < 8; ++i)
+                    v.writable(v.index(at + i, 8 * b + j, 504 - 8 * (b % 3) + k))[0] = 1.0f;
+    }
+    EXPECT_EQ(v.storedBricks(), 64u);
+    EXPECT_EQ(v.storedBytes(), 64u * 512u * 4u * 4u + 64u * 64u * 64u * 4u);
+    // Reading every voxel, stored or not, costs no memory either.
+    double sum = 0.0;
+    for (int k = 0; k < 512; k += 3)
+        for (int j = 0; j < 512; j += 5)
+            for (int i = 0; i < 512; ++i)
+                sum += v.voxel(v.index(i, j, k))[0];
+    EXPECT_GT(sum, 0.0);
+    rusage after{};
+    ::getrusage(RUSAGE_SELF, &after);
+    const double grownMiB = double(after.ru_maxrss - before.ru_maxrss) / 1024.0; // KiB -> MiB
+    // Generous: huge pages round the bricks up to 2 MiB, and the process's peak may move with
+    // other allocations; dense storage would add 2048 MiB.
+    EXPECT_LT(grownMiB, 64.0);
+}
+
+TEST(SparseVolume, TrilinearSampleIsExactForMultilinearFields)
 {
     // f = a + b x + c y + d z + e x y + g x y z (linear in each coordinate), two channels.
     const auto f0 = [](const Vec3& p) { return 2.0 + 0.5 * p.x - 0.25 * p.y + 0.125 * p.z; };
     const auto f1 = [](const Vec3& p) {
         return -1.0 + 0.1 * p.x * p.y + 0.01 * p.x * p.y * p.z + 0.3 * p.z;
     };
-    DenseVolume v({-3, 2, -1}, {7, 6, 8}, 2);
+    SparseVolume v({-3, 2, -1}, {7, 6, 8}, 2);
     for (int k = -1; k < 7; ++k)
         for (int j = 2; j < 8; ++j)
             for (int i = -3; i < 4; ++i) {
-                float* q = v.voxel(v.index(i, j, k));
+                float* q = v.writable(v.index(i, j, k));
                 q[0] = float(f0(Vec3(i, j, k)));
                 q[1] = float(f1(Vec3(i, j, k)));
             }
@@ -219,11 +301,12 @@ TEST(DenseVolume, TrilinearSampleIsExactForMultilinearFields)
     EXPECT_EQ(out[1], v.voxel(v.index(0, 4, 3))[1]);
 }
 
-TEST(DenseVolume, ZeroOutsideTheLattice)
+TEST(SparseVolume, ZeroOutsideTheLattice)
 {
-    DenseVolume v({0, 0, 0}, {4, 4, 4}, 3);
-    for (float& f : v.data())
-        f = 5.0f;
+    SparseVolume v({0, 0, 0}, {4, 4, 4}, 3);
+    for (std::size_t i = 0; i < v.voxelCount(); ++i)
+        for (int c = 0; c < 3; ++c)
+            v.writable(i)[c] = 5.0f;
     for (const Vec3& p : {Vec3(-0.5, 1, 1), Vec3(1, -1e-9, 1), Vec3(1, 1, 3.5), Vec3(4, 1, 1),
                           Vec3(100, 100, 100), Vec3(-1e9, 0, 0)}) {
         float out[3] = {1, 1, 1};
@@ -240,13 +323,13 @@ TEST(DenseVolume, ZeroOutsideTheLattice)
     EXPECT_EQ(out[2], 5.0f);
 }
 
-TEST(DenseVolume, SampleZeroWithManyChannels)
+TEST(SparseVolume, SampleZeroWithManyChannels)
 {
     // More than 16 channels takes sample0()'s other path; same answer.
-    DenseVolume v({0, 0, 0}, {3, 3, 3}, 20);
+    SparseVolume v({0, 0, 0}, {3, 3, 3}, 20);
     for (std::size_t i = 0; i < v.voxelCount(); ++i) {
         for (int c = 0; c < 20; ++c)
-            v.voxel(i)[c] = float(i) + 100.0f * float(c);
+            v.writable(i)[c] = float(i) + 100.0f * float(c);
     }
     const Vec3 p(0.25, 1.5, 0.75);
     std::vector<float> all(20);

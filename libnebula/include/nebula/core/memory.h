@@ -72,7 +72,15 @@ template <typename T> struct LargePageAllocator
     }
 };
 
-/// A float array on huge pages when large (DenseVolume's storage).
+/// @p bytes of address space, aligned to HUGE_PAGE_BYTES, that costs no memory until a page is
+/// written (mmap with MAP_NORESERVE; reads of unwritten pages see zeros), marked for
+/// transparent huge pages when large: SparseVolume's bricks are allocated from it one after
+/// another, so the memory used follows the bricks written. Throws Error naming @p what if the
+/// address space cannot be reserved. Release it with releaseAddressSpace().
+void* reserveAddressSpace(std::size_t bytes, const std::string& what);
+void releaseAddressSpace(void* p, std::size_t bytes) noexcept;
+
+/// A float array on huge pages when large (the big dense arrays).
 using LargeFloatArray = std::vector<float, LargePageAllocator<float>>;
 
 } // namespace nebula

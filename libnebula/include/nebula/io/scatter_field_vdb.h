@@ -56,10 +56,11 @@ const char* scatterMetaKey(bool spectral);
 /// Replaces any field of the kind (R, G, B or @p spectral) in @p grids by this one:
 /// moments[s] (shCount(meta.order) x meta.wavelengths.size() channels, channel
 /// shIndex(l, m) * C + c, the l = 0 one holding c_00 = 4 pi Y_00 J) becomes source s's grids,
-/// written on the cells where @p active is 1 (one byte per cell of the moments' lattice),
+/// written on the cells where @p active is 1 (one byte per cell of the moments'
+/// lattice, x fastest, then y, then z),
 /// on @p fieldTransform; @p meta becomes the file metadata.
 void writeScatterField(GridSet& grids, const ScatterFieldMeta& meta,
-                       const std::vector<const DenseVolume*>& moments,
+                       const std::vector<const SparseVolume*>& moments,
                        const std::vector<std::uint8_t>& active,
                        const openvdb::math::Transform& fieldTransform, bool spectral);
 
@@ -75,9 +76,9 @@ std::optional<ScatterFieldMeta> readScatterFieldMeta(const GridSet& grids, bool 
 /// @p fieldMap. Each grid is read straight into the sum (no per-source copy). Throws Error
 /// naming @p what and the grid if one is missing or not on @p fieldMap, or the lattice
 /// would not fit in memory.
-DenseVolume readScatterMoments(const GridSet& grids, const ScatterFieldMeta& meta, bool spectral,
-                               const std::vector<std::vector<double>>& factors,
-                               const Affine& fieldMap, const std::string& what,
-                               const std::string& rerun);
+SparseVolume readScatterMoments(const GridSet& grids, const ScatterFieldMeta& meta, bool spectral,
+                                const std::vector<std::vector<double>>& factors,
+                                const Affine& fieldMap, const std::string& what,
+                                const std::string& rerun);
 
 } // namespace nebula

@@ -21,35 +21,35 @@ namespace nebula {
 /// in place), trilinear between lattice points, zero outside the lattice.
 /// Along a line the trilinear interpolant is a cubic inside each cell, so Simpson's rule
 /// per cell segment is exact (up to rounding).
-double columnDensity(const DenseVolume& n, const Vec3& a, const Vec3& b);
+double columnDensity(const SparseVolume& n, const Vec3& a, const Vec3& b);
 
 /// columnDensity() for many segments through one volume (channel 0 of it; it keeps a
 /// reference): the per-cell occupancy it skips empty cells with is built once, in parallel.
 class ColumnIntegrator
 {
 public:
-    explicit ColumnIntegrator(const DenseVolume& n);
+    explicit ColumnIntegrator(const SparseVolume& n);
     /// integral n dl [cm^-3 pc] from index-space point a to b (see columnDensity()).
     double operator()(const Vec3& a, const Vec3& b) const;
 
 private:
-    const DenseVolume& mN;
-    std::vector<std::uint8_t> mDusty;
+    const SparseVolume& mN;
+    std::vector<std::uint64_t> mDusty; ///< a bit per cell: any corner non-zero
 };
 
 /// Reference for tests: the same integral as columnDensity(), written as simply as possible
-/// (sort every lattice-plane crossing, Simpson per piece through DenseVolume::sample).
-double columnDensityReference(const DenseVolume& n, const Vec3& a, const Vec3& b);
+/// (sort every lattice-plane crossing, Simpson per piece through SparseVolume::sample).
+double columnDensityReference(const SparseVolume& n, const Vec3& a, const Vec3& b);
 
 /// Reference for tests: tau_V at every lattice point of @p n via columnDensityReference().
-std::vector<float> opticalDepthReference(const DenseVolume& n, const Vec3& starIndex,
+std::vector<float> opticalDepthReference(const SparseVolume& n, const Vec3& starIndex,
                                          double kappa_V);
 
 /// Production: exact tau_V (one long characteristic each, ColumnIntegrator) at the lattice
-/// points @p points (linear indices into @p n's lattice), oneTBB-parallel and deterministic;
+/// points @p points (voxel indices, SparseVolume::index()), oneTBB-parallel and deterministic;
 /// every other lattice point of the returned field is 0. Cost is proportional to the number
 /// of points times their distance from the star (about 0.8 us a point at 256^3).
-std::vector<float> opticalDepthAt(const DenseVolume& n, const Vec3& starIndex, double kappa_V,
+std::vector<float> opticalDepthAt(const SparseVolume& n, const Vec3& starIndex, double kappa_V,
                                   const std::vector<std::uint32_t>& points,
                                   const std::function<void(std::size_t)>& progress = {});
 

@@ -61,7 +61,7 @@ struct ScatterSourceField
     /// dw [L_sun pc^-2] (a spectral field: per nm, [L_sun pc^-2 nm^-1]; the l = 0 moment is
     /// 4 pi Y_00 J = 2 sqrt(pi) J). The emission's is per unit --emission-scale and colour
     /// (1, 1, 1). Its indexToWorld is fieldLevelMap() of level 0's.
-    DenseVolume moments;
+    SparseVolume moments;
     std::vector<double> power;    ///< per channel: first-scattered (or emitted) power [L_sun]
     std::vector<double> escaped;  ///< per channel: collided power leaving the grid [L_sun]
     std::vector<double> absorbed; ///< per channel: collided power absorbed [L_sun]
@@ -82,8 +82,8 @@ struct ScatterField
     /// channel each (computeSpectralScatterField()).
     std::vector<double> wavelengths;
     std::vector<ScatterSourceField> sources;
-    /// Per cell of the sources' lattice: 1 where the renderer reads the field (the cells
-    /// holding dust and their 26 neighbours; only these are tallied).
+    /// Per cell of the sources' lattice (x fastest, then y, then z): 1 where the renderer reads the
+    /// field (the cells holding dust and their 26 neighbours; only these are tallied).
     std::vector<std::uint8_t> active;
 };
 
@@ -133,7 +133,7 @@ ScatterField computeScatterField(const RenderScene& scene, const RenderOptions& 
 /// Adds @p src's moments (channel k * C + c, as in ScatterSourceField::moments, C =
 /// @p factor's size) times @p factor[c] to @p total's, the l = 0 ones also times
 /// @p c00Factor (2 sqrt(pi) turns nebscatter's J grids into c_00); both on the same lattice.
-void addScatterMoments(DenseVolume& total, const DenseVolume& src,
+void addScatterMoments(SparseVolume& total, const SparseVolume& src,
                        const std::vector<double>& factor, double c00Factor = 1.0);
 
 /// A spectral field's wavelength range [nm] (spectralFieldWavelengths()).

@@ -25,7 +25,7 @@ struct GridSet;
 struct RenderLevel
 {
     int level = 0;
-    DenseVolume fields;
+    SparseVolume fields;
 };
 
 /// The dust as the integrators use it: the dust itself plus the extinction ratio of each
@@ -46,7 +46,7 @@ struct SceneScatterField
     int order = -1;
     int level = 0;
     std::vector<double> wavelengths; ///< a spectral field's [nm]; empty: R, G, B
-    DenseVolume moments;
+    SparseVolume moments;
     std::string description; ///< what it is, for -v and the EXR
 };
 
@@ -54,7 +54,7 @@ struct SceneScatterField
 struct RenderScene
 {
     /// Channels: 0 density n_H, 1 emission, 2 + s: tau_V of star s.
-    DenseVolume fields;
+    SparseVolume fields;
     std::vector<Star> stars;
     std::vector<std::array<double, 3>> starColor; ///< L_s * linear sRGB (Y = 1) [L_sun]
     ChannelDust dust;

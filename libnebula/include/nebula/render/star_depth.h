@@ -75,23 +75,22 @@ private:
     {
         return (v[c >> 6] >> (c & 63)) & 1u;
     }
-    /// Linear index of the lattice cell holding @p pI (its lower corner), NONE outside.
+    /// The voxel index (SparseVolume::index()) of the lower corner of the lattice cell
+    /// holding @p pI, NONE outside.
     std::size_t cellOf(const Vec3& pI) const
     {
         const double x = std::floor(pI.x), y = std::floor(pI.y), z = std::floor(pI.z);
         if (!(x >= mLo[0] && y >= mLo[1] && z >= mLo[2] && x + 1 < mLo[0] + mDims[0] &&
               y + 1 < mLo[1] + mDims[1] && z + 1 < mLo[2] + mDims[2]))
             return NONE;
-        return (std::size_t(int(z) - mLo[2]) * std::size_t(mDims[1]) +
-                std::size_t(int(y) - mLo[1])) *
-                   std::size_t(mDims[0]) +
-               std::size_t(int(x) - mLo[0]);
+        return mScene.fields.index(int(x), int(y), int(z));
     }
 
     const RenderScene& mScene;
     ColumnIntegrator mColumn; ///< on channel 0 (density) of the scene's fields, in place
-    std::vector<std::vector<std::uint64_t>> mCurved; ///< per star: a bit per lattice cell
-    std::vector<std::uint64_t> mAny;                 ///< a bit per lattice cell: any star
+    /// Per star: a bit per lattice cell (at the voxel index of its lower corner).
+    std::vector<std::vector<std::uint64_t>> mCurved;
+    std::vector<std::uint64_t> mAny; ///< a bit per lattice cell: any star
     /// A bit per lattice cell: its 8 corners lie within one voxel of dust (the tau grids
     /// hold values there).
     std::vector<std::uint64_t> mValid;

@@ -25,7 +25,7 @@ struct TauSupport
     openvdb::FloatGrid::Ptr grid;
     std::vector<std::uint32_t> points;
 };
-TauSupport tauSupport(const openvdb::FloatGrid& density, const DenseVolume& n);
+TauSupport tauSupport(const openvdb::FloatGrid& density, const SparseVolume& n);
 
 /// Adds (or replaces) in @p products a FloatGrid tau.<star><suffix> per star: the exact
 /// V-band optical depth (optical_depth.h, kappa_V from @p dust) of the trilinear @p density

@@ -21,7 +21,7 @@ inline constexpr int OCCUPANCY_BLOCK = 8;
 /// Per block of OCCUPANCY_BLOCK^3 lattice cells: the largest channel 0 (density) and
 /// channel 1 (emission) at the corners of its cells, i.e. the largest values the trilinear
 /// fields take in the block (occupancy, and the path tracer's majorant).
-void blockMaxima(const DenseVolume& v, std::array<int, 3>& blocks,
+void blockMaxima(const SparseVolume& v, std::array<int, 3>& blocks,
                  std::vector<std::array<float, 2>>& maxima);
 
 /// The edge of a cube of a voxel's volume: cbrt |det M| of the index-to-world map [pc].
@@ -42,13 +42,13 @@ struct BlockRay
     /// The ray from world point @p oW along unit world direction @p dW, up to world distance
     /// @p tMax, through lattice @p v (world -> index map @p w2i) cut into @p blockCounts
     /// blocks of OCCUPANCY_BLOCK^3 cells.
-    BlockRay(const DenseVolume& v, const Affine& w2i, const std::array<int, 3>& blockCounts,
+    BlockRay(const SparseVolume& v, const Affine& w2i, const std::array<int, 3>& blockCounts,
              const Vec3& oW, const Vec3& dW, double tMax = std::numeric_limits<double>::infinity())
         : BlockRay(v, blockCounts, w2i.apply(oW), w2i.applyLinear(dW), tMax)
     {}
 
     /// The same with the origin and direction already in index space.
-    BlockRay(const DenseVolume& v, const std::array<int, 3>& blockCounts, const Vec3& originI,
+    BlockRay(const SparseVolume& v, const std::array<int, 3>& blockCounts, const Vec3& originI,
              const Vec3& dirI, double tMax)
         : oI(originI), dI(dirI), boxLo(v.lo()[0], v.lo()[1], v.lo()[2]),
           boxHi(v.lo()[0] + v.dims()[0] - 1, v.lo()[1] + v.dims()[1] - 1,
@@ -101,7 +101,7 @@ struct BlockRay
 /// space), world distance and length to a callback.
 struct Marcher
 {
-    const DenseVolume& vol;
+    const SparseVolume& vol;
     const std::array<int, 3>& blocks;
     const std::vector<std::uint8_t>& occupied;
     Affine w2i;
@@ -109,7 +109,7 @@ struct Marcher
     Vec3 boxLo, boxHi; ///< the lattice box [index]
     double voxelWorld;
 
-    Marcher(const DenseVolume& v, const std::array<int, 3>& b, const std::vector<std::uint8_t>& o,
+    Marcher(const SparseVolume& v, const std::array<int, 3>& b, const std::vector<std::uint8_t>& o,
             const Vec3& eye)
         : vol(v), blocks(b), occupied(o), w2i(v.indexToWorld.inverse()), eyeI(w2i.apply(eye)),
           boxLo(v.lo()[0], v.lo()[1], v.lo()[2]),

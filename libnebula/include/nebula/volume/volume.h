@@ -1,8 +1,8 @@
 #pragma once
 /// @file volume.h
-/// Compact read-only volumes for the hot loops (DESIGN §9, STYLE "Determinism and speed"):
-/// dense float arrays over the active bounding box, several channels interleaved per voxel,
-/// with trilinear sampling in index space and the grid's affine index-to-world map.
+/// Compact volumes for the hot loops (DESIGN §9, STYLE "Determinism and speed"): sparse
+/// bricks of float channels over the active bounding box, several channels interleaved per
+/// voxel, with trilinear sampling in index space and the grid's affine index-to-world map.
 /// No OpenVDB here: hot code includes this header only (volume_vdb.h converts).
 
 #include "nebula/core/memory.h"
@@ -53,47 +53,109 @@ struct Affine
 };
 
 /// Several float channels on the integer lattice [lo, lo + dims - 1] (voxel centres at
-/// integer index coordinates, as in OpenVDB), zero outside. Channel values of one voxel are
-/// adjacent in memory, so one trilinear lookup fetches every channel.
-class DenseVolume
+/// integer index coordinates, as in OpenVDB), zero outside, stored sparsely: in bricks of
+/// BRICK^3 voxels aligned, as OpenVDB's leaves are, to multiples of BRICK in index space. Only
+/// bricks that were written hold memory (a brick never written reads as zeros), so a volume's
+/// memory follows its grids' active leaves, not their bounding box. Channel values of one voxel
+/// are adjacent in memory, so one trilinear lookup fetches every channel.
+///
+/// A voxel index (index()) names a voxel in brick-major order: the brick's slot in the lattice
+/// of bricks times BRICK_VOXELS, plus the voxel's place in its brick. Indices run from 0 to
+/// voxelCount() - 1; the bricks on the lattice's upper faces have indices for points beyond
+/// dims, which read zero unless written. Arrays indexed like the volume (per-voxel flags,
+/// tallies) have voxelCount() entries.
+class SparseVolume
 {
 public:
-    DenseVolume() = default;
-    DenseVolume(std::array<int, 3> lo, std::array<int, 3> dims, int channels);
+    static constexpr int BRICK_LOG2 = 3;
+    static constexpr int BRICK = 1 << BRICK_LOG2; ///< voxels along a brick's edge
+    static constexpr std::size_t BRICK_VOXELS = std::size_t(1) << (3 * BRICK_LOG2);
+
+    SparseVolume() = default;
+    /// An all-zero volume: no brick is stored. Throws Error if the lattice is empty or its
+    /// brick table would not fit (more than 2^32 - 2 bricks).
+    SparseVolume(std::array<int, 3> lo, std::array<int, 3> dims, int channels);
+    SparseVolume(const SparseVolume& o);
+    SparseVolume(SparseVolume&& o) noexcept;
+    SparseVolume& operator=(const SparseVolume& o);
+    SparseVolume& operator=(SparseVolume&& o) noexcept;
+    ~SparseVolume();
 
     const std::array<int, 3>& lo() const { return mLo; }
     const std::array<int, 3>& dims() const { return mDims; }
     int channels() const { return mChannels; }
-    std::size_t voxelCount() const { return std::size_t(mDims[0]) * mDims[1] * mDims[2]; }
+    /// The number of voxel indices: BRICK_VOXELS times the bricks of the lattice.
+    std::size_t voxelCount() const { return mSlots.size() << (3 * BRICK_LOG2); }
 
-    /// Linear voxel index of lattice point (i, j, k) (absolute index coordinates).
+    /// Voxel index of lattice point (i, j, k) (absolute index coordinates, on the lattice).
     std::size_t index(int i, int j, int k) const
     {
-        return (std::size_t(k - mLo[2]) * mDims[1] + std::size_t(j - mLo[1])) * mDims[0] +
-               std::size_t(i - mLo[0]);
+        const int x = i - mOrigin[0], y = j - mOrigin[1], z = k - mOrigin[2];
+        constexpr int M = BRICK - 1, L = BRICK_LOG2;
+        const std::size_t slot =
+            (std::size_t(z >> L) * std::size_t(mBricks[1]) + std::size_t(y >> L)) *
+                std::size_t(mBricks[0]) +
+            std::size_t(x >> L);
+        return (slot << (3 * L)) | std::size_t(((z & M) << (2 * L)) | ((y & M) << L) | (x & M));
     }
+    /// The lattice point of voxel index @p idx (the inverse of index()).
+    std::array<int, 3> point(std::size_t idx) const;
     bool contains(int i, int j, int k) const
     {
         return unsigned(i - mLo[0]) < unsigned(mDims[0]) &&
                unsigned(j - mLo[1]) < unsigned(mDims[1]) &&
                unsigned(k - mLo[2]) < unsigned(mDims[2]);
     }
-    float* voxel(std::size_t idx) { return mData.data() + idx * std::size_t(mChannels); }
+    /// The channels of voxel @p idx (zeros if its brick is not stored).
     const float* voxel(std::size_t idx) const
     {
-        return mData.data() + idx * std::size_t(mChannels);
+        return brickData(mSlots[idx >> (3 * BRICK_LOG2)]) +
+               (idx & (BRICK_VOXELS - 1)) * std::size_t(mChannels);
     }
-    LargeFloatArray& data() { return mData; }
-    const LargeFloatArray& data() const { return mData; }
+    /// The channels of voxel @p idx, to write: stores its brick (zeros) first if needed. Safe
+    /// to call from several threads at once, for different voxels.
+    float* writable(std::size_t idx)
+    {
+        return brickData(storeBrick(idx >> (3 * BRICK_LOG2))) +
+               (idx & (BRICK_VOXELS - 1)) * std::size_t(mChannels);
+    }
+    /// Whether the brick of voxel @p idx is stored (if not, the voxel is zero).
+    bool stored(std::size_t idx) const { return mSlots[idx >> (3 * BRICK_LOG2)] != 0; }
+    /// Bricks stored, and the memory they and the brick table take [bytes].
+    std::size_t storedBricks() const { return mUsed - 1; }
+    std::size_t storedBytes() const
+    {
+        return storedBricks() * brickFloats() * sizeof(float) +
+               mSlots.size() * sizeof(std::uint32_t);
+    }
+    /// Every voxel zero again; the stored bricks are kept (zeroed).
+    void setZero();
 
     /// Channel @p c alone as a one-channel volume on the same lattice and transform.
-    DenseVolume channel(int c) const
+    SparseVolume channel(int c) const;
+
+    /// The channel values of the 8 corners of the lattice cell whose lower corner is (i, j, k)
+    /// (on the lattice with (i + 1, j + 1, k + 1)): @p q[c] for corner (i + (c & 1),
+    /// j + (c >> 1 & 1), k + (c >> 2)). One brick lookup when the cell lies in one brick.
+    void cellCorners(int i, int j, int k, const float* q[8]) const
     {
-        DenseVolume v(mLo, mDims, 1);
-        v.indexToWorld = indexToWorld;
-        for (std::size_t i = 0; i < voxelCount(); ++i)
-            v.mData[i] = voxel(i)[c];
-        return v;
+        const int x = i - mOrigin[0], y = j - mOrigin[1], z = k - mOrigin[2];
+        constexpr int M = BRICK - 1;
+        if ((x & M) != M && (y & M) != M && (z & M) != M) {
+            const std::size_t sx = std::size_t(mChannels), sy = sx * BRICK, sz = sy * BRICK;
+            const float* b = voxel(index(i, j, k));
+            q[0] = b;
+            q[1] = b + sx;
+            q[2] = b + sy;
+            q[3] = b + sy + sx;
+            q[4] = b + sz;
+            q[5] = b + sz + sx;
+            q[6] = b + sz + sy;
+            q[7] = b + sz + sy + sx;
+            return;
+        }
+        for (int c = 0; c < 8; ++c)
+            q[c] = voxel(index(i + (c & 1), j + (c >> 1 & 1), k + (c >> 2)));
     }
 
     /// Trilinear interpolation of every channel at index-space point @p p into @p out
@@ -131,40 +193,52 @@ public:
             return;
         }
         const float u = float(frac[0]), v = float(frac[1]), w = float(frac[2]);
-        const std::size_t sx = std::size_t(mChannels), sy = sx * mDims[0], sz = sy * mDims[1];
-        const float* b = mData.data() + index(ijk[0], ijk[1], ijk[2]) * sx + first;
-        for (int c = 0; c < count; ++c) {
-            const float* q = b + c;
-            const float c00 = q[0] + u * (q[sx] - q[0]);
-            const float c10 = q[sy] + u * (q[sy + sx] - q[sy]);
-            const float c01 = q[sz] + u * (q[sz + sx] - q[sz]);
-            const float c11 = q[sz + sy] + u * (q[sz + sy + sx] - q[sz + sy]);
+        const float* q[8];
+        cellCorners(ijk[0], ijk[1], ijk[2], q);
+        for (int c = first; c < first + count; ++c) {
+            const float c00 = q[0][c] + u * (q[1][c] - q[0][c]);
+            const float c10 = q[2][c] + u * (q[3][c] - q[2][c]);
+            const float c01 = q[4][c] + u * (q[5][c] - q[4][c]);
+            const float c11 = q[6][c] + u * (q[7][c] - q[6][c]);
             const float c0 = c00 + v * (c10 - c00);
             const float c1 = c01 + v * (c11 - c01);
-            out[c] = c0 + w * (c1 - c0);
+            out[c - first] = c0 + w * (c1 - c0);
         }
     }
 
     /// Channel 0 at @p p (see sample()).
     float sample0(const Vec3& p) const
     {
-        if (mChannels <= 16) {
-            float v[16];
-            sample(p, v);
-            return v[0];
-        }
-        std::vector<float> v(static_cast<std::size_t>(mChannels));
-        sample(p, v.data());
-        return v[0];
+        float v;
+        sampleChannels(p, 0, 1, &v);
+        return v;
     }
 
     Affine indexToWorld; ///< the source grid's affine map from index to world [pc]
 
 private:
+    std::size_t brickFloats() const { return BRICK_VOXELS * std::size_t(mChannels); }
+    const float* brickData(std::uint32_t id) const
+    {
+        return mBase + std::size_t(id) * brickFloats();
+    }
+    float* brickData(std::uint32_t id) { return mBase + std::size_t(id) * brickFloats(); }
+    /// The id of brick @p slot's storage, storing it first if needed (thread-safe).
+    std::uint32_t storeBrick(std::size_t slot);
+    void release() noexcept;
+
     std::array<int, 3> mLo{0, 0, 0};
     std::array<int, 3> mDims{0, 0, 0};
+    std::array<int, 3> mOrigin{0, 0, 0}; ///< the lowest brick's first point (multiples of BRICK)
+    std::array<int, 3> mBricks{0, 0, 0}; ///< the lattice of bricks
     int mChannels = 0;
-    LargeFloatArray mData; ///< on huge pages when large (core/memory.h)
+    /// Per brick slot: its storage's id, 0 (the zero brick, never written) if not stored.
+    std::vector<std::uint32_t> mSlots;
+    /// The bricks, one after another (id 0: zeros), in reserved address space that holds
+    /// memory only where written (core/memory.h reserveAddressSpace()).
+    float* mBase = nullptr;
+    std::size_t mReserved = 0; ///< bytes reserved at mBase
+    std::uint32_t mUsed = 1;   ///< bricks handed out, the zero brick included (atomic)
 };
 
 } // namespace nebula
