@@ -171,7 +171,8 @@ ScatterField computeField(const RenderScene& scene, const RenderOptions& ropts,
         const SourceSpec& spec = specs[si];
         // Source strength per voxel, summed over channels: eta = k_c a E_c (stars) or
         // 4 pi j (emission, colour 1 in every channel).
-        std::vector<float> eta(f.voxelCount(), 0.0f);
+        SparseVolume eta(f.lo(), f.dims(), 1); // stored where eta > 0
+        eta.indexToWorld = f.indexToWorld;
         for (int k = f.lo()[2]; k < f.lo()[2] + f.dims()[2]; ++k)
             for (int j = f.lo()[1]; j < f.lo()[1] + f.dims()[1]; ++j)
                 for (int i = f.lo()[0]; i < f.lo()[0] + f.dims()[0]; ++i) {
@@ -191,10 +192,10 @@ ScatterField computeField(const RenderScene& scene, const RenderOptions& ropts,
                                 e += es[c];
                         }
                     }
-                    eta[v] = float(e);
+                    if (e != 0.0) eta.writable(v)[0] = float(e);
                 }
-        const Sampler sampler = buildSampler(f, eta);
-        eta = {};
+        const Sampler sampler = buildSampler(eta);
+        eta = SparseVolume();
 
         ScatterSourceField out;
         out.name = spec.name;

@@ -97,21 +97,24 @@ struct Sampler
     double total = 0.0;
 };
 
-/// Per-voxel source strength eta (summed over channels) -> the sampler of lattice cells.
-inline Sampler buildSampler(const SparseVolume& lattice, const std::vector<float>& eta)
+/// Per-voxel source strength eta (summed over channels; a one-channel volume on the scene's
+/// lattice) -> the sampler of lattice cells.
+inline Sampler buildSampler(const SparseVolume& eta)
 {
     Sampler s;
-    const auto& lo = lattice.lo();
-    const auto& d = lattice.dims();
+    const auto& lo = eta.lo();
+    const auto& d = eta.dims();
     double sum = 0.0;
+    const float* q[8];
     for (int k = lo[2]; k < lo[2] + d[2] - 1; ++k)
         for (int j = lo[1]; j < lo[1] + d[1] - 1; ++j)
             for (int i = lo[0]; i < lo[0] + d[0] - 1; ++i) {
+                eta.cellCorners(i, j, k, q);
                 double m = 0.0;
                 for (int c = 0; c < 8; ++c)
-                    m += eta[lattice.index(i + (c & 1), j + ((c >> 1) & 1), k + (c >> 2))];
+                    m += q[c][0];
                 if (!(m > 0.0)) continue;
-                s.cell.push_back(std::uint32_t(lattice.index(i, j, k)));
+                s.cell.push_back(std::uint32_t(eta.index(i, j, k)));
                 s.proxy.push_back(float(m / 8.0));
                 sum += double(s.proxy.back());
                 s.cdf.push_back(sum);
@@ -142,7 +145,7 @@ public:
         }
         mRMin = *std::min_element(mCh.r.begin(), mCh.r.end());
         // Lattice cells without dust (all 8 corners zero): nothing to sample there.
-        mEmpty.assign(f.voxelCount(), 1);
+        mEmpty.assign((f.voxelCount() + 63) / 64, ~std::uint64_t(0));
         for (int k = mLo[2]; k < mHi[2]; ++k)
             for (int j = mLo[1]; j < mHi[1]; ++j)
                 for (int i = mLo[0]; i < mHi[0]; ++i) {
@@ -150,7 +153,10 @@ public:
                     for (int c = 0; c < 8 && empty; ++c)
                         empty = !(f.voxel(f.index(i + (c & 1), j + ((c >> 1) & 1),
                                                   k + (c >> 2)))[0] > 0.0f);
-                    mEmpty[f.index(i, j, k)] = empty ? 1 : 0;
+                    if (!empty) {
+                        const std::size_t v = f.index(i, j, k);
+                        mEmpty[v >> 6] &= ~(std::uint64_t(1) << (v & 63));
+                    }
                 }
         // Dust per field cell (n_H summed over its voxels), and the cells the renderer
         // reads: those holding dust and their 26 neighbours.
@@ -318,7 +324,8 @@ public:
             if (len > 0.0) {
                 // The piece's lattice cell and field cell follow its half-voxel cell q.
                 double dTau = 0.0;
-                if (!mEmpty[mDensity.index(li[0], li[1], li[2])]) {
+                const std::size_t at = mDensity.index(li[0], li[1], li[2]);
+                if (!(mEmpty[at >> 6] >> (at & 63) & 1u)) {
                     float nm, ne;
                     mDensity.sampleChannels(oI + dI * (0.5 * (t + tn)), 0, 1, &nm);
                     mDensity.sampleChannels(oI + dI * tn, 0, 1, &ne);
@@ -423,7 +430,7 @@ private:
     double mVoxel = 1.0, mRmin2 = 0.0, mRMin = 1.0;
     std::array<int, 3> mLo{}, mHi{}, mFLo{}, mFDims{};
     std::vector<Vec3> mStarPos;
-    std::vector<std::uint8_t> mEmpty;  ///< per lattice cell (lower corner's index): no dust
+    std::vector<std::uint64_t> mEmpty; ///< a bit per lattice cell (lower corner's index): no dust
     std::vector<std::uint8_t> mActive; ///< per field cell: read by the renderer
     std::vector<std::int32_t> mSlot;   ///< per field cell: its tally slot, -1 if not active
     std::size_t mSlots = 0;            ///< active cells

@@ -3,6 +3,7 @@
 #include "nebula/core/atomic_file.h"
 #include "nebula/core/error.h"
 #include "nebula/core/frames.h"
+#include "nebula/core/memory.h"
 #include "nebula/io/grid_names.h"
 #include "nebula/io/image_check.h"
 #include "nebula/render/fast.h"
@@ -304,6 +305,15 @@ void renderToFiles(const GridSet& grids, const RenderOptions& opts, const DustPa
     }
     const double tBuild =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    {
+        const SparseVolume& v = sscene.base.fields;
+        const double box = double(v.dims()[0]) * v.dims()[1] * v.dims()[2] * v.channels() * 4.0;
+        run.info(fmt::format("scene fields: {}x{}x{} voxels, {} channels, {} bricks of {}^3 "
+                             "stored: {} ({:.3g} % of the dense box, {})",
+                             v.dims()[0], v.dims()[1], v.dims()[2], v.channels(), v.storedBricks(),
+                             SparseVolume::BRICK, bytesText(double(v.storedBytes())),
+                             100.0 * double(v.storedBytes()) / box, bytesText(box)));
+    }
     if (!sscene.base.scatter.description.empty()) {
         run.info("using the " + sscene.base.scatter.description + " (--no-scatter-field: off)");
     }

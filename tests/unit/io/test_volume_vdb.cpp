@@ -1,6 +1,6 @@
 /// @file test_volume_vdb.cpp
 /// io/volume_vdb.h: OpenVDB grids <-> SparseVolume: the affine map of a transform, the
-/// active bounds, dense channels holding the active values (voxels and tiles) and zero
+/// active bounds, sparse channels holding the active values (voxels and tiles) and zero
 /// elsewhere, and a grid made from a lattice field on another grid's topology.
 
 #include "nebula/io/volume_vdb.h"
@@ -72,7 +72,7 @@ TEST(VolumeVdb, ActiveBoundsIsTheUnionGrownByPad)
     EXPECT_EQ(nebula::activeBounds({a, nullptr}, 1).min(), openvdb::Coord(1, -2, 3));
 }
 
-TEST(VolumeVdb, DenseHoldsActiveValuesAndZeroElsewhere)
+TEST(VolumeVdb, VolumeHoldsActiveValuesAndZeroElsewhere)
 {
     auto a = openvdb::FloatGrid::create(0.0f);
     a->setName("density");
@@ -128,7 +128,7 @@ TEST(VolumeVdb, DenseHoldsActiveValuesAndZeroElsewhere)
 
 // A tile wholly outside the bounds (beside them in x, or in y) adds nothing: no voxel of the
 // lattice changes, and nothing is written past it (ASan checks the latter).
-TEST(VolumeVdb, DenseIgnoresTilesOutsideTheBounds)
+TEST(VolumeVdb, VolumeIgnoresTilesOutsideTheBounds)
 {
     for (const openvdb::Coord origin : {openvdb::Coord(8, 0, 0), openvdb::Coord(0, 8, 0),
                                         openvdb::Coord(-8, 0, 0), openvdb::Coord(0, 0, 8)}) {
@@ -147,7 +147,7 @@ TEST(VolumeVdb, DenseIgnoresTilesOutsideTheBounds)
     }
 }
 
-TEST(VolumeVdb, DenseRefusesGridsOnOtherVoxels)
+TEST(VolumeVdb, VolumeRefusesGridsOnOtherVoxels)
 {
     auto a = openvdb::FloatGrid::create(0.0f);
     a->setName("density");
@@ -161,6 +161,36 @@ TEST(VolumeVdb, DenseRefusesGridsOnOtherVoxels)
     EXPECT_EQ(msg.rfind("cloud.vdb: ", 0), 0u) << msg;
     EXPECT_TRUE(contains(msg, "\"tau.alpha\"")) << msg;
     EXPECT_TRUE(contains(msg, "\"density\"")) << msg;
+}
+
+TEST(VolumeVdb, MemoryFollowsTheActiveLeavesNotTheBox)
+{
+    using nebula::SparseVolume;
+    // Two voxels a million voxels apart: a box of 10^6 x 3 x 3 with a zero border (72 MB as
+    // a dense lattice of 2 channels), two bricks stored; the rest is the brick table
+    // (125002 x 2 x 2 slots of 4 bytes).
+    auto grid = openvdb::FloatGrid::create(0.0f);
+    grid->tree().setValue(openvdb::Coord(0, 0, 0), 2.0f);
+    grid->tree().setValue(openvdb::Coord(1000000, 0, 0), 3.0f);
+    const std::vector<openvdb::FloatGrid::ConstPtr> grids{grid, grid};
+    const auto bounds = nebula::activeBounds({grid}, 1);
+    EXPECT_EQ(nebula::volumeBytes(grids, bounds, 2), 2.0 * 512 * 2 * 4);
+    const SparseVolume v = nebula::volumeFromGrids(grids, bounds, "two.vdb");
+    EXPECT_EQ(v.dims()[0], 1000003);
+    EXPECT_EQ(v.storedBricks(), 2u);
+    EXPECT_EQ(v.storedBytes(), 2u * 512u * 2u * 4u + 125002u * 2u * 2u * 4u);
+    EXPECT_EQ(v.voxel(v.index(1000000, 0, 0))[1], 3.0f);
+    EXPECT_EQ(v.voxel(v.index(500000, 0, 0))[0], 0.0f);
+    float out[2];
+    v.sample(nebula::Vec3(999999.5, 0, 0), out);
+    EXPECT_FLOAT_EQ(out[0], 1.5f);
+    // Spread over all three axes the table itself would be too large: refused with both sizes.
+    grid->tree().setValue(openvdb::Coord(0, 1000000, 1000000), 1.0f);
+    const auto wide = nebula::activeBounds({grid}, 1);
+    const std::string msg = errorMessage([&] { nebula::volumeFromGrids(grids, wide, "wide.vdb"); });
+    EXPECT_TRUE(contains(msg, "wide.vdb")) << msg;
+    EXPECT_TRUE(contains(msg, "1000003 x 1000003 x 1000003")) << msg;
+    EXPECT_TRUE(contains(msg, "this machine has")) << msg;
 }
 
 TEST(VolumeVdb, GridFromFieldOnAnotherGridsTopology)
