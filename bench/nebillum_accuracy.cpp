@@ -26,7 +26,8 @@ int main(int argc, char** argv)
     const auto grids = nebula::generateNebula(params);
     const auto density = grids.floatGrid("density", "");
     const auto n = nebula::volumeFromGrids({density}, nebula::activeBounds({density}, 1), "bench");
-    const std::vector<std::uint32_t> points = nebula::tauSupport(*density, n).points;
+    const std::vector<std::uint32_t> points =
+        nebula::tauSupportPoints(*nebula::tauSupport(*density), n);
     std::printf("res %d^3: %zu output voxels (active + neighbours) of %zu lattice points\n",
                 params.res, points.size(), n.voxelCount());
 
@@ -40,12 +41,10 @@ int main(int argc, char** argv)
         const double seconds =
             std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
         double worstT = 0.0, maxTau = 0.0;
-        const auto& lo = n.lo();
-        const auto& d = n.dims();
         for (int k = 0; k < samples; ++k) {
             const std::size_t idx = points[pick(rng)];
-            const nebula::Vec3 v(lo[0] + int(idx % d[0]), lo[1] + int((idx / d[0]) % d[1]),
-                                 lo[2] + int(idx / (std::size_t(d[0]) * d[1])));
+            const auto p = n.point(idx);
+            const nebula::Vec3 v(p[0], p[1], p[2]);
             const double ref = params.dust.kappa_V * nebula::columnDensityReference(n, s, v);
             maxTau = std::max(maxTau, ref);
             if (ref < 5.0) worstT = std::max(worstT, std::abs(std::exp(ref - tau[idx]) - 1.0));

@@ -18,14 +18,13 @@ struct IllumOptions
 
 /// Where tau.<star> is written: the density's active voxels and their 26 neighbours, so every
 /// lattice cell that touches dust has tau at all 8 corners and nebrender's trilinear tau is
-/// exact there. @p grid holds that topology (values meaningless); @p points are the same
-/// voxels as linear indices into the dense lattice @p n they were taken from.
-struct TauSupport
-{
-    openvdb::FloatGrid::Ptr grid;
-    std::vector<std::uint32_t> points;
-};
-TauSupport tauSupport(const openvdb::FloatGrid& density, const SparseVolume& n);
+/// exact there. The returned grid holds that topology (its values are the density's).
+openvdb::FloatGrid::Ptr tauSupport(const openvdb::FloatGrid& density);
+
+/// The active voxels of @p support on @p n's lattice as voxel indices (SparseVolume::index()),
+/// for opticalDepthAt() (benchmarks and tests; nebillum writes tau straight into the grid).
+std::vector<std::uint32_t> tauSupportPoints(const openvdb::FloatGrid& support,
+                                            const SparseVolume& n);
 
 /// Adds (or replaces) in @p products a FloatGrid tau.<star><suffix> per star: the exact
 /// V-band optical depth (optical_depth.h, kappa_V from @p dust) of the trilinear @p density

@@ -154,8 +154,20 @@ public:
             q[7] = b + sz + sy + sx;
             return;
         }
-        for (int c = 0; c < 8; ++c)
-            q[c] = voxel(index(i + (c & 1), j + (c >> 1 & 1), k + (c >> 2)));
+        // Across bricks: each axis's two bricks and places in them, then one lookup a corner.
+        constexpr int L = BRICK_LOG2;
+        const std::size_t bx[2] = {std::size_t(x >> L), std::size_t((x + 1) >> L)};
+        const std::size_t by[2] = {std::size_t(y >> L), std::size_t((y + 1) >> L)};
+        const std::size_t bz[2] = {std::size_t(z >> L), std::size_t((z + 1) >> L)};
+        const int ox[2] = {x & M, (x + 1) & M}, oy[2] = {y & M, (y + 1) & M},
+                  oz[2] = {z & M, (z + 1) & M};
+        const std::size_t nx = std::size_t(mBricks[0]), ny = std::size_t(mBricks[1]);
+        for (int c = 0; c < 8; ++c) {
+            const int a = c & 1, b = c >> 1 & 1, e = c >> 2;
+            const std::uint32_t id = mSlots[(bz[e] * ny + by[b]) * nx + bx[a]];
+            q[c] = brickData(id) +
+                   std::size_t((oz[e] << (2 * L)) | (oy[b] << L) | ox[a]) * std::size_t(mChannels);
+        }
     }
 
     /// Trilinear interpolation of every channel at index-space point @p p into @p out
