@@ -8,40 +8,13 @@
 
 #include <algorithm>
 #include <cmath>
+#include <thread>
 
 namespace nebula {
 
 namespace {
 
 constexpr int B = SparseVolume::BRICK;
-
-/// The bricks of @p f that hold a lattice point within one voxel of a stored brick: the
-/// stored bricks and their 26 neighbours (as brick slots). Only there can a point be near
-/// dust.
-std::vector<std::size_t> bricksNearStored(const SparseVolume& f)
-{
-    const auto& lo = f.lo();
-    const auto& d = f.dims();
-    const std::size_t bricks = f.voxelCount() / SparseVolume::BRICK_VOXELS;
-    std::vector<std::uint8_t> keep(bricks, 0);
-    tbb::parallel_for(std::size_t(0), bricks, [&](std::size_t b) {
-        const auto p0 = f.point(b * SparseVolume::BRICK_VOXELS);
-        for (int n = 0; n < 27 && !keep[b]; ++n) {
-            std::array<int, 3> q{p0[0] + (n % 3 - 1) * B, p0[1] + (n / 3 % 3 - 1) * B,
-                                 p0[2] + (n / 9 - 1) * B};
-            bool on = true;
-            for (int a = 0; a < 3; ++a) {
-                on = on && q[a] + B - 1 >= lo[a] && q[a] <= lo[a] + d[a] - 1;
-                q[a] = std::max(q[a], lo[a]); // a lattice point of that brick
-            }
-            keep[b] = on && f.stored(f.index(q[0], q[1], q[2]));
-        }
-    });
-    std::vector<std::size_t> out;
-    for (std::size_t b = 0; b < bricks; ++b)
-        if (keep[b]) out.push_back(b);
-    return out;
-}
 
 void setBit(std::vector<std::uint64_t>& bits, std::size_t v)
 {
@@ -56,107 +29,112 @@ StarDepth::StarDepth(const RenderScene& scene)
 {
     const SparseVolume& f = scene.fields;
     const std::size_t words = (f.voxelCount() + 63) / 64;
-    const std::array<int, 3> hi{mLo[0] + mDims[0] - 1, mLo[1] + mDims[1] - 1,
-                                mLo[2] + mDims[2] - 1};
-    const auto onLattice = [&](int i, int j, int k) { return f.contains(i, j, k); };
-    // Every pass below visits the bricks near stored ones in parallel; each writes only its
-    // own brick's bits (8 words), so no word is shared between threads.
-    const std::vector<std::size_t> todo = bricksNearStored(f);
-    const auto forBricks = [&](const auto& body) {
-        tbb::parallel_for(tbb::blocked_range<std::size_t>(0, todo.size(), 16),
-                          [&](const tbb::blocked_range<std::size_t>& r) {
-                              for (std::size_t t = r.begin(); t != r.end(); ++t)
-                                  body(f.point(todo[t] * SparseVolume::BRICK_VOXELS));
-                          });
-    };
-    // The lattice points (i, j, k) of the brick from @p p0, in order.
-    const auto forPoints = [&](const std::array<int, 3>& p0, const auto& body) {
-        for (int k = std::max(p0[2], mLo[2]); k <= std::min(p0[2] + B - 1, hi[2]); ++k)
-            for (int j = std::max(p0[1], mLo[1]); j <= std::min(p0[1] + B - 1, hi[1]); ++j)
-                for (int i = std::max(p0[0], mLo[0]); i <= std::min(p0[0] + B - 1, hi[0]); ++i)
-                    body(i, j, k);
-    };
-    // Lattice points within one voxel of dust (where nebillum wrote tau): the dust dilated by
-    // one in each of x, y and z (the 27-point neighbourhood), on a brick and its halo.
-    std::vector<std::uint64_t> near(words, 0);
-    forBricks([&](const std::array<int, 3>& p0) {
-        constexpr int H = B + 2; // the brick and one point either side
-        std::uint8_t a[H][H][H], b[H][H][H];
-        for (int z = 0; z < H; ++z)
-            for (int y = 0; y < H; ++y)
-                for (int x = 0; x < H; ++x) {
-                    const int i = p0[0] + x - 1, j = p0[1] + y - 1, k = p0[2] + z - 1;
-                    a[z][y][x] = onLattice(i, j, k) && f.voxel(f.index(i, j, k))[0] > 0.0f;
-                }
-        for (int z = 0; z < H; ++z)
-            for (int y = 0; y < H; ++y)
-                for (int x = 1; x + 1 < H; ++x)
-                    b[z][y][x] = a[z][y][x - 1] | a[z][y][x] | a[z][y][x + 1];
-        for (int z = 0; z < H; ++z)
-            for (int y = 1; y + 1 < H; ++y)
-                for (int x = 1; x + 1 < H; ++x)
-                    a[z][y][x] = b[z][y - 1][x] | b[z][y][x] | b[z][y + 1][x];
-        forPoints(p0, [&](int i, int j, int k) {
-            const int x = i - p0[0] + 1, y = j - p0[1] + 1, z = k - p0[2] + 1;
-            if (a[z - 1][y][x] | a[z][y][x] | a[z + 1][y][x]) setBit(near, f.index(i, j, k));
-        });
-    });
-    const auto isNear = [&](int i, int j, int k) {
-        return onLattice(i, j, k) && bit(near, f.index(i, j, k));
-    };
-    // A bit per lattice cell (at its lower corner's index): whether all (@p all) or any of its
-    // 8 corners are set in @p points. Cells on the lattice's upper faces have no 8 corners.
-    const auto cornerCells = [&](const auto& point, bool all) {
-        std::vector<std::uint64_t> cells(words, 0);
-        forBricks([&](const std::array<int, 3>& p0) {
-            forPoints(p0, [&](int i, int j, int k) {
-                if (i == hi[0] || j == hi[1] || k == hi[2]) return;
-                bool result = all;
-                for (int c = 0; c < 8 && result == all; ++c)
-                    result = point(i + (c & 1), j + (c >> 1 & 1), k + (c >> 2));
-                if (result) setBit(cells, f.index(i, j, k));
-            });
-        });
-        return cells;
-    };
-    mValid = cornerCells(isNear, true);
+    const std::size_t bricks = f.voxelCount() / SparseVolume::BRICK_VOXELS;
+    mValid.assign(words, 0);
     mAny.assign(words, 0);
-    for (std::size_t s = 0; s < scene.stars.size(); ++s) {
-        // Per lattice point: whether tau's second difference along an axis reaches CURVED.
-        const int c = 2 + int(s);
-        const auto tau = [&](int i, int j, int k) { return double(f.voxel(f.index(i, j, k))[c]); };
-        std::vector<std::uint64_t> bends(words, 0);
-        forBricks([&](const std::array<int, 3>& p0) {
-            forPoints(p0, [&](int i, int j, int k) {
-                // Interior points only, and where the tau grid holds values.
-                if (i == mLo[0] || j == mLo[1] || k == mLo[2] || i == hi[0] || j == hi[1] ||
-                    k == hi[2] || !isNear(i, j, k)) {
-                    return;
-                }
-                // Along each axis whose three points hold tau (beyond the active band the
-                // grid reads 0, which is no bend of the true tau).
-                const double t = 2.0 * tau(i, j, k);
-                bool b = false;
-                for (int a = 0; a < 3 && !b; ++a) {
-                    const int di = a == 0, dj = a == 1, dk = a == 2;
-                    b = isNear(i - di, j - dj, k - dk) && isNear(i + di, j + dj, k + dk) &&
-                        std::abs(tau(i - di, j - dj, k - dk) - t + tau(i + di, j + dj, k + dk)) >=
-                            CURVED;
-                }
-                if (b) setBit(bends, f.index(i, j, k));
-            });
-        });
-        // A cell is curved if one of its corners is.
-        auto bits = cornerCells(
-            [&](int i, int j, int k) { return onLattice(i, j, k) && bit(bends, f.index(i, j, k)); },
-            false);
-        for (std::size_t w = 0; w < bits.size(); ++w)
-            mAny[w] |= bits[w];
-        mCurved.push_back(std::move(bits));
-    }
+    mCurved.assign(scene.stars.size(), std::vector<std::uint64_t>(words, 0));
+    mBuilt.reset(new std::atomic<std::uint8_t>[bricks]);
+    for (std::size_t b = 0; b < bricks; ++b)
+        mBuilt[b].store(0, std::memory_order_relaxed);
+    mBricks = bricks;
     const Affine w2i = f.indexToWorld.inverse();
     for (const auto& s : scene.stars)
         mStarI.push_back(w2i.apply(Vec3(s.position[0], s.position[1], s.position[2])));
+}
+
+void StarDepth::build(std::size_t b) const
+{
+    std::uint8_t idle = 0;
+    if (!mBuilt[b].compare_exchange_strong(idle, 1, std::memory_order_acq_rel)) {
+        while (mBuilt[b].load(std::memory_order_acquire) != 2)
+            std::this_thread::yield(); // another thread is building it
+        return;
+    }
+    const SparseVolume& f = mScene.fields;
+    const auto p0 = f.point(b * SparseVolume::BRICK_VOXELS); // the brick's first point
+    const std::array<int, 3> hi{mLo[0] + mDims[0] - 1, mLo[1] + mDims[1] - 1,
+                                mLo[2] + mDims[2] - 1};
+    const auto onLattice = [&](int i, int j, int k) { return f.contains(i, j, k); };
+    // Dust on the points p0 - 2 .. p0 + 10 (D), dilated by one along x, y and z in turn: the
+    // points within one voxel of dust (where nebillum wrote tau), on p0 - 1 .. p0 + 9 (N).
+    constexpr int ND = B + 5, NN = B + 3, NB = B + 1;
+    std::uint8_t D[ND][ND][ND], X[ND][ND][NN], Y[ND][NN][NN], N[NN][NN][NN];
+    for (int z = 0; z < ND; ++z)
+        for (int y = 0; y < ND; ++y)
+            for (int x = 0; x < ND; ++x) {
+                const int i = p0[0] + x - 2, j = p0[1] + y - 2, k = p0[2] + z - 2;
+                D[z][y][x] = onLattice(i, j, k) && f.voxel(f.index(i, j, k))[0] > 0.0f;
+            }
+    for (int z = 0; z < ND; ++z)
+        for (int y = 0; y < ND; ++y)
+            for (int x = 0; x < NN; ++x)
+                X[z][y][x] = D[z][y][x] | D[z][y][x + 1] | D[z][y][x + 2];
+    for (int z = 0; z < ND; ++z)
+        for (int y = 0; y < NN; ++y)
+            for (int x = 0; x < NN; ++x)
+                Y[z][y][x] = X[z][y][x] | X[z][y + 1][x] | X[z][y + 2][x];
+    for (int z = 0; z < NN; ++z)
+        for (int y = 0; y < NN; ++y)
+            for (int x = 0; x < NN; ++x) {
+                const int i = p0[0] + x - 1, j = p0[1] + y - 1, k = p0[2] + z - 1;
+                N[z][y][x] = onLattice(i, j, k) && (Y[z][y][x] | Y[z + 1][y][x] | Y[z + 2][y][x]);
+            }
+    // A cell of the brick (its lower corner on the lattice, not on the upper faces): valid if
+    // its 8 corners are near dust.
+    const auto isCell = [&](int i, int j, int k) {
+        return onLattice(i, j, k) && i < hi[0] && j < hi[1] && k < hi[2];
+    };
+    for (int z = 0; z < B; ++z)
+        for (int y = 0; y < B; ++y)
+            for (int x = 0; x < B; ++x) {
+                const int i = p0[0] + x, j = p0[1] + y, k = p0[2] + z;
+                if (!isCell(i, j, k)) continue;
+                bool all = true;
+                for (int c = 0; c < 8 && all; ++c)
+                    all = N[z + 1 + (c >> 2)][y + 1 + (c >> 1 & 1)][x + 1 + (c & 1)] != 0;
+                if (all) setBit(mValid, f.index(i, j, k));
+            }
+    // Per star: the points p0 .. p0 + 8 where tau's second difference along an axis reaches
+    // CURVED (interior points near dust whose neighbours on that axis are too: beyond the
+    // active band the grid reads 0, which is no bend of the true tau); a cell is curved if
+    // one of its corners is.
+    for (std::size_t s = 0; s < mCurved.size(); ++s) {
+        const int c = 2 + int(s);
+        const auto tau = [&](int i, int j, int k) { return double(f.voxel(f.index(i, j, k))[c]); };
+        std::uint8_t bends[NB][NB][NB];
+        for (int z = 0; z < NB; ++z)
+            for (int y = 0; y < NB; ++y)
+                for (int x = 0; x < NB; ++x) {
+                    const int i = p0[0] + x, j = p0[1] + y, k = p0[2] + z;
+                    bool b = false;
+                    if (i > mLo[0] && j > mLo[1] && k > mLo[2] && i < hi[0] && j < hi[1] &&
+                        k < hi[2] && N[z + 1][y + 1][x + 1]) {
+                        const double t = 2.0 * tau(i, j, k);
+                        for (int a = 0; a < 3 && !b; ++a) {
+                            const int di = a == 0, dj = a == 1, dk = a == 2;
+                            b = N[z + 1 - dk][y + 1 - dj][x + 1 - di] &&
+                                N[z + 1 + dk][y + 1 + dj][x + 1 + di] &&
+                                std::abs(tau(i - di, j - dj, k - dk) - t +
+                                         tau(i + di, j + dj, k + dk)) >= CURVED;
+                        }
+                    }
+                    bends[z][y][x] = b;
+                }
+        for (int z = 0; z < B; ++z)
+            for (int y = 0; y < B; ++y)
+                for (int x = 0; x < B; ++x) {
+                    const int i = p0[0] + x, j = p0[1] + y, k = p0[2] + z;
+                    if (!isCell(i, j, k)) continue;
+                    bool any = false;
+                    for (int q = 0; q < 8 && !any; ++q)
+                        any = bends[z + (q >> 2)][y + (q >> 1 & 1)][x + (q & 1)] != 0;
+                    if (!any) continue;
+                    const std::size_t v = f.index(i, j, k);
+                    setBit(mCurved[s], v);
+                    setBit(mAny, v);
+                }
+    }
+    mBuilt[b].store(2, std::memory_order_release);
 }
 
 double StarDepth::march(std::size_t s, const Vec3& pI) const
@@ -175,7 +153,8 @@ double StarDepth::march(std::size_t s, const Vec3& pI) const
         p = q;
         if (walked >= dist) return tau; // reached the star
         const std::size_t c = cellOf(p);
-        if (c == NONE) return tau;     // left the grid: no dust from here to the star
+        if (c == NONE) return tau; // left the grid: no dust from here to the star
+        ensure(c);
         if (!bit(mValid, c)) continue; // no tau here: cross the gap
         if (tau > TAU_STOP || step + 1 >= MAX_STEPS || !bit(mCurved[s], c)) break;
     }
@@ -187,6 +166,7 @@ double StarDepth::march(std::size_t s, const Vec3& pI) const
 
 double StarDepth::curvedFraction(std::size_t s) const
 {
+    tbb::parallel_for(std::size_t(0), mBricks, [&](std::size_t b) { build(b); });
     std::size_t n = 0;
     for (const auto w : mCurved[s])
         n += std::size_t(__builtin_popcountll(w));

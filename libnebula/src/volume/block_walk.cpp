@@ -13,28 +13,36 @@ void blockMaxima(const SparseVolume& v, std::array<int, 3>& blocks,
         blocks[a] = (v.dims()[a] + B - 1) / B;
     maxima.assign(std::size_t(blocks[0]) * blocks[1] * blocks[2], {0.0f, 0.0f});
     const auto& lo = v.lo();
-    for (int k = 0; k < v.dims()[2]; ++k) {
-        for (int j = 0; j < v.dims()[1]; ++j) {
-            for (int i = 0; i < v.dims()[0]; ++i) {
-                const float* q = v.voxel(v.index(lo[0] + i, lo[1] + j, lo[2] + k));
-                if (q[0] <= 0.0f && q[1] <= 0.0f) continue;
-                // Point (i,j,k) is a corner of cells i-1..i per axis: blocks (i-1)/B, i/B.
-                for (int dk = -1; dk <= 0; ++dk)
-                    for (int dj = -1; dj <= 0; ++dj)
-                        for (int di = -1; di <= 0; ++di) {
-                            const int ci = i + di, cj = j + dj, ck = k + dk;
-                            if (ci < 0 || cj < 0 || ck < 0 || ci / B >= blocks[0] ||
-                                cj / B >= blocks[1] || ck / B >= blocks[2]) {
-                                continue;
+    const auto& d = v.dims();
+    // The stored bricks' lattice points only: every other point is zero.
+    for (std::size_t b = 0; b < v.voxelCount(); b += SparseVolume::BRICK_VOXELS) {
+        if (!v.stored(b)) continue;
+        const auto p0 = v.point(b);
+        for (int z = 0; z < SparseVolume::BRICK; ++z)
+            for (int y = 0; y < SparseVolume::BRICK; ++y)
+                for (int x = 0; x < SparseVolume::BRICK; ++x) {
+                    // Relative to lo.
+                    const int i = p0[0] + x - lo[0], j = p0[1] + y - lo[1], k = p0[2] + z - lo[2];
+                    if (i < 0 || j < 0 || k < 0 || i >= d[0] || j >= d[1] || k >= d[2]) continue;
+                    const float* q = v.voxel(
+                        b + std::size_t((z * SparseVolume::BRICK + y) * SparseVolume::BRICK + x));
+                    if (q[0] <= 0.0f && q[1] <= 0.0f) continue;
+                    // Point (i,j,k) is a corner of cells i-1..i per axis: blocks (i-1)/B, i/B.
+                    for (int dk = -1; dk <= 0; ++dk)
+                        for (int dj = -1; dj <= 0; ++dj)
+                            for (int di = -1; di <= 0; ++di) {
+                                const int ci = i + di, cj = j + dj, ck = k + dk;
+                                if (ci < 0 || cj < 0 || ck < 0 || ci / B >= blocks[0] ||
+                                    cj / B >= blocks[1] || ck / B >= blocks[2]) {
+                                    continue;
+                                }
+                                auto& m =
+                                    maxima[(std::size_t(ck / B) * blocks[1] + cj / B) * blocks[0] +
+                                           ci / B];
+                                m[0] = std::max(m[0], q[0]);
+                                m[1] = std::max(m[1], q[1]);
                             }
-                            auto& m =
-                                maxima[(std::size_t(ck / B) * blocks[1] + cj / B) * blocks[0] +
-                                       ci / B];
-                            m[0] = std::max(m[0], q[0]);
-                            m[1] = std::max(m[1], q[1]);
-                        }
-            }
-        }
+                }
     }
 }
 

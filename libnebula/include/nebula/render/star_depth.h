@@ -20,8 +20,10 @@
 #include "nebula/physics/optical_depth.h"
 #include "nebula/render/scene.h"
 
+#include <atomic>
 #include <cmath>
 #include <cstdint>
+#include <memory>
 #include <vector>
 
 namespace nebula {
@@ -53,24 +55,33 @@ public:
     bool curved(std::size_t s, const Vec3& pI) const
     {
         const std::size_t c = cellOf(pI);
-        return c != NONE && bit(mCurved[s], c);
+        return c != NONE && (ensure(c), bit(mCurved[s], c));
     }
 
     /// Whether any star's tau bends in the cell of @p pI (the renderers' quick test).
     bool anyCurved(const Vec3& pI) const
     {
         const std::size_t c = cellOf(pI);
-        return c != NONE && bit(mAny, c);
+        return c != NONE && (ensure(c), bit(mAny, c));
     }
 
     /// The exact march from @p pI (see the file comment).
     double march(std::size_t s, const Vec3& pI) const;
 
-    /// The fraction of lattice cells curved for star @p s.
+    /// The fraction of lattice cells curved for star @p s (builds every brick's bits).
     double curvedFraction(std::size_t s) const;
 
 private:
     static constexpr std::size_t NONE = ~std::size_t(0);
+    /// Builds the bits of the cells of brick @p b (of the scene's fields) unless built: the
+    /// first thread to ask builds them, any other waits for it.
+    void build(std::size_t b) const;
+    /// The bits of the brick of cell @p c, built.
+    void ensure(std::size_t c) const
+    {
+        const std::size_t b = c / SparseVolume::BRICK_VOXELS;
+        if (mBuilt[b].load(std::memory_order_acquire) != 2) build(b);
+    }
     static bool bit(const std::vector<std::uint64_t>& v, std::size_t c)
     {
         return (v[c >> 6] >> (c & 63)) & 1u;
@@ -88,12 +99,18 @@ private:
 
     const RenderScene& mScene;
     ColumnIntegrator mColumn; ///< on channel 0 (density) of the scene's fields, in place
+    // The bits are built brick by brick when a ray first asks for one of its cells (build()):
+    // a frame pays only for the bricks its rays reach. Each brick's bits are 8 words of its
+    // own, written once by the thread that builds it.
+    /// Per brick: 0 not built, 1 being built, 2 built.
+    std::unique_ptr<std::atomic<std::uint8_t>[]> mBuilt;
+    std::size_t mBricks = 0;
     /// Per star: a bit per lattice cell (at the voxel index of its lower corner).
-    std::vector<std::vector<std::uint64_t>> mCurved;
-    std::vector<std::uint64_t> mAny; ///< a bit per lattice cell: any star
+    mutable std::vector<std::vector<std::uint64_t>> mCurved;
+    mutable std::vector<std::uint64_t> mAny; ///< a bit per lattice cell: any star
     /// A bit per lattice cell: its 8 corners lie within one voxel of dust (the tau grids
     /// hold values there).
-    std::vector<std::uint64_t> mValid;
+    mutable std::vector<std::uint64_t> mValid;
     std::vector<Vec3> mStarI; ///< star positions in index space
     std::array<int, 3> mLo{}, mDims{};
     double mKappa = 0.0;
