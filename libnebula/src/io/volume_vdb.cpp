@@ -83,6 +83,25 @@ SparseVolume emptyVolume(const openvdb::CoordBBox& bounds, int channels, const s
                         {dim.x(), dim.y(), dim.z()}, channels);
 }
 
+namespace {
+
+/// Calls @p f(box, value) for each active tile of @p grid, its box clipped to @p bounds (tiles
+/// outside them skipped: OpenVDB's box iterator does not notice an empty box in x and y).
+template <typename F>
+void forEachActiveTile(const openvdb::FloatGrid& grid, const openvdb::CoordBBox& bounds, const F& f)
+{
+    auto it = grid.tree().cbeginValueOn();
+    it.setMaxDepth(openvdb::FloatTree::ValueOnCIter::LEAF_DEPTH - 1); // tiles only
+    for (; it; ++it) {
+        openvdb::CoordBBox tile;
+        it.getBoundingBox(tile);
+        tile.intersect(bounds);
+        if (!tile.empty()) f(tile, *it);
+    }
+}
+
+} // namespace
+
 double volumeBytes(const std::vector<openvdb::FloatGrid::ConstPtr>& grids,
                    const openvdb::CoordBBox& bounds, int channels)
 {
@@ -101,18 +120,12 @@ double volumeBytes(const std::vector<openvdb::FloatGrid::ConstPtr>& grids,
             }
             leaves.push_back({o.x(), o.y(), o.z()});
         }
-        auto it = g->tree().cbeginValueOn();
-        it.setMaxDepth(openvdb::FloatTree::ValueOnCIter::LEAF_DEPTH - 1); // tiles only
-        for (; it; ++it) {
-            openvdb::CoordBBox tile;
-            it.getBoundingBox(tile);
-            tile.intersect(bounds);
-            if (tile.empty()) continue;
+        forEachActiveTile(*g, bounds, [&](const openvdb::CoordBBox& tile, float) {
             double n = 1.0;
             for (int a = 0; a < 3; ++a)
                 n *= double((tile.max()[a] >> L) - (tile.min()[a] >> L) + 1);
             tileBricks += n;
-        }
+        });
     }
     std::sort(leaves.begin(), leaves.end());
     const double bricks =
@@ -144,20 +157,12 @@ void forEachActive(SparseVolume& vol, const openvdb::FloatGrid& grid, int c, con
     const openvdb::CoordBBox bounds(
         openvdb::Coord(lo[0], lo[1], lo[2]),
         openvdb::Coord(lo[0] + dims[0] - 1, lo[1] + dims[1] - 1, lo[2] + dims[2] - 1));
-    auto it = grid.tree().cbeginValueOn();
-    it.setMaxDepth(openvdb::FloatTree::ValueOnCIter::LEAF_DEPTH - 1); // tiles only
-    for (; it; ++it) {
-        openvdb::CoordBBox tile;
-        it.getBoundingBox(tile);
-        tile.intersect(bounds);
-        // A tile outside the bounds leaves an empty box, which OpenVDB's box iterator
-        // does not notice in x and y: skip it rather than write out of the lattice.
-        if (tile.empty()) continue;
+    forEachActiveTile(grid, bounds, [&](const openvdb::CoordBBox& tile, float value) {
         for (auto p = tile.beginXYZ(); p; ++p) {
             float& v = vol.writable(vol.index((*p).x(), (*p).y(), (*p).z()))[c];
-            v = op(v, *it);
+            v = op(v, value);
         }
-    }
+    });
 }
 
 } // namespace
