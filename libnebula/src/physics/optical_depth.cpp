@@ -16,7 +16,7 @@ namespace {
 /// cell by cell (Amanatides-Woo), and inside a cell, where the interpolant is a cubic in t,
 /// Simpson's rule is exact. Each cell's 8 corners are loaded once; cells whose corners are
 /// all zero (and cells off the lattice) contribute nothing and are not sampled.
-double unitIntegral(const SparseVolume& n, const std::uint64_t* dusty, const Vec3& a, const Vec3& d)
+double unitIntegral(const SparseVolume& n, const VoxelBits& dusty, const Vec3& a, const Vec3& d)
 {
     const auto& lo = n.lo();
     const auto& dims = n.dims();
@@ -49,7 +49,7 @@ double unitIntegral(const SparseVolume& n, const std::uint64_t* dusty, const Vec
             if (inside) {
                 idx = n.index(cell[0], cell[1], cell[2]);
             }
-            if (inside && (dusty[idx >> 6] >> (idx & 63) & 1u)) {
+            if (inside && dusty[idx]) {
                 const float* q[8];
                 n.cellCorners(cell[0], cell[1], cell[2], q);
                 const double c000 = q[0][0], c100 = q[1][0], c010 = q[2][0], c110 = q[3][0],
@@ -88,12 +88,12 @@ Vec3 latticePoint(const SparseVolume& n, std::size_t idx)
 /// A bit per lattice cell (at the voxel index of its lower corner): whether any of its 8
 /// corners is non-zero in channel 0. Bricks are visited in parallel, and only those that
 /// hold a corner of a dusty cell: the brick or one of its upper neighbours is stored.
-std::vector<std::uint64_t> dustyCells(const SparseVolume& n)
+VoxelBits dustyCells(const SparseVolume& n)
 {
     constexpr int B = SparseVolume::BRICK;
     const auto& lo = n.lo();
     const auto& dims = n.dims();
-    std::vector<std::uint64_t> dusty((n.voxelCount() + 63) / 64, 0);
+    VoxelBits dusty(n, false);
     const std::size_t bricks = n.voxelCount() / SparseVolume::BRICK_VOXELS;
     tbb::parallel_for(std::size_t(0), bricks, [&](std::size_t b) {
         const auto p0 = n.point(b * SparseVolume::BRICK_VOXELS); // the brick's first point
@@ -118,8 +118,7 @@ std::vector<std::uint64_t> dustyCells(const SparseVolume& n)
                     for (int c = 0; c < 8; ++c)
                         set = set || q[c][0] != 0.0f;
                     if (!set) continue;
-                    const std::size_t idx = n.index(i, j, k); // this brick's words only
-                    dusty[idx >> 6] |= std::uint64_t(1) << (idx & 63);
+                    dusty.set(n.index(i, j, k)); // this brick's words only
                 }
     });
     return dusty;
@@ -155,7 +154,7 @@ bool clipToLattice(const SparseVolume& n, const Vec3& o, const Vec3& e, double& 
 /// integral n dl [cm^-3 pc] from a to b. Only the chord inside the lattice is walked, so a
 /// star's distance costs nothing; the chord is measured from the end inside the lattice (a
 /// voxel), so a star 1e12 grid widths away still gives it to full precision.
-double column(const SparseVolume& n, const std::uint64_t* dusty, const Vec3& a, const Vec3& b)
+double column(const SparseVolume& n, const VoxelBits& dusty, const Vec3& a, const Vec3& b)
 {
     for (int ax = 0; ax < 3; ++ax) {
         if (!std::isfinite(a[ax]) || !std::isfinite(b[ax])) {
@@ -185,7 +184,7 @@ ColumnIntegrator::ColumnIntegrator(const SparseVolume& n) : mN(n), mDusty(dustyC
 
 double ColumnIntegrator::operator()(const Vec3& a, const Vec3& b) const
 {
-    return column(mN, mDusty.data(), a, b);
+    return column(mN, mDusty, a, b);
 }
 
 double columnDensity(const SparseVolume& n, const Vec3& a, const Vec3& b)
@@ -193,7 +192,7 @@ double columnDensity(const SparseVolume& n, const Vec3& a, const Vec3& b)
     // One ray: build the occupancy of just the cells it can touch would be cleverer; a whole
     // lattice pass is fine for the few rays (star sprites, tests) that call this.
     const auto dusty = dustyCells(n);
-    return column(n, dusty.data(), a, b);
+    return column(n, dusty, a, b);
 }
 
 double columnDensityReference(const SparseVolume& n, const Vec3& a, const Vec3& b)
@@ -249,7 +248,7 @@ std::vector<float> opticalDepthAt(const SparseVolume& n, const Vec3& starIndex, 
                               // leave a rounding residue of -1e-33 next to empty cells, which
                               // readers rightly reject.
                               tau[idx] =
-                                  float(std::max(0.0, kappa_V * column(n, dusty.data(), starIndex,
+                                  float(std::max(0.0, kappa_V * column(n, dusty, starIndex,
                                                                        latticePoint(n, idx))));
                           }
                           if (progress) progress(r.size());

@@ -274,8 +274,7 @@ private:
             std::copy(ijk, ijk + 3, ray.fieldCell);
             // 24 independent sums side by side (one sum at a time waits on each addition).
             const float* m[8];
-            for (int q = 0; q < 8; ++q)
-                m[q] = mField->voxel(mField->index(i + (q & 1), j + (q >> 1 & 1), k + (q >> 2)));
+            mField->cellCorners(i, j, k, m);
             double acc[8][3] = {};
             for (int n = 0; n < mFieldMoments; ++n) {
                 const double wn = ray.fieldWeight[n];

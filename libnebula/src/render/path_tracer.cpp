@@ -49,14 +49,13 @@ PathScene buildPathScene(const RenderScene& scene, const RenderOptions& opts)
     const SparseVolume& v = scene.fields;
     ps.fields = SparseVolume(v.lo(), v.dims(), 2);
     ps.fields.indexToWorld = v.indexToWorld;
-    for (std::size_t b = 0; b < v.voxelCount(); b += SparseVolume::BRICK_VOXELS) {
-        if (!v.stored(b)) continue; // the bricks stored, nothing else
-        for (std::size_t i = b; i < b + SparseVolume::BRICK_VOXELS; ++i) {
+    v.forEachStoredBrick([&](std::size_t first) {
+        for (std::size_t i = first; i < first + SparseVolume::BRICK_VOXELS; ++i) {
             float* q = ps.fields.writable(i);
             q[0] = v.voxel(i)[0];
             q[1] = v.voxel(i)[1];
         }
-    }
+    });
     ps.w2i = v.indexToWorld.inverse();
     const double voxelWorld = voxelSize(v.indexToWorld);
     ps.rmin2 = std::pow(opts.minStarDistance * voxelWorld, 2);

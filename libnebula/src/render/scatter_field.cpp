@@ -340,16 +340,15 @@ void addScatterMoments(SparseVolume& total, const SparseVolume& src,
                        const std::vector<double>& factor, double c00Factor)
 {
     const std::size_t C = std::size_t(src.channels());
-    const std::size_t per = factor.size(); // channels per moment: it divides C
-    for (std::size_t v = 0; v < src.voxelCount(); v += SparseVolume::BRICK_VOXELS) {
-        if (!src.stored(v)) continue; // zeros add nothing
-        const float* a = src.voxel(v);
-        float* b = total.writable(v);
+    const std::size_t per = factor.size();          // channels per moment: it divides C
+    src.forEachStoredBrick([&](std::size_t first) { // zeros add nothing
+        const float* a = src.voxel(first);
+        float* b = total.writable(first);
         for (std::size_t i = 0; i < SparseVolume::BRICK_VOXELS * C; ++i) {
             const std::size_t q = i % C; // k * per + c
             b[i] += float(factor[q % per] * a[i] * (q < per ? c00Factor : 1.0));
         }
-    }
+    });
 }
 
 std::vector<double> spectralFieldWavelengths(int n)
@@ -420,13 +419,15 @@ ScatterField spectralFieldSubset(const ScatterField& field, std::size_t stride)
         const SparseVolume& a = field.sources[si].moments;
         SparseVolume b(a.lo(), a.dims(), nm * int(keep.size()));
         b.indexToWorld = a.indexToWorld;
-        for (std::size_t v = 0; v < a.voxelCount(); ++v) {
-            if (!a.stored(v)) continue;
-            float* q = b.writable(v);
-            for (int k = 0; k < nm; ++k)
-                for (std::size_t i = 0; i < keep.size(); ++i)
-                    q[std::size_t(k) * keep.size() + i] = a.voxel(v)[std::size_t(k) * N + keep[i]];
-        }
+        a.forEachStoredBrick([&](std::size_t first) {
+            for (std::size_t v = first; v < first + SparseVolume::BRICK_VOXELS; ++v) {
+                float* q = b.writable(v);
+                for (int k = 0; k < nm; ++k)
+                    for (std::size_t i = 0; i < keep.size(); ++i)
+                        q[std::size_t(k) * keep.size() + i] =
+                            a.voxel(v)[std::size_t(k) * N + keep[i]];
+            }
+        });
         ScatterSourceField& out = sub.sources[si];
         out.moments = std::move(b);
         for (auto* per : {&out.power, &out.escaped, &out.absorbed}) {

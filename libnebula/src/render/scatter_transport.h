@@ -145,18 +145,16 @@ public:
         }
         mRMin = *std::min_element(mCh.r.begin(), mCh.r.end());
         // Lattice cells without dust (all 8 corners zero): nothing to sample there.
-        mEmpty.assign((f.voxelCount() + 63) / 64, ~std::uint64_t(0));
+        mEmpty = VoxelBits(f, true);
+        const float* q[8];
         for (int k = mLo[2]; k < mHi[2]; ++k)
             for (int j = mLo[1]; j < mHi[1]; ++j)
                 for (int i = mLo[0]; i < mHi[0]; ++i) {
+                    f.cellCorners(i, j, k, q);
                     bool empty = true;
                     for (int c = 0; c < 8 && empty; ++c)
-                        empty = !(f.voxel(f.index(i + (c & 1), j + ((c >> 1) & 1),
-                                                  k + (c >> 2)))[0] > 0.0f);
-                    if (!empty) {
-                        const std::size_t v = f.index(i, j, k);
-                        mEmpty[v >> 6] &= ~(std::uint64_t(1) << (v & 63));
-                    }
+                        empty = !(q[c][0] > 0.0f);
+                    if (!empty) mEmpty.clear(f.index(i, j, k));
                 }
         // Dust per field cell (n_H summed over its voxels), and the cells the renderer
         // reads: those holding dust and their 26 neighbours.
@@ -324,8 +322,7 @@ public:
             if (len > 0.0) {
                 // The piece's lattice cell and field cell follow its half-voxel cell q.
                 double dTau = 0.0;
-                const std::size_t at = mDensity.index(li[0], li[1], li[2]);
-                if (!(mEmpty[at >> 6] >> (at & 63) & 1u)) {
+                if (!mEmpty[mDensity.index(li[0], li[1], li[2])]) {
                     float nm, ne;
                     mDensity.sampleChannels(oI + dI * (0.5 * (t + tn)), 0, 1, &nm);
                     mDensity.sampleChannels(oI + dI * tn, 0, 1, &ne);
@@ -430,7 +427,7 @@ private:
     double mVoxel = 1.0, mRmin2 = 0.0, mRMin = 1.0;
     std::array<int, 3> mLo{}, mHi{}, mFLo{}, mFDims{};
     std::vector<Vec3> mStarPos;
-    std::vector<std::uint64_t> mEmpty; ///< a bit per lattice cell (lower corner's index): no dust
+    VoxelBits mEmpty;                  ///< a bit per lattice cell (lower corner's index): no dust
     std::vector<std::uint8_t> mActive; ///< per field cell: read by the renderer
     std::vector<std::int32_t> mSlot;   ///< per field cell: its tally slot, -1 if not active
     std::size_t mSlots = 0;            ///< active cells

@@ -206,14 +206,15 @@ SpectralScene buildSpectralScene(const GridSet& grids, const RenderOptions& opts
             fields.push_back(v);
     }
     SparseVolume vol = volumeFromGrids(fields, activeBounds(boundsGrids, 1), grids.source);
-    for (std::size_t i = 0; i < vol.voxelCount(); ++i) {
-        if (!vol.stored(i)) continue; // zeros sum to zero
-        float* q = vol.writable(i);
-        float sum = 0.0f;
-        for (const auto& e : scene.emitters)
-            sum += q[e.channel];
-        q[1] = sum;
-    }
+    vol.forEachStoredBrick([&](std::size_t first) { // zeros sum to zero
+        for (std::size_t i = first; i < first + SparseVolume::BRICK_VOXELS; ++i) {
+            float* q = vol.writable(i);
+            float sum = 0.0f;
+            for (const auto& e : scene.emitters)
+                sum += q[e.channel];
+            q[1] = sum;
+        }
+    });
     scene.base.fields = std::move(vol);
     scene.base.buildOccupancy();
     return scene;

@@ -16,11 +16,6 @@ namespace {
 
 constexpr int B = SparseVolume::BRICK;
 
-void setBit(std::vector<std::uint64_t>& bits, std::size_t v)
-{
-    bits[v >> 6] |= std::uint64_t(1) << (v & 63);
-}
-
 } // namespace
 
 StarDepth::StarDepth(const RenderScene& scene)
@@ -28,11 +23,10 @@ StarDepth::StarDepth(const RenderScene& scene)
       mKappa(scene.dust.kappa_V)
 {
     const SparseVolume& f = scene.fields;
-    const std::size_t words = (f.voxelCount() + 63) / 64;
     const std::size_t bricks = f.voxelCount() / SparseVolume::BRICK_VOXELS;
-    mValid.assign(words, 0);
-    mAny.assign(words, 0);
-    mCurved.assign(scene.stars.size(), std::vector<std::uint64_t>(words, 0));
+    mValid = VoxelBits(f, false);
+    mAny = VoxelBits(f, false);
+    mCurved.assign(scene.stars.size(), VoxelBits(f, false));
     mBuilt.reset(new std::atomic<std::uint8_t>[bricks]);
     for (std::size_t b = 0; b < bricks; ++b)
         mBuilt[b].store(0, std::memory_order_relaxed);
@@ -92,7 +86,7 @@ void StarDepth::build(std::size_t b) const
                 bool all = true;
                 for (int c = 0; c < 8 && all; ++c)
                     all = N[z + 1 + (c >> 2)][y + 1 + (c >> 1 & 1)][x + 1 + (c & 1)] != 0;
-                if (all) setBit(mValid, f.index(i, j, k));
+                if (all) mValid.set(f.index(i, j, k));
             }
     // Per star: the points p0 .. p0 + 8 where tau's second difference along an axis reaches
     // CURVED (interior points near dust whose neighbours on that axis are too: beyond the
@@ -130,8 +124,8 @@ void StarDepth::build(std::size_t b) const
                         any = bends[z + (q >> 2)][y + (q >> 1 & 1)][x + (q & 1)] != 0;
                     if (!any) continue;
                     const std::size_t v = f.index(i, j, k);
-                    setBit(mCurved[s], v);
-                    setBit(mAny, v);
+                    mCurved[s].set(v);
+                    mAny.set(v);
                 }
     }
     mBuilt[b].store(2, std::memory_order_release);
@@ -155,8 +149,8 @@ double StarDepth::march(std::size_t s, const Vec3& pI) const
         const std::size_t c = cellOf(p);
         if (c == NONE) return tau; // left the grid: no dust from here to the star
         ensure(c);
-        if (!bit(mValid, c)) continue; // no tau here: cross the gap
-        if (tau > TAU_STOP || step + 1 >= MAX_STEPS || !bit(mCurved[s], c)) break;
+        if (!mValid[c]) continue; // no tau here: cross the gap
+        if (tau > TAU_STOP || step + 1 >= MAX_STEPS || !mCurved[s][c]) break;
     }
     // The rest from the tau grid at p.
     float rest = 0.0f;
@@ -167,9 +161,7 @@ double StarDepth::march(std::size_t s, const Vec3& pI) const
 double StarDepth::curvedFraction(std::size_t s) const
 {
     tbb::parallel_for(std::size_t(0), mBricks, [&](std::size_t b) { build(b); });
-    std::size_t n = 0;
-    for (const auto w : mCurved[s])
-        n += std::size_t(__builtin_popcountll(w));
+    const std::size_t n = mCurved[s].count();
     const std::size_t cells =
         std::size_t(mDims[0] - 1) * std::size_t(mDims[1] - 1) * std::size_t(mDims[2] - 1);
     return cells > 0 ? double(n) / double(cells) : 0.0;

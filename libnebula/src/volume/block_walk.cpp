@@ -15,8 +15,7 @@ void blockMaxima(const SparseVolume& v, std::array<int, 3>& blocks,
     const auto& lo = v.lo();
     const auto& d = v.dims();
     // The stored bricks' lattice points only: every other point is zero.
-    for (std::size_t b = 0; b < v.voxelCount(); b += SparseVolume::BRICK_VOXELS) {
-        if (!v.stored(b)) continue;
+    v.forEachStoredBrick([&](std::size_t b) {
         const auto p0 = v.point(b);
         for (int z = 0; z < SparseVolume::BRICK; ++z)
             for (int y = 0; y < SparseVolume::BRICK; ++y)
@@ -43,7 +42,7 @@ void blockMaxima(const SparseVolume& v, std::array<int, 3>& blocks,
                                 m[1] = std::max(m[1], q[1]);
                             }
                 }
-    }
+    });
 }
 
 double voxelSize(const Affine& indexToWorld)

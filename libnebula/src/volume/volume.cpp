@@ -68,14 +68,8 @@ SparseVolume::SparseVolume(const SparseVolume& o)
 }
 
 SparseVolume::SparseVolume(SparseVolume&& o) noexcept
-    : indexToWorld(o.indexToWorld), mLo(o.mLo), mDims(o.mDims), mOrigin(o.mOrigin),
-      mBricks(o.mBricks), mChannels(o.mChannels), mSlots(std::move(o.mSlots)), mBase(o.mBase),
-      mReserved(o.mReserved), mUsed(o.mUsed)
 {
-    o.mBase = nullptr;
-    o.mReserved = 0;
-    o.mUsed = 1;
-    o.mSlots.clear();
+    *this = std::move(o);
 }
 
 SparseVolume& SparseVolume::operator=(const SparseVolume& o)
@@ -161,13 +155,12 @@ SparseVolume SparseVolume::channel(int c) const
     SparseVolume v(mLo, mDims, 1);
     v.indexToWorld = indexToWorld;
     const std::size_t C = std::size_t(mChannels);
-    for (std::size_t s = 0; s < mSlots.size(); ++s) {
-        if (!mSlots[s]) continue;
-        const float* src = brickData(mSlots[s]) + c;
-        float* dst = v.writable(s * BRICK_VOXELS);
+    forEachStoredBrick([&](std::size_t first) {
+        const float* src = voxel(first) + c;
+        float* dst = v.writable(first);
         for (std::size_t i = 0; i < BRICK_VOXELS; ++i)
             dst[i] = src[i * C];
-    }
+    });
     return v;
 }
 

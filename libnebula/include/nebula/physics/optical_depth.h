@@ -34,7 +34,7 @@ public:
 
 private:
     const SparseVolume& mN;
-    std::vector<std::uint64_t> mDusty; ///< a bit per cell: any corner non-zero
+    VoxelBits mDusty; ///< a bit per cell: any corner non-zero
 };
 
 /// Reference for tests: the same integral as columnDensity(), written as simply as possible

@@ -55,14 +55,14 @@ public:
     bool curved(std::size_t s, const Vec3& pI) const
     {
         const std::size_t c = cellOf(pI);
-        return c != NONE && (ensure(c), bit(mCurved[s], c));
+        return c != NONE && (ensure(c), mCurved[s][c]);
     }
 
     /// Whether any star's tau bends in the cell of @p pI (the renderers' quick test).
     bool anyCurved(const Vec3& pI) const
     {
         const std::size_t c = cellOf(pI);
-        return c != NONE && (ensure(c), bit(mAny, c));
+        return c != NONE && (ensure(c), mAny[c]);
     }
 
     /// The exact march from @p pI (see the file comment).
@@ -81,10 +81,6 @@ private:
     {
         const std::size_t b = c / SparseVolume::BRICK_VOXELS;
         if (mBuilt[b].load(std::memory_order_acquire) != 2) build(b);
-    }
-    static bool bit(const std::vector<std::uint64_t>& v, std::size_t c)
-    {
-        return (v[c >> 6] >> (c & 63)) & 1u;
     }
     /// The voxel index (SparseVolume::index()) of the lower corner of the lattice cell
     /// holding @p pI, NONE outside.
@@ -106,11 +102,11 @@ private:
     std::unique_ptr<std::atomic<std::uint8_t>[]> mBuilt;
     std::size_t mBricks = 0;
     /// Per star: a bit per lattice cell (at the voxel index of its lower corner).
-    mutable std::vector<std::vector<std::uint64_t>> mCurved;
-    mutable std::vector<std::uint64_t> mAny; ///< a bit per lattice cell: any star
+    mutable std::vector<VoxelBits> mCurved;
+    mutable VoxelBits mAny; ///< a bit per lattice cell: any star
     /// A bit per lattice cell: its 8 corners lie within one voxel of dust (the tau grids
     /// hold values there).
-    mutable std::vector<std::uint64_t> mValid;
+    mutable VoxelBits mValid;
     std::vector<Vec3> mStarI; ///< star positions in index space
     std::array<int, 3> mLo{}, mDims{};
     double mKappa = 0.0;

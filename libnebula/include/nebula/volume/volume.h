@@ -128,6 +128,13 @@ public:
         return storedBricks() * brickFloats() * sizeof(float) +
                mSlots.size() * sizeof(std::uint32_t);
     }
+    /// Calls @p f(first) for each stored brick, in index order, with its first voxel index
+    /// (its voxels are first .. first + BRICK_VOXELS - 1); the other bricks are all zero.
+    template <typename F> void forEachStoredBrick(const F& f) const
+    {
+        for (std::size_t s = 0; s < mSlots.size(); ++s)
+            if (mSlots[s]) f(s * BRICK_VOXELS);
+    }
     /// Every voxel zero again; the stored bricks are kept (zeroed).
     void setZero();
 
@@ -251,6 +258,33 @@ private:
     float* mBase = nullptr;
     std::size_t mReserved = 0; ///< bytes reserved at mBase
     std::uint32_t mUsed = 1;   ///< bricks handed out, the zero brick included (atomic)
+};
+
+/// A bit per voxel index of a SparseVolume: flags per lattice point, or per lattice cell at
+/// its lower corner's index. 64 bits to a word, so a brick's bits are words of its own:
+/// threads that each write their own bricks share no word.
+class VoxelBits
+{
+public:
+    VoxelBits() = default;
+    /// Every bit of @p v's voxel indices set to @p value.
+    VoxelBits(const SparseVolume& v, bool value)
+        : mWords((v.voxelCount() + 63) / 64, value ? ~std::uint64_t(0) : 0)
+    {}
+    bool operator[](std::size_t i) const { return (mWords[i >> 6] >> (i & 63)) & 1u; }
+    void set(std::size_t i) { mWords[i >> 6] |= std::uint64_t(1) << (i & 63); }
+    void clear(std::size_t i) { mWords[i >> 6] &= ~(std::uint64_t(1) << (i & 63)); }
+    /// The number of bits set.
+    std::size_t count() const
+    {
+        std::size_t n = 0;
+        for (const auto w : mWords)
+            n += std::size_t(__builtin_popcountll(w));
+        return n;
+    }
+
+private:
+    std::vector<std::uint64_t> mWords;
 };
 
 } // namespace nebula
