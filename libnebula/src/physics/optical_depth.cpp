@@ -15,68 +15,76 @@ namespace {
 /// integral_0^1 n(a + t d) dt, exact for the trilinear interpolant: the segment is walked
 /// cell by cell (Amanatides-Woo), and inside a cell, where the interpolant is a cubic in t,
 /// Simpson's rule is exact. Each cell's 8 corners are loaded once; cells whose corners are
-/// all zero (and cells off the lattice) contribute nothing and are not sampled.
+/// all zero (and cells off the lattice) contribute nothing and are not sampled. The hot loop
+/// of nebillum (one call per voxel and star): the walk's state lives in scalars, not arrays
+/// indexed by axis, so it stays in registers.
 double unitIntegral(const SparseVolume& n, const VoxelBits& dusty, const Vec3& a, const Vec3& d)
 {
     const auto& lo = n.lo();
     const auto& dims = n.dims();
-    int cell[3], step[3];
-    double tNext[3], tStep[3];
-    for (int ax = 0; ax < 3; ++ax) {
-        const double c = std::floor(a[ax]);
-        cell[ax] = int(c);
-        step[ax] = d[ax] > 0 ? 1 : -1;
-        if (std::abs(d[ax]) < 1e-300) {
-            tNext[ax] = tStep[ax] = std::numeric_limits<double>::infinity();
-            continue;
+    // Per axis: the cell, its step, the t of the next plane crossed, and t between planes.
+    struct Axis
+    {
+        int cell, step;
+        double next, delta;
+    };
+    const auto axis = [](double a, double d) {
+        Axis s;
+        const double c = std::floor(a);
+        s.cell = int(c);
+        s.step = d > 0 ? 1 : -1;
+        if (std::abs(d) < 1e-300) {
+            s.next = s.delta = std::numeric_limits<double>::infinity();
+            return s;
         }
-        if (d[ax] < 0 && a[ax] == c) --cell[ax]; // on a plane, moving down: the lower cell
-        const double plane = d[ax] > 0 ? cell[ax] + 1.0 : double(cell[ax]);
-        tNext[ax] = (plane - a[ax]) / d[ax];
-        tStep[ax] = 1.0 / std::abs(d[ax]);
-    }
+        if (d < 0 && a == c) --s.cell; // on a plane, moving down: the lower cell
+        const double plane = d > 0 ? s.cell + 1.0 : double(s.cell);
+        s.next = (plane - a) / d;
+        s.delta = 1.0 / std::abs(d);
+        return s;
+    };
+    Axis X = axis(a.x, d.x), Y = axis(a.y, d.y), Z = axis(a.z, d.z);
+    // A cell is on the lattice when its lower corner is in [lo, lo + dims - 2].
+    const unsigned mx = unsigned(dims[0] - 1), my = unsigned(dims[1] - 1),
+                   mz = unsigned(dims[2] - 1);
     double t0 = 0.0, f0 = 0.0, sum = 0.0;
     bool haveF0 = false;
-    std::size_t idx = 0;
     for (;;) {
-        const int ax =
-            tNext[0] < tNext[1] ? (tNext[0] < tNext[2] ? 0 : 2) : (tNext[1] < tNext[2] ? 1 : 2);
-        const double t1 = std::min(tNext[ax], 1.0);
+        // The axis whose plane comes first (ties: z, then y, as before).
+        Axis& A = X.next < Y.next ? (X.next < Z.next ? X : Z) : (Y.next < Z.next ? Y : Z);
+        const double t1 = std::min(A.next, 1.0);
         if (t1 > t0) {
-            const int i = cell[0] - lo[0], j = cell[1] - lo[1], k = cell[2] - lo[2];
-            const bool inside =
-                i >= 0 && j >= 0 && k >= 0 && i + 1 < dims[0] && j + 1 < dims[1] && k + 1 < dims[2];
-            if (inside) {
-                idx = n.index(cell[0], cell[1], cell[2]);
+            double f1 = 0.0; // the exit face of an empty cell has only zero corners
+            if (unsigned(X.cell - lo[0]) < mx && unsigned(Y.cell - lo[1]) < my &&
+                unsigned(Z.cell - lo[2]) < mz) {
+                const std::size_t idx = n.index(X.cell, Y.cell, Z.cell);
+                if (dusty[idx]) {
+                    const float* q[8];
+                    n.cellCorners(X.cell, Y.cell, Z.cell, idx, q);
+                    const double c000 = q[0][0], c100 = q[1][0], c010 = q[2][0], c110 = q[3][0],
+                                 c001 = q[4][0], c101 = q[5][0], c011 = q[6][0], c111 = q[7][0];
+                    const double ox = a.x - X.cell, oy = a.y - Y.cell, oz = a.z - Z.cell;
+                    const auto f = [&](double t) {
+                        const double u = ox + d.x * t, v = oy + d.y * t, w = oz + d.z * t;
+                        const double c00 = c000 + u * (c100 - c000), c10 = c010 + u * (c110 - c010);
+                        const double c01 = c001 + u * (c101 - c001), c11 = c011 + u * (c111 - c011);
+                        const double c0 = c00 + v * (c10 - c00), c1 = c01 + v * (c11 - c01);
+                        return c0 + w * (c1 - c0);
+                    };
+                    if (!haveF0) f0 = f(t0);
+                    f1 = f(t1);
+                    sum += (t1 - t0) * (f0 + 4.0 * f(0.5 * (t0 + t1)) + f1);
+                }
             }
-            if (inside && dusty[idx]) {
-                const float* q[8];
-                n.cellCorners(cell[0], cell[1], cell[2], q);
-                const double c000 = q[0][0], c100 = q[1][0], c010 = q[2][0], c110 = q[3][0],
-                             c001 = q[4][0], c101 = q[5][0], c011 = q[6][0], c111 = q[7][0];
-                const auto f = [&](double t) {
-                    const double u = a.x + d.x * t - cell[0], v = a.y + d.y * t - cell[1],
-                                 w = a.z + d.z * t - cell[2];
-                    const double c00 = c000 + u * (c100 - c000), c10 = c010 + u * (c110 - c010);
-                    const double c01 = c001 + u * (c101 - c001), c11 = c011 + u * (c111 - c011);
-                    const double c0 = c00 + v * (c10 - c00), c1 = c01 + v * (c11 - c01);
-                    return c0 + w * (c1 - c0);
-                };
-                if (!haveF0) f0 = f(t0);
-                const double f1 = f(t1);
-                sum += (t1 - t0) * (f0 + 4.0 * f(0.5 * (t0 + t1)) + f1) / 6.0;
-                f0 = f1;
-            } else {
-                f0 = 0.0; // the exit face of an empty cell has only zero corners
-            }
+            f0 = f1;
             haveF0 = true;
             t0 = t1;
         }
-        if (tNext[ax] >= 1.0) break;
-        cell[ax] += step[ax];
-        tNext[ax] += tStep[ax];
+        if (A.next >= 1.0) break;
+        A.cell += A.step;
+        A.next += A.delta;
     }
-    return sum;
+    return sum * (1.0 / 6.0);
 }
 
 Vec3 latticePoint(const SparseVolume& n, std::size_t idx)

@@ -146,11 +146,16 @@ public:
     /// j + (c >> 1 & 1), k + (c >> 2)). One brick lookup when the cell lies in one brick.
     void cellCorners(int i, int j, int k, const float* q[8]) const
     {
+        cellCorners(i, j, k, index(i, j, k), q);
+    }
+    /// cellCorners() where the caller has the voxel index @p idx of (i, j, k) already.
+    void cellCorners(int i, int j, int k, std::size_t idx, const float* q[8]) const
+    {
         const int x = i - mOrigin[0], y = j - mOrigin[1], z = k - mOrigin[2];
         constexpr int M = BRICK - 1;
         if ((x & M) != M && (y & M) != M && (z & M) != M) {
             const std::size_t sx = std::size_t(mChannels), sy = sx * BRICK, sz = sy * BRICK;
-            const float* b = voxel(index(i, j, k));
+            const float* b = voxel(idx);
             q[0] = b;
             q[1] = b + sx;
             q[2] = b + sy;
