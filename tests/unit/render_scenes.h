@@ -52,10 +52,13 @@ inline RenderScene cube(double n0, double e0, const std::vector<Star>& stars)
     return scene;
 }
 
-/// A 1x1 camera looking from @p eye at the cube's centre (2, 2, 2) pc.
+/// A 1x1 camera looking from @p eye at the cube's centre (2, 2, 2) pc. Full resolution
+/// (no level of detail): the closed forms hold for the ray through the pixel's centre, and
+/// these pixels span several voxels.
 inline RenderOptions axisCamera(const Vec3& eye, double step)
 {
     RenderOptions o;
+    o.lod = 0.0;
     o.camera.eye = eye;
     o.camera.lookAt = Vec3(2, 2, 2);
     o.camera.up = std::abs(eye.y - 2) > 1e-9 ? Vec3(1, 0, 0) : Vec3(0, 1, 0);
@@ -128,10 +131,12 @@ inline RenderScene slab(double tau, double albedo, double g)
 }
 
 /// A 1x1 camera 40 pc from the slab's centre at exit cosine @p mu to the normal of the face
-/// it looks at: below the slab (reflection, the lit side) or above it (transmission).
+/// it looks at: below the slab (reflection, the lit side) or above it (transmission). Full
+/// resolution, as axisCamera().
 inline RenderOptions slabCamera(double mu, bool reflected, double tau)
 {
     RenderOptions o;
+    o.lod = 0.0;
     const Vec3 centre(0, 0, reflected ? 0.0 : tau);
     const Vec3 away(std::sqrt(1 - mu * mu), 0, reflected ? -mu : mu);
     o.camera.eye = centre + away * 40.0;

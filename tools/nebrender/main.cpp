@@ -108,6 +108,12 @@ int main(int argc, char** argv)
                    "Ray step [voxels]; at most 1e6 steps across the grid's diagonal")
         ->capture_default_str()
         ->check(nebula::cli::positive());
+    app.add_option("--lod", opts.lod,
+                   "Level of detail (fast integrator): sample a copy of the fields at 2^L times\n"
+                   "the voxel (L <= 3) where its voxel spans at most LOD pixels, in steps of\n"
+                   "--step of its voxels; 0: full resolution everywhere")
+        ->capture_default_str()
+        ->check(nebula::cli::numberIn(0.0, 1e6));
     nebula::cli::addVec3(app, "--wavelengths", opts.wavelengths,
                          "R,G,B channel wavelengths [nm] for the extinction curve");
     app.add_option("--emission-grid", opts.emissionGrid, "Gas emission grid")

@@ -154,6 +154,12 @@ double Projection::pixelSolidAngle(double px, double py) const
     return 0.0;
 }
 
+double Projection::pixelAngle(double px, double py) const
+{
+    if (mModel == CameraModel::Fisheye) return 2.0 * mThetaMax / mWidth;
+    return std::sqrt(pixelSolidAngle(px, py));
+}
+
 bool Projection::project(const Vec3& p, double& px, double& py) const
 {
     const Vec3 v = p - mEye;

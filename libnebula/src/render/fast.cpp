@@ -43,7 +43,8 @@ struct Scratch
     /// irradiance factor at that level), resampled every half level-k voxel along the ray
     /// (the level's own resolution) and held between.
     std::vector<double> held;
-    std::vector<double> nextT; ///< per level: ray distance of its next resample [pc]
+    std::vector<double> nextT;   ///< per level: ray distance of its next resample [pc]
+    std::vector<double> closest; ///< per star: ray distance of closest approach, its square
     RenderStats stats;
 };
 
@@ -99,6 +100,14 @@ public:
                 for (int m = -l; m <= l; ++m)
                     mFieldPl[shIndex(l, m)] = mDust.albedo * p[std::size_t(l)];
         }
+        // Level of detail: the coarsest level any pixel of this frame reaches, built (or
+        // taken from the scene's cache) up front. Not with the effective phase function,
+        // whose table and pyramid levels are made for level 0's voxel.
+        if (opts.lod > 0.0 && !mTable && scene.levels.empty()) {
+            mMaxDetail = detailLevelsNeeded(opts);
+            for (int L = 1; L <= mMaxDetail; ++L)
+                mDetail.push_back(&scene.detail.level(scene.fields, L));
+        }
         mOffLevel.resize(mLevels.size());
         for (std::size_t k = 0; k < mLevels.size(); ++k)
             for (int c = 0; c < 3; ++c)
@@ -115,6 +124,7 @@ public:
         s.starL.resize(S * 3);
         s.held.resize(mLevels.size() * S * 3);
         s.nextT.resize(mLevels.size());
+        s.closest.resize(2 * S);
         return s;
     }
 
@@ -133,10 +143,43 @@ public:
         }
         std::fill(sc.starL.begin(), sc.starL.end(), 0.0);
         std::fill(sc.nextT.begin(), sc.nextT.end(), -std::numeric_limits<double>::infinity());
-        sc.stats.rays +=
-            mLevel0.march(ray.dW, mOpts.step, [&](const Vec3& pI, double tm, double seg) {
-                return step(pI, tm, seg, ray, sc);
-            });
+        if (mMaxDetail > 0) {
+            // A pixel's angular size (the square root of its solid angle) spans this many pc
+            // per pc of distance.
+            const double footprint = mCam.pixelAngle(px + 0.5, py + 0.5);
+            // Near a star its light falls as 1/r^2: steps of at most a quarter of the distance
+            // r to every star there, so the coarse steps sample it as finely as level 0.
+            const std::size_t S = mStarPos.size();
+            for (std::size_t s = 0; s < S; ++s) { // closest approach: ray distance, b^2
+                const Vec3 v = mStarPos[s] - mCam.eye();
+                const double tc = v.dot(ray.dW);
+                sc.closest[2 * s] = tc;
+                sc.closest[2 * s + 1] = std::max(0.0, v.dot(v) - tc * tc);
+            }
+            const double stepWorld = mOpts.step * mLevel0.voxelWorld;
+            const auto cap = [&](double t) {
+                double r2 = std::numeric_limits<double>::infinity();
+                for (std::size_t s = 0; s < S; ++s) {
+                    const double dt = t - sc.closest[2 * s];
+                    r2 = std::min(r2, sc.closest[2 * s + 1] + dt * dt);
+                }
+                const double r = std::sqrt(r2);
+                int level = 0;
+                while (level < mMaxDetail && 4.0 * stepWorld * double(2 << level) <= r)
+                    ++level;
+                return level;
+            };
+            sc.stats.rays += mLevel0.marchDetail(
+                ray.dW, mOpts.step, footprint, mOpts.lod, mMaxDetail, mScene.detailReach, cap,
+                [&](const Vec3& pI, double tm, double seg, int level) {
+                    return step(pI, tm, seg, ray, sc, level);
+                });
+        } else {
+            sc.stats.rays +=
+                mLevel0.march(ray.dW, mOpts.step, [&](const Vec3& pI, double tm, double seg) {
+                    return step(pI, tm, seg, ray, sc, 0);
+                });
+        }
         const std::size_t pix = std::size_t(py) * img.width + px;
         ImageLayer& transLayer = img.layers[S];
         for (int c = 0; c < 3; ++c) {
@@ -299,13 +342,22 @@ private:
 
     /// One ray step: the sample at index point @p pI, ray distance @p tm, length @p seg [pc].
     /// Returns false once the ray is opaque in every channel.
-    bool step(const Vec3& pI, double tm, double seg, RayState& ray, Scratch& sc) const
+    bool step(const Vec3& pI, double tm, double seg, RayState& ray, Scratch& sc, int level) const
     {
-        mScene.fields.sample(pI, sc.f.data());
+        if (level == 0) {
+            mScene.fields.sample(pI, sc.f.data());
+        } else {
+            // Level L's index I is level 0's 2^L I + (2^L - 1) / 2.
+            const double scale = 1.0 / double(1 << level), offset = 0.5 * ((1 << level) - 1);
+            const Vec3 pL((pI.x - offset) * scale, (pI.y - offset) * scale,
+                          (pI.z - offset) * scale);
+            mDetail[std::size_t(level - 1)]->sample(pL, sc.f.data());
+        }
         ++sc.stats.samples;
         const double n = sc.f[0], em = sc.f[1];
         if (n <= 0.0 && em <= 0.0) return true;
-        if (n > 0.0 && mDepth && mDepth->anyCurved(pI)) { // tau exact where it bends
+        // tau exact where it bends (level 0: coarser levels average the bends away)
+        if (level == 0 && n > 0.0 && mDepth && mDepth->anyCurved(pI)) {
             for (std::size_t s = 0; s < mScene.stars.size(); ++s)
                 if (mDepth->curved(s, pI)) sc.f[2 + s] = float(mDepth->march(s, pI));
         }
@@ -352,8 +404,41 @@ private:
     double mLogTMax = 0.0;
     double mOff0[3] = {0, 0, 0};
     std::vector<std::array<double, 3>> mOffLevel;
-    const SparseVolume* mField = nullptr; ///< the scattered-light field, if any
-    std::optional<StarDepth> mDepth;      ///< with RenderOptions::exactStarDepth
+    /// The largest level of detail a pixel of this frame can reach (DESIGN §9): a pixel's
+    /// span at the farthest corner of the lattice, in voxels, times RenderOptions::lod (the
+    /// pixels a level's voxel may span).
+    int detailLevelsNeeded(const RenderOptions& opts) const
+    {
+        const SparseVolume& f = mScene.fields;
+        double far = 0.0;
+        for (int c = 0; c < 8; ++c) {
+            const Vec3 corner(f.lo()[0] + (c & 1) * (f.dims()[0] - 1),
+                              f.lo()[1] + (c >> 1 & 1) * (f.dims()[1] - 1),
+                              f.lo()[2] + (c >> 2) * (f.dims()[2] - 1));
+            far = std::max(far, (f.indexToWorld.apply(corner) - mCam.eye()).length());
+        }
+        // The largest pixel: the centre and the corners of the image (perspective pixels
+        // shrink away from the centre; fisheye and equirect ones vary less than 2x).
+        const Camera& cam = opts.camera;
+        double pixel = 0.0;
+        for (const auto& [x, y] :
+             {std::pair{0.5 * cam.width, 0.5 * cam.height}, std::pair{0.5, 0.5},
+              std::pair{cam.width - 0.5, 0.5}, std::pair{0.5, cam.height - 0.5},
+              std::pair{cam.width - 0.5, cam.height - 0.5}}) {
+            const double angle = mCam.pixelAngle(x, y);
+            if (std::isfinite(angle)) pixel = std::max(pixel, angle);
+        }
+        const double spanVoxels = opts.lod * far * pixel / mLevel0.voxelWorld;
+        int level = 0;
+        while (level < RenderScene::MAX_DETAIL_LEVEL && spanVoxels >= double(2 << level))
+            ++level;
+        return level;
+    }
+
+    int mMaxDetail = 0;                       ///< levels of detail 1 .. this are sampled
+    std::vector<const SparseVolume*> mDetail; ///< level L at [L - 1]
+    const SparseVolume* mField = nullptr;     ///< the scattered-light field, if any
+    std::optional<StarDepth> mDepth;          ///< with RenderOptions::exactStarDepth
     Affine mFieldW2I;
     int mFieldMoments = 0;
     double mFieldPl[shCount(SH_MAX_DEGREE)] = {}; ///< a p_l per moment index

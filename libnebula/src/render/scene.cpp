@@ -386,6 +386,49 @@ void RenderScene::buildOccupancy()
     for (std::size_t b = 0; b < maxima.size(); ++b) {
         occupied[b] = maxima[b][0] > 0.0f || maxima[b][1] > 0.0f;
     }
+    // Distance to the nearest occupied block in blocks (max norm), up to 2: grown one block
+    // at a time, one axis at a time.
+    const int n[3] = {blocks[0], blocks[1], blocks[2]};
+    const auto grow = [&](const std::vector<std::uint8_t>& from) {
+        std::vector<std::uint8_t> to = from;
+        for (int axis = 0; axis < 3; ++axis) {
+            const std::vector<std::uint8_t> before = to;
+            const std::ptrdiff_t stride = axis == 0 ? 1 : axis == 1 ? n[0] : n[0] * n[1];
+            for (int k = 0; k < n[2]; ++k)
+                for (int j = 0; j < n[1]; ++j)
+                    for (int i = 0; i < n[0]; ++i) {
+                        const int at[3] = {i, j, k};
+                        const std::size_t b = (std::size_t(k) * n[1] + j) * n[0] + i;
+                        if ((at[axis] > 0 && before[b - stride]) ||
+                            (at[axis] + 1 < n[axis] && before[b + stride]))
+                            to[b] = 1;
+                    }
+        }
+        return to;
+    };
+    const auto one = grow(occupied), two = grow(one);
+    detailReach.resize(occupied.size());
+    for (std::size_t b = 0; b < occupied.size(); ++b)
+        detailReach[b] = occupied[b] ? 0 : one[b] ? 1 : two[b] ? 3 : 255;
+    detail.clear();
+}
+
+const SparseVolume& DetailLevels::level(const SparseVolume& fields, int level) const
+{
+    const std::lock_guard<std::mutex> lock(mMutex);
+    while (int(mLevels.size()) < level) {
+        const SparseVolume& finer = mLevels.empty() ? fields : *mLevels.back();
+        // Channels 2 + s: optical depths, averaged so that the light each star gives the
+        // dust (n e^-tau) keeps its mean.
+        mLevels.push_back(std::make_unique<SparseVolume>(finer.halfResolution(2, 0)));
+    }
+    return *mLevels[std::size_t(level - 1)];
+}
+
+void DetailLevels::clear()
+{
+    const std::lock_guard<std::mutex> lock(mMutex);
+    mLevels.clear();
 }
 
 } // namespace nebula

@@ -3,7 +3,9 @@
 #include "nebula/core/error.h"
 
 #include <fmt/format.h>
+#include <tbb/parallel_for.h>
 
+#include <algorithm>
 #include <cstring>
 #include <limits>
 #include <thread>
@@ -129,6 +131,71 @@ std::uint32_t SparseVolume::storeBrick(std::size_t slot)
         id = __atomic_load_n(entry, __ATOMIC_ACQUIRE);
     }
     return id;
+}
+
+SparseVolume SparseVolume::halfResolution(int firstDepth, int weight) const
+{
+    std::array<int, 3> lo, dims;
+    for (int a = 0; a < 3; ++a) {
+        // The voxels covering this lattice (>> floors negative indices too), and a zero
+        // border: the trilinear field falls to zero over one half voxel beyond them, as the
+        // sum it keeps needs (zero outside the lattice would cut the edge voxels' cells).
+        lo[std::size_t(a)] = (mLo[std::size_t(a)] >> 1) - 1;
+        const int hi = ((mLo[std::size_t(a)] + mDims[std::size_t(a)] - 1) >> 1) + 1;
+        dims[std::size_t(a)] = hi - lo[std::size_t(a)] + 1;
+    }
+    SparseVolume half(lo, dims, mChannels);
+    // Index 2I + 0.5 of this volume is index I of the half one.
+    half.indexToWorld.m = indexToWorld.m;
+    for (double& v : half.indexToWorld.m)
+        v *= 2.0;
+    half.indexToWorld.t = indexToWorld.apply(Vec3(0.5, 0.5, 0.5));
+    // Each stored brick (8^3, aligned to multiples of 8) fills 4^3 voxels of the half volume
+    // that no other brick touches: bricks in parallel, no two writing the same voxel.
+    std::vector<std::size_t> firsts;
+    forEachStoredBrick([&](std::size_t first) { firsts.push_back(first); });
+    const int C = mChannels;
+    const int D = firstDepth >= 0 && firstDepth < C ? firstDepth : C; // depths: D .. C - 1
+    const auto fill = [&](std::size_t first) {
+        const auto p0 = point(first);
+        std::vector<double> sum(static_cast<std::size_t>(C), 0.0),
+            weighted(static_cast<std::size_t>(C), 0.0);
+        for (int z = 0; z < BRICK; z += 2)
+            for (int y = 0; y < BRICK; y += 2)
+                for (int x = 0; x < BRICK; x += 2) {
+                    const int i = (p0[0] + x) >> 1, j = (p0[1] + y) >> 1, k = (p0[2] + z) >> 1;
+                    if (!half.contains(i, j, k)) continue;
+                    std::fill(sum.begin(), sum.end(), 0.0);
+                    std::fill(weighted.begin(), weighted.end(), 0.0);
+                    double weights = 0.0;
+                    bool any = false;
+                    for (int c = 0; c < 8; ++c) {
+                        const int fi = p0[0] + x + (c & 1), fj = p0[1] + y + (c >> 1 & 1),
+                                  fk = p0[2] + z + (c >> 2);
+                        if (!contains(fi, fj, fk)) continue;
+                        const float* v = voxel(index(fi, fj, fk));
+                        for (int ch = 0; ch < C; ++ch) {
+                            sum[std::size_t(ch)] += v[ch];
+                            any = any || v[ch] != 0.0f;
+                        }
+                        if (D < C && v[weight] > 0.0f) {
+                            weights += v[weight];
+                            for (int ch = D; ch < C; ++ch)
+                                weighted[std::size_t(ch)] += v[weight] * std::exp(-double(v[ch]));
+                        }
+                    }
+                    if (!any) continue;
+                    float* out = half.writable(half.index(i, j, k));
+                    for (int ch = 0; ch < C; ++ch) {
+                        const double w = weighted[std::size_t(ch)];
+                        out[ch] = ch >= D && weights > 0.0 && w > 0.0
+                                      ? float(-std::log(w / weights))
+                                      : float(0.125 * sum[std::size_t(ch)]);
+                    }
+                }
+    };
+    tbb::parallel_for(std::size_t(0), firsts.size(), [&](std::size_t b) { fill(firsts[b]); });
+    return half;
 }
 
 std::array<int, 3> SparseVolume::point(std::size_t idx) const

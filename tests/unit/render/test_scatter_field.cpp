@@ -335,6 +335,7 @@ void compareWithPathTracer(const RenderScene& base, const std::string& what, int
                            bool blocks = true, double totalTolerance = 0.02)
 {
     RenderOptions o;
+    o.lod = 0.0; // the path tracer samples pixel centres at full resolution
     o.camera.eye = Vec3(1.2, 1.2, -8.0);
     o.camera.lookAt = Vec3(1.2, 1.2, 1.2);
     o.camera.up = Vec3(0, 1, 0);
@@ -515,6 +516,7 @@ SpectralScene spectralOf(const RenderScene& scene)
 RenderOptions cloudCamera(int res)
 {
     RenderOptions o;
+    o.lod = 0.0; // compared with the path tracer and the spectral renderer, at full resolution
     o.camera.eye = Vec3(1.2, 1.2, -8.0);
     o.camera.lookAt = Vec3(1.2, 1.2, 1.2);
     o.camera.up = Vec3(0, 1, 0);

@@ -71,6 +71,7 @@ SpectralScene makeScene(D density, E emission, V velocity, std::vector<Star> sta
 RenderOptions zCamera(int W, double fov = 4.0)
 {
     RenderOptions o;
+    o.lod = 0.0; // compared with the RGB renderer at full resolution (no level of detail here)
     o.camera.eye = Vec3(1, 1, -5);
     o.camera.lookAt = Vec3(1, 1, 1);
     o.camera.up = Vec3(0, 1, 0);

@@ -344,3 +344,71 @@ TEST(SparseVolume, SampleZeroWithManyChannels)
 }
 
 } // namespace
+
+// The level of detail's halving: each voxel the mean of the 8 it covers (zeros off the
+// lattice), on a lattice with a negative, odd corner and odd sizes, several channels; the
+// sum of each channel over voxels times the voxel volume is kept (where the 8 are all on the
+// lattice, and here the border is zero); the transform puts the half voxel at the centre of
+// its 8; only bricks with data are stored.
+TEST(SparseVolume, HalfResolutionIsTheMeanOfTheEightVoxelsItCovers)
+{
+    std::mt19937 rng(9);
+    std::uniform_real_distribution<float> u(0.0f, 1.0f);
+    SparseVolume v({-13, 4, -3}, {29, 21, 17}, 3);
+    v.indexToWorld.m = {0.2, 0.05, 0, 0, 0.3, 0, 0.01, 0, 0.25};
+    v.indexToWorld.t = Vec3(1, -2, 3);
+    const auto& lo = v.lo();
+    const auto& d = v.dims();
+    for (int k = lo[2] + 1; k < lo[2] + d[2] - 1; ++k)
+        for (int j = lo[1] + 1; j < lo[1] + 10; ++j) // the upper part of y stays empty
+            for (int i = lo[0] + 1; i < lo[0] + d[0] - 1; ++i)
+                for (int c = 0; c < 3; ++c)
+                    v.writable(v.index(i, j, k))[c] = u(rng) * float(c + 1);
+    const SparseVolume h = v.halfResolution();
+    EXPECT_EQ(h.lo()[0], -8); // floor(-13 / 2), less a zero border
+    EXPECT_EQ(h.lo()[1], 1);
+    EXPECT_EQ(h.lo()[2], -3);
+    EXPECT_EQ(h.dims()[0], 17); // .. floor(15 / 2) + 1
+    double sumV[3] = {}, sumH[3] = {};
+    for (int k = lo[2]; k < lo[2] + d[2]; ++k)
+        for (int j = lo[1]; j < lo[1] + d[1]; ++j)
+            for (int i = lo[0]; i < lo[0] + d[0]; ++i)
+                for (int c = 0; c < 3; ++c)
+                    sumV[c] += v.voxel(v.index(i, j, k))[c];
+    for (int K = h.lo()[2]; K < h.lo()[2] + h.dims()[2]; ++K)
+        for (int J = h.lo()[1]; J < h.lo()[1] + h.dims()[1]; ++J)
+            for (int I = h.lo()[0]; I < h.lo()[0] + h.dims()[0]; ++I) {
+                double mean[3] = {};
+                for (int q = 0; q < 8; ++q) {
+                    const int i = 2 * I + (q & 1), j = 2 * J + (q >> 1 & 1), k = 2 * K + (q >> 2);
+                    if (!v.contains(i, j, k)) continue;
+                    for (int c = 0; c < 3; ++c)
+                        mean[c] += v.voxel(v.index(i, j, k))[c] / 8.0;
+                }
+                for (int c = 0; c < 3; ++c) {
+                    const float got = h.voxel(h.index(I, J, K))[c];
+                    ASSERT_NEAR(got, mean[c], 1e-6) << I << "," << J << "," << K;
+                    sumH[c] += got;
+                }
+            }
+    for (int c = 0; c < 3; ++c)
+        EXPECT_NEAR(8.0 * sumH[c], sumV[c], 1e-5 * sumV[c]);
+    // Half voxel I sits at the centre of voxels 2I and 2I + 1.
+    const Vec3 a = h.indexToWorld.apply(Vec3(3, 5, 1));
+    const Vec3 b = v.indexToWorld.apply(Vec3(6.5, 10.5, 2.5));
+    EXPECT_NEAR((a - b).length(), 0.0, 1e-12);
+    // Of the half lattice's 2 x 2 x 2 bricks, the upper ones in y hold no data: 4 stored.
+    EXPECT_EQ(h.storedBricks(), 4u);
+    // The trilinear fields hold the same integral: sums of samples on a fine grid of points.
+    double intV = 0.0, intH = 0.0;
+    for (double z = -6; z < 16; z += 0.25)
+        for (double y = 2; y < 26; y += 0.25)
+            for (double x = -16; x < 18; x += 0.25) {
+                float a[3], b[3];
+                v.sample(Vec3(x, y, z), a);
+                h.sample(Vec3((x - 0.5) / 2, (y - 0.5) / 2, (z - 0.5) / 2), b);
+                intV += a[0];
+                intH += b[0];
+            }
+    EXPECT_NEAR(intH, intV, 1e-4 * intV);
+}

@@ -72,6 +72,10 @@ public:
     /// equirect; for fisheye the integral of the projection's Jacobian over the part of the
     /// pixel inside the circle (16 x 16 midpoints), 0 for a pixel wholly outside.
     double pixelSolidAngle(double px, double py) const;
+    /// The angle a pixel centred at (px, py) spans [rad], for the level of detail: the square
+    /// root of pixelSolidAngle() for perspective and equirect; for fisheye the equidistant
+    /// projection's radial angle per pixel (cheap; it varies little across the circle).
+    double pixelAngle(double px, double py) const;
     /// Projects world point @p p [pc] to image coordinates; false if it is not in view
     /// (behind a perspective eye, beyond a fisheye's angle, or at the eye).
     bool project(const Vec3& p, double& px, double& py) const;

@@ -67,7 +67,12 @@ struct RenderOptions
     int spp = 64;                        ///< path tracer: samples per pixel (per channel)
     std::uint64_t seed = 1; ///< path tracer: same seed, same image whatever the threads
     Camera camera;
-    double step = 0.5;                                      ///< ray step [voxels]
+    double step = 0.5; ///< ray step [voxels]
+    /// Level of detail (fast integrator, DESIGN §9): where a voxel of a level-L copy of the
+    /// fields (2^L times the voxel, the mean of the voxels it covers) spans at most this many
+    /// pixels, the ray samples that copy, in steps of `step` of its voxels, up to
+    /// RenderScene::MAX_DETAIL_LEVEL. 0: always full resolution.
+    double lod = 2.0;
     std::array<double, 3> wavelengths{700.0, 546.1, 435.8}; ///< R, G, B channels [nm]
     double emissionScale = 1.0;                             ///< multiplies the emission grid
     std::array<double, 3> emissionColor{1.0, 0.15, 0.2};    ///< linear sRGB (H-alpha + H-beta pink)

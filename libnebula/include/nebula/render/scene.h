@@ -12,6 +12,8 @@
 
 #include <array>
 #include <cstdint>
+#include <memory>
+#include <mutex>
 #include <string>
 #include <vector>
 
@@ -51,8 +53,35 @@ struct SceneScatterField
 };
 
 /// What the kernel renders: compact fields plus the stars and dust.
+/// Coarser copies of a scene's fields for the level of detail (RenderOptions::lod): level L
+/// is SparseVolume::halfResolution() applied L times. Built on first use and kept, so the
+/// frames of a camera path share them; safe to ask from several threads. A copied or moved
+/// scene starts with none (they are a cache of its fields).
+class DetailLevels
+{
+public:
+    DetailLevels() = default;
+    DetailLevels(const DetailLevels&) {}
+    DetailLevels& operator=(const DetailLevels&)
+    {
+        clear();
+        return *this;
+    }
+    /// Level @p level (>= 1) of @p fields, building it (and the levels below) if needed.
+    const SparseVolume& level(const SparseVolume& fields, int level) const;
+    /// Forgets the levels built.
+    void clear();
+
+private:
+    mutable std::mutex mMutex;
+    mutable std::vector<std::unique_ptr<SparseVolume>> mLevels;
+};
+
 struct RenderScene
 {
+    /// The coarsest level of detail the fast integrator samples (8 voxels on a side).
+    static constexpr int MAX_DETAIL_LEVEL = 3;
+
     /// Channels: 0 density n_H, 1 emission, 2 + s: tau_V of star s.
     SparseVolume fields;
     std::vector<Star> stars;
@@ -62,8 +91,16 @@ struct RenderScene
     /// emission.
     std::array<int, 3> blocks{0, 0, 0};
     std::vector<std::uint8_t> occupied;
+    /// Per block, the lowest level of detail L that may be non-zero in it (level L reaches 1.5 x
+    /// 2^L voxels past the dust): 0 for an occupied block, 1 next to one (levels 1 and 2 reach at
+    /// most 6 voxels), 3 two blocks from one, 255 farther. A level-L step skips blocks whose value
+    /// exceeds L.
+    std::vector<std::uint8_t> detailReach;
+    /// The fields' levels of detail, built when a frame first needs them.
+    DetailLevels detail;
 
-    /// (Re)computes `blocks` and `occupied` from channels 0 (density) and 1 (emission).
+    /// (Re)computes `blocks`, `occupied` and `detailReach` from channels 0 (density) and 1
+    /// (emission), and forgets the levels of detail.
     void buildOccupancy();
 
     /// Pyramid levels 1..K (empty without RenderOptions::levels).

@@ -47,9 +47,11 @@ struct BlockRay
         : BlockRay(v, blockCounts, w2i.apply(oW), w2i.applyLinear(dW), tMax)
     {}
 
-    /// The same with the origin and direction already in index space.
+    /// The same with the origin and direction already in index space; the ray is clipped to
+    /// the box grown by @p margin voxels every way (a level of detail reaches past the
+    /// lattice), the blocks stay the lattice's.
     BlockRay(const SparseVolume& v, const std::array<int, 3>& blockCounts, const Vec3& originI,
-             const Vec3& dirI, double tMax)
+             const Vec3& dirI, double tMax, double margin = 0.0)
         : oI(originI), dI(dirI), boxLo(v.lo()[0], v.lo()[1], v.lo()[2]),
           boxHi(v.lo()[0] + v.dims()[0] - 1, v.lo()[1] + v.dims()[1] - 1,
                 v.lo()[2] + v.dims()[2] - 1),
@@ -58,11 +60,12 @@ struct BlockRay
         t0 = 0.0;
         t1 = tMax;
         for (int a = 0; a < 3; ++a) {
+            const double lo = boxLo[a] - margin, hi = boxHi[a] + margin;
             if (std::abs(dI[a]) < 1e-300) {
-                if (oI[a] < boxLo[a] || oI[a] > boxHi[a]) t1 = -1.0;
+                if (oI[a] < lo || oI[a] > hi) t1 = -1.0;
                 continue;
             }
-            double ta = (boxLo[a] - oI[a]) / dI[a], tb = (boxHi[a] - oI[a]) / dI[a];
+            double ta = (lo - oI[a]) / dI[a], tb = (hi - oI[a]) / dI[a];
             if (ta > tb) std::swap(ta, tb);
             t0 = std::max(t0, ta);
             t1 = std::min(t1, tb);
@@ -136,6 +139,62 @@ struct Marcher
                 continue;
             }
             if (!step(pI, tm, seg)) break;
+            t += seg;
+        }
+        return ray.hits();
+    }
+    /// march() with a level of detail: at ray distance t a pixel spans @p footprint * t
+    /// [pc]; the step there is @p stepVoxels level-L voxels (2^L voxels), L the largest level
+    /// up to @p maxLevel whose voxel spans at most @p lod pixels there and at most
+    /// @p cap(t) (the caller's limit there, e.g. near a star), and @p step(pI, tm, seg, L)
+    /// is told L. Empty space is skipped by @p reach (per block, the lowest level that may be
+    /// non-zero there) once L > 0.
+    template <class Cap, class Step>
+    bool marchDetail(const Vec3& dW, double stepVoxels, double footprint, double lod, int maxLevel,
+                     const std::vector<std::uint8_t>& reach, Cap&& cap, Step&& step) const
+    {
+        // Level L spreads the dust by up to 1.5 x 2^L voxels, past the lattice too.
+        const BlockRay ray(vol, blocks, eyeI, w2i.applyLinear(dW),
+                           std::numeric_limits<double>::infinity(),
+                           maxLevel > 0 ? 1.5 * double(1 << maxLevel) : 0.0);
+        const double dt = stepVoxels / ray.dI.length();
+        // The distance from which level L is used: where 2^L voxels span lod pixels.
+        const double inf = std::numeric_limits<double>::infinity();
+        const double perLevel = lod > 0.0 && footprint > 0.0 ? voxelWorld / (lod * footprint) : inf;
+        int level = 0;
+        double tNext = maxLevel > 0 ? 2.0 * perLevel : inf;
+        for (double t = ray.t0; t < ray.t1;) {
+            while (t >= tNext) {
+                ++level;
+                tNext = level < maxLevel ? perLevel * double(2 << level) : inf;
+            }
+            const int use = level ? std::min(level, int(cap(t))) : 0;
+            const double seg = std::min(dt * double(1 << use), ray.t1 - t);
+            const double tm = t + 0.5 * seg;
+            const Vec3 pI = ray.oI + ray.dI * tm;
+            int b, bb[3];
+            if (ray.blockAt(pI, b, bb)) {
+                if (use ? reach[std::size_t(b)] > use : !occupied[std::size_t(b)]) {
+                    t = std::max(ray.blockExit(bb), t + 1e-6 * dt);
+                    continue;
+                }
+            } else if (use) {
+                // In the margin past the lattice: as empty as the nearest block (whose reach
+                // counts from inside the lattice, so this errs towards sampling).
+                int cb[3];
+                for (int a = 0; a < 3; ++a)
+                    cb[a] = std::clamp(int(std::floor((pI[a] - ray.boxLo[a]) / OCCUPANCY_BLOCK)), 0,
+                                       blocks[a] - 1);
+                const std::size_t nearest =
+                    (std::size_t(cb[2]) * blocks[1] + cb[1]) * blocks[0] + cb[0];
+                if (reach[nearest] > use) {
+                    for (int a = 0; a < 3; ++a) // the block-sized cell of the margin it is in
+                        bb[a] = int(std::floor((pI[a] - ray.boxLo[a]) / OCCUPANCY_BLOCK));
+                    t = std::max(ray.blockExit(bb), t + 1e-6 * dt);
+                    continue;
+                }
+            }
+            if (!step(pI, tm, seg, use)) break;
             t += seg;
         }
         return ray.hits();

@@ -138,6 +138,16 @@ public:
     /// Every voxel zero again; the stored bricks are kept (zeroed).
     void setZero();
 
+    /// Every channel at half the resolution (a level of detail): voxel I of the result is the
+    /// mean of this volume's 8 voxels 2I .. 2I + 1 (zeros off the lattice), so sums over
+    /// voxels times voxel volume are kept; its lattice has a zero border round those voxels,
+    /// so the trilinear field keeps them too; its index-to-world map puts its voxel centre at
+    /// the centre of those 8 (this index 2I + 0.5). Only bricks that hold data are stored.
+    /// Channels from @p firstDepth on (if >= 0) are optical depths tau, averaged instead as
+    /// transmittance weighted by channel @p weight (a density n): -ln(mean n e^-tau / mean n),
+    /// which keeps the mean of n e^-tau (the light a star gives the dust); the plain mean
+    /// where the 8 weights are 0.
+    SparseVolume halfResolution(int firstDepth = -1, int weight = 0) const;
     /// Channel @p c alone as a one-channel volume on the same lattice and transform.
     SparseVolume channel(int c) const;
 
