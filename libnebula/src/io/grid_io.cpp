@@ -544,8 +544,27 @@ std::string describeGrids(const GridSet& grids)
 {
     std::string text =
         std::to_string(grids.grids.size()) + (grids.grids.size() == 1 ? " grid" : " grids");
-    for (std::size_t i = 0; i < grids.grids.size(); ++i) {
-        text += (i ? ", " : ": ") + grids.grids[i]->getName();
+    // A run of more than 3 grids whose names share their first two dot-separated parts
+    // (nebscatter's scatter.stars.c2_-1.R, ...) is one entry: "scatter.stars.* (75)".
+    const auto family = [&](std::size_t i) {
+        const std::string& name = grids.grids[i]->getName();
+        const auto first = name.find('.');
+        const auto second = first == std::string::npos ? first : name.find('.', first + 1);
+        return second == std::string::npos ? std::string() : name.substr(0, second + 1);
+    };
+    for (std::size_t i = 0; i < grids.grids.size();) {
+        const std::string f = family(i);
+        std::size_t end = i + 1;
+        while (!f.empty() && end < grids.grids.size() && family(end) == f)
+            ++end;
+        text += i ? ", " : ": ";
+        if (end - i > 3) {
+            text += f + "* (" + std::to_string(end - i) + ")";
+        } else {
+            for (std::size_t k = i; k < end; ++k)
+                text += (k > i ? ", " : "") + grids.grids[k]->getName();
+        }
+        i = end;
     }
     return text;
 }

@@ -425,6 +425,12 @@ const SparseVolume& DetailLevels::level(const SparseVolume& fields, int level) c
     return *mLevels[std::size_t(level - 1)];
 }
 
+int DetailLevels::built() const
+{
+    const std::lock_guard<std::mutex> lock(mMutex);
+    return int(mLevels.size());
+}
+
 void DetailLevels::clear()
 {
     const std::lock_guard<std::mutex> lock(mMutex);

@@ -158,22 +158,21 @@ SparseVolume SparseVolume::halfResolution(int firstDepth, int weight) const
     const int D = firstDepth >= 0 && firstDepth < C ? firstDepth : C; // depths: D .. C - 1
     const auto fill = [&](std::size_t first) {
         const auto p0 = point(first);
+        // The brick's voxels, channel-interleaved, x fastest; those off the lattice are zero.
+        const float* brick = voxel(first);
         std::vector<double> sum(static_cast<std::size_t>(C), 0.0),
             weighted(static_cast<std::size_t>(C), 0.0);
         for (int z = 0; z < BRICK; z += 2)
             for (int y = 0; y < BRICK; y += 2)
                 for (int x = 0; x < BRICK; x += 2) {
-                    const int i = (p0[0] + x) >> 1, j = (p0[1] + y) >> 1, k = (p0[2] + z) >> 1;
-                    if (!half.contains(i, j, k)) continue;
                     std::fill(sum.begin(), sum.end(), 0.0);
                     std::fill(weighted.begin(), weighted.end(), 0.0);
                     double weights = 0.0;
                     bool any = false;
                     for (int c = 0; c < 8; ++c) {
-                        const int fi = p0[0] + x + (c & 1), fj = p0[1] + y + (c >> 1 & 1),
-                                  fk = p0[2] + z + (c >> 2);
-                        if (!contains(fi, fj, fk)) continue;
-                        const float* v = voxel(index(fi, fj, fk));
+                        const int at =
+                            ((z + (c >> 2)) * BRICK + y + (c >> 1 & 1)) * BRICK + x + (c & 1);
+                        const float* v = brick + std::size_t(at) * std::size_t(C);
                         for (int ch = 0; ch < C; ++ch) {
                             sum[std::size_t(ch)] += v[ch];
                             any = any || v[ch] != 0.0f;
@@ -185,6 +184,7 @@ SparseVolume SparseVolume::halfResolution(int firstDepth, int weight) const
                         }
                     }
                     if (!any) continue;
+                    const int i = (p0[0] + x) >> 1, j = (p0[1] + y) >> 1, k = (p0[2] + z) >> 1;
                     float* out = half.writable(half.index(i, j, k));
                     for (int ch = 0; ch < C; ++ch) {
                         const double w = weighted[std::size_t(ch)];

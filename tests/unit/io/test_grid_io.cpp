@@ -457,6 +457,17 @@ TEST(GridSet, DescribeGrids)
     EXPECT_EQ(nebula::describeGrids(s), "1 grid: density");
     s.grids.push_back(floatGrid("tau.alpha", 1.0f));
     EXPECT_EQ(nebula::describeGrids(s), "2 grids: density, tau.alpha");
+    // A family of more than 3 (nebscatter's field) is one entry; 3 or fewer are listed.
+    for (const char* name :
+         {"scatter.stars.J.R", "scatter.stars.J.G", "scatter.stars.J.B", "scatter.stars.c1_0.R",
+          "scatter.emission.J.R", "scatter.emission.J.G", "tau.beta"}) {
+        auto g = openvdb::FloatGrid::create();
+        g->setName(name);
+        s.grids.push_back(g);
+    }
+    EXPECT_EQ(nebula::describeGrids(s),
+              "9 grids: density, tau.alpha, scatter.stars.* (4), scatter.emission.J.R, "
+              "scatter.emission.J.G, tau.beta");
 }
 
 TEST_F(GridIoTest, RunOverloadsReportUnderVerbose)

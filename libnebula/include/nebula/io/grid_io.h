@@ -81,7 +81,8 @@ GridSet readGridsFromBytes(const InputBytes& bytes, const std::string& source);
 /// readGrids(), reporting what it read under -v ("read <file>: 3 grids: density, ...").
 GridSet readGrids(const std::string& path, const Run& run, const std::string& option = "-i");
 
-/// "N grids: name, name, ..." (for -v reports).
+/// "N grids: name, name, ..." (for -v reports); a run of more than 3 grids named alike in
+/// their first two dot-separated parts is one entry, "scatter.stars.* (75)".
 std::string describeGrids(const GridSet& grids);
 
 /// writeGrids() as @p run's tool and command, reporting what it wrote under -v.

@@ -71,6 +71,8 @@ public:
     const SparseVolume& level(const SparseVolume& fields, int level) const;
     /// Forgets the levels built.
     void clear();
+    /// The number of levels built so far.
+    int built() const;
 
 private:
     mutable std::mutex mMutex;
