@@ -105,8 +105,21 @@ public:
         // whose table and pyramid levels are made for level 0's voxel.
         if (opts.lod > 0.0 && !mTable && scene.levels.empty() && detailPays(opts)) {
             mMaxDetail = detailLevelsNeeded(opts);
-            for (int L = 1; L <= mMaxDetail; ++L)
-                mDetail.push_back(&scene.detail.level(scene.fields, L));
+            const Affine& toWorld = scene.fields.indexToWorld;
+            for (int L = 1; L <= mMaxDetail; ++L) {
+                const SparseVolume& level = scene.detail.level(scene.fields, L);
+                // Level 0's index space to level L's, from their transforms.
+                const Affine toLevel = level.indexToWorld.inverse();
+                Affine map;
+                for (int c = 0; c < 3; ++c) {
+                    const Vec3 column =
+                        toLevel.applyLinear(toWorld.applyLinear(Vec3(c == 0, c == 1, c == 2)));
+                    for (int r = 0; r < 3; ++r)
+                        map.m[std::size_t(3 * r + c)] = column[r];
+                }
+                map.t = toLevel.apply(toWorld.t);
+                mDetail.push_back({&level, map});
+            }
         }
         mOffLevel.resize(mLevels.size());
         for (std::size_t k = 0; k < mLevels.size(); ++k)
@@ -144,12 +157,10 @@ public:
         std::fill(sc.starL.begin(), sc.starL.end(), 0.0);
         std::fill(sc.nextT.begin(), sc.nextT.end(), -std::numeric_limits<double>::infinity());
         if (mMaxDetail > 0) {
-            // A pixel's angular size (the square root of its solid angle) spans this many pc
-            // per pc of distance.
+            // A pixel's angular size spans this many pc per pc of distance. Near a star its
+            // light falls as 1/r^2: steps of at most a quarter of the distance r to every star
+            // there, so the coarse steps sample it as finely as level 0.
             const double footprint = mCam.pixelAngle(px + 0.5, py + 0.5);
-            // Near a star its light falls as 1/r^2: steps of at most a quarter of the distance
-            // r to every star there, so the coarse steps sample it as finely as level 0.
-            const std::size_t S = mStarPos.size();
             for (std::size_t s = 0; s < S; ++s) { // closest approach: ray distance, b^2
                 const Vec3 v = mStarPos[s] - mCam.eye();
                 const double tc = v.dot(ray.dW);
@@ -347,11 +358,8 @@ private:
         if (level == 0) {
             mScene.fields.sample(pI, sc.f.data());
         } else {
-            // Level L's index I is level 0's 2^L I + (2^L - 1) / 2.
-            const double scale = 1.0 / double(1 << level), offset = 0.5 * ((1 << level) - 1);
-            const Vec3 pL((pI.x - offset) * scale, (pI.y - offset) * scale,
-                          (pI.z - offset) * scale);
-            mDetail[std::size_t(level - 1)]->sample(pL, sc.f.data());
+            const Detail& d = mDetail[std::size_t(level - 1)];
+            d.fields->sample(d.fromLevel0.apply(pI), sc.f.data());
         }
         ++sc.stats.samples;
         const double n = sc.f[0], em = sc.f[1];
@@ -452,10 +460,15 @@ private:
         return 10.0 * samples > voxels || mScene.detail.built() > 0;
     }
 
-    int mMaxDetail = 0;                       ///< levels of detail 1 .. this are sampled
-    std::vector<const SparseVolume*> mDetail; ///< level L at [L - 1]
-    const SparseVolume* mField = nullptr;     ///< the scattered-light field, if any
-    std::optional<StarDepth> mDepth;          ///< with RenderOptions::exactStarDepth
+    int mMaxDetail = 0; ///< levels of detail 1 .. this are sampled
+    struct Detail
+    {
+        const SparseVolume* fields;
+        Affine fromLevel0; ///< level 0's index space to this level's
+    };
+    std::vector<Detail> mDetail;          ///< level L at [L - 1]
+    const SparseVolume* mField = nullptr; ///< the scattered-light field, if any
+    std::optional<StarDepth> mDepth;      ///< with RenderOptions::exactStarDepth
     Affine mFieldW2I;
     int mFieldMoments = 0;
     double mFieldPl[shCount(SH_MAX_DEGREE)] = {}; ///< a p_l per moment index

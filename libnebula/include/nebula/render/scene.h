@@ -52,7 +52,6 @@ struct SceneScatterField
     std::string description; ///< what it is, for -v and the EXR
 };
 
-/// What the kernel renders: compact fields plus the stars and dust.
 /// Coarser copies of a scene's fields for the level of detail (RenderOptions::lod): level L
 /// is SparseVolume::halfResolution() applied L times. Built on first use and kept, so the
 /// frames of a camera path share them; safe to ask from several threads. A copied or moved
@@ -79,6 +78,7 @@ private:
     mutable std::vector<std::unique_ptr<SparseVolume>> mLevels;
 };
 
+/// What the kernel renders: compact fields plus the stars and dust.
 struct RenderScene
 {
     /// The coarsest level of detail the fast integrator samples (8 voxels on a side).

@@ -85,6 +85,17 @@ struct BlockRay
         b = (bb[2] * blocks[1] + bb[1]) * blocks[0] + bb[0];
         return true;
     }
+    /// The block-sized cell @p bb holding index point @p p (off the block grid too), the
+    /// block of the grid nearest it, @p nearest (bb itself when it is on the grid), and
+    /// that block's linear index (returned).
+    int nearestBlock(const Vec3& p, int bb[3], int nearest[3]) const
+    {
+        for (int a = 0; a < 3; ++a) {
+            bb[a] = static_cast<int>(std::floor((p[a] - boxLo[a]) / OCCUPANCY_BLOCK));
+            nearest[a] = std::clamp(bb[a], 0, blocks[a] - 1);
+        }
+        return (nearest[2] * blocks[1] + nearest[1]) * blocks[0] + nearest[0];
+    }
 
     /// World distance at which the ray leaves block @p bb (at most t1).
     double blockExit(const int bb[3]) const
@@ -122,7 +133,9 @@ struct Marcher
     {}
 
     /// Calls @p step(pI, tm, seg) for steps of @p stepVoxels voxels along world direction
-    /// @p dW until it returns false; returns whether the ray met the box.
+    /// @p dW until it returns false; returns whether the ray met the box. (marchDetail() at
+    /// level 0 does the same; this loop is kept apart because the level bookkeeping costs
+    /// the default frame a few per cent.)
     template <class Step> bool march(const Vec3& dW, double stepVoxels, Step&& step) const
     {
         const BlockRay ray(vol, blocks, eyeI, w2i.applyLinear(dW),
@@ -147,8 +160,8 @@ struct Marcher
     /// [pc]; the step there is @p stepVoxels level-L voxels (2^L voxels), L the largest level
     /// up to @p maxLevel whose voxel spans at most @p lod pixels there and at most
     /// @p cap(t) (the caller's limit there, e.g. near a star), and @p step(pI, tm, seg, L)
-    /// is told L. Empty space is skipped by @p reach (per block, the lowest level that may be
-    /// non-zero there) once L > 0.
+    /// is told L. Empty space is skipped by `occupied` at level 0 and by @p reach (per block,
+    /// the lowest level that may be non-zero there) above it.
     template <class Cap, class Step>
     bool marchDetail(const Vec3& dW, double stepVoxels, double footprint, double lod, int maxLevel,
                      const std::vector<std::uint8_t>& reach, Cap&& cap, Step&& step) const
@@ -172,27 +185,15 @@ struct Marcher
             const double seg = std::min(dt * double(1 << use), ray.t1 - t);
             const double tm = t + 0.5 * seg;
             const Vec3 pI = ray.oI + ray.dI * tm;
-            int b, bb[3];
-            if (ray.blockAt(pI, b, bb)) {
-                if (use ? reach[std::size_t(b)] > use : !occupied[std::size_t(b)]) {
-                    t = std::max(ray.blockExit(bb), t + 1e-6 * dt);
-                    continue;
-                }
-            } else if (use) {
-                // In the margin past the lattice: as empty as the nearest block (whose reach
-                // counts from inside the lattice, so this errs towards sampling).
-                int cb[3];
-                for (int a = 0; a < 3; ++a)
-                    cb[a] = std::clamp(int(std::floor((pI[a] - ray.boxLo[a]) / OCCUPANCY_BLOCK)), 0,
-                                       blocks[a] - 1);
-                const std::size_t nearest =
-                    (std::size_t(cb[2]) * blocks[1] + cb[1]) * blocks[0] + cb[0];
-                if (reach[nearest] > use) {
-                    for (int a = 0; a < 3; ++a) // the block-sized cell of the margin it is in
-                        bb[a] = int(std::floor((pI[a] - ray.boxLo[a]) / OCCUPANCY_BLOCK));
-                    t = std::max(ray.blockExit(bb), t + 1e-6 * dt);
-                    continue;
-                }
+            // Empty-space skipping: jump to the exit of an empty block. Level 0 is zero off the
+            // block grid but is not skipped there (the box's last cells); in the margin past
+            // the lattice a level L > 0 is as empty as the nearest block (whose reach counts
+            // from inside the lattice, so this errs towards sampling).
+            int b, bb[3], nearest[3];
+            if (use ? reach[std::size_t(ray.nearestBlock(pI, bb, nearest))] > use
+                    : ray.blockAt(pI, b, bb) && !occupied[std::size_t(b)]) {
+                t = std::max(ray.blockExit(bb), t + 1e-6 * dt);
+                continue;
             }
             if (!step(pI, tm, seg, use)) break;
             t += seg;
