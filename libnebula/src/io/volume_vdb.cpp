@@ -142,8 +142,26 @@ namespace {
 template <typename Op>
 void forEachActive(SparseVolume& vol, const openvdb::FloatGrid& grid, int c, const Op& op)
 {
+    using Leaf = openvdb::FloatTree::LeafNodeType;
+    static_assert(Leaf::DIM == SparseVolume::BRICK, "a leaf is one brick");
     openvdb::tree::LeafManager<const openvdb::FloatTree> leaves(grid.tree());
-    leaves.foreach ([&](const openvdb::FloatTree::LeafNodeType& leaf, std::size_t) {
+    leaves.foreach ([&](const Leaf& leaf, std::size_t) {
+        const auto& o = leaf.origin();
+        constexpr int E = SparseVolume::BRICK - 1;
+        if (vol.contains(o.x(), o.y(), o.z()) && vol.contains(o.x() + E, o.y() + E, o.z() + E)) {
+            // The leaf is one whole brick of the lattice: find it once, then each active
+            // value's place in it (OpenVDB's offset is x-major, the brick's z-major).
+            float* brick = vol.writable(vol.index(o.x(), o.y(), o.z()));
+            const float* values = leaf.buffer().data();
+            const std::size_t C = std::size_t(vol.channels());
+            for (auto on = leaf.getValueMask().beginOn(); on; ++on) {
+                const openvdb::Index n = on.pos();
+                const std::size_t x = n >> 6, y = (n >> 3) & 7u, z = n & 7u;
+                float& v = brick[((z << 6) | (y << 3) | x) * C + std::size_t(c)];
+                v = op(v, values[n]);
+            }
+            return;
+        }
         for (auto it = leaf.cbeginValueOn(); it; ++it) {
             const auto& p = it.getCoord();
             if (vol.contains(p.x(), p.y(), p.z())) {

@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <limits>
 
 namespace nebula {
@@ -93,45 +94,6 @@ Vec3 latticePoint(const SparseVolume& n, std::size_t idx)
     return Vec3(double(p[0]), double(p[1]), double(p[2]));
 }
 
-/// A bit per lattice cell (at the voxel index of its lower corner): whether any of its 8
-/// corners is non-zero in channel 0. Bricks are visited in parallel, and only those that
-/// hold a corner of a dusty cell: the brick or one of its upper neighbours is stored.
-VoxelBits dustyCells(const SparseVolume& n)
-{
-    constexpr int B = SparseVolume::BRICK;
-    const auto& lo = n.lo();
-    const auto& dims = n.dims();
-    VoxelBits dusty(n, false);
-    const std::size_t bricks = n.voxelCount() / SparseVolume::BRICK_VOXELS;
-    tbb::parallel_for(std::size_t(0), bricks, [&](std::size_t b) {
-        const auto p0 = n.point(b * SparseVolume::BRICK_VOXELS); // the brick's first point
-        bool any = false;
-        for (int c = 0; c < 8 && !any; ++c) {
-            const int i = p0[0] + (c & 1) * B, j = p0[1] + (c >> 1 & 1) * B,
-                      k = p0[2] + (c >> 2) * B;
-            // A neighbour's stored state where it overlaps the lattice (clamped to it).
-            const int ci = std::clamp(i, lo[0], lo[0] + dims[0] - 1);
-            const int cj = std::clamp(j, lo[1], lo[1] + dims[1] - 1);
-            const int ck = std::clamp(k, lo[2], lo[2] + dims[2] - 1);
-            any = n.stored(n.index(ci, cj, ck));
-        }
-        if (!any) return;
-        const float* q[8];
-        for (int k = std::max(p0[2], lo[2]); k < std::min(p0[2] + B, lo[2] + dims[2] - 1); ++k)
-            for (int j = std::max(p0[1], lo[1]); j < std::min(p0[1] + B, lo[1] + dims[1] - 1); ++j)
-                for (int i = std::max(p0[0], lo[0]); i < std::min(p0[0] + B, lo[0] + dims[0] - 1);
-                     ++i) {
-                    n.cellCorners(i, j, k, q);
-                    bool set = false;
-                    for (int c = 0; c < 8; ++c)
-                        set = set || q[c][0] != 0.0f;
-                    if (!set) continue;
-                    dusty.set(n.index(i, j, k)); // this brick's words only
-                }
-    });
-    return dusty;
-}
-
 bool insideLattice(const SparseVolume& n, const Vec3& p)
 {
     for (int ax = 0; ax < 3; ++ax) {
@@ -188,6 +150,81 @@ double column(const SparseVolume& n, const VoxelBits& dusty, const Vec3& a, cons
 
 } // namespace
 
+// Bricks are visited in parallel, and only those that hold a corner of a dusty cell: the
+// brick or one of its upper neighbours is stored. Per brick, the 9^3 points its cells touch
+// are read once into rows of bits (x along a row), and the 2x2x2 stencil is three ORs of
+// shifted rows: a word of bits per z slice.
+VoxelBits dustyCells(const SparseVolume& n)
+{
+    constexpr int B = SparseVolume::BRICK;
+    static_assert(B == 8, "a brick's z slice is one 64-bit word of VoxelBits");
+    const auto& lo = n.lo();
+    const auto& dims = n.dims();
+    VoxelBits dusty(n, false);
+    const std::size_t bricks = n.voxelCount() / SparseVolume::BRICK_VOXELS;
+    tbb::parallel_for(std::size_t(0), bricks, [&](std::size_t b) {
+        const auto p0 = n.point(b * SparseVolume::BRICK_VOXELS); // the brick's first point
+        bool any = false;
+        for (int c = 0; c < 8 && !any; ++c) {
+            const int i = p0[0] + (c & 1) * B, j = p0[1] + (c >> 1 & 1) * B,
+                      k = p0[2] + (c >> 2) * B;
+            // A neighbour's stored state where it overlaps the lattice (clamped to it).
+            const int ci = std::clamp(i, lo[0], lo[0] + dims[0] - 1);
+            const int cj = std::clamp(j, lo[1], lo[1] + dims[1] - 1);
+            const int ck = std::clamp(k, lo[2], lo[2] + dims[2] - 1);
+            any = n.stored(n.index(ci, cj, ck));
+        }
+        if (!any) return;
+        // The cells of this brick on the lattice: lower corners in [lo, lo + dims - 2].
+        int first[3], last[3]; // brick-relative, half-open
+        for (int a = 0; a < 3; ++a) {
+            first[a] = std::max(0, lo[a] - p0[a]);
+            last[a] = std::min(B, lo[a] + dims[a] - 1 - p0[a]);
+            if (first[a] >= last[a]) return;
+        }
+        // Points p0 + (0..8)^3 that are on the lattice and non-zero: bit x of P[z][y].
+        unsigned on[3] = {0, 0, 0}; // bit t: p0[a] + t on the lattice
+        for (int a = 0; a < 3; ++a)
+            for (int t = 0; t <= B; ++t)
+                if (unsigned(p0[a] + t - lo[a]) < unsigned(dims[a])) on[a] |= 1u << t;
+        std::uint16_t P[B + 1][B + 1];
+        const float* brick = n.voxel(b * SparseVolume::BRICK_VOXELS);
+        const std::size_t sx = std::size_t(n.channels());
+        for (int z = 0; z <= B; ++z)
+            for (int y = 0; y <= B; ++y) {
+                unsigned row = 0;
+                if ((on[2] >> z & 1u) && (on[1] >> y & 1u)) {
+                    if (z < B && y < B) { // inside the brick: straight from its storage
+                        const float* v = brick + std::size_t((z * B + y) * B) * sx;
+                        for (int x = 0; x < B; ++x)
+                            row |= unsigned(v[std::size_t(x) * sx] != 0.0f) << x;
+                    } else {
+                        for (int x = 0; x < B; ++x)
+                            if (n.voxel(n.index(p0[0] + x, p0[1] + y, p0[2] + z))[0] != 0.0f)
+                                row |= 1u << x;
+                    }
+                    if ((on[0] >> B & 1u) &&
+                        n.voxel(n.index(p0[0] + B, p0[1] + y, p0[2] + z))[0] != 0.0f)
+                        row |= 1u << B;
+                    row &= on[0];
+                }
+                P[z][y] = std::uint16_t(row);
+            }
+        const unsigned xMask = ((1u << last[0]) - 1u) & ~((1u << first[0]) - 1u);
+        for (int z = first[2]; z < last[2]; ++z) {
+            std::uint64_t word = 0;
+            for (int y = first[1]; y < last[1]; ++y) {
+                const unsigned r = unsigned(P[z][y] | P[z][y + 1] | P[z + 1][y] | P[z + 1][y + 1]);
+                const unsigned cells = (r | (r >> 1)) & xMask;
+                word |= std::uint64_t(cells) << (y * B);
+            }
+            // This brick's own word: threads write different words.
+            dusty.setWord((b * SparseVolume::BRICK_VOXELS + std::size_t(z) * B * B) / 64, word);
+        }
+    });
+    return dusty;
+}
+
 ColumnIntegrator::ColumnIntegrator(const SparseVolume& n) : mN(n), mDusty(dustyCells(n)) {}
 
 double ColumnIntegrator::operator()(const Vec3& a, const Vec3& b) const
@@ -206,8 +243,8 @@ double columnDensity(const SparseVolume& n, const Vec3& a, const Vec3& b)
 double columnDensityReference(const SparseVolume& n, const Vec3& a, const Vec3& b)
 {
     // Every parameter where the segment crosses a lattice plane, sorted; between two of them
-    // the trilinear interpolant is a cubic in t and Simpson's rule (via SparseVolume::sample)
-    // is exact. No cell walk, no occupancy: deliberately independent of ColumnIntegrator.
+    // the trilinear interpolant is a cubic in t and Simpson's rule is exact. No cell walk, no
+    // occupancy: deliberately independent of ColumnIntegrator.
     const Vec3 d = b - a;
     std::vector<double> ts{0.0, 1.0};
     for (int ax = 0; ax < 3; ++ax) {
@@ -224,10 +261,25 @@ double columnDensityReference(const SparseVolume& n, const Vec3& a, const Vec3& 
     for (std::size_t i = 0; i + 1 < ts.size(); ++i) {
         const double t0 = std::clamp(ts[i], 0.0, 1.0), t1 = std::clamp(ts[i + 1], 0.0, 1.0);
         if (t1 <= t0) continue;
-        sum += (t1 - t0) *
-               (n.sample0(a + d * t0) + 4.0 * n.sample0(a + d * (0.5 * (t0 + t1))) +
-                n.sample0(a + d * t1)) /
-               6.0;
+        // The piece lies in one cell: the one holding its midpoint. Its ends are on that
+        // cell's faces, where the field may jump (the lattice's outer faces: dust inside,
+        // zero outside), so they take that cell's interpolant, not sample()'s value there.
+        const Vec3 mid = a + d * (0.5 * (t0 + t1));
+        int ijk[3];
+        double frac[3];
+        if (!n.cellAt(mid, ijk, frac)) continue; // off the lattice: zero
+        const float* q[8];
+        n.cellCorners(ijk[0], ijk[1], ijk[2], q);
+        const auto f = [&](double t) {
+            const Vec3 p = a + d * t;
+            const double u = p.x - ijk[0], v = p.y - ijk[1], w = p.z - ijk[2];
+            double value = 0.0;
+            for (int c = 0; c < 8; ++c)
+                value += q[c][0] * ((c & 1) ? u : 1.0 - u) * ((c >> 1 & 1) ? v : 1.0 - v) *
+                         ((c >> 2) ? w : 1.0 - w);
+            return value;
+        };
+        sum += (t1 - t0) * (f(t0) + 4.0 * f(0.5 * (t0 + t1)) + f(t1)) / 6.0;
     }
     return sum * n.indexToWorld.applyLinear(d).length();
 }

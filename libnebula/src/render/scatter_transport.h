@@ -130,10 +130,10 @@ public:
     Transport(const RenderScene& scene, const RenderOptions& ropts, const ScatterOptions& opts,
               Channels channels)
         : mScene(scene), mDust(scene.dust), mCh(std::move(channels)), mC(int(mCh.size())),
-          mOrder(opts.order), mNm(shCount(opts.order)), mScale(1 << opts.fieldLevel)
+          mOrder(opts.order), mNm(shCount(opts.order)), mScale(1 << opts.fieldLevel),
+          mDensity(scene.fields)
     {
         const SparseVolume& f = scene.fields;
-        mDensity = f.channel(0);
         mW2I = f.indexToWorld.inverse();
         mVoxel = voxelSize(f.indexToWorld);
         mRmin2 = std::pow(ropts.minStarDistance * mVoxel, 2);
@@ -144,29 +144,21 @@ public:
             mFDims[a] = floorDiv(mHi[a]) + 1 - mFLo[a] + 1;
         }
         mRMin = *std::min_element(mCh.r.begin(), mCh.r.end());
-        // Lattice cells without dust (all 8 corners zero): nothing to sample there.
-        mEmpty = VoxelBits(f, true);
-        const float* q[8];
-        for (int k = mLo[2]; k < mHi[2]; ++k)
-            for (int j = mLo[1]; j < mHi[1]; ++j)
-                for (int i = mLo[0]; i < mHi[0]; ++i) {
-                    f.cellCorners(i, j, k, q);
-                    bool empty = true;
-                    for (int c = 0; c < 8 && empty; ++c)
-                        empty = !(q[c][0] > 0.0f);
-                    if (!empty) mEmpty.clear(f.index(i, j, k));
-                }
+        // Lattice cells with dust (a corner non-zero): the only ones a flight samples.
+        mDusty = dustyCells(f);
         // Dust per field cell (n_H summed over its voxels), and the cells the renderer
-        // reads: those holding dust and their 26 neighbours.
+        // reads: those holding dust and their 26 neighbours. Only stored bricks hold dust.
         mCellDust.assign(fieldCells(), 0.0);
-        for (int k = mLo[2]; k <= mHi[2]; ++k)
-            for (int j = mLo[1]; j <= mHi[1]; ++j)
-                for (int i = mLo[0]; i <= mHi[0]; ++i) {
-                    const float n = f.voxel(f.index(i, j, k))[0];
-                    if (n > 0.0f)
-                        mCellDust[cellIndex(floorDiv(i) - mFLo[0], floorDiv(j) - mFLo[1],
-                                            floorDiv(k) - mFLo[2])] += n;
-                }
+        f.forEachStoredBrick([&](std::size_t first) {
+            for (std::size_t v = first; v < first + SparseVolume::BRICK_VOXELS; ++v) {
+                const float n = f.voxel(v)[0];
+                if (!(n > 0.0f)) continue;
+                const auto p = f.point(v);
+                if (!f.contains(p[0], p[1], p[2])) continue;
+                mCellDust[cellIndex(floorDiv(p[0]) - mFLo[0], floorDiv(p[1]) - mFLo[1],
+                                    floorDiv(p[2]) - mFLo[2])] += n;
+            }
+        });
         mActive.assign(fieldCells(), 0);
         for (int K = 0; K < mFDims[2]; ++K)
             for (int J = 0; J < mFDims[1]; ++J)
@@ -322,7 +314,7 @@ public:
             if (len > 0.0) {
                 // The piece's lattice cell and field cell follow its half-voxel cell q.
                 double dTau = 0.0;
-                if (!mEmpty[mDensity.index(li[0], li[1], li[2])]) {
+                if (mDusty[mDensity.index(li[0], li[1], li[2])]) {
                     float nm, ne;
                     mDensity.sampleChannels(oI + dI * (0.5 * (t + tn)), 0, 1, &nm);
                     mDensity.sampleChannels(oI + dI * tn, 0, 1, &ne);
@@ -422,12 +414,12 @@ private:
     }
 
     int mOrder, mNm, mScale;
-    SparseVolume mDensity;
+    const SparseVolume& mDensity; ///< channel 0 of the scene's fields, in place
     Affine mW2I;
     double mVoxel = 1.0, mRmin2 = 0.0, mRMin = 1.0;
     std::array<int, 3> mLo{}, mHi{}, mFLo{}, mFDims{};
     std::vector<Vec3> mStarPos;
-    VoxelBits mEmpty;                  ///< a bit per lattice cell (lower corner's index): no dust
+    VoxelBits mDusty;                  ///< a bit per lattice cell (lower corner's index): dust
     std::vector<std::uint8_t> mActive; ///< per field cell: read by the renderer
     std::vector<std::int32_t> mSlot;   ///< per field cell: its tally slot, -1 if not active
     std::size_t mSlots = 0;            ///< active cells

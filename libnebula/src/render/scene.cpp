@@ -11,6 +11,7 @@
 #include "nebula/render/scatter_field.h"
 
 #include <fmt/format.h>
+#include <openvdb/tools/Count.h>
 
 #include <algorithm>
 #include <cmath>
@@ -276,10 +277,8 @@ namespace {
 /// The largest active value of @p grid (0 for none).
 float largestValue(const openvdb::FloatGrid& grid)
 {
-    float m = 0.0f;
-    for (auto it = grid.cbeginValueOn(); it; ++it)
-        m = std::max(m, *it);
-    return m;
+    if (grid.tree().activeVoxelCount() == 0) return 0.0f;
+    return std::max(0.0f, openvdb::tools::minMax(grid.tree()).max()); // threaded
 }
 
 /// Throws UsageError naming --emission-scale (and the grid's largest value) if @p scale times
@@ -411,6 +410,20 @@ void RenderScene::buildOccupancy()
     for (std::size_t b = 0; b < occupied.size(); ++b)
         detailReach[b] = occupied[b] ? 0 : one[b] ? 1 : two[b] ? 3 : 255;
     detail.clear();
+    column.clear();
+}
+
+const ColumnIntegrator& DensityColumn::get(const SparseVolume& fields) const
+{
+    const std::lock_guard<std::mutex> lock(mMutex);
+    if (!mColumn) mColumn = std::make_unique<ColumnIntegrator>(fields);
+    return *mColumn;
+}
+
+void DensityColumn::clear()
+{
+    const std::lock_guard<std::mutex> lock(mMutex);
+    mColumn.reset();
 }
 
 const SparseVolume& DetailLevels::level(const SparseVolume& fields, int level) const

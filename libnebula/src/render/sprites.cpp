@@ -51,9 +51,9 @@ void drawStarSprites(Image& img, const RenderScene& scene, const RenderOptions& 
     // small Gaussian footprint whose radiance times pixel solid angle sums to F_c.
     if (S > 0) {
         requireSpriteMemory(opts); // before R below, which it keeps within an int
-        // Column density eye -> star through the dust (channel 0), exact; the integrator's
-        // cell occupancy is built once for all stars.
-        const ColumnIntegrator column(vol);
+        // Column density eye -> star through the dust (channel 0), exact; the scene's
+        // integrator (its cell occupancy built once per scene).
+        const ColumnIntegrator& column = scene.column.get(vol);
         for (std::size_t s = 0; s < S; ++s) {
             double sx, sy;
             if (!cam.project(starPos[s], sx, sy)) continue;

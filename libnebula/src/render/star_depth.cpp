@@ -19,8 +19,8 @@ constexpr int B = SparseVolume::BRICK;
 } // namespace
 
 StarDepth::StarDepth(const RenderScene& scene)
-    : mScene(scene), mColumn(scene.fields), mLo(scene.fields.lo()), mDims(scene.fields.dims()),
-      mKappa(scene.dust.kappa_V)
+    : mScene(scene), mColumn(scene.column.get(scene.fields)), mLo(scene.fields.lo()),
+      mDims(scene.fields.dims()), mKappa(scene.dust.kappa_V)
 {
     const SparseVolume& f = scene.fields;
     const std::size_t bricks = f.voxelCount() / SparseVolume::BRICK_VOXELS;

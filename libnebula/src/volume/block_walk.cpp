@@ -26,18 +26,18 @@ void blockMaxima(const SparseVolume& v, std::array<int, 3>& blocks,
                     const float* q = v.voxel(
                         b + std::size_t((z * SparseVolume::BRICK + y) * SparseVolume::BRICK + x));
                     if (q[0] <= 0.0f && q[1] <= 0.0f) continue;
-                    // Point (i,j,k) is a corner of cells i-1..i per axis: blocks (i-1)/B, i/B.
-                    for (int dk = -1; dk <= 0; ++dk)
-                        for (int dj = -1; dj <= 0; ++dj)
-                            for (int di = -1; di <= 0; ++di) {
-                                const int ci = i + di, cj = j + dj, ck = k + dk;
-                                if (ci < 0 || cj < 0 || ck < 0 || ci / B >= blocks[0] ||
-                                    cj / B >= blocks[1] || ck / B >= blocks[2]) {
-                                    continue;
-                                }
+                    // Point (i,j,k) is a corner of cells i-1..i per axis: block i/B, and also
+                    // block i/B - 1 where i starts a block (cell i-1 ends the one before).
+                    const int bi = i / B, bj = j / B, bk = k / B;
+                    const int fi = (i % B == 0 && i > 0) ? 1 : 0,
+                              fj = (j % B == 0 && j > 0) ? 1 : 0,
+                              fk = (k % B == 0 && k > 0) ? 1 : 0;
+                    for (int ck = bk - fk; ck <= bk; ++ck)
+                        for (int cj = bj - fj; cj <= bj; ++cj)
+                            for (int ci = bi - fi; ci <= bi; ++ci) {
+                                if (ci >= blocks[0] || cj >= blocks[1] || ck >= blocks[2]) continue;
                                 auto& m =
-                                    maxima[(std::size_t(ck / B) * blocks[1] + cj / B) * blocks[0] +
-                                           ci / B];
+                                    maxima[(std::size_t(ck) * blocks[1] + cj) * blocks[0] + ci];
                                 m[0] = std::max(m[0], q[0]);
                                 m[1] = std::max(m[1], q[1]);
                             }

@@ -23,6 +23,11 @@ namespace nebula {
 /// per cell segment is exact (up to rounding).
 double columnDensity(const SparseVolume& n, const Vec3& a, const Vec3& b);
 
+/// A bit per lattice cell of @p n (at its lower corner's voxel index): whether any of its 8
+/// corners is non-zero in channel 0, i.e. whether a column or a flight through the cell must
+/// sample it. Parallel over the bricks; only bricks next to stored ones are read.
+VoxelBits dustyCells(const SparseVolume& n);
+
 /// columnDensity() for many segments through one volume (channel 0 of it; it keeps a
 /// reference): the per-cell occupancy it skips empty cells with is built once, in parallel.
 class ColumnIntegrator
@@ -38,7 +43,8 @@ private:
 };
 
 /// Reference for tests: the same integral as columnDensity(), written as simply as possible
-/// (sort every lattice-plane crossing, Simpson per piece through SparseVolume::sample).
+/// (sort every lattice-plane crossing, Simpson per piece on the interpolant of the cell that
+/// holds it, so that a field which jumps at the lattice's faces is integrated right too).
 double columnDensityReference(const SparseVolume& n, const Vec3& a, const Vec3& b);
 
 /// Reference for tests: tau_V at every lattice point of @p n via columnDensityReference().

@@ -5,6 +5,7 @@
 /// integrators never touch them), the stars and the per-channel dust.
 
 #include "nebula/physics/dust.h"
+#include "nebula/physics/optical_depth.h"
 #include "nebula/physics/stars.h"
 #include "nebula/render/options.h"
 #include "nebula/volume/block_walk.h"
@@ -78,6 +79,30 @@ private:
     mutable std::vector<std::unique_ptr<SparseVolume>> mLevels;
 };
 
+/// The density's exact column integrator (physics/optical_depth.h, on channel 0 of a scene's
+/// fields, in place), built on first use and kept: StarDepth and the star sprites share its
+/// empty-cell bits, and the frames of a camera path build them once. Safe to ask from
+/// several threads. A copied or moved scene starts without it (it refers to the fields).
+class DensityColumn
+{
+public:
+    DensityColumn() = default;
+    DensityColumn(const DensityColumn&) {}
+    DensityColumn& operator=(const DensityColumn&)
+    {
+        clear();
+        return *this;
+    }
+    /// The integrator on channel 0 of @p fields, building it if needed.
+    const ColumnIntegrator& get(const SparseVolume& fields) const;
+    /// Forgets the integrator built.
+    void clear();
+
+private:
+    mutable std::mutex mMutex;
+    mutable std::unique_ptr<ColumnIntegrator> mColumn;
+};
+
 /// What the kernel renders: compact fields plus the stars and dust.
 struct RenderScene
 {
@@ -100,9 +125,11 @@ struct RenderScene
     std::vector<std::uint8_t> detailReach;
     /// The fields' levels of detail, built when a frame first needs them.
     DetailLevels detail;
+    /// The density's column integrator, built when a frame first needs it.
+    DensityColumn column;
 
     /// (Re)computes `blocks`, `occupied` and `detailReach` from channels 0 (density) and 1
-    /// (emission), and forgets the levels of detail.
+    /// (emission), and forgets the levels of detail and the column integrator.
     void buildOccupancy();
 
     /// Pyramid levels 1..K (empty without RenderOptions::levels).

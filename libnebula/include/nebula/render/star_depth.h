@@ -94,7 +94,7 @@ private:
     }
 
     const RenderScene& mScene;
-    ColumnIntegrator mColumn; ///< on channel 0 (density) of the scene's fields, in place
+    const ColumnIntegrator& mColumn; ///< the scene's (RenderScene::column)
     // The bits are built brick by brick when a ray first asks for one of its cells (build()):
     // a frame pays only for the bricks its rays reach. Each brick's bits are 8 words of its
     // own, written once by the thread that builds it.

@@ -289,6 +289,8 @@ public:
     bool operator[](std::size_t i) const { return (mWords[i >> 6] >> (i & 63)) & 1u; }
     void set(std::size_t i) { mWords[i >> 6] |= std::uint64_t(1) << (i & 63); }
     void clear(std::size_t i) { mWords[i >> 6] &= ~(std::uint64_t(1) << (i & 63)); }
+    /// Bits 64 w .. 64 w + 63 at once (bit b of @p bits is bit 64 w + b).
+    void setWord(std::size_t w, std::uint64_t bits) { mWords[w] = bits; }
     /// The number of bits set.
     std::size_t count() const
     {
