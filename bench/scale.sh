@@ -8,7 +8,9 @@
 #
 # Usage: bench/scale.sh [RES...]      (default: 128 256 512; 1024 when asked)
 # Environment: TOOLS (default build/tools), IMAGE (default 512x512), THREADS (--threads,
-#              default 0 = all cores), KEEP=1 keeps the temp dir.
+#              default 0 = all cores), KEEP=1 keeps the temp dir, NEBGEN_ARGS: more nebgen
+#              options (e.g. NEBGEN_ARGS="--envelope 0.37": a cloud that fills less of its box,
+#              to see memory follow the dust).
 # Prints, per resolution, one row per stage: wall and CPU time [s], peak RSS [MiB], output
 # size [MiB]; then the pipeline's total wall time and its largest peak.
 set -euo pipefail
@@ -38,7 +40,8 @@ row() { # name output command
 echo "machine: $(nproc) cores, $(awk '/MemTotal/ { printf "%.1f GiB", $2 / 1048576 }' /proc/meminfo); load average $(cut -d' ' -f1-3 /proc/loadavg)"
 for res in "${RESES[@]}"; do
     mkdir -p "r$res" && cd "r$res"
-    timed nebgen "$TOOLS/nebgen" --res "$res" --threads "$THREADS" -v -o n.vdb
+    # shellcheck disable=SC2086 # NEBGEN_ARGS is a list of options
+    timed nebgen "$TOOLS/nebgen" --res "$res" ${NEBGEN_ARGS:-} --threads "$THREADS" -v -o n.vdb
     timed nebillum "$TOOLS/nebillum" -i n.vdb --threads "$THREADS" -v -o lit.vdb
     timed nebscatter "$TOOLS/nebscatter" -i lit.vdb --threads "$THREADS" -v -o scattered.vdb
     timed nebrender "$TOOLS/nebrender" -i scattered.vdb --res "$IMAGE" --threads "$THREADS" -v \
@@ -48,7 +51,7 @@ for res in "${RESES[@]}"; do
     echo
     echo "== ${res}^3 (load average $(cut -d' ' -f1-3 /proc/loadavg))"
     printf "%-12s %9s %9s %10s %10s   %s\n" stage "wall [s]" "CPU [s]" "peak [MiB]" "out [MiB]" command
-    row nebgen n.vdb "nebgen --res $res -o n.vdb"
+    row nebgen n.vdb "nebgen --res $res ${NEBGEN_ARGS:+$NEBGEN_ARGS }-o n.vdb"
     row nebillum lit.vdb "nebillum -i n.vdb -o lit.vdb"
     row nebscatter scattered.vdb "nebscatter -i lit.vdb -o scattered.vdb"
     row nebrender f.exr "nebrender -i scattered.vdb --res $IMAGE -o f.exr"
@@ -60,5 +63,6 @@ for res in "${RESES[@]}"; do
     done
     printf "pipeline     %9.2f %9s %10.0f\n" "$total" "" "$(awk -v k="$peak" 'BEGIN { print k / 1024 }')"
     grep -h "scene .* s, render" frame-fixed.log | sed 's/^/  frame-fixed: /' || true
+    grep -h "scene fields:" nebrender.log | sed 's/^/  /' || true
     cd ..
 done

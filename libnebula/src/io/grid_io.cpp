@@ -488,6 +488,22 @@ template <typename GridT> void requireFiniteGrid(const GridT& grid, const std::s
     if (!finite(grid.background())) {
         throw Error(where + ": " + name + " has a non-finite background; refusing to write it");
     }
+    // The leaves in parallel, straight from their buffers, and the tiles; the serial walk
+    // below only where a value is not finite, to name the first one.
+    std::atomic<bool> bad{false};
+    openvdb::tree::LeafManager<const typename GridT::TreeType> leaves(grid.tree());
+    leaves.foreach ([&](const typename GridT::TreeType::LeafNodeType& leaf, std::size_t) {
+        const auto* values = leaf.buffer().data();
+        bool ok = true;
+        for (auto on = leaf.getValueMask().beginOn(); on; ++on)
+            ok = ok && finite(values[on.pos()]);
+        if (!ok) bad = true;
+    });
+    auto tile = grid.tree().cbeginValueOn();
+    tile.setMaxDepth(GridT::TreeType::ValueOnCIter::LEAF_DEPTH - 1); // tiles only
+    for (; tile && !bad; ++tile)
+        if (!finite(*tile)) bad = true;
+    if (!bad) return;
     for (auto it = grid.cbeginValueOn(); it; ++it) {
         if (!finite(*it)) {
             const auto ijk = it.getCoord();
@@ -522,12 +538,14 @@ void stamp(GridSet& grids, const std::string& tool, const std::string& command)
     grids.setMetaString(META_VERSION, NEBULA_VERSION_STRING);
     grids.setMetaString(META_COMMAND, command);
     grids.setMetaString(META_HISTORY, history.dump());
-    nlohmann::json sums = nlohmann::json::object();
-    for (auto& g : grids.grids) {
+    for (auto& g : grids.grids)
         if (g->getCreator().empty()) g->setCreator(tool + " " NEBULA_VERSION_STRING);
-        const std::string sum = gridChecksum(*g);
-        if (!sum.empty()) sums[g->getName()] = sum;
-    }
+    std::vector<std::string> sum(grids.grids.size()); // the grids' checksums in parallel
+    tbb::parallel_for(std::size_t(0), sum.size(),
+                      [&](std::size_t i) { sum[i] = gridChecksum(*grids.grids[i]); });
+    nlohmann::json sums = nlohmann::json::object();
+    for (std::size_t i = 0; i < sum.size(); ++i)
+        if (!sum[i].empty()) sums[grids.grids[i]->getName()] = sum[i];
     grids.meta.removeMeta(META_CHECKSUMS);
     const nlohmann::json all = {{"algorithm", CHECKSUM_ALGORITHM},
                                 {"grids", sums},
