@@ -2,7 +2,8 @@
 /// Google Benchmark of the hot paths (STYLE "Determinism and speed"): noise and fBm
 /// (nebgen), the exact column integrator (nebillum), the 4-channel trilinear lookup and the
 /// phase functions (nebrender's inner loop), and a whole single-scattering frame, with and
-/// without the effective phase-function table.
+/// without the effective phase-function table; and the machine's memory read bandwidth, the
+/// yardstick the README measures the kernels against.
 /// Every benchmark reports items per second; quote its figures as ratios.
 ///
 ///     build-bench/bench/nebula_bench --benchmark_min_time=0.2
@@ -22,6 +23,7 @@
 #include <benchmark/benchmark.h>
 #include <openvdb/openvdb.h>
 #include <tbb/global_control.h>
+#include <tbb/parallel_for.h>
 
 #include <cmath>
 #include <cstdint>
@@ -137,6 +139,36 @@ void BM_DenseSample4(benchmark::State& state)
     state.SetItemsProcessed(state.iterations());
 }
 BENCHMARK(BM_DenseSample4);
+
+// ---- the machine: memory read bandwidth ------------------------------------------------
+// Sums 1 GiB of floats (far beyond every cache) with Arg threads, each its own contiguous
+// part: bytes per second is the sustained read bandwidth the kernels' loads compete for.
+
+void BM_MemoryRead(benchmark::State& state)
+{
+    static const std::vector<float> data(std::size_t(1) << 28, 1.0f); // 1 GiB, touched once
+    const std::size_t threads = std::size_t(state.range(0));
+    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
+    std::vector<double> sums(threads);
+    for (auto _ : state) {
+        tbb::parallel_for(std::size_t(0), threads, [&](std::size_t t) {
+            const std::size_t n = data.size() / threads;
+            const float* p = data.data() + t * n;
+            float acc[16] = {};
+            for (std::size_t i = 0; i < n; i += 16)
+                for (int k = 0; k < 16; ++k)
+                    acc[k] += p[i + std::size_t(k)];
+            double sum = 0.0;
+            for (const float a : acc)
+                sum += a;
+            sums[t] = sum;
+        });
+        benchmark::DoNotOptimize(sums.data());
+    }
+    state.SetBytesProcessed(std::int64_t(state.iterations()) *
+                            std::int64_t(data.size() * sizeof(float)));
+}
+BENCHMARK(BM_MemoryRead)->Arg(1)->Arg(2)->ArgName("threads")->UseRealTime();
 
 // ---- dust.h: phaseFunction, per model (0 hg, 1 rayleigh, 2 hazy, 3 murky) --------------
 
