@@ -189,34 +189,45 @@ void requireVoxelSize(const openvdb::GridBase& grid, const std::string& source)
     }
 }
 
+namespace {
+
+/// Whether @p ok(value) holds for every active value of @p tree: the leaves in parallel,
+/// straight from their buffers, then the tiles. @p count, if given, gets the number of active
+/// entries (a tile counts once, as the tree's value iterator counts it).
+template <typename TreeT, typename Ok>
+bool everyActiveValue(const TreeT& tree, const Ok& ok, std::size_t* count = nullptr)
+{
+    std::atomic<bool> bad{false};
+    std::atomic<std::size_t> entries{0};
+    openvdb::tree::LeafManager<const TreeT> leaves(tree);
+    leaves.foreach ([&](const typename TreeT::LeafNodeType& leaf, std::size_t) {
+        const auto* values = leaf.buffer().data();
+        std::size_t on = 0;
+        bool good = true;
+        for (auto it = leaf.getValueMask().beginOn(); it; ++it, ++on)
+            good = good && ok(values[it.pos()]);
+        if (!good) bad = true;
+        entries += on;
+    });
+    auto tile = tree.cbeginValueOn();
+    tile.setMaxDepth(TreeT::ValueOnCIter::LEAF_DEPTH - 1); // tiles only
+    for (; tile; ++tile, ++entries)
+        if (!ok(*tile)) bad = true;
+    if (count) *count = entries;
+    return !bad;
+}
+
+} // namespace
+
 std::size_t requireFiniteNonNegative(const openvdb::FloatGrid& grid, const std::string& source)
 {
-    // The leaves in parallel, straight from their buffers; only where a value is bad does the
-    // serial walk below run, to name the first one in the tree's order.
-    using Leaf = openvdb::FloatTree::LeafNodeType;
-    std::atomic<bool> bad{false};
-    std::atomic<std::size_t> count{0};
-    openvdb::tree::LeafManager<const openvdb::FloatTree> leaves(grid.tree());
-    leaves.foreach ([&](const Leaf& leaf, std::size_t) {
-        const float* values = leaf.buffer().data();
-        std::size_t on = 0;
-        bool ok = true;
-        for (auto it = leaf.getValueMask().beginOn(); it; ++it, ++on) {
-            const float v = values[it.pos()];
-            ok = ok && v >= 0.0f && v <= std::numeric_limits<float>::max(); // no NaN, no inf
-        }
-        if (!ok) bad = true;
-        count += on;
-    });
-    bool tilesOk = true;
-    std::size_t tiles = 0;
-    auto tile = grid.tree().cbeginValueOn();
-    tile.setMaxDepth(openvdb::FloatTree::ValueOnCIter::LEAF_DEPTH - 1); // tiles only
-    for (; tile; ++tile, ++tiles) {
-        const float v = *tile;
-        tilesOk = tilesOk && v >= 0.0f && v <= std::numeric_limits<float>::max();
-    }
-    if (!bad && tilesOk) return count + tiles;
+    // Only where a value is bad does the serial walk below run, to name the first one in the
+    // tree's order.
+    const auto finiteNonNegative = [](float v) { // false for NaN and inf too
+        return v >= 0.0f && v <= std::numeric_limits<float>::max();
+    };
+    std::size_t count = 0;
+    if (everyActiveValue(grid.tree(), finiteNonNegative, &count)) return count;
     std::size_t n = 0;
     for (auto it = grid.cbeginValueOn(); it; ++it, ++n) {
         const float v = *it;
@@ -488,22 +499,8 @@ template <typename GridT> void requireFiniteGrid(const GridT& grid, const std::s
     if (!finite(grid.background())) {
         throw Error(where + ": " + name + " has a non-finite background; refusing to write it");
     }
-    // The leaves in parallel, straight from their buffers, and the tiles; the serial walk
-    // below only where a value is not finite, to name the first one.
-    std::atomic<bool> bad{false};
-    openvdb::tree::LeafManager<const typename GridT::TreeType> leaves(grid.tree());
-    leaves.foreach ([&](const typename GridT::TreeType::LeafNodeType& leaf, std::size_t) {
-        const auto* values = leaf.buffer().data();
-        bool ok = true;
-        for (auto on = leaf.getValueMask().beginOn(); on; ++on)
-            ok = ok && finite(values[on.pos()]);
-        if (!ok) bad = true;
-    });
-    auto tile = grid.tree().cbeginValueOn();
-    tile.setMaxDepth(GridT::TreeType::ValueOnCIter::LEAF_DEPTH - 1); // tiles only
-    for (; tile && !bad; ++tile)
-        if (!finite(*tile)) bad = true;
-    if (!bad) return;
+    // The serial walk below only where a value is not finite, to name the first one.
+    if (everyActiveValue(grid.tree(), finite)) return;
     for (auto it = grid.cbeginValueOn(); it; ++it) {
         if (!finite(*it)) {
             const auto ijk = it.getCoord();

@@ -450,13 +450,10 @@ private:
     /// levels already takes them.
     bool detailPays(const RenderOptions& opts) const
     {
-        const SparseVolume& f = mScene.fields;
-        const double diagonal =
-            std::sqrt(double(f.dims()[0]) * f.dims()[0] + double(f.dims()[1]) * f.dims()[1] +
-                      double(f.dims()[2]) * f.dims()[2]);
-        const double samples =
-            double(opts.camera.width) * double(opts.camera.height) * diagonal / opts.step;
-        const double voxels = double(f.storedBricks()) * double(SparseVolume::BRICK_VOXELS);
+        const double samples = double(opts.camera.width) * double(opts.camera.height) *
+                               latticeDiagonal(mScene) / opts.step;
+        const double voxels =
+            double(mScene.fields.storedBricks()) * double(SparseVolume::BRICK_VOXELS);
         return 10.0 * samples > voxels || mScene.detail.built() > 0;
     }
 

@@ -131,7 +131,7 @@ public:
               Channels channels)
         : mScene(scene), mDust(scene.dust), mCh(std::move(channels)), mC(int(mCh.size())),
           mOrder(opts.order), mNm(shCount(opts.order)), mScale(1 << opts.fieldLevel),
-          mDensity(scene.fields)
+          mDensity(scene.fields), mDusty(scene.column.get(scene.fields).dusty())
     {
         const SparseVolume& f = scene.fields;
         mW2I = f.indexToWorld.inverse();
@@ -144,8 +144,6 @@ public:
             mFDims[a] = floorDiv(mHi[a]) + 1 - mFLo[a] + 1;
         }
         mRMin = *std::min_element(mCh.r.begin(), mCh.r.end());
-        // Lattice cells with dust (a corner non-zero): the only ones a flight samples.
-        mDusty = dustyCells(f);
         // Dust per field cell (n_H summed over its voxels), and the cells the renderer
         // reads: those holding dust and their 26 neighbours. Only stored bricks hold dust.
         mCellDust.assign(fieldCells(), 0.0);
@@ -419,7 +417,9 @@ private:
     double mVoxel = 1.0, mRmin2 = 0.0, mRMin = 1.0;
     std::array<int, 3> mLo{}, mHi{}, mFLo{}, mFDims{};
     std::vector<Vec3> mStarPos;
-    VoxelBits mDusty;                  ///< a bit per lattice cell (lower corner's index): dust
+    /// A bit per lattice cell (lower corner's index): dust, the only cells a flight samples
+    /// (the scene's column integrator's, which StarDepth shares).
+    const VoxelBits& mDusty;
     std::vector<std::uint8_t> mActive; ///< per field cell: read by the renderer
     std::vector<std::int32_t> mSlot;   ///< per field cell: its tally slot, -1 if not active
     std::size_t mSlots = 0;            ///< active cells

@@ -357,14 +357,19 @@ RenderScene buildScene(const GridSet& grids, const RenderOptions& opts, const Du
     return scene;
 }
 
+double latticeDiagonal(const RenderScene& scene)
+{
+    const auto& d = scene.fields.dims();
+    return std::sqrt(double(d[0]) * d[0] + double(d[1]) * d[1] + double(d[2]) * d[2]);
+}
+
 void requireRayStep(const RenderScene& scene, double step)
 {
     if (!(step > 0.0) || !std::isfinite(step)) {
         throw UsageError("--step must be a finite number > 0 [voxels], got " + numberText(step));
     }
     const auto& d = scene.fields.dims();
-    const double diagonal =
-        std::sqrt(double(d[0]) * d[0] + double(d[1]) * d[1] + double(d[2]) * d[2]); // [voxels]
+    const double diagonal = latticeDiagonal(scene);
     const double smallest = diagonal / MAX_STEPS_PER_RAY;
     if (step >= smallest) return;
     const double voxel = voxelSize(scene.fields.indexToWorld); // [pc]

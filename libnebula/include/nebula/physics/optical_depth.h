@@ -36,6 +36,8 @@ public:
     explicit ColumnIntegrator(const SparseVolume& n);
     /// integral n dl [cm^-3 pc] from index-space point a to b (see columnDensity()).
     double operator()(const Vec3& a, const Vec3& b) const;
+    /// Its bits: dustyCells() of the volume.
+    const VoxelBits& dusty() const { return mDusty; }
 
 private:
     const SparseVolume& mN;

@@ -162,6 +162,9 @@ inline constexpr double MAX_RADIANCE = 1e30;
 /// The most ray-march steps a ray may take across a scene's lattice (corner to corner).
 inline constexpr double MAX_STEPS_PER_RAY = 1e6;
 
+/// The length of @p scene's lattice corner to corner [voxels].
+double latticeDiagonal(const RenderScene& scene);
+
 /// Throws UsageError naming --step unless @p step [voxels] is a finite number > 0 with which
 /// a ray across @p scene's lattice takes at most MAX_STEPS_PER_RAY steps; the message says
 /// the smallest step allowed for this grid, in voxels and pc.
