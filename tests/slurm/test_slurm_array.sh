@@ -21,6 +21,9 @@
 # COMPLETED with exit code 0, EXRs f.0001..f.0005 (non-empty, no f.0006), the tone job's PNGs,
 # each task's log names its own frames and only those, and the tone job started after every
 # array task had ended (by the scripts' clocks and by Slurm's StartTime/EndTime).
+# Alongside, examples/slurm/scatter.sbatch runs nebscatter as one job of 2 tasks (MPI ranks,
+# srun --mpi=pmix): it must complete, say 2 ranks computed the field, and write the same grid
+# checksums as one nebscatter process here (skipped where NEBULA_HAVE_MPI is not ON).
 # SLURM_TEST_FRAMES (default 5) submits another frame count, to see the test fail.
 #
 # Needs root (slurmd runs the jobs; SlurmUser=root) and the Debian packages slurm-wlm and
@@ -78,6 +81,9 @@ NEBGEN=$(find_tool nebgen)
 NEBILLUM=$(find_tool nebillum)
 NEBRENDER=$(find_tool nebrender)
 NEBTONE=$(find_tool nebtone)
+NEBSCATTER=$(find_tool nebscatter)
+SCATTER_SBATCH=$(dirname "$SUBMIT")/scatter.sbatch
+[[ -f $SCATTER_SBATCH ]] || fail "$SCATTER_SBATCH not found"
 
 mkdir -p "$WORK_DIR" || fail "cannot create $WORK_DIR"
 WORK=$(cd "$WORK_DIR" && pwd)
@@ -284,6 +290,21 @@ TONE=$(sed -n 's/^TONE_JOB_ID=\([0-9]*\)$/\1/p' "$WORK/log/submit.log")
 JOB_IDS=("$ARRAY" "$TONE")
 echo "slurm_array: submitted array $ARRAY and tone job $TONE"
 
+# nebscatter as one job of 2 MPI tasks (examples/slurm/scatter.sbatch), and the same field
+# from one process here: the two must have the same grid checksums.
+SCATTER=
+if [[ ${NEBULA_HAVE_MPI:-ON} == ON ]]; then
+    SCATTER=$(cd "$WORK" && SCENE=scene/lit.vdb OUT=out/scattered.vdb         SCATTER_FLAGS="--packets 20000" NEBSCATTER=$NEBSCATTER         sbatch --parsable --ntasks=2 --cpus-per-task=1 --time=5         --output="$WORK/out/scatter_%j.log" "$SCATTER_SBATCH") ||
+        fail "sbatch $SCATTER_SBATCH failed"
+    SCATTER=${SCATTER%%;*}
+    JOB_IDS+=("$SCATTER")
+    echo "slurm_array: submitted nebscatter job $SCATTER (2 tasks)"
+    "$NEBSCATTER" -i "$WORK/scene/lit.vdb" -o "$WORK/scene/scattered_one.vdb" --packets 20000 \
+        --threads 1 -q || fail "nebscatter (one process) failed"
+else
+    echo "slurm_array: nebscatter over 2 tasks skipped: this build has no MPI (NEBULA_WITH_MPI)"
+fi
+
 # --- wait for both jobs (JOB_TIMEOUT s at most) ------------------------------------------------
 TERMINAL='^(COMPLETED|FAILED|CANCELLED|TIMEOUT|NODE_FAIL|OUT_OF_MEMORY|BOOT_FAIL|DEADLINE|PREEMPTED|SPECIAL_EXIT)$'
 field() { # field NAME < "scontrol -o show job" lines: the values of NAME=, one a line
@@ -292,7 +313,7 @@ field() { # field NAME < "scontrol -o show job" lines: the values of NAME=, one 
 done_=0
 deadline=$((SECONDS + JOB_TIMEOUT))
 while ((SECONDS < deadline)); do
-    jobs=$( (scontrol -o show job "$ARRAY"; scontrol -o show job "$TONE") 2>/dev/null || true)
+    jobs=$( (for j in "${JOB_IDS[@]}"; do scontrol -o show job "$j"; done) 2>/dev/null || true)
     states=$(field JobState <<<"$jobs")
     if [[ -n $states ]] && ! grep -qvE "$TERMINAL" <<<"$states"; then
         done_=1
@@ -368,7 +389,28 @@ for end in $(field EndTime <<<"$array_jobs"); do
     [[ ! $tone_start < $end ]] || check "Slurm: tone job StartTime $tone_start < array task EndTime $end"
 done
 
+# The 2-task field: the job completed, ran as 2 MPI ranks, and wrote the one-process field.
+if [[ -n $SCATTER ]]; then
+    scatter_job=$(scontrol -o show job "$SCATTER")
+    st=$(field JobState <<<"$scatter_job")
+    ec=$(field ExitCode <<<"$scatter_job")
+    [[ $st == COMPLETED && $ec == 0:0 ]] || check "nebscatter job $SCATTER: $st, exit code $ec"
+    log=$WORK/out/scatter_$SCATTER.log
+    grep -q "by 2 MPI ranks" "$log" 2>/dev/null || check "$log does not say the field was computed by 2 MPI ranks"
+    checksums() { grep -ao '"grids":{[^}]*}' "$1" 2>/dev/null || true; }
+    two=$(checksums "$WORK/out/scattered.vdb")
+    one=$(checksums "$WORK/scene/scattered_one.vdb")
+    if [[ -z $two || -z $one ]]; then
+        check "no field checksums in $WORK/out/scattered.vdb or the one-process field"
+    elif [[ $two != "$one" ]]; then
+        check "the 2-task field's grid checksums differ from one process's"
+    elif ! grep -q 'scatter\.stars\.J' <<<"$two"; then
+        check "the 2-task output has no scatter.stars.J grids"
+    fi
+fi
+
 if ((${#errors[@]})); then
     fail "${#errors[@]} check(s) failed: ${errors[0]}"
 fi
 echo "slurm_array: $K tasks rendered frames 1-$FRAMES, tone job $TONE toned them after the array"
+[[ -z $SCATTER ]] || echo "slurm_array: nebscatter job $SCATTER: 2 MPI tasks wrote the one-process field, bit for bit"

@@ -1,8 +1,11 @@
 // nebscatter - the field of multiply scattered light, computed once per scene (DESIGN §5b).
 #include "nebula/cli/cli.h"
+#include "nebula/cli/process_ranks.h"
+#include "nebula/core/error.h"
 #include "nebula/stages/scatter.h"
 
 #include <cstdint>
+#include <memory>
 #include <string>
 
 int main(int argc, char** argv)
@@ -40,7 +43,11 @@ int main(int argc, char** argv)
         "scatter.spectral.<source>.J.<lambda>nm and .c<l>_<m>.<lambda>nm, per nm; metadata\n"
         "nebula:scatter_spectral); it replaces only an earlier spectral field, so one file\n"
         "can hold both. Same seed, same field, whatever the thread count.\n"
-        "-v reports the packets, the energy balance and the field's noise.",
+        "-v reports the packets, the energy balance and the field's noise.\n"
+        "Started by mpirun (or srun with an MPI plugin), the ranks share the packets and\n"
+        "rank 0 writes the same field, bit for bit, as one process would (README,\n"
+        "\"nebscatter over MPI\"):\n"
+        "  mpirun -np 4 nebscatter -i lit.vdb -o scattered.vdb --threads 8",
         "nebscatter"};
     nebula::cli::addCommon(app, common,
                            nebula::cli::INPUT | nebula::cli::OUTPUT | nebula::cli::PASS_THROUGH |
@@ -95,15 +102,28 @@ int main(int argc, char** argv)
         ->capture_default_str()
         ->check(nebula::cli::positive());
 
-    return nebula::cli::run(app, "nebscatter", common, argc, argv, [&](nebula::Run& run) {
+    std::unique_ptr<nebula::Ranks> ranks; // MPI's, when mpirun or srun started this process
+    const int rc = nebula::cli::run(app, "nebscatter", common, argc, argv, [&](nebula::Run& run) {
         nebula::refuseBinaryToTerminal(common.output, "-o");
+        ranks = nebula::cli::processRanks("nebscatter");
+        if (ranks->size() > 1 && common.input == "-") {
+            throw nebula::UsageError(
+                "-i -: with " + std::to_string(ranks->size()) +
+                " MPI ranks every rank reads the input, and stdin reaches rank 0 only: give a "
+                "file every rank can read");
+        }
+        // Rank 0 speaks and writes; the others compute their packets quietly.
+        const nebula::Run quiet(run.tool(), run.command(), nebula::Verbosity{true, 0});
+        const nebula::Run& say = ranks->root() ? run : quiet;
+        f.ranks = ranks.get();
         f.emission = !noEmission;
         f.fieldLevel = fieldLevel == "auto" ? nebula::AUTO_FIELD_LEVEL : std::stoi(fieldLevel);
         opts.exactStarDepth = !interpolatedTau;
-        auto grids = nebula::readGrids(common.input, run);
+        auto grids = nebula::readGrids(common.input, say);
         opts.densityGrid = common.densityGrid;
         opts.onlyNew = common.onlyNew;
-        nebula::scatter(grids, opts, run);
-        nebula::writeGrids(common.output, std::move(grids), run);
+        nebula::scatter(grids, opts, say);
+        if (ranks->root()) nebula::writeGrids(common.output, std::move(grids), run);
     });
+    return nebula::cli::finishRanks(ranks, rc);
 }

@@ -123,6 +123,12 @@ void validateScatterOptions(const RenderScene& scene, const ScatterOptions& opts
             opts.fieldLevel, opts.fieldLevel < 31 ? std::to_string(1LL << opts.fieldLevel) : "2^k",
             d[0] - 2, d[1] - 2, d[2] - 2, coarsestFieldLevel(extent)));
     }
+    if (opts.ranks && std::uint64_t(opts.ranks->size()) > opts.packets) {
+        throw UsageError(fmt::format(
+            "--packets {} is fewer than the {} MPI ranks sharing them: give at least one packet "
+            "per rank (--packets {} or more), or start fewer ranks",
+            opts.packets, opts.ranks->size(), opts.ranks->size()));
+    }
 }
 
 namespace {
@@ -225,9 +231,14 @@ ScatterField computeField(const RenderScene& scene, const RenderOptions& ropts,
             shared.invQ = 1.0 / quantum;
             shared.invQSq = 1.0 / (quantum * 256.0);
             EnergySums energy;
+            // This rank's packets (all of them in one process): the same streams, so the
+            // ranks' summed tallies are one process's.
+            const auto [first, last] =
+                opts.ranks ? opts.ranks->share(opts.packets)
+                           : std::pair<std::uint64_t, std::uint64_t>(0, opts.packets);
             {
-                Progress bar(run, "nebscatter " + spec.name, opts.packets);
-                tbb::parallel_for(tbb::blocked_range<std::uint64_t>(0, opts.packets, 4096),
+                Progress bar(run, "nebscatter " + spec.name, last - first);
+                tbb::parallel_for(tbb::blocked_range<std::uint64_t>(first, last, 4096),
                                   [&](const tbb::blocked_range<std::uint64_t>& r) {
                                       Transport::Tally tally = shared;
                                       if (perThread) {
@@ -253,6 +264,26 @@ ScatterField computeField(const RenderScene& scene, const RenderOptions& ropts,
                     sumAll[i] += buf.first[i];
                 for (std::size_t i = 0; i < slots; ++i)
                     sqAll[i] += buf.second[i];
+            }
+            local.clear();
+            if (opts.ranks && opts.ranks->size() > 1) {
+                opts.ranks->sumToRoot(sumAll.data(), sumAll.size());
+                opts.ranks->sumToRoot(sqAll.data(), sqAll.size());
+                std::int64_t e[3 * MAX_CHANNELS];
+                std::copy(energy.power, energy.power + MAX_CHANNELS, e);
+                std::copy(energy.escaped, energy.escaped + MAX_CHANNELS, e + MAX_CHANNELS);
+                std::copy(energy.absorbed, energy.absorbed + MAX_CHANNELS, e + 2 * MAX_CHANNELS);
+                opts.ranks->sumToRoot(e, 3 * MAX_CHANNELS);
+                std::copy(e, e + MAX_CHANNELS, energy.power);
+                std::copy(e + MAX_CHANNELS, e + 2 * MAX_CHANNELS, energy.escaped);
+                std::copy(e + 2 * MAX_CHANNELS, e + 3 * MAX_CHANNELS, energy.absorbed);
+                std::uint64_t flights = energy.flights.load();
+                opts.ranks->sumToRoot(&flights, 1);
+                energy.flights = flights;
+                if (!opts.ranks->root()) { // rank 0 holds the field
+                    field.sources.push_back(std::move(out));
+                    continue;
+                }
             }
             // Unit of the weights: the source's power over C N (w_c is about 1).
             const double U = sampler.total * detA / (double(C) * double(opts.packets));

@@ -55,7 +55,11 @@ ScatterField scatter(GridSet& grids, const ScatterStageOptions& opts, const Run&
                              : computeScatterField(scene, ropts, fopts, &run);
     const double seconds =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    run.info(fmt::format("field computed in {:.3g} s", seconds));
+    run.info(fmt::format("field computed in {:.3g} s{}", seconds,
+                         fopts.ranks && fopts.ranks->size() > 1
+                             ? fmt::format(" by {} MPI ranks", fopts.ranks->size())
+                             : std::string()));
+    if (fopts.ranks && !fopts.ranks->root()) return field; // rank 0 writes the grids
 
     ScatterFieldMeta meta;
     meta.order = field.order;

@@ -237,6 +237,96 @@ TEST(ScatterField, SameSeedSameFieldWhateverTheThreadCount)
               latticeValues(one.sources[0].moments));
 }
 
+namespace {
+
+/// Rank r of s in one process: ranks 1..s-1 run first and leave their arrays in a mailbox
+/// (one per sumToRoot() call, in call order); rank 0 then adds them, as MPI_Reduce would.
+class MailboxRanks final : public Ranks
+{
+public:
+    MailboxRanks(int r, int s, std::vector<std::vector<std::int64_t>>& box)
+        : mRank(r), mSize(s), mBox(box)
+    {}
+    int rank() const override { return mRank; }
+    int size() const override { return mSize; }
+    void sumToRoot(std::int64_t* data, std::size_t n) const override
+    {
+        if (mRank != 0) {
+            mBox.emplace_back(data, data + n);
+            return;
+        }
+        // Rank 0's call k sums call k of every other rank.
+        const std::size_t others = std::size_t(mSize - 1), calls = mBox.size() / others;
+        for (std::size_t r = 0; r < others; ++r) {
+            const auto& v = mBox[r * calls + mCall];
+            EXPECT_EQ(v.size(), n);
+            for (std::size_t i = 0; i < n; ++i)
+                data[i] += v[i];
+        }
+        ++mCall;
+    }
+    void sumToRoot(std::uint64_t* data, std::size_t n) const override
+    {
+        std::vector<std::int64_t> v(data, data + n);
+        sumToRoot(v.data(), n);
+        for (std::size_t i = 0; i < n; ++i)
+            data[i] = std::uint64_t(v[i]);
+    }
+
+private:
+    int mRank, mSize;
+    std::vector<std::vector<std::int64_t>>& mBox;
+    mutable std::size_t mCall = 0;
+};
+
+} // namespace
+
+TEST(ScatterField, RanksSharingThePacketsGiveOneProcesssField)
+{
+    auto scene = ball(17, {starAt(Vec3(0.8, 0.8, 0.8), 10.0)}, [](const Vec3&) { return 900.0; });
+    for (std::size_t i = 0; i < scene.fields.voxelCount(); ++i)
+        scene.fields.writable(i)[1] = 0.5f; // emission too: two sources, two rounds of sums
+    RenderOptions ropts;
+    ScatterOptions so;
+    so.packets = 20001; // not a multiple of the ranks
+    so.fieldLevel = 0;
+    const ScatterField one = computeScatterField(scene, ropts, so, nullptr);
+    ASSERT_EQ(one.sources.size(), 2u);
+    for (const int size : {2, 3}) {
+        std::vector<std::vector<std::int64_t>> box;
+        for (int r = size - 1; r >= 1; --r) {
+            MailboxRanks ranks(r, size, box);
+            so.ranks = &ranks;
+            const ScatterField other = computeScatterField(scene, ropts, so, nullptr);
+            ASSERT_EQ(other.sources.size(), 2u);
+            EXPECT_EQ(other.sources[0].moments.storedBricks(), 0u) << "only rank 0 holds the field";
+        }
+        MailboxRanks root(0, size, box);
+        so.ranks = &root;
+        const ScatterField sum = computeScatterField(scene, ropts, so, nullptr);
+        for (std::size_t s = 0; s < 2; ++s) {
+            EXPECT_EQ(latticeValues(sum.sources[s].moments), latticeValues(one.sources[s].moments))
+                << size << " ranks, source " << s;
+            EXPECT_EQ(sum.sources[s].escaped, one.sources[s].escaped);
+            EXPECT_EQ(sum.sources[s].flights, one.sources[s].flights);
+            EXPECT_EQ(sum.sources[s].relativeError, one.sources[s].relativeError);
+        }
+    }
+    // More ranks than packets: refused, naming --packets.
+    std::vector<std::vector<std::int64_t>> box;
+    MailboxRanks many(0, 3, box);
+    so.ranks = &many;
+    so.packets = 2;
+    try {
+        validateScatterOptions(scene, so);
+        ADD_FAILURE() << "3 ranks, 2 packets accepted";
+    } catch (const UsageError& e) {
+        EXPECT_NE(std::string(e.what()).find("--packets 2 is fewer than the 3 MPI ranks"),
+                  std::string::npos)
+            << e.what();
+    }
+}
+
 TEST(ScatterField, RefusesBadOptions)
 {
     auto scene = ball(9, {starAt(Vec3(0.4, 0.4, 0.4))}, [](const Vec3&) { return 100.0; });

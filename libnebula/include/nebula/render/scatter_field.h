@@ -19,6 +19,7 @@
 /// nearest), summed per thread or atomically in one buffer; integer sums do not depend on
 /// their order, so the field is the same bit for bit whatever the thread count.
 
+#include "nebula/core/ranks.h"
 #include "nebula/core/run.h"
 #include "nebula/render/options.h"
 #include "nebula/render/scene.h"
@@ -50,6 +51,12 @@ struct ScatterOptions
     /// Per-thread tally buffers while all of them (threads + 1) stay below this [bytes];
     /// above it one shared buffer with atomic additions. The field is the same either way.
     double perThreadTallyBytes = 512.0 * 1024.0 * 1024.0;
+    /// The processes sharing the packets (MPI ranks; null: this process alone). Each runs
+    /// its share() of every source's packets, with the same streams one process would give
+    /// them, and the integer tallies are summed onto rank 0 (Ranks::sumToRoot()): the same
+    /// field, bit for bit, whatever the number of ranks. Only rank 0's result holds the
+    /// field; the others' sources have empty moments.
+    const Ranks* ranks = nullptr;
 };
 
 /// One source's field.
@@ -120,7 +127,7 @@ FieldLevelChoice autoFieldLevel(const RenderScene& scene, int order, int channel
 
 /// Throws UsageError naming the option unless @p opts are usable on @p scene: order in
 /// 0..SH_MAX_DEGREE (--order), packets > 0 (--packets), a field level whose cells are not
-/// larger than the grid (--field-level).
+/// larger than the grid (--field-level), and at least one packet per rank (opts.ranks).
 void validateScatterOptions(const RenderScene& scene, const ScatterOptions& opts);
 
 /// Computes the field of @p scene (its density, emission, tau.<star>, stars and channel

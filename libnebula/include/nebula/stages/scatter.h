@@ -50,7 +50,9 @@ struct ScatterStageOptions
 /// grids too). Throws
 /// Error on input nebrender would refuse (no stars, a tau grid missing) and UsageError on
 /// bad options (validateScatterOptions()). A field level AUTO_FIELD_LEVEL is resolved by
-/// autoFieldLevel() first (reported with -v); the result records the level used.
+/// autoFieldLevel() first (reported with -v); the result records the level used. Under
+/// MPI (opts.field.ranks), only rank 0 adds the grids; the other ranks leave @p grids as
+/// they are.
 ScatterField scatter(GridSet& grids, const ScatterStageOptions& opts, const Run& run);
 
 } // namespace nebula
