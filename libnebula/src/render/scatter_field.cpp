@@ -217,10 +217,15 @@ ScatterField computeField(const RenderScene& scene, const RenderOptions& ropts,
             const double quantum = fixedQuantum(opts.packets, opts.fieldLevel);
             const std::size_t slots = tr.slotCount();
             const std::size_t sumSize = slots * std::size_t(nm) * UC;
+            // Per-thread buffers: one set per thread, the first of which becomes the sum.
             const double bytes =
-                double(sumSize + slots) * 8.0 * double(tbb::this_task_arena::max_concurrency() + 1);
+                double(sumSize + slots) * 8.0 * double(tbb::this_task_arena::max_concurrency());
             const bool perThread = bytes <= opts.perThreadTallyBytes;
-            std::vector<std::int64_t> sumAll(sumSize, 0), sqAll(slots, 0);
+            std::vector<std::int64_t> sumAll, sqAll;
+            if (!perThread) {
+                sumAll.assign(sumSize, 0);
+                sqAll.assign(slots, 0);
+            }
             tbb::enumerable_thread_specific<
                 std::pair<std::vector<std::int64_t>, std::vector<std::int64_t>>>
                 local;
@@ -259,13 +264,23 @@ ScatterField computeField(const RenderScene& scene, const RenderOptions& ropts,
                                       bar.add(r.size());
                                   });
             }
-            for (const auto& buf : local) {
+            for (auto& buf : local) {
+                if (sumAll.empty()) { // the first thread's buffers hold the sum
+                    sumAll = std::move(buf.first);
+                    sqAll = std::move(buf.second);
+                    continue;
+                }
                 for (std::size_t i = 0; i < sumSize; ++i)
                     sumAll[i] += buf.first[i];
                 for (std::size_t i = 0; i < slots; ++i)
                     sqAll[i] += buf.second[i];
+                buf = {};
             }
             local.clear();
+            if (sumAll.empty()) { // no packets ran here
+                sumAll.assign(sumSize, 0);
+                sqAll.assign(slots, 0);
+            }
             if (opts.ranks && opts.ranks->size() > 1) {
                 opts.ranks->sumToRoot(sumAll.data(), sumAll.size());
                 opts.ranks->sumToRoot(sqAll.data(), sqAll.size());

@@ -23,11 +23,10 @@ void runPacket(const Transport& tr, const SourceSpec& src, const Sampler& sample
     Pcg32 rng(index, seed ^ (0x9E3779B97F4A7C15ULL * (sourceIndex + 1)));
     // The starting cell and point.
     const double u = rng.uniformDouble() * sampler.total;
-    auto it = std::upper_bound(sampler.cdf.begin(), sampler.cdf.end(), u);
-    if (it == sampler.cdf.end()) --it;
-    const std::size_t ci = std::size_t(it - sampler.cdf.begin());
+    std::size_t corner = 0;
+    const std::size_t ci = sampler.pick(u, corner);
     const SparseVolume& f = scene.fields;
-    const auto cell = f.point(sampler.cell[ci]);
+    const auto cell = f.point(corner);
     const Vec3 pI(cell[0] + rng.uniformDouble(), cell[1] + rng.uniformDouble(),
                   cell[2] + rng.uniformDouble());
     Vec3 x = f.indexToWorld.apply(pI);

@@ -48,8 +48,9 @@ struct ScatterOptions
     std::uint64_t seed = 1;
     bool perStar = false; ///< one field per star instead of their sum
     bool emission = true; ///< also the gas emission's collided light (if the scene emits)
-    /// Per-thread tally buffers while all of them (threads + 1) stay below this [bytes];
-    /// above it one shared buffer with atomic additions. The field is the same either way.
+    /// Per-thread tally buffers (one set per thread, the first becomes the sum) while all of
+    /// them stay below this [bytes]; above it one shared buffer with atomic additions. The
+    /// field is the same either way.
     double perThreadTallyBytes = 512.0 * 1024.0 * 1024.0;
     /// The processes sharing the packets (MPI ranks; null: this process alone). Each runs
     /// its share() of every source's packets, with the same streams one process would give
