@@ -17,7 +17,8 @@
 # scattering; the seed's method (phase table + LEVELS pyramid levels); and nebscatter's field
 # at order L = 1, 2, 3 on cells of 2 voxels (level 1), at L = 2 on full resolution (level 0)
 # and cells of 4 voxels (level 2), and at its defaults (L = 4, --field-level auto: the row
-# names the level chosen), PACKETS packets each.
+# names the level chosen; adaptive cells, --refine-tau 1) and with uniform cells
+# (--refine-tau 0), PACKETS packets each.
 # For each: relative error of the total scattered flux (luminance Y), and the relative RMS
 # error over the pixels where the reference is above 1 % of its maximum: as measured, and
 # with the reference's own noise (its variance layer) taken out, sqrt(RMS^2 - noise^2)
@@ -102,7 +103,7 @@ for name in $SCENES; do
            "field L=3:--order 3 --field-level 1::"
            "field L=2 level 0:--order 2 --field-level 0::"
            "field L=2 level 2:--order 2 --field-level 2::"
-           "field default:-v::")
+           "field default:-v::" "field uniform cells:-v --refine-tau 0::")
     pngs=("$name-ref.png")
     for m in "${modes[@]}"; do
         IFS=: read -r label pre input flags <<<"$m"
@@ -125,7 +126,7 @@ for name in $SCENES; do
                 $pre -o "$input"
             precompute="$(wall "$name-$tag-scatter") s"
             # The defaults: name the level nebscatter chose (-v).
-            [[ $label == "field default" ]] && label="field default (L=4, level $(grep -o \
+            [[ $label == "field default" || $label == "field uniform cells" ]] && label="$label (L=4, level $(grep -o \
                 'field level [0-9]* chosen' "$name-$tag-scatter.log" | awk '{ print $3 }'))"
             rss="$(( $(maxrss "$name-$tag-scatter") / 1024 )) MiB"
         fi

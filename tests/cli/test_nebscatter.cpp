@@ -124,6 +124,8 @@ TEST_F(NebScatter, BadInputIsRefused)
     expectFailure("nebscatter -i lit.vdb --packets 0 -o x.vdb", 2, "--packets");
     expectFailure("nebscatter -i lit.vdb --order 5 -o x.vdb", 2, "--order");
     expectFailure("nebscatter -i lit.vdb --field-level 6 -o x.vdb", 2, "--field-level 6");
+    expectFailure("nebscatter -i lit.vdb --refine-tau 1000 -o x.vdb", 2, "--refine-tau");
+    expectFailure("nebscatter -i lit.vdb --refine-tau -1 -o x.vdb", 2, "--refine-tau");
     // A field grid of the wrong type, or on another lattice.
     {
         auto g = read(path("s.vdb"));

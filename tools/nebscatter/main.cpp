@@ -77,6 +77,13 @@ int main(int argc, char** argv)
                 return e.empty() ? e : "expected auto or an integer in [0, 16], got " + s;
             },
             "auto|0..16"));
+    app.add_option("--refine-tau", f.refineTau,
+                   "Adaptive cells: a block of 2x2x2 field cells is tallied as one (its cells\n"
+                   "interpolated: far less noise) unless its densest voxel makes it optically\n"
+                   "thicker than this across (tau_V) or a star is in or next to it; 0: every\n"
+                   "cell on its own. In [0, 100]")
+        ->capture_default_str()
+        ->check(CLI::Range(0.0, nebula::MAX_REFINE_TAU));
     app.add_option("--seed", f.seed, "Random seed (same seed, same field)")
         ->capture_default_str()
         ->check(nebula::cli::integerIn(0, UINT64_MAX));

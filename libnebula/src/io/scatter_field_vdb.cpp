@@ -110,6 +110,7 @@ void writeScatterField(GridSet& grids, const ScatterFieldMeta& meta,
                                  {"per_star", meta.perStar},
                                  {"packets", meta.packets},
                                  {"seed", meta.seed},
+                                 {"refine_tau", meta.refineTau},
                                  {"sources", sources},
                                  {"dust", nlohmann::json::parse(meta.dust.toJson())},
                                  {"stars", nlohmann::json::parse(starsToJson(meta.stars))},
@@ -172,6 +173,7 @@ std::optional<ScatterFieldMeta> readScatterFieldMeta(const GridSet& grids, bool 
         meta.perStar = json.value("per_star", false);
         meta.packets = json.value("packets", std::uint64_t(0));
         meta.seed = json.value("seed", std::uint64_t(0));
+        meta.refineTau = json.value("refine_tau", 0.0);
         meta.exactStarDepth = json.value("exact_star_depth", false);
         meta.seconds = json.value("seconds", 0.0);
     } catch (const nlohmann::json::exception& e) {

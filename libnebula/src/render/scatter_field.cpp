@@ -123,6 +123,12 @@ void validateScatterOptions(const RenderScene& scene, const ScatterOptions& opts
             opts.fieldLevel, opts.fieldLevel < 31 ? std::to_string(1LL << opts.fieldLevel) : "2^k",
             d[0] - 2, d[1] - 2, d[2] - 2, coarsestFieldLevel(extent)));
     }
+    if (!(opts.refineTau >= 0.0 && opts.refineTau <= MAX_REFINE_TAU)) {
+        throw UsageError(fmt::format(
+            "--refine-tau must be in [0, {:g}] (the optical depth tau_V across a block of "
+            "2x2x2 field cells above which its cells are tallied each; 0: every cell), got {:g}",
+            MAX_REFINE_TAU, opts.refineTau));
+    }
     if (opts.ranks && std::uint64_t(opts.ranks->size()) > opts.packets) {
         throw UsageError(fmt::format(
             "--packets {} is fewer than the {} MPI ranks sharing them: give at least one packet "
@@ -171,6 +177,21 @@ ScatterField computeField(const RenderScene& scene, const RenderOptions& ropts,
     const double rmin2 = tr.rmin2();
 
     field.active = tr.active();
+    if (run && tr.adaptive()) {
+        std::size_t active = 0, own = 0;
+        for (std::size_t c = 0; c < field.active.size(); ++c) {
+            if (!field.active[c]) continue;
+            ++active;
+            own += tr.slotBlock()[std::size_t(tr.slots()[c])] < 0;
+        }
+        run->info(fmt::format(
+            "adaptive cells: {} of {} active field cells tallied each (their blocks of 2x2x2 "
+            "thicker than tau_V {:g} across, or next to a star), the rest by blocks: {} "
+            "tallies ({:.0f} MiB a set)",
+            own, active, opts.refineTau, tr.slotCount(),
+            double(tr.slotCount()) * double(tr.moments()) * double(tr.channels()) * 8.0 /
+                (1024.0 * 1024.0)));
+    }
     const std::vector<double>& cellDust = tr.cellDust(); // the noise report's weights
 
     for (std::size_t si = 0; si < specs.size(); ++si) {
@@ -309,28 +330,129 @@ ScatterField computeField(const RenderScene& scene, const RenderOptions& ropts,
             }
             out.flights = energy.flights.load();
             // c_lm = sum (w U) (length) Y_lm / V over the cell.
+            const std::size_t per = std::size_t(nm) * UC;
+            const auto volumeOf = [&](int I, int J, int K) {
+                return tr.cellVolume({I + fLo[0], J + fLo[1], K + fLo[2]}) * detA;
+            };
+            // Adaptive cells: each block's moments, from its own tally or its refined
+            // cells', over the volume of its active cells (the tallied ones).
+            std::vector<std::int32_t> blockIndex;
+            std::vector<double> blockValue, blockVol, blockS1, blockSq;
+            if (tr.adaptive()) {
+                blockIndex.assign(tr.blockRefined().size(), -1);
+                std::size_t nb = 0;
+                for (int K = 0; K < fDims[2]; ++K)
+                    for (int J = 0; J < fDims[1]; ++J)
+                        for (int I = 0; I < fDims[0]; ++I) {
+                            const std::size_t c = (std::size_t(K) * fDims[1] + J) * fDims[0] + I;
+                            const double vol = volumeOf(I, J, K);
+                            if (!(vol > 0.0) || tr.slots()[c] < 0) continue;
+                            std::int32_t& bi = blockIndex[tr.blockOf(c)];
+                            if (bi < 0) {
+                                bi = std::int32_t(nb++);
+                                blockValue.resize(nb * per, 0.0);
+                                blockVol.push_back(0.0);
+                                blockS1.push_back(0.0);
+                                blockSq.push_back(0.0);
+                            }
+                            blockVol[std::size_t(bi)] += vol;
+                            const std::int32_t slot = tr.slots()[c];
+                            if (tr.slotBlock()[std::size_t(slot)] >= 0) continue; // below
+                            const std::int64_t* t = sumAll.data() + std::size_t(slot) * per;
+                            for (std::size_t q = 0; q < per; ++q)
+                                blockValue[std::size_t(bi) * per + q] += double(t[q]);
+                        }
+                for (std::size_t slot = 0; slot < slots; ++slot) {
+                    const std::int64_t blk = tr.slotBlock()[slot];
+                    if (blk < 0 || blockIndex[std::size_t(blk)] < 0) continue;
+                    const std::size_t bi = std::size_t(blockIndex[std::size_t(blk)]);
+                    const std::int64_t* t = sumAll.data() + slot * per;
+                    for (std::size_t q = 0; q < per; ++q)
+                        blockValue[bi * per + q] += double(t[q]);
+                    blockS1[bi] = double(t[tr.noiseChannel()]) * quantum;
+                    blockSq[bi] = double(sqAll[slot]) * quantum * 256.0;
+                }
+                for (std::size_t bi = 0; bi < nb; ++bi)
+                    for (std::size_t q = 0; q < per; ++q)
+                        blockValue[bi * per + q] *= quantum * U * tr.voxel() / blockVol[bi];
+            }
+            // A cell of an unrefined block: the block's value plus its slope along each axis
+            // times the cell's offset from the block's centre (+-1/4 block). The slope is the
+            // monotonised central difference of the neighbouring blocks' values (limited:
+            // no new extremes at a shadow's edge), 0 where a neighbour has no active cells.
+            // The eight cells' offsets cancel, so the block's mean is kept.
+            const auto blockAt = [&](const int* B) -> std::int32_t {
+                for (int a = 0; a < 3; ++a)
+                    if (B[a] < 0 || B[a] >= tr.blockDims()[a]) return -1;
+                return blockIndex[(std::size_t(B[2]) * tr.blockDims()[1] + std::size_t(B[1])) *
+                                      tr.blockDims()[0] +
+                                  std::size_t(B[0])];
+            };
+            const auto reconstructCell = [&](int I, int J, int K, float* m) {
+                const int X[3] = {I + fLo[0], J + fLo[1], K + fLo[2]};
+                int B[3];
+                double offset[3];
+                for (int a = 0; a < 3; ++a) {
+                    const int b = Transport::blockCoord(X[a]);
+                    B[a] = b - tr.blockLo()[a];
+                    offset[a] = X[a] - 2 * b == 0 ? -0.25 : 0.25;
+                }
+                const std::size_t own = std::size_t(blockAt(B));
+                std::int32_t lower[3], upper[3];
+                for (int a = 0; a < 3; ++a) {
+                    int N[3] = {B[0], B[1], B[2]};
+                    N[a] = B[a] - 1;
+                    lower[a] = blockAt(N);
+                    N[a] = B[a] + 1;
+                    upper[a] = blockAt(N);
+                }
+                for (std::size_t q = 0; q < per; ++q) {
+                    const double v = blockValue[own * per + q];
+                    double value = v;
+                    for (int a = 0; a < 3; ++a) {
+                        if (lower[a] < 0 || upper[a] < 0) continue;
+                        const double dl = v - blockValue[std::size_t(lower[a]) * per + q];
+                        const double du = blockValue[std::size_t(upper[a]) * per + q] - v;
+                        if (!(dl * du > 0.0)) continue; // an extreme: flat
+                        const double mag = std::min(
+                            {0.5 * std::abs(dl + du), 2.0 * std::abs(dl), 2.0 * std::abs(du)});
+                        value += std::copysign(mag, du) * offset[a];
+                    }
+                    m[q] = float(value);
+                }
+            };
             double errW = 0.0, errSum = 0.0;
             for (int K = 0; K < fDims[2]; ++K)
                 for (int J = 0; J < fDims[1]; ++J)
                     for (int I = 0; I < fDims[0]; ++I) {
                         const std::size_t c = (std::size_t(K) * fDims[1] + J) * fDims[0] + I;
-                        const double vol =
-                            tr.cellVolume({I + fLo[0], J + fLo[1], K + fLo[2]}) * detA;
+                        const double vol = volumeOf(I, J, K);
                         const std::int32_t slot = tr.slots()[c];
                         if (!(vol > 0.0) || slot < 0) continue; // not active: stays 0
-                        const double scale = quantum * U * tr.voxel() / vol;
                         float* m = out.moments.writable(
                             out.moments.index(I + fLo[0], J + fLo[1], K + fLo[2]));
-                        const std::int64_t* t =
-                            sumAll.data() + std::size_t(slot) * std::size_t(nm) * UC;
-                        for (int q = 0; q < nm * C; ++q)
-                            m[q] = float(double(t[q]) * scale);
-                        const double s1 = double(t[tr.noiseChannel()]) * quantum;
+                        const std::int64_t blk =
+                            tr.adaptive() ? tr.slotBlock()[std::size_t(slot)] : -1;
+                        double s1 = 0.0, sq = 0.0, density = 0.0; // the noise report
+                        if (blk >= 0) {
+                            reconstructCell(I, J, K, m);
+                            const std::size_t bi = std::size_t(blockIndex[std::size_t(blk)]);
+                            s1 = blockS1[bi];
+                            sq = blockSq[bi];
+                            density = s1 / blockVol[bi];
+                        } else {
+                            const double scale = quantum * U * tr.voxel() / vol;
+                            const std::int64_t* t = sumAll.data() + std::size_t(slot) * per;
+                            for (std::size_t q = 0; q < per; ++q)
+                                m[q] = float(double(t[q]) * scale);
+                            s1 = double(t[tr.noiseChannel()]) * quantum;
+                            sq = double(sqAll[std::size_t(slot)]) * quantum * 256.0;
+                            density = s1 / vol;
+                        }
                         if (cellDust[c] > 0.0 && s1 > 0.0) {
                             // Y_00 folded out: the noise channel's J tally is t[c] / Y_00.
-                            const double sq = double(sqAll[std::size_t(slot)]) * quantum * 256.0;
                             const double rel = std::sqrt(sq) / (s1 / (0.5 / std::sqrt(PI)));
-                            const double wgt = cellDust[c] * s1 / vol;
+                            const double wgt = cellDust[c] * density;
                             errW += wgt;
                             errSum += wgt * rel;
                         }

@@ -219,13 +219,94 @@ public:
                             mActive[cellIndex(a, b, e)] = 1;
                     }
                 }
-        // The tallies hold only the active cells (slots in cell order).
-        mSlot.assign(fieldCells(), -1);
-        for (std::size_t c = 0; c < mActive.size(); ++c)
-            if (mActive[c]) mSlot[c] = std::int32_t(mSlots++);
         for (const auto& s : scene.stars)
             mStarPos.emplace_back(s.position[0], s.position[1], s.position[2]);
+        // Adaptive cells: blocks of 2x2x2 field cells (the next level's cells) tallied as
+        // one unless refined (refineBlocks()).
+        if (opts.refineTau > 0.0) refineBlocks(opts.refineTau);
+        // The tallies hold only the active cells (slots in cell order): a cell of a refined
+        // block (or every cell, without adaptive cells) has its own slot, an unrefined
+        // block's active cells share the block's.
+        mSlot.assign(fieldCells(), -1);
+        std::vector<std::int32_t> blockSlot(mBlockRefined.size(), -1);
+        for (std::size_t c = 0; c < mActive.size(); ++c) {
+            if (!mActive[c]) continue;
+            if (mBlockRefined.empty() || mBlockRefined[blockOf(c)]) {
+                mSlot[c] = std::int32_t(mSlots++);
+                mSlotBlock.push_back(-1);
+                continue;
+            }
+            std::int32_t& b = blockSlot[blockOf(c)];
+            if (b < 0) {
+                b = std::int32_t(mSlots++);
+                mSlotBlock.push_back(std::int64_t(blockOf(c)));
+            }
+            mSlot[c] = b;
+        }
         if (ropts.exactStarDepth) mDepth.emplace(scene);
+    }
+
+    /// Adaptive cells (DESIGN §5b): a block of 2x2x2 field cells (a cell of the next level)
+    /// is refined, each cell tallied on its own, where its densest voxel makes the block
+    /// optically thicker than @p refineTau across (tau_V; inside it the field varies like
+    /// e^-tau) or a star lies in it or in a block next to it (the field varies like 1/r
+    /// there); elsewhere the block's active cells share one tally, eight times the packets
+    /// per tally, and their values are interpolated from the blocks' (computeField()).
+    void refineBlocks(double refineTau)
+    {
+        const SparseVolume& f = mScene.fields;
+        for (int a = 0; a < 3; ++a) {
+            mBLo[a] = blockCoord(mFLo[a]);
+            mBDims[a] = blockCoord(mFLo[a] + mFDims[a] - 1) - mBLo[a] + 1;
+        }
+        const std::size_t blocks = std::size_t(mBDims[0]) * mBDims[1] * mBDims[2];
+        std::vector<float> densest(blocks, 0.0f);
+        f.forEachStoredBrick([&](std::size_t first) {
+            for (std::size_t v = first; v < first + SparseVolume::BRICK_VOXELS; ++v) {
+                const float n = f.voxel(v)[0];
+                if (!(n > 0.0f)) continue;
+                const auto p = f.point(v);
+                if (!f.contains(p[0], p[1], p[2])) continue;
+                float& m = densest[blockOf(cellIndex(
+                    floorDiv(p[0]) - mFLo[0], floorDiv(p[1]) - mFLo[1], floorDiv(p[2]) - mFLo[2]))];
+                m = std::max(m, n);
+            }
+        });
+        const double across = mDust.kappa_V * mVoxel * 2.0 * mScale; // tau_V per unit n
+        mBlockRefined.assign(blocks, 0);
+        for (std::size_t b = 0; b < blocks; ++b)
+            mBlockRefined[b] = double(densest[b]) * across > refineTau;
+        // A ring of refined blocks round the refined ones: an unrefined block's cells are
+        // interpolated from blocks that are tallied whole too, never from the average of a
+        // thick block (whose lit face and shadowed back would mix).
+        std::vector<std::uint8_t> ring = mBlockRefined;
+        for (int z = 0; z < mBDims[2]; ++z)
+            for (int y = 0; y < mBDims[1]; ++y)
+                for (int x = 0; x < mBDims[0]; ++x) {
+                    if (!mBlockRefined[(std::size_t(z) * mBDims[1] + std::size_t(y)) * mBDims[0] +
+                                       std::size_t(x)])
+                        continue;
+                    for (int c = 0; c < 27; ++c) {
+                        const int a = x + c % 3 - 1, b = y + (c / 3) % 3 - 1, e = z + c / 9 - 1;
+                        if (a >= 0 && b >= 0 && e >= 0 && a < mBDims[0] && b < mBDims[1] &&
+                            e < mBDims[2])
+                            ring[(std::size_t(e) * mBDims[1] + std::size_t(b)) * mBDims[0] +
+                                 std::size_t(a)] = 1;
+                    }
+                }
+        mBlockRefined = std::move(ring);
+        for (const Vec3& star : mStarPos) {
+            const Vec3 pI = mW2I.apply(star);
+            int B[3];
+            for (int a = 0; a < 3; ++a)
+                B[a] = blockCoord(floorDiv(pI[a])) - mBLo[a];
+            for (int c = 0; c < 27; ++c) {
+                const int x = B[0] + c % 3 - 1, y = B[1] + (c / 3) % 3 - 1, z = B[2] + c / 9 - 1;
+                if (x >= 0 && y >= 0 && z >= 0 && x < mBDims[0] && y < mBDims[1] && z < mBDims[2])
+                    mBlockRefined[(std::size_t(z) * mBDims[1] + std::size_t(y)) * mBDims[0] +
+                                  std::size_t(x)] = 1;
+            }
+        }
     }
 
     /// Each star's tau_V at index point @p pI into fv[2 + s] (the fields sampled there):
@@ -275,6 +356,28 @@ public:
     std::size_t slotCount() const { return mSlots; }
     /// Per field cell: n_H summed over its voxels [cm^-3].
     const std::vector<double>& cellDust() const { return mCellDust; }
+    /// Whether blocks of 2x2x2 field cells may share a tally (refineBlocks()).
+    bool adaptive() const { return !mBlockRefined.empty(); }
+    /// The block of field cell @p c (linear index): the next level's cell holding it.
+    std::size_t blockOf(std::size_t c) const
+    {
+        const std::size_t I = c % std::size_t(mFDims[0]),
+                          J = (c / std::size_t(mFDims[0])) % std::size_t(mFDims[1]),
+                          K = c / (std::size_t(mFDims[0]) * std::size_t(mFDims[1]));
+        const int x = blockCoord(int(I) + mFLo[0]) - mBLo[0],
+                  y = blockCoord(int(J) + mFLo[1]) - mBLo[1],
+                  z = blockCoord(int(K) + mFLo[2]) - mBLo[2];
+        return (std::size_t(z) * mBDims[1] + std::size_t(y)) * mBDims[0] + std::size_t(x);
+    }
+    /// The block lattice: its first block (absolute, the next level's index) and size.
+    const std::array<int, 3>& blockLo() const { return mBLo; }
+    const std::array<int, 3>& blockDims() const { return mBDims; }
+    /// Per block: 1 if refined (its cells tallied each).
+    const std::vector<std::uint8_t>& blockRefined() const { return mBlockRefined; }
+    /// Per tally slot: the block it tallies whole, or -1 (one field cell's slot).
+    const std::vector<std::int64_t>& slotBlock() const { return mSlotBlock; }
+    /// The block holding absolute field cell coordinate @p i along an axis: floor(i / 2).
+    static int blockCoord(int i) { return i >= 0 ? i / 2 : -((1 - i) / 2); }
 
     /// Field cell of level-0 index coordinate @p p along one axis.
     int floorDiv(double p) const { return int(std::floor((p + 0.5) / mScale)); }
@@ -374,10 +477,14 @@ public:
                 if (tally) {
                     const long c = long(cellIndex(fi[0], fi[1], fi[2]));
                     if (c != cell) {
-                        flush(slot, acc, Y, out);
                         cell = c;
-                        slot = mSlot[std::size_t(c)];
-                        if (slot >= 0) prefetchSlot(slot, out);
+                        const long sc =
+                            mSlot[std::size_t(c)]; // an unrefined block's cells share one
+                        if (sc != slot) {
+                            flush(slot, acc, Y, out);
+                            slot = sc;
+                            if (slot >= 0) prefetchSlot(slot, out);
+                        }
                     }
                 }
                 if (dTau > 0.0) {
@@ -470,11 +577,14 @@ private:
     /// A bit per lattice cell (lower corner's index): dust, the only cells a flight samples
     /// (the scene's column integrator's, which StarDepth shares).
     const VoxelBits& mDusty;
-    std::vector<std::uint8_t> mActive; ///< per field cell: read by the renderer
-    std::vector<std::int32_t> mSlot;   ///< per field cell: its tally slot, -1 if not active
-    std::size_t mSlots = 0;            ///< active cells
-    std::vector<double> mCellDust;     ///< per field cell: n_H summed over its voxels
-    std::optional<StarDepth> mDepth;   ///< with RenderOptions::exactStarDepth
+    std::vector<std::uint8_t> mActive;       ///< per field cell: read by the renderer
+    std::vector<std::int32_t> mSlot;         ///< per field cell: its tally slot, -1 if not active
+    std::size_t mSlots = 0;                  ///< tally slots
+    std::vector<std::int64_t> mSlotBlock;    ///< per slot: its block, or -1 (a cell's)
+    std::array<int, 3> mBLo{}, mBDims{};     ///< the block lattice (adaptive cells)
+    std::vector<std::uint8_t> mBlockRefined; ///< per block: refined; empty: not adaptive
+    std::vector<double> mCellDust;           ///< per field cell: n_H summed over its voxels
+    std::optional<StarDepth> mDepth;         ///< with RenderOptions::exactStarDepth
 };
 
 /// Integer sums of a source's energy statistics (weights, fixed point).

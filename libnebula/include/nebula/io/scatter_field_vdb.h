@@ -38,6 +38,8 @@ struct ScatterFieldMeta
     bool perStar = false;
     std::uint64_t packets = 0;
     std::uint64_t seed = 0;
+    /// Adaptive cells' --refine-tau (0: uniform cells; fields from before adaptive cells).
+    double refineTau = 0.0;
     std::vector<ScatterSourceSummary> sources;
     DustParams dust;
     std::vector<Star> stars;

@@ -46,6 +46,11 @@ struct ScatterOptions
     /// at most MAX_PACKETS.
     std::uint64_t packets = 1000000;
     std::uint64_t seed = 1;
+    /// Adaptive cells (> 0): a block of 2x2x2 field cells is tallied as one, and its cells'
+    /// values interpolated from the blocks', unless its densest voxel makes it optically
+    /// thicker than this across (tau_V) or a star is in or next to it; 0: every field cell
+    /// tallied on its own. At most MAX_REFINE_TAU.
+    double refineTau = 0.0;
     bool perStar = false; ///< one field per star instead of their sum
     bool emission = true; ///< also the gas emission's collided light (if the scene emits)
     /// Per-thread tally buffers (one set per thread, the first becomes the sum) while all of
@@ -99,6 +104,10 @@ struct ScatterField
 /// level-0 voxels 2^k I ... 2^k I + 2^k - 1, its centre at 2^k I + (2^k - 1) / 2
 /// (nebpyramid's levelTransform()).
 Affine fieldLevelMap(const Affine& level0, int level);
+
+/// The largest ScatterOptions::refineTau (--refine-tau): blocks thicker than this are
+/// beyond what trilinear cells follow anyway.
+inline constexpr double MAX_REFINE_TAU = 100.0;
 
 /// ScatterOptions::fieldLevel: chosen by autoFieldLevel().
 inline constexpr int AUTO_FIELD_LEVEL = -1;

@@ -18,6 +18,7 @@ inline ScatterOptions defaultStageFieldOptions()
     ScatterOptions o;
     o.order = 4;
     o.fieldLevel = AUTO_FIELD_LEVEL;
+    o.refineTau = 1.0; // adaptive cells
     return o;
 }
 
