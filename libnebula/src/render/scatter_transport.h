@@ -197,16 +197,7 @@ public:
         // Dust per field cell (n_H summed over its voxels), and the cells the renderer
         // reads: those holding dust and their 26 neighbours. Only stored bricks hold dust.
         mCellDust.assign(fieldCells(), 0.0);
-        f.forEachStoredBrick([&](std::size_t first) {
-            for (std::size_t v = first; v < first + SparseVolume::BRICK_VOXELS; ++v) {
-                const float n = f.voxel(v)[0];
-                if (!(n > 0.0f)) continue;
-                const auto p = f.point(v);
-                if (!f.contains(p[0], p[1], p[2])) continue;
-                mCellDust[cellIndex(floorDiv(p[0]) - mFLo[0], floorDiv(p[1]) - mFLo[1],
-                                    floorDiv(p[2]) - mFLo[2])] += n;
-            }
-        });
+        forEachDustVoxel([&](std::size_t cell, float n) { mCellDust[cell] += n; });
         mActive.assign(fieldCells(), 0);
         for (int K = 0; K < mFDims[2]; ++K)
             for (int J = 0; J < mFDims[1]; ++J)
@@ -246,31 +237,41 @@ public:
         if (ropts.exactStarDepth) mDepth.emplace(scene);
     }
 
-    /// Adaptive cells (DESIGN §5b): a block of 2x2x2 field cells (a cell of the next level)
-    /// is refined, each cell tallied on its own, where its densest voxel makes the block
-    /// optically thicker than @p refineTau across (tau_V; inside it the field varies like
-    /// e^-tau) or a star lies in it or in a block next to it (the field varies like 1/r
-    /// there); elsewhere the block's active cells share one tally, eight times the packets
-    /// per tally, and their values are interpolated from the blocks' (computeField()).
-    void refineBlocks(double refineTau)
+    /// Calls @p fn(field cell, n) for every voxel of the lattice with dust (n > 0): only
+    /// stored bricks hold dust.
+    template <class Fn> void forEachDustVoxel(const Fn& fn) const
     {
         const SparseVolume& f = mScene.fields;
-        for (int a = 0; a < 3; ++a) {
-            mBLo[a] = blockCoord(mFLo[a]);
-            mBDims[a] = blockCoord(mFLo[a] + mFDims[a] - 1) - mBLo[a] + 1;
-        }
-        const std::size_t blocks = std::size_t(mBDims[0]) * mBDims[1] * mBDims[2];
-        std::vector<float> densest(blocks, 0.0f);
         f.forEachStoredBrick([&](std::size_t first) {
             for (std::size_t v = first; v < first + SparseVolume::BRICK_VOXELS; ++v) {
                 const float n = f.voxel(v)[0];
                 if (!(n > 0.0f)) continue;
                 const auto p = f.point(v);
                 if (!f.contains(p[0], p[1], p[2])) continue;
-                float& m = densest[blockOf(cellIndex(
-                    floorDiv(p[0]) - mFLo[0], floorDiv(p[1]) - mFLo[1], floorDiv(p[2]) - mFLo[2]))];
-                m = std::max(m, n);
+                fn(cellIndex(floorDiv(p[0]) - mFLo[0], floorDiv(p[1]) - mFLo[1],
+                             floorDiv(p[2]) - mFLo[2]),
+                   n);
             }
+        });
+    }
+
+    /// Adaptive cells (DESIGN §5b): a block of 2x2x2 field cells (a cell of the next level)
+    /// is refined, each cell tallied on its own, where its densest voxel makes the block
+    /// optically thicker than @p refineTau across (tau_V; inside it the field varies like
+    /// e^-tau) or a star lies in it or in a block next to it (the field varies like 1/r
+    /// there); elsewhere the block's active cells share one tally, eight times the packets
+    /// per tally, and their values come from the blocks' values and slopes (computeField()).
+    void refineBlocks(double refineTau)
+    {
+        for (int a = 0; a < 3; ++a) {
+            mBLo[a] = blockCoord(mFLo[a]);
+            mBDims[a] = blockCoord(mFLo[a] + mFDims[a] - 1) - mBLo[a] + 1;
+        }
+        const std::size_t blocks = std::size_t(mBDims[0]) * mBDims[1] * mBDims[2];
+        std::vector<float> densest(blocks, 0.0f);
+        forEachDustVoxel([&](std::size_t cell, float n) {
+            float& m = densest[blockOf(cell)];
+            m = std::max(m, n);
         });
         const double across = mDust.kappa_V * mVoxel * 2.0 * mScale; // tau_V per unit n
         mBlockRefined.assign(blocks, 0);
