@@ -79,9 +79,9 @@ int main(int argc, char** argv)
             "auto|0..16"));
     app.add_option("--refine-tau", f.refineTau,
                    "Adaptive cells: a block of 2x2x2 field cells is tallied as one (its cells\n"
-                   "interpolated: far less noise) unless its densest voxel makes it optically\n"
-                   "thicker than this across (tau_V) or a star is in or next to it; 0: every\n"
-                   "cell on its own. In [0, 100]")
+                   "from the block's value and slopes: fewer, fuller tallies) unless its\n"
+                   "densest voxel makes it optically thicker than this across (tau_V), a star\n"
+                   "is in or next to it, or it borders such a block; 0: every cell on its own")
         ->capture_default_str()
         ->check(CLI::Range(0.0, nebula::MAX_REFINE_TAU));
     app.add_option("--seed", f.seed, "Random seed (same seed, same field)")
