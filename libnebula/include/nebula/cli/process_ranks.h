@@ -13,16 +13,13 @@
 
 namespace nebula::cli {
 
-/// Whether this build can share work over MPI ranks.
-bool haveMpi();
-
 /// The ranks this process belongs to. Where the environment says it was started as one of
 /// several processes (OpenMPI's mpirun: OMPI_COMM_WORLD_SIZE; PMI or PMIx launchers:
 /// PMI_SIZE, PMIX_RANK; srun: SLURM_STEP_NUM_TASKS), MPI is initialised (threads funnelled:
 /// only the calling thread talks to MPI) and its world is the group; else the single
-/// process. Throws Error naming @p tool when the environment gives several processes but
-/// they cannot be joined: a build without MPI, or MPI seeing one process of a multi-task
-/// srun step (srun without an MPI plugin: use mpirun, or srun --mpi=pmix).
+/// process. Throws Error when MPI cannot start (naming @p tool), or when the environment
+/// gives several processes but they cannot be joined: a build without MPI, or MPI seeing one
+/// process of a multi-task srun step (srun without an MPI plugin: use mpirun, or srun --mpi=pmix).
 std::unique_ptr<Ranks> processRanks(const std::string& tool);
 
 /// Ends @p ranks with the tool's exit code @p rc and returns it: MPI_Finalize when rc is 0;

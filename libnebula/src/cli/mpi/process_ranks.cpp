@@ -8,7 +8,6 @@
 #include "nebula/core/error.h"
 
 #include <cstdlib>
-#include <limits>
 #include <string>
 
 #ifdef NEBULA_HAVE_MPI
@@ -42,6 +41,7 @@ long launchedProcesses(std::string& by)
     return 1;
 }
 
+#ifdef NEBULA_HAVE_MPI
 /// Whether an MPI launcher started this process (even as the only one).
 bool launchedByMpi()
 {
@@ -50,7 +50,6 @@ bool launchedByMpi()
     return false;
 }
 
-#ifdef NEBULA_HAVE_MPI
 /// MPI_COMM_WORLD; MPI initialised by the constructor, finalised by finishRanks().
 class MpiRanks final : public Ranks
 {
@@ -95,15 +94,6 @@ private:
 
 } // namespace
 
-bool haveMpi()
-{
-#ifdef NEBULA_HAVE_MPI
-    return true;
-#else
-    return false;
-#endif
-}
-
 std::unique_ptr<Ranks> processRanks(const std::string& tool)
 {
     std::string by;
@@ -123,12 +113,12 @@ std::unique_ptr<Ranks> processRanks(const std::string& tool)
         return ranks;
     }
 #else
-    (void)launchedByMpi;
     if (launched > 1) {
         throw Error("started as " + std::to_string(launched) + " processes (" + by +
-                    "), but this build has no MPI, so each would compute and write the whole "
-                    "result: rebuild with libopenmpi-dev installed (CMake finds it; "
-                    "-DNEBULA_WITH_MPI=ON), or run one process");
+                    "), but this build of " + tool +
+                    " has no MPI, so each would compute and write the whole result: rebuild "
+                    "with libopenmpi-dev installed (CMake finds it; -DNEBULA_WITH_MPI=ON), or "
+                    "run one process");
     }
 #endif
     return std::make_unique<Ranks>();
