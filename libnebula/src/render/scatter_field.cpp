@@ -186,8 +186,8 @@ ScatterField computeField(const RenderScene& scene, const RenderOptions& ropts,
         }
         run->info(fmt::format(
             "adaptive cells: {} of {} active field cells tallied each (their blocks of 2x2x2 "
-            "thicker than tau_V {:g} across, or next to a star), the rest by blocks: {} "
-            "tallies ({:.0f} MiB a set)",
+            "thicker than tau_V {:g} across, next to a star, or bordering such a block), the "
+            "rest by blocks: {} tallies ({:.0f} MiB a set)",
             own, active, opts.refineTau, tr.slotCount(),
             double(tr.slotCount()) * double(tr.moments()) * double(tr.channels()) * 8.0 /
                 (1024.0 * 1024.0)));
@@ -305,14 +305,8 @@ ScatterField computeField(const RenderScene& scene, const RenderOptions& ropts,
             if (opts.ranks && opts.ranks->size() > 1) {
                 opts.ranks->sumToRoot(sumAll.data(), sumAll.size());
                 opts.ranks->sumToRoot(sqAll.data(), sqAll.size());
-                std::int64_t e[3 * MAX_CHANNELS];
-                std::copy(energy.power, energy.power + MAX_CHANNELS, e);
-                std::copy(energy.escaped, energy.escaped + MAX_CHANNELS, e + MAX_CHANNELS);
-                std::copy(energy.absorbed, energy.absorbed + MAX_CHANNELS, e + 2 * MAX_CHANNELS);
-                opts.ranks->sumToRoot(e, 3 * MAX_CHANNELS);
-                std::copy(e, e + MAX_CHANNELS, energy.power);
-                std::copy(e + MAX_CHANNELS, e + 2 * MAX_CHANNELS, energy.escaped);
-                std::copy(e + 2 * MAX_CHANNELS, e + 3 * MAX_CHANNELS, energy.absorbed);
+                for (std::int64_t* e : {energy.power, energy.escaped, energy.absorbed})
+                    opts.ranks->sumToRoot(e, MAX_CHANNELS);
                 std::uint64_t flights = energy.flights.load();
                 opts.ranks->sumToRoot(&flights, 1);
                 energy.flights = flights;

@@ -203,12 +203,7 @@ public:
             for (int J = 0; J < mFDims[1]; ++J)
                 for (int I = 0; I < mFDims[0]; ++I) {
                     if (!(mCellDust[cellIndex(I, J, K)] > 0.0)) continue;
-                    for (int c = 0; c < 27; ++c) {
-                        const int a = I + c % 3 - 1, b = J + (c / 3) % 3 - 1, e = K + c / 9 - 1;
-                        if (a >= 0 && b >= 0 && e >= 0 && a < mFDims[0] && b < mFDims[1] &&
-                            e < mFDims[2])
-                            mActive[cellIndex(a, b, e)] = 1;
-                    }
+                    forEachNeighbour(mFDims, I, J, K, [&](std::size_t c) { mActive[c] = 1; });
                 }
         for (const auto& s : scene.stars)
             mStarPos.emplace_back(s.position[0], s.position[1], s.position[2]);
@@ -235,6 +230,19 @@ public:
             mSlot[c] = b;
         }
         if (ropts.exactStarDepth) mDepth.emplace(scene);
+    }
+
+    /// Calls @p fn(linear index) for (x, y, z) and each of its 26 neighbours inside a box
+    /// lattice of @p dims (x fastest).
+    template <class Fn>
+    static void forEachNeighbour(const std::array<int, 3>& dims, int x, int y, int z, const Fn& fn)
+    {
+        for (int c = 0; c < 27; ++c) {
+            const int a = x + c % 3 - 1, b = y + (c / 3) % 3 - 1, e = z + c / 9 - 1;
+            if (a >= 0 && b >= 0 && e >= 0 && a < dims[0] && b < dims[1] && e < dims[2])
+                fn((std::size_t(e) * std::size_t(dims[1]) + std::size_t(b)) * std::size_t(dims[0]) +
+                   std::size_t(a));
+        }
     }
 
     /// Calls @p fn(field cell, n) for every voxel of the lattice with dust (n > 0): only
@@ -287,13 +295,7 @@ public:
                     if (!mBlockRefined[(std::size_t(z) * mBDims[1] + std::size_t(y)) * mBDims[0] +
                                        std::size_t(x)])
                         continue;
-                    for (int c = 0; c < 27; ++c) {
-                        const int a = x + c % 3 - 1, b = y + (c / 3) % 3 - 1, e = z + c / 9 - 1;
-                        if (a >= 0 && b >= 0 && e >= 0 && a < mBDims[0] && b < mBDims[1] &&
-                            e < mBDims[2])
-                            ring[(std::size_t(e) * mBDims[1] + std::size_t(b)) * mBDims[0] +
-                                 std::size_t(a)] = 1;
-                    }
+                    forEachNeighbour(mBDims, x, y, z, [&](std::size_t b) { ring[b] = 1; });
                 }
         mBlockRefined = std::move(ring);
         for (const Vec3& star : mStarPos) {
@@ -301,12 +303,8 @@ public:
             int B[3];
             for (int a = 0; a < 3; ++a)
                 B[a] = blockCoord(floorDiv(pI[a])) - mBLo[a];
-            for (int c = 0; c < 27; ++c) {
-                const int x = B[0] + c % 3 - 1, y = B[1] + (c / 3) % 3 - 1, z = B[2] + c / 9 - 1;
-                if (x >= 0 && y >= 0 && z >= 0 && x < mBDims[0] && y < mBDims[1] && z < mBDims[2])
-                    mBlockRefined[(std::size_t(z) * mBDims[1] + std::size_t(y)) * mBDims[0] +
-                                  std::size_t(x)] = 1;
-            }
+            forEachNeighbour(mBDims, B[0], B[1], B[2],
+                             [&](std::size_t b) { mBlockRefined[b] = 1; });
         }
     }
 
@@ -479,8 +477,8 @@ public:
                     const long c = long(cellIndex(fi[0], fi[1], fi[2]));
                     if (c != cell) {
                         cell = c;
-                        const long sc =
-                            mSlot[std::size_t(c)]; // an unrefined block's cells share one
+                        // An unrefined block's cells share one slot.
+                        const long sc = mSlot[std::size_t(c)];
                         if (sc != slot) {
                             flush(slot, acc, Y, out);
                             slot = sc;

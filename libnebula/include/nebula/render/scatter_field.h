@@ -46,10 +46,10 @@ struct ScatterOptions
     /// at most MAX_PACKETS.
     std::uint64_t packets = 1000000;
     std::uint64_t seed = 1;
-    /// Adaptive cells (> 0): a block of 2x2x2 field cells is tallied as one, and its cells'
-    /// values interpolated from the blocks', unless its densest voxel makes it optically
-    /// thicker than this across (tau_V) or a star is in or next to it; 0: every field cell
-    /// tallied on its own. At most MAX_REFINE_TAU.
+    /// Adaptive cells (> 0): a block of 2x2x2 field cells is tallied as one, its cells'
+    /// values from the block's value and slopes, unless its densest voxel makes it
+    /// optically thicker than this across (tau_V), a star is in or next to it, or it
+    /// borders such a block; 0: every field cell tallied on its own. At most MAX_REFINE_TAU.
     double refineTau = 0.0;
     bool perStar = false; ///< one field per star instead of their sum
     bool emission = true; ///< also the gas emission's collided light (if the scene emits)
