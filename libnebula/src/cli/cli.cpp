@@ -4,6 +4,7 @@
 #include "nebula/core/error.h"
 #include "nebula/core/format.h"
 #include "nebula/core/input.h"
+#include "nebula/core/units.h"
 
 #include <fmt/format.h>
 #include <openvdb/openvdb.h>
@@ -161,6 +162,32 @@ void parseResolution(const std::string& text, int& width, int& height)
         throw UsageError("--res \"" + text +
                          "\": expected WxH, each an integer in [1, 65536], e.g. 512x512");
     }
+}
+
+double parsePixelSize(const std::string& text, double distancePc)
+{
+    const auto unitAt = text.find_first_not_of("0123456789.eE+-");
+    const std::string number = text.substr(0, unitAt);
+    const std::string unit = unitAt == std::string::npos ? "pc" : text.substr(unitAt);
+    double value = 0.0;
+    try {
+        std::size_t used = 0;
+        value = std::stod(number, &used);
+        if (used != number.size()) throw std::invalid_argument(text);
+    } catch (const std::exception&) {
+        value = std::nan("");
+    }
+    if (!(value > 0.0) || !std::isfinite(value) || (unit != "pc" && unit != "arcsec")) {
+        throw UsageError("--pixel-size \"" + detail::printable(text, 40) +
+                         "\": expected a number > 0 with an optional unit pc or arcsec, e.g. "
+                         "0.01pc or 2arcsec");
+    }
+    if (unit == "pc") return value;
+    if (std::isnan(distancePc)) {
+        throw UsageError("--pixel-size " + detail::printable(text, 40) +
+                         " is an angle: it needs the observer's --distance [pc]");
+    }
+    return value * ARCSEC_RAD * distancePc;
 }
 
 namespace {

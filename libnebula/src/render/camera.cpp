@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <utility>
 
 namespace nebula {
 
@@ -14,6 +15,7 @@ std::string toString(CameraModel model)
     switch (model) {
     case CameraModel::Fisheye: return "fisheye";
     case CameraModel::Equirect: return "equirect";
+    case CameraModel::Orthographic: return "orthographic";
     case CameraModel::Perspective: break;
     }
     return "perspective";
@@ -21,10 +23,11 @@ std::string toString(CameraModel model)
 
 CameraModel cameraModelFromString(const std::string& name)
 {
-    for (const auto m : {CameraModel::Perspective, CameraModel::Fisheye, CameraModel::Equirect}) {
+    for (const auto m : {CameraModel::Perspective, CameraModel::Fisheye, CameraModel::Equirect,
+                         CameraModel::Orthographic}) {
         if (name == toString(m)) return m;
     }
-    throw UsageError("--camera must be perspective, fisheye or equirect, got \"" +
+    throw UsageError("--camera must be perspective, fisheye, equirect or orthographic, got \"" +
                      detail::printable(name, 40) + "\"");
 }
 
@@ -64,6 +67,40 @@ Projection::Projection(const Camera& c)
     }
     mTanH = std::tan(0.5 * c.fovDeg * DEG);
     mThetaMax = 0.5 * c.fovDeg * DEG;
+    if (mModel == CameraModel::Orthographic) {
+        mPixel = c.orthographicPixel();
+        mDistance = c.observerDistance();
+    }
+}
+
+double Camera::orthographicPixel() const
+{
+    if (!std::isnan(pixelSizePc)) return pixelSizePc;
+    return 2.0 * (lookAt - eye).length() * std::tan(0.5 * fovDeg * DEG) / width;
+}
+
+double Camera::observerDistance() const
+{
+    return std::isnan(distancePc) ? (lookAt - eye).length() : distancePc;
+}
+
+Vec3 Projection::origin(double px, double py) const
+{
+    if (mModel != CameraModel::Orthographic) return mEye;
+    return mEye + mRight * ((px - 0.5 * mWidth) * mPixel) + mUp * ((0.5 * mHeight - py) * mPixel);
+}
+
+Vec3 Projection::originTowards(const Vec3& p) const
+{
+    if (mModel != CameraModel::Orthographic) return mEye;
+    return p - mForward * (p - mEye).dot(mForward);
+}
+
+double Projection::distanceSquared(const Vec3& p) const
+{
+    if (mModel == CameraModel::Orthographic) return mDistance * mDistance;
+    const Vec3 v = p - mEye;
+    return v.dot(v);
 }
 
 bool Projection::direction(double px, double py, Vec3& d) const
@@ -96,6 +133,7 @@ bool Projection::direction(double px, double py, Vec3& d) const
                 .normalized();
         return true;
     }
+    case CameraModel::Orthographic: d = mForward; return true;
     }
     return false;
 }
@@ -150,6 +188,7 @@ double Projection::pixelSolidAngle(double px, double py) const
         return 2.0 * PI / mWidth *
                (std::sin(std::min(latTop, 0.5 * PI)) - std::sin(std::max(latBottom, -0.5 * PI)));
     }
+    case CameraModel::Orthographic: return (mPixel / mDistance) * (mPixel / mDistance);
     }
     return 0.0;
 }
@@ -157,6 +196,7 @@ double Projection::pixelSolidAngle(double px, double py) const
 double Projection::pixelAngle(double px, double py) const
 {
     if (mModel == CameraModel::Fisheye) return 2.0 * mThetaMax / mWidth;
+    if (mModel == CameraModel::Orthographic) return 0.0;
     return std::sqrt(pixelSolidAngle(px, py));
 }
 
@@ -192,6 +232,12 @@ bool Projection::project(const Vec3& p, double& px, double& py) const
         const double lat = std::asin(std::clamp(d.dot(mUp), -1.0, 1.0));
         px = (lon / (2.0 * PI) + 0.5) * mWidth;
         py = (0.5 - lat / PI) * mHeight;
+        return true;
+    }
+    case CameraModel::Orthographic: {
+        if (!(v.dot(mForward) > 0.0)) return false; // on or behind the eye's plane
+        px = 0.5 * mWidth + v.dot(mRight) / mPixel;
+        py = 0.5 * mHeight - v.dot(mUp) / mPixel;
         return true;
     }
     }
@@ -260,6 +306,13 @@ void validateCamera(const Camera& c)
                              " (wider views: --camera fisheye or equirect)");
         }
         break;
+    case CameraModel::Orthographic:
+        if (std::isnan(c.pixelSizePc) && !(c.fovDeg > 0.0 && c.fovDeg <= 179.0)) {
+            throw UsageError("--fov must be in (0, 179] degrees when it sets the orthographic "
+                             "camera's pixel (the width it spans at --look-at), got " +
+                             detail::numberText(c.fovDeg) + "; or give --pixel-size");
+        }
+        break;
     case CameraModel::Fisheye:
         if (!(c.fovDeg > 0.0 && c.fovDeg <= 360.0)) {
             throw UsageError("--fov must be in (0, 360] degrees for the fisheye camera, got " +
@@ -278,6 +331,24 @@ void validateCamera(const Camera& c)
                              std::to_string(2 * c.height) + "x" + std::to_string(c.height));
         }
         break;
+    }
+    for (const auto& [value, option] :
+         {std::pair{c.distancePc, "--distance"}, std::pair{c.pixelSizePc, "--pixel-size"}}) {
+        if (std::isnan(value)) continue;
+        if (c.model != CameraModel::Orthographic) {
+            throw UsageError(std::string(option) + " is for --camera orthographic");
+        }
+        if (!(value > 0.0) || !std::isfinite(value) || value > MAX_CAMERA_COORDINATE) {
+            throw UsageError(std::string(option) + " must be a finite length > 0 [pc], got " +
+                             detail::numberText(value));
+        }
+    }
+    if (c.model == CameraModel::Orthographic) {
+        const double p = c.orthographicPixel();
+        if (!(p > 0.0) || !std::isfinite(p) || !std::isfinite(p * c.width * c.height)) {
+            throw UsageError("the orthographic camera's pixel must be finite and > 0 [pc], got " +
+                             detail::numberText(p));
+        }
     }
     if (!std::isnan(c.domeTiltDeg)) {
         if (c.model != CameraModel::Fisheye) {

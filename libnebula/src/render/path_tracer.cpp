@@ -303,6 +303,7 @@ Image renderPathTraced(const RenderScene& scene, const RenderOptions& opts, cons
                     const std::size_t pix = std::size_t(py) * W + px;
                     Vec3 d;
                     if (!cam.direction(px + 0.5, py + 0.5, d)) continue; // not in view
+                    const Vec3 origin = cam.origin(px + 0.5, py + 0.5);
                     double mean[4] = {0, 0, 0, 0}, m2[4] = {0, 0, 0, 0}, trans[3] = {0, 0, 0};
                     std::fill(starSum.begin(), starSum.end(), 0.0);
                     for (int sample = 0; sample < opts.spp; ++sample) {
@@ -310,7 +311,7 @@ Image renderPathTraced(const RenderScene& scene, const RenderOptions& opts, cons
                         Pcg32 rng(pix * 0x9E3779B97F4A7C15ULL + std::uint64_t(sample), opts.seed);
                         double L[3] = {0, 0, 0}, T[3] = {1, 1, 1};
                         std::fill(Ls.begin(), Ls.end(), 0.0);
-                        walk(ps, cmax, grey, cam.eye(), d, rng, L, Ls.data(), T, band.collisions);
+                        walk(ps, cmax, grey, origin, d, rng, L, Ls.data(), T, band.collisions);
                         ++band.paths;
                         const double Lc[4] = {L[0], L[1], L[2],
                                               linearSRGBLuminance(L[0], L[1], L[2])};

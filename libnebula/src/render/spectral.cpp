@@ -157,6 +157,7 @@ struct SpectralScratch
 /// factor at the end of the previous segment (shared with the next).
 struct SpectralRay
 {
+    Vec3 oW; ///< world origin: the eye, or the orthographic camera's pixel on its plane
     Vec3 dW, dI;
     double tau = 0.0;
     XYZ lineXYZ{0, 0, 0};
@@ -216,6 +217,7 @@ public:
         SpectralRay ray;
         if (!mCam.direction(px + 0.5, py + 0.5, ray.dW)) return; // outside the view: black
         ray.dI = mLevel0.w2i.applyLinear(ray.dW);
+        ray.oW = mCam.origin(px + 0.5, py + 0.5);
         if (mField) {
             // Scattered towards the eye: Y_lm of the light's travel direction, -dW.
             double Y[shCount(SH_MAX_DEGREE)];
@@ -228,10 +230,9 @@ public:
         std::fill(sc.Cfield.begin(), sc.Cfield.end(), 0.0);
         std::fill(sc.layerAcc.begin(), sc.layerAcc.end(), 0.0);
         sc.rayPieces.clear();
-        sc.stats.rays +=
-            mLevel0.march(ray.dW, mOpts.step, [&](const Vec3& pI, double tm, double seg) {
-                return step(pI, tm, seg, ray, sc);
-            });
+        sc.stats.rays += mLevel0.marchFrom(
+            mLevel0.w2i.apply(ray.oW), ray.dW, mOpts.step,
+            [&](const Vec3& pI, double tm, double seg) { return step(pI, tm, seg, ray, sc); });
         writePixel(std::size_t(py) * img.width + px, ray, sc, img);
     }
 
@@ -508,7 +509,7 @@ private:
             // the eye's attenuation e^-tau Lambda is folded into each source's.
             for (std::size_t j = 0; j < mNodes.size(); ++j)
                 sc.A[j] = -std::expm1(-x * mNodes.lamExt[j]);
-            const Vec3 xW = mCam.eye() + ray.dW * tm;
+            const Vec3 xW = ray.oW + ray.dW * tm;
             scatterStarlight(xW, ray, sc);
             if (mField) scatterField(xW, ray, sc);
             blackbodyEmission(pI, ray, sc);

@@ -335,3 +335,70 @@ TEST(Camera, ValidateChecksTheModelsShapeAndAngles)
     EXPECT_EQ(cameraModelFromString("equirect"), CameraModel::Equirect);
     EXPECT_THROW(cameraModelFromString("cube"), UsageError);
 }
+
+// The orthographic camera: parallel rays along the view, each from its pixel on the plane
+// through the eye (the eye itself at the image centre), pixels of --pixel-size pc (or the
+// width --fov spans at the look-at point), solid angle (pixel / D)^2; project() inverts
+// origin(); stars behind the eye's plane are not in view; the optical depth to a star starts
+// at its foot on that plane; validateCamera() names --pixel-size and --distance.
+TEST(Camera, OrthographicRaysAreParallelFromTheEyesPlane)
+{
+    Camera c;
+    c.model = CameraModel::Orthographic;
+    c.eye = Vec3(1, 2, -20);
+    c.lookAt = Vec3(1, 2, 0);
+    c.width = 40;
+    c.height = 30;
+    c.pixelSizePc = 0.25;
+    c.distancePc = 1000.0;
+    validateCamera(c);
+    const Projection p(c);
+    EXPECT_TRUE(p.parallel());
+    for (double y = 0.5; y < 30; y += 3.7)
+        for (double x = 0.5; x < 40; x += 4.1) {
+            Vec3 d;
+            ASSERT_TRUE(p.direction(x, y, d));
+            EXPECT_NEAR(d.z, 1.0, 1e-15);
+            const Vec3 o = p.origin(x, y);
+            EXPECT_NEAR(o.z, -20.0, 1e-12);
+            // Right is -x looking along +z with y up.
+            EXPECT_NEAR(o.x, 1.0 - (x - 20.0) * 0.25, 1e-12);
+            EXPECT_NEAR(o.y, 2.0 + (15.0 - y) * 0.25, 1e-12);
+            double px, py;
+            ASSERT_TRUE(p.project(o + d * 7.0, px, py));
+            EXPECT_NEAR(px, x, 1e-9);
+            EXPECT_NEAR(py, y, 1e-9);
+            EXPECT_NEAR(p.pixelSolidAngle(x, y), 0.25 * 0.25 / 1e6, 1e-20);
+        }
+    EXPECT_NEAR((p.origin(20, 15) - c.eye).length(), 0.0, 1e-12);
+    double px, py;
+    EXPECT_FALSE(p.project(Vec3(1, 2, -21), px, py)); // behind the eye's plane
+    const Vec3 foot = p.originTowards(Vec3(3, -1, 5));
+    EXPECT_NEAR((foot - Vec3(3, -1, -20)).length(), 0.0, 1e-12);
+    EXPECT_NEAR(p.distanceSquared(Vec3(3, -1, 5)), 1e6, 1e-6);
+    // Defaults: the pixel the perspective --fov spans at the look-at point; D = |eye - look-at|.
+    Camera d = c;
+    d.pixelSizePc = std::nan("");
+    d.distancePc = std::nan("");
+    d.fovDeg = 36.0;
+    EXPECT_NEAR(d.orthographicPixel(), 2 * 20 * std::tan(18 * PI / 180) / 40, 1e-12);
+    EXPECT_NEAR(d.observerDistance(), 20.0, 1e-12);
+    const auto refused = [](const Camera& cam, const std::string& option) {
+        try {
+            validateCamera(cam);
+            ADD_FAILURE() << "not refused: " << option;
+        } catch (const UsageError& e) {
+            EXPECT_NE(std::string(e.what()).find(option), std::string::npos) << e.what();
+        }
+    };
+    Camera bad = c;
+    bad.distancePc = 0.0;
+    refused(bad, "--distance");
+    bad = c;
+    bad.pixelSizePc = -1.0;
+    refused(bad, "--pixel-size");
+    bad = c;
+    bad.model = CameraModel::Perspective;
+    refused(bad, "--distance is for --camera orthographic");
+    EXPECT_EQ(cameraModelFromString("orthographic"), CameraModel::Orthographic);
+}

@@ -8,7 +8,11 @@
 ///    angle from the dome's axis (--fov the full angle, 180 by default, up to 360); pixels
 ///    outside the circle are not in view;
 ///  - equirect: a 360 x 180 degree latitude-longitude panorama (width = 2 x height), the view
-///    direction at the centre, the camera's up at the top, longitude growing to the right.
+///    direction at the centre, the camera's up at the top, longitude growing to the right;
+///  - orthographic: a telescope's view from far away: parallel rays along the view direction,
+///    starting on the plane through --eye perpendicular to it, pixels of --pixel-size pc;
+///    the observer is at a distance D (--distance), which gives each pixel its solid angle
+///    (pixel / D)^2 and each star its flux L / (4 pi D^2).
 /// Every pixel carries its true solid angle (pixelSolidAngle()), so radiance times solid
 /// angle summed over pixels is the flux in every projection.
 
@@ -19,9 +23,9 @@
 
 namespace nebula {
 
-enum class CameraModel { Perspective, Fisheye, Equirect };
+enum class CameraModel { Perspective, Fisheye, Equirect, Orthographic };
 
-/// "perspective", "fisheye", "equirect".
+/// "perspective", "fisheye", "equirect", "orthographic".
 std::string toString(CameraModel model);
 /// The inverse of toString(); throws UsageError naming --camera otherwise.
 CameraModel cameraModelFromString(const std::string& name);
@@ -44,6 +48,17 @@ struct Camera
     /// on the bottom edge of the circle; 90: the same as NaN), and the front of the dome is
     /// at the bottom of the image, as in a dome master.
     double domeTiltDeg = std::numeric_limits<double>::quiet_NaN();
+    /// Orthographic only: the pixel's edge [pc]. NaN (the default): the width the perspective
+    /// camera's --fov spans at the look-at point, over the image width.
+    double pixelSizePc = std::numeric_limits<double>::quiet_NaN();
+    /// Orthographic only: the observer's distance D [pc] (pixel solid angles, star fluxes).
+    /// NaN (the default): the distance from --eye to --look-at.
+    double distancePc = std::numeric_limits<double>::quiet_NaN();
+
+    /// Orthographic: the pixel's edge [pc], pixelSizePc or its default.
+    double orthographicPixel() const;
+    /// Orthographic: the observer's distance [pc], distancePc or its default.
+    double observerDistance() const;
 
     /// Convenience: the same as Projection(*this).direction() etc.; integrators build the
     /// projection once and use it for every pixel.
@@ -66,15 +81,28 @@ public:
     bool direction(double px, double py, Vec3& d) const;
     /// direction() for a point in view; for one that is not, the view direction.
     Vec3 direction(double px, double py) const;
+    /// Where the ray through (px, py) starts [pc]: the eye, or for the orthographic camera
+    /// the pixel's point on the plane through the eye perpendicular to the view.
+    Vec3 origin(double px, double py) const;
+    /// Where the ray that reaches the eye from world point @p p starts: the eye, or for the
+    /// orthographic camera @p p's foot on the eye's plane (optical depth eye -> star).
+    Vec3 originTowards(const Vec3& p) const;
+    /// The squared distance [pc^2] over which a point source at @p p spreads its light to the
+    /// observer: |p - eye|^2, or D^2 for the orthographic camera (star sprites).
+    double distanceSquared(const Vec3& p) const;
+    /// Whether all rays are parallel (orthographic): they start at origin(), not at eye().
+    bool parallel() const { return mModel == CameraModel::Orthographic; }
     /// Whether the centre of pixel (px, py) is in view (the integrators render only those).
     bool inView(double px, double py) const;
+    double pixelSolidAngle(double px, double py) const;
     /// Solid angle [sr] of the pixel centred at (px, py): exact for perspective and
     /// equirect; for fisheye the integral of the projection's Jacobian over the part of the
-    /// pixel inside the circle (16 x 16 midpoints), 0 for a pixel wholly outside.
-    double pixelSolidAngle(double px, double py) const;
-    /// The angle a pixel centred at (px, py) spans [rad], for the level of detail: the square
+    /// pixel inside the circle (16 x 16 midpoints), 0 for a pixel wholly outside; for the
+    /// orthographic camera (pixel / D)^2.
+    /// (The level of detail:) the angle a pixel centred at (px, py) spans [rad]: the square
     /// root of pixelSolidAngle() for perspective and equirect; for fisheye the equidistant
-    /// projection's radial angle per pixel (cheap; it varies little across the circle).
+    /// projection's radial angle per pixel (cheap; it varies little across the circle); for
+    /// the orthographic camera 0 (its footprint does not grow with distance).
     double pixelAngle(double px, double py) const;
     /// Projects world point @p p [pc] to image coordinates; false if it is not in view
     /// (behind a perspective eye, beyond a fisheye's angle, or at the eye).
@@ -95,6 +123,8 @@ private:
     Vec3 mEye, mForward, mRight, mUp;
     double mTanH = 0.0;     ///< perspective: tan of half the horizontal field of view
     double mThetaMax = 0.0; ///< fisheye: half the full angle [rad]
+    double mPixel = 0.0;    ///< orthographic: the pixel's edge [pc]
+    double mDistance = 0.0; ///< orthographic: the observer's distance [pc]
     int mWidth, mHeight;
 };
 
@@ -106,7 +136,9 @@ inline constexpr double MAX_CAMERA_COORDINATE = 1e150;
 /// coordinates of at most MAX_CAMERA_COORDINATE in magnitude, the eye differs from the
 /// look-at point and up is not parallel to the view direction; and unless --fov, --roll,
 /// --dome-tilt and --res suit the model (fisheye: square, fov in (0, 360], tilt in [0, 90];
-/// equirect: width = 2 x height; perspective: fov in (0, 179]).
+/// equirect: width = 2 x height; perspective: fov in (0, 179]; orthographic: fov in (0, 179]
+/// when it sets the pixel), and --pixel-size and --distance are finite and > 0 and given only
+/// for the orthographic camera.
 void validateCamera(const Camera& camera);
 
 } // namespace nebula

@@ -138,7 +138,14 @@ struct Marcher
     /// the default frame a few per cent.)
     template <class Step> bool march(const Vec3& dW, double stepVoxels, Step&& step) const
     {
-        const BlockRay ray(vol, blocks, eyeI, w2i.applyLinear(dW),
+        return marchFrom(eyeI, dW, stepVoxels, step);
+    }
+    /// march() from index-space point @p oI instead of the eye (the orthographic camera's
+    /// parallel rays, each from its pixel on the eye's plane).
+    template <class Step>
+    bool marchFrom(const Vec3& oI, const Vec3& dW, double stepVoxels, Step&& step) const
+    {
+        const BlockRay ray(vol, blocks, oI, w2i.applyLinear(dW),
                            std::numeric_limits<double>::infinity());
         const double dt = stepVoxels / ray.dI.length();
         for (double t = ray.t0; t < ray.t1;) {
