@@ -56,6 +56,24 @@ int main(int argc, char** argv)
     nebula::cli::addCommon(app, common, nebula::cli::INPUT | nebula::cli::DENSITY_GRID);
     app.add_option("-o,--output", out.exr, "Output EXR file")->required();
     app.add_option("--png", out.png, "Output PNG (default: the EXR name with .png)");
+    app.add_option("--fits", out.fits.path,
+                   "Also a calibrated FITS image: surface brightness at each --wavelengths\n"
+                   "(monochromatic; stars as black bodies of bolometric luminosity; the EXR\n"
+                   "then holds spectral radiance per nm), components TOTAL, DIRECT, SCATTERED,\n"
+                   "SINGLE, FIELD as HDUs; --camera orthographic (or perspective with --sky)");
+    app.add_option("--fits-unit", out.fits.unit, "FITS unit: MJy/sr or W/m2/sr/nm")
+        ->capture_default_str();
+    std::vector<double> sky;
+    auto* skyOpt = app.add_option("--sky", sky,
+                                  "FITS: the look-at point's RA,DEC [degrees, ICRS]: a celestial\n"
+                                  "TAN WCS (without it: offsets in pc)")
+                       ->delimiter(',')
+                       ->expected(2)
+                       ->type_name("RA,DEC");
+    app.add_option("--position-angle", out.fits.positionAngle,
+                   "FITS: the image's up on the sky [degrees from north through east]; 0: north\n"
+                   "up, east left")
+        ->capture_default_str();
     app.add_flag("--no-png", noPng, "Write no PNG");
     app.add_option("--png-bits", out.pngBits, "PNG bit depth: 8 or 16")
         ->check(CLI::IsMember({8, 16}))
@@ -67,8 +85,10 @@ int main(int argc, char** argv)
     app.add_option("--camera", cameraModel,
                    "perspective; fisheye: an azimuthal-equidistant dome master (square, the\n"
                    "view inside the circle, --fov the full angle); equirect: a 360 x 180\n"
-                   "latitude-longitude panorama (2:1), the view direction at the centre")
-        ->check(CLI::IsMember({"perspective", "fisheye", "equirect"}))
+                   "latitude-longitude panorama (2:1), the view direction at the centre;\n"
+                   "orthographic: a telescope's parallel view along --eye -> --look-at, the rays\n"
+                   "starting on the plane through --eye (put it outside the nebula)")
+        ->check(CLI::IsMember({"perspective", "fisheye", "equirect", "orthographic"}))
         ->capture_default_str();
     auto* fovOpt = app.add_option("--fov", opts.camera.fovDeg,
                                   "Field of view [degrees]: perspective: horizontal, in (0, 179]\n"
@@ -86,6 +106,14 @@ int main(int argc, char** argv)
                    "(0 a horizontal dome: the look-at point on the bottom edge; 90 the same as\n"
                    "no tilt: the centre at --look-at)")
         ->check(nebula::cli::numberIn(0.0, 90.0));
+    std::string pixelSizeText;
+    app.add_option("--pixel-size", pixelSizeText,
+                   "Orthographic: the pixel's size, 0.01pc (pc if no unit) or, with --distance,\n"
+                   "2arcsec (default: the width --fov spans at --look-at, over the width)");
+    app.add_option("--distance", opts.camera.distancePc,
+                   "Orthographic: the observer's distance [pc]: pixel solid angles (pixel /\n"
+                   "distance)^2, star fluxes, arcsec pixels, fluxes in --sed (default: the\n"
+                   "distance from --eye to --look-at)");
     std::string pathFile, frameText, framesText;
     auto* pathOpt = app.add_option("--camera-path", pathFile,
                                    "Keyframed camera path (JSON: fps, keyframes of time, eye,\n"
@@ -271,6 +299,10 @@ int main(int argc, char** argv)
         } else if (opts.camera.model == nebula::CameraModel::Equirect) {
             opts.camera.width = 2 * opts.camera.height;
         }
+        if (!pixelSizeText.empty()) {
+            opts.camera.pixelSizePc =
+                nebula::cli::parsePixelSize(pixelSizeText, opts.camera.distancePc);
+        }
         nebula::validateCamera(opts.camera);
         if (pathOpt->count() > 0) {
             nebula::InputSpec spec;
@@ -305,6 +337,11 @@ int main(int argc, char** argv)
             out.path = path;
         } else if (!frameText.empty() || !framesText.empty()) {
             throw nebula::UsageError("--frame and --frames need a --camera-path");
+        }
+        if (skyOpt->count() > 0) {
+            out.fits.sky = true;
+            out.fits.ra = sky.at(0);
+            out.fits.dec = sky.at(1);
         }
         opts.drawStars = !noStars;
         opts.scatterField = !noScatterField;

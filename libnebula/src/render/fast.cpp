@@ -51,6 +51,7 @@ struct Scratch
 /// The state of one ray: transmittance T and radiance L per channel.
 struct RayState
 {
+    Vec3 oW; ///< world origin: the eye, or the orthographic camera's pixel on its plane
     Vec3 dW; ///< world direction
     /// a p_l Y_lm(-dW) per moment: the scattered-light field's weights towards the eye
     double fieldWeight[shCount(SH_MAX_DEGREE)] = {};
@@ -61,6 +62,8 @@ struct RayState
     double fieldCorner[8][3] = {};
     double T[3] = {1, 1, 1};
     double L[3] = {0, 0, 0};
+    double Lfield[3] = {0, 0, 0};    ///< the part of L from the field (componentLayers)
+    double Lemission[3] = {0, 0, 0}; ///< the part of L from the gas's glow (componentLayers)
 };
 
 class FastIntegrator
@@ -147,6 +150,7 @@ public:
         const std::size_t S = mScene.stars.size();
         RayState ray;
         if (!mCam.direction(px + 0.5, py + 0.5, ray.dW)) return; // outside the view: black
+        ray.oW = mCam.origin(px + 0.5, py + 0.5);
         if (mField) {
             // Scattered towards the eye: Y_lm of the light's travel direction, -dW.
             double Y[shCount(SH_MAX_DEGREE)];
@@ -186,10 +190,10 @@ public:
                     return step(pI, tm, seg, ray, sc, level);
                 });
         } else {
-            sc.stats.rays +=
-                mLevel0.march(ray.dW, mOpts.step, [&](const Vec3& pI, double tm, double seg) {
-                    return step(pI, tm, seg, ray, sc, 0);
-                });
+            sc.stats.rays += mLevel0.marchFrom(mLevel0.w2i.apply(ray.oW), ray.dW, mOpts.step,
+                                               [&](const Vec3& pI, double tm, double seg) {
+                                                   return step(pI, tm, seg, ray, sc, 0);
+                                               });
         }
         const std::size_t pix = std::size_t(py) * img.width + px;
         ImageLayer& transLayer = img.layers[S];
@@ -201,6 +205,12 @@ public:
             }
         }
         img.rgba[pix * 4 + 3] = float(1.0 - ray.T[1]);
+        if (mOpts.componentLayers) { // frameImage()'s layers after transmittance
+            for (int c = 0; c < 3; ++c) {
+                img.layers[S + 1].rgb[pix * 3 + c] = float(ray.Lfield[c]);
+                img.layers[S + 2].rgb[pix * 3 + c] = float(ray.Lemission[c]);
+            }
+        }
     }
 
 private:
@@ -246,7 +256,10 @@ private:
     {
         for (int c = 0; c < 3; ++c) {
             const double emitLen = x[c] > 1e-7 ? oneMinus[c] / x[c] * seg : seg;
-            ray.L[c] += ray.T[c] * em * mOpts.emissionScale * mOpts.emissionColor[c] * emitLen;
+            const double add =
+                ray.T[c] * em * mOpts.emissionScale * mOpts.emissionColor[c] * emitLen;
+            ray.L[c] += add;
+            ray.Lemission[c] += add;
         }
     }
 
@@ -347,7 +360,10 @@ private:
             const double c11 = f[6][c] + u * (f[7][c] - f[6][c]);
             const double c0 = c00 + v * (c10 - c00), c1 = c01 + v * (c11 - c01);
             const double src = c0 + w * (c1 - c0);
-            if (src > 0.0) ray.L[c] += ray.T[c] * src * oneMinus[c];
+            if (src > 0.0) {
+                ray.L[c] += ray.T[c] * src * oneMinus[c];
+                ray.Lfield[c] += ray.T[c] * src * oneMinus[c];
+            }
         }
     }
 
@@ -379,7 +395,7 @@ private:
         emit(em, x, oneMinus, seg, ray);
         if (n > 0.0) {
             PhaseLookup::Pos tPos[3];
-            const Vec3 xW = mCam.eye() + ray.dW * tm;
+            const Vec3 xW = ray.oW + ray.dW * tm;
             if (mTable) {
                 const double logN = std::log(n);
                 for (int c = 0; c < 3; ++c) {
@@ -479,7 +495,9 @@ Image renderFrame(const RenderScene& scene, const RenderOptions& opts, const Run
     const Camera& view = opts.camera;
     if (view.width <= 0 || view.height <= 0) throw UsageError("--res must be WxH with W, H > 0");
     requireRayStep(scene, opts.step);
-    Image img = detail::frameImage(scene, opts);
+    Image img = opts.componentLayers
+                    ? detail::frameImage(scene, opts, {"field", "emission", "direct"})
+                    : detail::frameImage(scene, opts);
     const FastIntegrator integrator(scene, opts);
     detail::forEachRowBand(view.height, 4, run, "nebrender", stats,
                            [&](int y0, int y1, RenderStats& bandStats) {
@@ -491,7 +509,11 @@ Image renderFrame(const RenderScene& scene, const RenderOptions& opts, const Run
                                }
                                bandStats = sc.stats;
                            });
-    if (opts.drawStars) drawStarSprites(img, scene, opts);
+    if (opts.drawStars) {
+        // With the component layers, the sprites alone (the direct starlight) into "direct".
+        drawStarSprites(img, scene, opts, {}, {},
+                        opts.componentLayers ? &img.layers[scene.stars.size() + 3].rgb : nullptr);
+    }
     return img;
 }
 

@@ -7,6 +7,7 @@
 #include "nebula/io/grid_names.h"
 #include "nebula/io/scatter_field_vdb.h"
 #include "nebula/io/volume_vdb.h"
+#include "nebula/physics/blackbody.h"
 #include "nebula/physics/colour.h"
 #include "nebula/render/scatter_field.h"
 
@@ -164,6 +165,26 @@ std::string starDifference(const std::vector<Star>& fieldStars, const std::vecto
     return "";
 }
 
+/// A star's field was made with its sRGB colour times the luminosity it had then
+/// (@p made): the factors per channel that scale it to @p power, the star's spectral
+/// luminosity at each channel's wavelength (RenderOptions::monochromatic).
+std::array<double, 3> monochromaticFieldFactors(const std::array<double, 3>& power,
+                                                const Star& made, const std::string& what,
+                                                const std::string& rerun)
+{
+    const auto rgb = blackbodyLinearSRGB(made.temperature);
+    std::array<double, 3> f;
+    for (std::size_t c = 0; c < 3; ++c) {
+        if (!(rgb[c] > 0.0)) {
+            throw Error(what + ": star " + made.name + "'s sRGB colour has " +
+                        std::string(1, "RGB"[c]) +
+                        " = 0, so its field cannot be scaled to its spectrum" + rerun);
+        }
+        f[c] = power[c] / (rgb[c] * made.luminosity);
+    }
+    return f;
+}
+
 /// Reads nebscatter's field (DESIGN §5b, io/scatter_field_vdb.h) into scene.scatter, checking
 /// that it was made for this scene; see buildScene(). @p spectral: the spectral field
 /// (nebscatter --spectral, for the spectral renderer) instead of the R, G, B one.
@@ -244,12 +265,35 @@ void readScatterField(const GridSet& grids, const RenderOptions& opts, const Dus
         const std::string& src = source.name;
         if (src == "emission") {
             for (int c = 0; c < 3; ++c)
-                factor[std::size_t(c)] = opts.emissionScale * opts.emissionColor[std::size_t(c)];
+                factor[std::size_t(c)] =
+                    opts.monochromatic ? 0.0
+                                       : opts.emissionScale * opts.emissionColor[std::size_t(c)];
+        } else if (src == "stars" && opts.monochromatic && !spectral) {
+            // All stars in one field, made with their sRGB colours: one factor per channel
+            // scales it to the stars' spectral luminosities only if it is the same for every
+            // star (one star, or stars of one temperature).
+            for (std::size_t s = 0; s < scene.stars.size(); ++s) {
+                const auto f =
+                    monochromaticFieldFactors(scene.starColor[s], meta.stars[s], what, rerun);
+                for (std::size_t c = 0; c < 3; ++c) {
+                    if (s > 0 && std::abs(f[c] - factor[c]) > 1e-9 * std::abs(factor[c])) {
+                        throw Error(what + " holds the stars' light as one field, made with their "
+                                           "colours; stars of different temperatures need a "
+                                           "field per star for --fits: run nebscatter --per-star");
+                    }
+                    factor[c] = f[c];
+                }
+            }
         } else if (src.rfind("star_", 0) == 0) {
-            for (std::size_t s = 0; s < scene.stars.size(); ++s)
-                if ("star_" + scene.stars[s].name == src)
-                    std::fill(factor.begin(), factor.end(),
-                              scene.stars[s].luminosity / meta.stars[s].luminosity);
+            for (std::size_t s = 0; s < scene.stars.size(); ++s) {
+                if ("star_" + scene.stars[s].name != src) continue;
+                std::fill(factor.begin(), factor.end(),
+                          scene.stars[s].luminosity / meta.stars[s].luminosity);
+                if (!opts.monochromatic || spectral) continue;
+                const auto f =
+                    monochromaticFieldFactors(scene.starColor[s], meta.stars[s], what, rerun);
+                factor.assign(f.begin(), f.end());
+            }
         }
         factors.push_back(std::move(factor));
     }
@@ -310,7 +354,7 @@ RenderScene buildScene(const GridSet& grids, const RenderOptions& opts, const Du
     const auto density = grids.floatGrid(opts.densityGrid, "--density-grid");
     requireFiniteNonNegative(*density, grids.source);
     openvdb::FloatGrid::Ptr emission;
-    if (grids.find(opts.emissionGrid)) {
+    if (grids.find(opts.emissionGrid) && !opts.monochromatic) {
         emission = grids.floatGrid(opts.emissionGrid, "--emission-grid");
         requireFiniteNonNegative(*emission, grids.source);
     }
@@ -333,6 +377,14 @@ RenderScene buildScene(const GridSet& grids, const RenderOptions& opts, const Du
     requireFiniteEmission(*emission, opts.emissionScale, scene.fields, grids.source);
 
     for (const auto& s : scene.stars) {
+        if (opts.monochromatic) {
+            std::array<double, 3> L;
+            for (std::size_t c = 0; c < 3; ++c)
+                L[c] =
+                    blackbodySpectralLuminosity(s.luminosity, s.temperature, opts.wavelengths[c]);
+            scene.starColor.push_back(L);
+            continue;
+        }
         const auto c = blackbodyLinearSRGB(s.temperature);
         scene.starColor.push_back({c[0] * s.luminosity, c[1] * s.luminosity, c[2] * s.luminosity});
     }

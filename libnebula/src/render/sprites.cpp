@@ -34,7 +34,8 @@ void requireSpriteMemory(const RenderOptions& opts)
 
 void drawStarSprites(Image& img, const RenderScene& scene, const RenderOptions& opts,
                      const std::function<std::array<double, 3>(std::size_t, double)>& colour,
-                     const std::function<void(std::size_t, std::size_t, double)>& footprint)
+                     const std::function<void(std::size_t, std::size_t, double)>& footprint,
+                     std::vector<float>* direct)
 {
     const Projection cam(opts.camera);
     const int W = opts.camera.width, H = opts.camera.height;
@@ -43,7 +44,6 @@ void drawStarSprites(Image& img, const RenderScene& scene, const RenderOptions& 
     const Affine& i2w = vol.indexToWorld;
     const Affine w2i = i2w.inverse();
     const auto& dust = scene.dust;
-    const Vec3 eyeI = w2i.apply(cam.eye());
     std::vector<Vec3> starPos;
     for (const auto& s : scene.stars)
         starPos.emplace_back(s.position[0], s.position[1], s.position[2]);
@@ -57,9 +57,9 @@ void drawStarSprites(Image& img, const RenderScene& scene, const RenderOptions& 
         for (std::size_t s = 0; s < S; ++s) {
             double sx, sy;
             if (!cam.project(starPos[s], sx, sy)) continue;
-            const Vec3 toStar = starPos[s] - cam.eye();
-            const double d2 = toStar.dot(toStar);
-            const double tauV = dust.kappa_V * column(eyeI, w2i.apply(starPos[s]));
+            const double d2 = cam.distanceSquared(starPos[s]);
+            const double tauV = dust.kappa_V * column(w2i.apply(cam.originTowards(starPos[s])),
+                                                      w2i.apply(starPos[s]));
             const double sigma = std::max(0.3, 0.5 * opts.spriteRadius);
             const int R = int(std::ceil(2.0 * opts.spriteRadius)) + 1;
             const int cx = int(std::floor(sx)), cy = int(std::floor(sy));
@@ -95,6 +95,7 @@ void drawStarSprites(Image& img, const RenderScene& scene, const RenderOptions& 
                         const float Lpix = float(F[std::size_t(c)] * w[wi] / wsum / omega);
                         img.rgba[pix * 4 + c] += Lpix;
                         img.layers[s].rgb[pix * 3 + c] += Lpix;
+                        if (direct) (*direct)[pix * 3 + c] += Lpix;
                     }
                 }
         }

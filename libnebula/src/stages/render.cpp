@@ -143,6 +143,11 @@ std::map<std::string, std::string> exrAttributes(const GridSet& grids, const Ren
         {"roll_deg", opts.camera.rollDeg}, {"projection", toString(opts.camera.model)}};
     if (opts.camera.model == CameraModel::Equirect) cam.erase("fov_deg");
     if (!std::isnan(opts.camera.domeTiltDeg)) cam["dome_tilt_deg"] = opts.camera.domeTiltDeg;
+    if (opts.camera.model == CameraModel::Orthographic) {
+        cam.erase("fov_deg");
+        cam["pixel_size_pc"] = opts.camera.orthographicPixel();
+        cam["distance_pc"] = opts.camera.observerDistance();
+    }
     std::map<std::string, std::string> attrs{
         {"comments",
          path ? "nebula reference path-traced render (DESIGN section 6); linear radiance"
@@ -206,6 +211,42 @@ bool frameExists(const std::string& exr, const std::string& png)
     return true;
 }
 
+/// The observer's and the inputs' header cards of --fits.
+std::vector<FitsCard> fitsCards(const GridSet& grids, const RenderOptions& opts,
+                                const RenderOutput& out, const Run& run)
+{
+    const Camera& c = opts.camera;
+    const auto vec = [](const Vec3& v) {
+        return fmt::format("{:.10g},{:.10g},{:.10g}", v.x, v.y, v.z);
+    };
+    std::vector<FitsCard> cards{
+        {"ORIGIN", std::string("nebula ") + NEBULA_VERSION_STRING, "the software"},
+        {"CAMERA", toString(c.model), "nebrender --camera"},
+        {"EYE", vec(c.eye), "camera position [pc]"},
+        {"LOOKAT", vec(c.lookAt), "the image centre [pc]"},
+        {"UP", vec(c.up), "camera up"},
+    };
+    if (c.model == CameraModel::Orthographic) {
+        cards.push_back({"DISTANCE", c.observerDistance(), "observer's distance [pc]"});
+        cards.push_back({"PIXSIZE", c.orthographicPixel(), "pixel size [pc]"});
+    } else {
+        cards.push_back({"FOV", c.fovDeg, "horizontal field of view [deg]"});
+    }
+    cards.push_back({"PIXSR", Projection(c).pixelSolidAngle(0.5 * c.width, 0.5 * c.height),
+                     "solid angle of the central pixel [sr]"});
+    if (out.fits.sky) cards.push_back({"POSANG", out.fits.positionAngle, "up, N through E [deg]"});
+    cards.push_back({"COMMENT",
+                     std::string("Monochromatic images at the WAVE axis' wavelengths: each star a "
+                                 "black body of its bolometric luminosity (DESIGN section 13)."),
+                     ""});
+    for (const auto& h : grids.historyWith(run.tool(), run.command())) {
+        const std::string tool = h.value("tool", std::string("?"));
+        const std::string command = h.value("command", std::string());
+        cards.push_back({"HISTORY", tool + ": " + command, ""});
+    }
+    return cards;
+}
+
 /// Renders one frame with @p opts' camera and writes its EXR and PNG, both or neither.
 void renderOneFrame(const GridSet& grids, const RenderOptions& opts, const DustParams& dust,
                     const SpectralScene& sscene, const RenderOutput& out, const std::string& exr,
@@ -234,28 +275,42 @@ void renderOneFrame(const GridSet& grids, const RenderOptions& opts, const DustP
                                                 {"log_mean", lum.logMean},
                                                 {"lit_pixels", lum.lit}})
                                     .dump();
-    // Both outputs or neither: each is written and fsynced before either replaces its target.
+    // All outputs or none: each is written and fsynced before any replaces its target.
     AtomicFile exrFile(exr);
     writeExr(exrFile, img, attrs);
-    std::optional<AtomicFile> pngFile;
+    std::vector<AtomicFile*> files{&exrFile};
+    std::optional<AtomicFile> pngFile, fitsFile;
     if (!png.empty()) {
         pngFile.emplace(png);
         writePng(*pngFile, img, curve,
                  {{"Software", std::string("nebrender ") + NEBULA_VERSION_STRING},
                   {"Comment", run.command()}},
                  out.pngBits);
-        commitAll({&exrFile, &*pngFile});
-    } else {
-        exrFile.commit();
+        files.push_back(&*pngFile);
     }
-    run.info("wrote " + exr + (png.empty() ? std::string() : " and " + png));
+    if (!out.fits.path.empty()) {
+        fitsFile.emplace(out.fits.path);
+        writeCalibratedFits(*fitsFile, img, sscene.base.stars.size(), opts, out.fits,
+                            fitsCards(grids, opts, out, run));
+        files.push_back(&*fitsFile);
+    }
+    commitAll(files);
+    std::string names = exr;
+    for (std::size_t i = 1; i < files.size(); ++i)
+        names += (i + 1 == files.size() ? " and " : ", ") + files[i]->path();
+    run.info("wrote " + names);
 }
 
 } // namespace
 
-void renderToFiles(const GridSet& grids, const RenderOptions& opts, const DustParams& dust,
+void renderToFiles(const GridSet& grids, const RenderOptions& given, const DustParams& dust,
                    const RenderOutput& out, const Run& run)
 {
+    RenderOptions opts = given;
+    if (!out.fits.path.empty()) { // calibrated: monochromatic channels and their components
+        opts.monochromatic = true;
+        opts.componentLayers = true;
+    }
     const std::string png = pngPath(out);
     std::vector<long> frames = out.frames;
     if (out.path && frames.empty()) {
@@ -280,6 +335,17 @@ void renderToFiles(const GridSet& grids, const RenderOptions& opts, const DustPa
     for (const long f : {frames.front(), frames.back()}) {
         checkOutputWritable(expandFramePattern(out.exr, f), "EXR");
         if (!png.empty()) checkOutputWritable(expandFramePattern(png, f), "PNG");
+    }
+    checkFitsOutput(out.fits, opts, frames.size() > 1);
+    if (!out.fits.path.empty()) {
+        checkOutputWritable(out.fits.path, "FITS");
+        if (opts.integrator != Integrator::Fast) {
+            throw UsageError("--fits needs the fast integrator (its component layers)");
+        }
+        if (grids.find(opts.emissionGrid)) {
+            run.warn("--fits: the gas's glow (grid \"" + opts.emissionGrid +
+                     "\") has no spectral calibration in RGB mode and is left out of the images");
+        }
     }
     checkIntegratorOptions(grids, opts, run);
     // Every frame's camera, computed once and checked before the scene is built.

@@ -5,6 +5,7 @@
 #include "nebula/render/fast.h"
 
 #include "nebula/core/error.h"
+#include "nebula/physics/blackbody.h"
 #include "nebula/render/sprites.h"
 
 #include "render_scenes.h"
@@ -517,4 +518,78 @@ TEST(Render, LevelOfDetailKeepsTheFluxInEveryCamera)
         EXPECT_NEAR(lod, full, 0.01 * full) << toString(model);
         EXPECT_LT(stats.samples, fullStats.samples) << toString(model); // levels were used
     }
+}
+
+// The orthographic camera (a telescope far away) sees a glowing cube (no dust) as its
+// column: each pixel through the cube's middle holds e times the trilinear profile's length
+// along the axis (39 voxels), a pixel outside it nothing; and radiance times pixel solid
+// angle (pixel / D)^2, summed, is the cube's emission over D^2 (the flux at distance D),
+// whatever D: the same as a small perspective view from 400 pc finds, times its distance^2.
+// A star's sprite carries L / (4 pi D^2). Tolerances: 1e-6 for the column (steps of 0.25
+// voxel over linear ramps are exact), 2e-3 for the fluxes (the perspective's rays diverge).
+TEST(Render, OrthographicCameraSeesColumnsAndFluxesAtItsDistance)
+{
+    const auto scene = cube(0.0, 1.0, {});
+    RenderOptions o = axisCamera(Vec3(2.0, 2.0, -30.0), 0.25);
+    o.emissionColor = {1, 1, 1};
+    o.camera.model = CameraModel::Orthographic;
+    o.camera.width = o.camera.height = 64;
+    o.camera.pixelSizePc = 0.1;
+    double flux[2];
+    for (const double D : {50.0, 1e4}) {
+        o.camera.distancePc = D;
+        const Image img = renderFrame(scene, o);
+        const std::size_t mid = (32 * 64 + 32) * 4 + 1; // pixel (32, 32): x, y = 2.05, 1.95
+        EXPECT_NEAR(img.rgba[mid], 39 * H, 1e-6);
+        EXPECT_EQ(img.rgba[(1 * 64 + 1) * 4 + 1], 0.0f); // x, y = -1.05: outside the cube
+        flux[D > 100 ? 1 : 0] = fluxOf(img, o.camera) * D * D;
+    }
+    EXPECT_NEAR(flux[0], flux[1], 1e-9 * flux[0]);
+    RenderOptions far = axisCamera(Vec3(2.0, 2.0, -398.0), 0.25);
+    far.emissionColor = {1, 1, 1};
+    far.camera.width = far.camera.height = 128;
+    far.camera.fovDeg = 1.0; // 7 pc across at 400 pc: the whole cube
+    const double perspective = fluxOf(renderFrame(scene, far), far.camera) * 400.0 * 400.0;
+    EXPECT_NEAR(flux[0], perspective, 2e-3 * perspective);
+    // The sprite: L / (4 pi D^2), at the pixel the star projects to.
+    Star s;
+    s.name = "s";
+    s.position = {2.33, 1.71, 2.2};
+    s.luminosity = 100.0;
+    const auto lit = cube(0.0, 0.0, {s});
+    o.drawStars = true;
+    o.camera.distancePc = 250.0;
+    const Image img = renderFrame(lit, o);
+    const double expected = 100.0 / (4 * PI * 250.0 * 250.0);
+    EXPECT_NEAR(fluxOf(img, o.camera), expected, 1e-6 * expected);
+    double sx = 0, sy = 0, sw = 0;
+    for (int y = 0; y < 64; ++y)
+        for (int x = 0; x < 64; ++x) {
+            const double w = img.rgba[(std::size_t(y) * 64 + x) * 4 + 1];
+            sx += w * (x + 0.5);
+            sy += w * (y + 0.5);
+            sw += w;
+        }
+    // Right is -x (looking along +z with y up), up is +y; the image centre is (2, 2).
+    EXPECT_NEAR(sx / sw, 32.0 - (2.33 - 2.0) / 0.1, 1e-3);
+    EXPECT_NEAR(sy / sw, 32.0 - (1.71 - 2.0) / 0.1, 1e-3);
+}
+
+// Calibrated channels (RenderOptions::monochromatic): each star shines its black body's
+// spectral luminosity at each channel's wavelength, L pi B_lambda(T) / (sigma T^4) per nm,
+// checked against Planck's law written out here at three wavelengths and luminosities; and
+// the sun's (5772 K, 1 L_sun) at 550 nm against its measured value, 1.37e-3 L_sun per nm
+// (1.86 W m^-2 nm^-1 at 1 au, Gueymard 2004, times 4 pi au^2 / L_sun), within 10 % (the
+// black body gives 1.29e-3: the sun is nearly one there).
+TEST(Render, MonochromaticStarsShineTheirSpectralLuminosity)
+{
+    const double h = 6.62607015e-34, c = 299792458.0, k = 1.380649e-23, sigma = 5.670374419e-8;
+    for (const auto& [L, T, nm] : {std::tuple{1.0, 5772.0, 550.0}, std::tuple{3.0, 20000.0, 435.8},
+                                   std::tuple{1e4, 3000.0, 700.0}}) {
+        const double l = nm * 1e-9;
+        const double B = 2 * h * c * c / std::pow(l, 5) / std::expm1(h * c / (l * k * T));
+        const double perNm = L * PI * B * 1e-9 / (sigma * std::pow(T, 4));
+        EXPECT_NEAR(blackbodySpectralLuminosity(L, T, nm), perNm, 1e-12 * perNm) << T << " K";
+    }
+    EXPECT_NEAR(blackbodySpectralLuminosity(1.0, 5772.0, 550.0), 1.37e-3, 0.1 * 1.37e-3);
 }

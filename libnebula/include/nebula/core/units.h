@@ -26,4 +26,20 @@ inline constexpr double L_SUN_CGS = 3.828e33;          ///< nominal solar lumino
 /// W m^-2 -> L_sun pc^-2 (pc^2 / L_sun): turns a flux in SI into the renderer's units.
 inline constexpr double WM2_TO_LSUN_PC2 = PC_M * PC_M / L_SUN_W;
 
+// Observers' units (DESIGN §13).
+inline constexpr double STEFAN_BOLTZMANN = 5.670374419e-8;  ///< sigma [W m^-2 K^-4] (CODATA 2018)
+inline constexpr double JANSKY = 1e-26;                     ///< 1 Jy [W m^-2 Hz^-1]
+inline constexpr double ARCSEC_RAD = PI / (180.0 * 3600.0); ///< one arcsecond [rad]
+inline constexpr double DEG_RAD = PI / 180.0;               ///< one degree [rad]
+
+/// Spectral radiance per nm: L_sun pc^-2 sr^-1 nm^-1 -> W m^-2 sr^-1 nm^-1.
+inline constexpr double LSUN_PC2_TO_WM2 = L_SUN_W / (PC_M * PC_M);
+/// Spectral radiance per nm at @p lambda_nm [nm]: L_sun pc^-2 sr^-1 nm^-1 -> I_nu [MJy sr^-1],
+/// I_nu = I_lambda lambda^2 / c (I_lambda per m).
+inline constexpr double perNmToMegajanskyPerSr(double lambda_nm)
+{
+    const double lambda_m = lambda_nm * 1e-9;
+    return LSUN_PC2_TO_WM2 * 1e9 * lambda_m * lambda_m / SPEED_OF_LIGHT / (1e6 * JANSKY);
+}
+
 } // namespace nebula

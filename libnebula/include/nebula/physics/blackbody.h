@@ -30,4 +30,13 @@ inline double planckPerNmUnchecked(double lambda_nm, double T)
     return C1 / (l2 * l2 * l) / std::expm1(C2 / (l * T)) * 1e-9;
 }
 
+/// The spectral luminosity [L_sun nm^-1] at @p lambda_nm [nm] of a black body of
+/// temperature @p T [K] whose bolometric luminosity is @p L [L_sun]:
+/// L pi B_lambda(T) / (sigma T^4) (DESIGN §13: the stars of calibrated images). Throws Error
+/// unless lambda_nm and T are finite and > 0.
+inline double blackbodySpectralLuminosity(double L, double T, double lambda_nm)
+{
+    return L * PI * planckPerNm(lambda_nm, T) / (STEFAN_BOLTZMANN * T * T * T * T);
+}
+
 } // namespace nebula

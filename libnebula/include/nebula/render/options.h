@@ -74,8 +74,19 @@ struct RenderOptions
     /// RenderScene::MAX_DETAIL_LEVEL. 0: always full resolution.
     double lod = 2.0;
     std::array<double, 3> wavelengths{700.0, 546.1, 435.8}; ///< R, G, B channels [nm]
-    double emissionScale = 1.0;                             ///< multiplies the emission grid
-    std::array<double, 3> emissionColor{1.0, 0.15, 0.2};    ///< linear sRGB (H-alpha + H-beta pink)
+    /// Calibrated channels (DESIGN §13; nebrender --fits): each channel is the monochromatic
+    /// image at its wavelength, spectral radiance [L_sun pc^-2 sr^-1 nm^-1]: each star shines
+    /// its black body's spectral luminosity there (blackbodySpectralLuminosity(), its
+    /// luminosity bolometric), not its sRGB colour; the gas's emission, which has no
+    /// spectral calibration in RGB mode, is left out.
+    bool monochromatic = false;
+    /// Fast integrator: the EXR layers "field" (the light scattered more than once, from
+    /// nebscatter's field), "emission" (the gas's glow) and "direct" (the star sprites: their
+    /// light that reached the eye unscattered), the components of calibrated images; the
+    /// rest of the beauty is single scattering.
+    bool componentLayers = false;
+    double emissionScale = 1.0;                          ///< multiplies the emission grid
+    std::array<double, 3> emissionColor{1.0, 0.15, 0.2}; ///< linear sRGB (H-alpha + H-beta pink)
     std::string emissionGrid = "emission";
     bool drawStars = true;          ///< star sprites
     double spriteRadius = 2.5;      ///< sprite radius [pixels]

@@ -112,7 +112,9 @@ struct RenderScene
     /// Channels: 0 density n_H, 1 emission, 2 + s: tau_V of star s.
     SparseVolume fields;
     std::vector<Star> stars;
-    std::vector<std::array<double, 3>> starColor; ///< L_s * linear sRGB (Y = 1) [L_sun]
+    /// L_s * linear sRGB (Y = 1) [L_sun]; with RenderOptions::monochromatic, the star's
+    /// spectral luminosity at each channel's wavelength [L_sun nm^-1]
+    std::vector<std::array<double, 3>> starColor;
     ChannelDust dust;
     /// Coarse occupancy: block (bi,bj,bk) of OCCUPANCY_BLOCK^3 lattice cells holds dust or
     /// emission.

@@ -8,6 +8,7 @@
 #include <array>
 #include <cstddef>
 #include <functional>
+#include <vector>
 
 namespace nebula {
 
@@ -26,8 +27,10 @@ double spriteFootprintEdge(const RenderOptions& opts);
 /// the integrators check it before rendering, so that the render does not fail at its end.
 void requireSpriteMemory(const RenderOptions& opts);
 
+/// @p direct, if set (width * height * 3), gets the sprites too (the "direct" layer).
 void drawStarSprites(Image& img, const RenderScene& scene, const RenderOptions& opts,
                      const std::function<std::array<double, 3>(std::size_t, double)>& colour = {},
-                     const std::function<void(std::size_t, std::size_t, double)>& footprint = {});
+                     const std::function<void(std::size_t, std::size_t, double)>& footprint = {},
+                     std::vector<float>* direct = nullptr);
 
 } // namespace nebula

@@ -7,6 +7,7 @@
 #include "nebula/io/image.h"
 #include "nebula/render/camera_path.h"
 #include "nebula/render/options.h"
+#include "nebula/stages/fits_output.h"
 
 #include <memory>
 #include <string>
@@ -28,11 +29,15 @@ struct RenderOutput
     std::vector<long> frames;
     /// Skip a frame whose EXR (and PNG) already exist and read back whole.
     bool skipExisting = false;
+    /// Calibrated images (--fits): the render becomes monochromatic at the channel
+    /// wavelengths (RenderOptions::monochromatic, with component layers), so the EXR holds
+    /// spectral radiance [L_sun pc^-2 sr^-1 nm^-1] too.
+    FitsOutput fits;
 };
 
 /// nebrender's entry point: builds the scene from @p grids (dust from nebula:dust with
 /// @p dustOverride applied) once, renders the frame (or each of out.frames along out.path),
-/// and writes each frame's EXR and PNG atomically, both or neither.
+/// and writes each frame's EXR and PNG (and FITS) atomically, all or none.
 void renderToFiles(const GridSet& grids, const RenderOptions& opts, const DustParams& dust,
                    const RenderOutput& out, const Run& run);
 

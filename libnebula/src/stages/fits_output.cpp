@@ -1,0 +1,178 @@
+#include "nebula/stages/fits_output.h"
+
+#include "nebula/core/error.h"
+#include "nebula/core/format.h"
+#include "nebula/core/units.h"
+#include "nebula/render/camera.h"
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+
+namespace nebula {
+
+void checkFitsOutput(const FitsOutput& fits, const RenderOptions& opts, bool manyFrames)
+{
+    if (fits.path.empty()) return;
+    if (fits.unit != "MJy/sr" && fits.unit != "W/m2/sr/nm") {
+        throw UsageError("--fits-unit must be MJy/sr or W/m2/sr/nm, got \"" +
+                         detail::printable(fits.unit, 40) + "\"");
+    }
+    if (opts.spectral.enabled) {
+        throw UsageError("--fits is for RGB mode (monochromatic images at the --wavelengths); "
+                         "--spectral has no calibrated output yet");
+    }
+    if (manyFrames) throw UsageError("--fits writes one image: render one frame");
+    const CameraModel m = opts.camera.model;
+    if (m != CameraModel::Orthographic && m != CameraModel::Perspective) {
+        throw UsageError("--fits needs --camera orthographic (a telescope's view) or perspective "
+                         "with --sky; " +
+                         toString(m) + " images have no FITS projection here");
+    }
+    if (m == CameraModel::Perspective && !fits.sky) {
+        throw UsageError("--fits with the perspective camera needs --sky RA,DEC: its pixels are "
+                         "angles (or use --camera orthographic for offsets in pc)");
+    }
+    if (fits.sky) {
+        if (!(fits.ra >= 0.0 && fits.ra < 360.0) || !(fits.dec >= -90.0 && fits.dec <= 90.0)) {
+            throw UsageError("--sky must be RA,DEC in degrees with RA in [0, 360) and DEC in "
+                             "[-90, 90], got " +
+                             detail::numberText(fits.ra) + "," + detail::numberText(fits.dec));
+        }
+        if (!(std::fabs(fits.positionAngle) <= 360.0)) {
+            throw UsageError("--position-angle must be in [-360, 360] degrees, got " +
+                             detail::numberText(fits.positionAngle));
+        }
+    }
+    const auto& w = opts.wavelengths;
+    if (w[0] == w[1] || w[1] == w[2] || w[0] == w[2]) {
+        throw UsageError("--fits needs three different --wavelengths (its wavelength axis)");
+    }
+}
+
+double surfaceBrightnessFactor(const std::string& unit, double lambda_nm)
+{
+    if (unit == "W/m2/sr/nm") return LSUN_PC2_TO_WM2;
+    return perNmToMegajanskyPerSr(lambda_nm);
+}
+
+std::vector<FitsCard> imageWcsCards(const Camera& camera, const FitsOutput& fits)
+{
+    const double cx = 0.5 * (camera.width + 1), cy = 0.5 * (camera.height + 1);
+    std::vector<FitsCard> cards{
+        {"CRPIX1", cx, "the image centre: the look-at point"},
+        {"CRPIX2", cy, "the image centre: the look-at point"},
+    };
+    if (!fits.sky) { // orthographic: offsets in the image plane [pc]
+        const double p = camera.orthographicPixel();
+        cards.push_back({"CTYPE1", std::string("XOFFSET"), "along the image's right [pc]"});
+        cards.push_back({"CTYPE2", std::string("YOFFSET"), "along the image's up [pc]"});
+        cards.push_back({"CUNIT1", std::string("pc"), ""});
+        cards.push_back({"CUNIT2", std::string("pc"), ""});
+        cards.push_back({"CRVAL1", 0.0, "the look-at point"});
+        cards.push_back({"CRVAL2", 0.0, "the look-at point"});
+        cards.push_back({"CDELT1", p, "pixel size [pc]"});
+        cards.push_back({"CDELT2", p, "pixel size [pc]"});
+        return cards;
+    }
+    // Tangent-plane radians per pixel: the perspective camera's image plane at distance 1 is
+    // the gnomonic plane; the orthographic camera's pixel spans pixel / distance.
+    const double s = camera.model == CameraModel::Orthographic
+                         ? camera.orthographicPixel() / camera.observerDistance()
+                         : 2.0 * std::tan(0.5 * camera.fovDeg * DEG_RAD) / camera.width;
+    const double deg = s / DEG_RAD, ct = std::cos(fits.positionAngle * DEG_RAD),
+                 st = std::sin(fits.positionAngle * DEG_RAD);
+    // The image's right and up on the sky, (east, north): up at the position angle from
+    // north through east, right = up turned clockwise (west at angle 0).
+    cards.push_back({"CTYPE1", std::string("RA---TAN"), "gnomonic projection"});
+    cards.push_back({"CTYPE2", std::string("DEC--TAN"), "gnomonic projection"});
+    cards.push_back({"CUNIT1", std::string("deg"), ""});
+    cards.push_back({"CUNIT2", std::string("deg"), ""});
+    cards.push_back({"CRVAL1", fits.ra, "right ascension of the look-at point [deg]"});
+    cards.push_back({"CRVAL2", fits.dec, "declination of the look-at point [deg]"});
+    cards.push_back({"CD1_1", -deg * ct, ""});
+    cards.push_back({"CD1_2", deg * st, ""});
+    cards.push_back({"CD2_1", deg * st, ""});
+    cards.push_back({"CD2_2", deg * ct, ""});
+    cards.push_back({"RADESYS", std::string("ICRS"), ""});
+    cards.push_back({"LONPOLE", 180.0, ""});
+    return cards;
+}
+
+void writeCalibratedFits(AtomicFile& file, const Image& img, std::size_t starCount,
+                         const RenderOptions& opts, const FitsOutput& fits,
+                         const std::vector<FitsCard>& cards)
+{
+    const std::size_t W = std::size_t(img.width), H = std::size_t(img.height);
+    const std::size_t plane = W * H;
+    // frameImage()'s layers: the stars', transmittance, then field, emission, direct.
+    if (img.layers.size() < starCount + 4) {
+        throw Error(file.path() + ": the render has no component layers for --fits");
+    }
+    const auto& field = img.layers[starCount + 1].rgb;
+    const auto& emission = img.layers[starCount + 2].rgb;
+    const auto& direct = img.layers[starCount + 3].rgb;
+    // Planes in ascending wavelength.
+    std::array<int, 3> order{0, 1, 2};
+    std::sort(order.begin(), order.end(), [&](int a, int b) {
+        return opts.wavelengths[std::size_t(a)] < opts.wavelengths[std::size_t(b)];
+    });
+    enum Part { Total, Direct, Scattered, Single, Field };
+    const char* names[] = {"TOTAL", "DIRECT", "SCATTERED", "SINGLE", "FIELD"};
+    const char* what[] = {"everything that reaches the observer: starlight, scattered light",
+                          "the stars' light that reached the observer unscattered (the sprites)",
+                          "light scattered by the dust once or more (SINGLE + FIELD)",
+                          "light scattered once (exact from the tau grids)",
+                          "light scattered more than once (nebscatter's field)"};
+    std::vector<FitsImageHdu> hdus;
+    const auto wcs = imageWcsCards(opts.camera, fits);
+    for (int part = Total; part <= Field; ++part) {
+        FitsImageHdu h;
+        h.name = names[part];
+        h.axes = {long(W), long(H), 3};
+        h.data.resize(plane * 3);
+        for (std::size_t k = 0; k < 3; ++k) {
+            const std::size_t c = std::size_t(order[k]);
+            const double f = surfaceBrightnessFactor(fits.unit, opts.wavelengths[c]);
+            for (std::size_t row = 0; row < H; ++row) { // FITS rows go up from the bottom
+                const std::size_t src = (H - 1 - row) * W;
+                for (std::size_t x = 0; x < W; ++x) {
+                    const std::size_t p = src + x;
+                    const double total = img.rgba[p * 4 + c];
+                    const double d = direct[p * 3 + c], fl = field[p * 3 + c];
+                    const double scattered = total - d - emission[p * 3 + c];
+                    const double v = part == Total       ? total
+                                     : part == Direct    ? d
+                                     : part == Scattered ? scattered
+                                     : part == Single    ? scattered - fl
+                                                         : fl;
+                    h.data[k * plane + row * W + x] = float(v * f);
+                }
+            }
+        }
+        h.cards = wcs;
+        h.cards.push_back({"CTYPE3", std::string("WAVE-TAB"), "wavelength, from table WCS-TAB"});
+        h.cards.push_back({"CUNIT3", std::string("m"), ""});
+        h.cards.push_back({"CRPIX3", 1.0, ""});
+        h.cards.push_back({"CDELT3", 1.0, ""});
+        h.cards.push_back({"CRVAL3", 1.0, ""});
+        h.cards.push_back({"PS3_0", std::string("WCS-TAB"), "the table of wavelengths"});
+        h.cards.push_back({"PS3_1", std::string("COORDS"), "its column"});
+        h.cards.push_back({"BUNIT", fits.unit, "surface brightness"});
+        h.cards.push_back({"BTYPE", std::string("phot.flux.density.sb"), "IVOA UCD"});
+        h.cards.push_back({"COMPONT", std::string(names[part]), what[part]});
+        for (const auto& card : cards)
+            h.cards.push_back(card);
+        hdus.push_back(std::move(h));
+    }
+    FitsTableHdu table;
+    table.name = "WCS-TAB";
+    table.column = "COORDS";
+    table.unit = "m";
+    table.tdim = {1, 3};
+    for (const int c : order)
+        table.values.push_back(opts.wavelengths[std::size_t(c)] * 1e-9);
+    writeFits(file, hdus, {table});
+}
+
+} // namespace nebula
