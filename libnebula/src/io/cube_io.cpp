@@ -151,6 +151,15 @@ void checkCubeShape(const std::vector<std::int64_t>& shape, int component, const
         throw Error(name + ": is " + what + ", expected a 3-D cube" +
                     (component >= 0 ? " (or 4-D with a first or last axis of 3)" : ""));
     }
+    double voxels = shape.size() == 4 ? 1.0 / 3.0 : 1.0; // a vector's 3 components
+    for (auto n : shape)
+        voxels *= double(n);
+    if (voxels > double(MAX_CUBE_VOXELS)) {
+        throw Error(name + ": " + text +
+                    fmt::format(" is {:.3g} voxels; a cube may have at most 2^36 ({:.3g}, "
+                                "4096^3): reading more would take hours",
+                                voxels, double(MAX_CUBE_VOXELS)));
+    }
     for (auto n : shape) {
         if (n < 1 || n > INT_MAX) {
             throw Error(name + ": axis lengths " + text + ": each must be 1 to " +
@@ -251,7 +260,8 @@ std::unique_ptr<CubeSource> openCube(const std::string& path, const CubeSelect& 
     if (!format) {
         throw UsageError(select.option + ": " + path +
                          ": cannot tell the format from the name (.fits, .h5, .npy, a RADMC-3D "
-                         "folder or amr_grid.inp); give --format");
+                         "folder or amr_grid.inp)" +
+                         (select.option == "-i" ? "; give --format" : ""));
     }
     switch (*format) {
     case CubeFormat::Fits: return detail::openFitsCube(path, select);

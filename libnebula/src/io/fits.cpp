@@ -22,7 +22,9 @@ namespace nebula {
 struct FitsFile::Impl
 {
     fitsfile* fptr = nullptr;
-    std::string bytes;      ///< the copy a memory file was opened from (openMemory())
+    std::string bytes;        ///< the copy a memory file was opened from (openMemory())
+    void* bytesPtr = nullptr; ///< cfitsio keeps the addresses of these two (openMemory())
+    std::size_t bytesSize = 0;
     void* buffer = nullptr; ///< a created memory file's buffer (cfitsio reallocates it)
     std::size_t bufferSize = 0;
     std::string path; ///< the disk file (fileSize())
@@ -100,10 +102,11 @@ FitsFile FitsFile::openMemory(std::string_view bytes, const std::string& name)
     f.mName = name;
     f.mImpl = std::make_unique<Impl>();
     f.mImpl->bytes.assign(bytes.data(), bytes.size());
-    void* ptr = f.mImpl->bytes.data();
-    std::size_t size = f.mImpl->bytes.size();
+    f.mImpl->bytesPtr = f.mImpl->bytes.data();
+    f.mImpl->bytesSize = f.mImpl->bytes.size();
     int status = 0;
-    fits_open_memfile(&f.mImpl->fptr, name.c_str(), READONLY, &ptr, &size, 0, nullptr, &status);
+    fits_open_memfile(&f.mImpl->fptr, name.c_str(), READONLY, &f.mImpl->bytesPtr,
+                      &f.mImpl->bytesSize, 0, nullptr, &status);
     if (status) {
         f.mImpl->fptr = nullptr;
         f.check(status, "cannot open it as a FITS file");

@@ -76,6 +76,36 @@ void forEachSlab(CubeSource& cube, double factor, bool allowNegative, const std:
     }
 }
 
+/// The leaf (@p ib, @p jb) of the slab whose planes @p first ... @p first + @p count - 1 are
+/// @p values (forEachSlab()): its values > @p cut active; null if it has none.
+std::unique_ptr<FloatLeaf> slabLeaf(const CubeInfo& info, const float* values, std::int64_t first,
+                                    int count, int ib, int jb, float cut)
+{
+    const int nu = int(info.dims[std::size_t(info.fastAxis)]);
+    const int nv = int(info.dims[std::size_t(info.slowAxis)]);
+    openvdb::Coord c;
+    c[info.planeAxis] = int(first);
+    c[info.fastAxis] = ib * LEAF;
+    c[info.slowAxis] = jb * LEAF;
+    std::unique_ptr<FloatLeaf> leaf;
+    const int u1 = std::min(nu, (ib + 1) * LEAF), v1 = std::min(nv, (jb + 1) * LEAF);
+    for (int p = 0; p < count; ++p) {
+        c[info.planeAxis] = int(first) + p;
+        for (int v = jb * LEAF; v < v1; ++v) {
+            const float* line =
+                values + (std::size_t(p) * std::size_t(nv) + std::size_t(v)) * std::size_t(nu);
+            c[info.slowAxis] = v;
+            for (int u = ib * LEAF; u < u1; ++u) {
+                if (!(line[u] > cut)) continue;
+                c[info.fastAxis] = u;
+                if (!leaf) leaf = std::make_unique<FloatLeaf>(c, 0.0f);
+                leaf->setValueOn(c, line[u]);
+            }
+        }
+    }
+    return leaf;
+}
+
 /// The sparse grid of @p cube: voxels > @p threshold active, built leaf by leaf per slab.
 openvdb::FloatGrid::Ptr readDensity(CubeSource& cube, double factor, double threshold,
                                     const Run& run)
@@ -83,50 +113,24 @@ openvdb::FloatGrid::Ptr readDensity(CubeSource& cube, double factor, double thre
     const CubeInfo& info = cube.info();
     auto grid = openvdb::FloatGrid::create(0.0f);
     auto& tree = grid->tree();
-    const int nu = int(info.dims[std::size_t(info.fastAxis)]);
-    const int nv = int(info.dims[std::size_t(info.slowAxis)]);
-    const int bu = (nu + LEAF - 1) / LEAF, bv = (nv + LEAF - 1) / LEAF;
-    const float cut = float(threshold);
+    const int bu = int((info.dims[std::size_t(info.fastAxis)] + LEAF - 1) / LEAF);
+    const int bv = int((info.dims[std::size_t(info.slowAxis)] + LEAF - 1) / LEAF);
     std::vector<std::vector<FloatLeaf*>> rows(static_cast<std::size_t>(bv));
-    forEachSlab(cube, factor, false, "density", run,
-                [&](std::int64_t first, int count, const float* values) {
-                    // Leaves of one slab in parallel over rows of leaves, then added in order.
-                    tbb::parallel_for(0, bv, [&](int jb) {
-                        auto& row = rows[std::size_t(jb)];
-                        row.clear();
-                        for (int ib = 0; ib < bu; ++ib) {
-                            openvdb::Coord origin;
-                            origin[info.planeAxis] = int(first);
-                            origin[info.fastAxis] = ib * LEAF;
-                            origin[info.slowAxis] = jb * LEAF;
-                            std::unique_ptr<FloatLeaf> leaf;
-                            const int u1 = std::min(nu, (ib + 1) * LEAF);
-                            const int v1 = std::min(nv, (jb + 1) * LEAF);
-                            for (int p = 0; p < count; ++p) {
-                                for (int v = jb * LEAF; v < v1; ++v) {
-                                    const float* line = values + (std::size_t(p) * std::size_t(nv) +
-                                                                  std::size_t(v)) *
-                                                                     std::size_t(nu);
-                                    for (int u = ib * LEAF; u < u1; ++u) {
-                                        if (!(line[u] > cut)) continue;
-                                        if (!leaf) leaf = std::make_unique<FloatLeaf>(origin, 0.0f);
-                                        openvdb::Coord c;
-                                        c[info.planeAxis] = int(first) + p;
-                                        c[info.fastAxis] = u;
-                                        c[info.slowAxis] = v;
-                                        leaf->setValueOn(c, line[u]);
-                                    }
-                                }
-                            }
-                            if (leaf) row.push_back(leaf.release());
-                        }
-                    });
-                    for (auto& row : rows) {
-                        for (auto* leaf : row)
-                            tree.addLeaf(leaf);
-                        row.clear();
-                    }
-                });
+    const auto slab = [&](std::int64_t first, int count, const float* values) {
+        // The slab's leaves in parallel over rows of leaves, then added in order.
+        tbb::parallel_for(0, bv, [&](int jb) {
+            for (int ib = 0; ib < bu; ++ib) {
+                auto leaf = slabLeaf(info, values, first, count, ib, jb, float(threshold));
+                if (leaf) rows[std::size_t(jb)].push_back(leaf.release());
+            }
+        });
+        for (auto& row : rows) {
+            for (auto* leaf : row)
+                tree.addLeaf(leaf);
+            row.clear();
+        }
+    };
+    forEachSlab(cube, factor, false, "density", run, slab);
     openvdb::tools::prune(tree);
     return grid;
 }
@@ -228,6 +232,14 @@ openvdb::math::Transform::Ptr cubeTransform(const ImportOptions& opts, const Cub
         // Centred on the world origin, as nebgen's cubes are.
         for (std::size_t a = 0; a < 3; ++a)
             origin[a] = -0.5 * double(info.dims[a] - 1) * spacing[a];
+    }
+    // OpenVDB refuses a transform whose determinant is within 1e-15 of 0 (voxels below about
+    // 1e-5 pc, 2 au): say so, in the user's terms.
+    if (!(std::abs(spacing[0] * spacing[1] * spacing[2]) > 1e-15)) {
+        throw Error(info.name + fmt::format(": voxels of {} pc are too small for an OpenVDB "
+                                            "transform (at least about 1e-5 pc, 2 au); give a "
+                                            "larger --voxel-size (the units are pc)",
+                                            std::abs(spacing[0])));
     }
     openvdb::math::Mat4d m = openvdb::math::Mat4d::identity();
     for (int a = 0; a < 3; ++a) {
@@ -396,7 +408,7 @@ GridSet importCube(const ImportOptions& opts, const Run& run)
         throw UsageError("-i: nebimport reads files (FITS, HDF5, .npy need to seek), not stdin");
     }
     auto cube = openCube(opts.input, opts.select);
-    const CubeInfo& info = cube->info();
+    const CubeInfo info = cube->info(); // a copy: the cube is closed once read
     for (const auto& w : info.warnings)
         run.warn(w);
     const DensityUnit unit = densityUnit(opts, info);

@@ -84,6 +84,10 @@ protected:
     CubeInfo mInfo;
 };
 
+/// The most voxels a cube may have (4096^3): reading more, even into a sparse grid, would
+/// take hours; a header that claims more is refused before anything is allocated.
+inline constexpr std::int64_t MAX_CUBE_VOXELS = std::int64_t(1) << 36;
+
 /// Which cube of a file to read.
 struct CubeSelect
 {
