@@ -39,7 +39,7 @@ TOOLS_DIR=$(cd "$TOOLS_DIR" && pwd)
 
 # Each tool's directory, first on PATH.
 TOOL_PATH=
-for tool in nebgen nebillum nebphase nebpyramid nebscatter nebrender nebtone; do
+for tool in nebgen nebillum nebphase nebpyramid nebscatter nebrender nebtone nebimport nebexport; do
     found=
     for exe in "$TOOLS_DIR/$tool" "$TOOLS_DIR/$tool/$tool" "$TOOLS_DIR/../$tool/$tool"; do
         if [[ -f $exe && -x $exe ]]; then found=$exe; break; fi

@@ -23,6 +23,21 @@ inline constexpr double PC_CM = 3.0856775814913673e18; ///< parsec [cm]
 inline constexpr double L_SUN_W = 3.828e26;            ///< nominal solar luminosity [W]
 inline constexpr double L_SUN_CGS = 3.828e33;          ///< nominal solar luminosity [erg/s]
 
+inline constexpr double AU_CM = 1.495978707e13; ///< astronomical unit [cm] (IAU 2012 B2, exact)
+inline constexpr double KPC_CM = 1e3 * PC_CM;   ///< kiloparsec [cm]
+/// Nominal solar mass [g]: the IAU 2015 B3 nominal G M_sun (1.3271244e20 m^3 s^-2) over
+/// CODATA 2018's G (6.67430e-11 m^3 kg^-1 s^-2).
+inline constexpr double M_SUN_G = 1.3271244e20 / 6.67430e-11 * 1e3;
+/// Mass of a hydrogen atom [g] (CODATA 2018: 1.00782503223 u, u = 1.66053906660e-24 g).
+inline constexpr double M_H_G = 1.00782503223 * 1.66053906660e-24;
+
+// Imported density cubes (DESIGN §10): the gas mass per hydrogen atom and the dust-to-gas
+// mass ratio that turn mass densities into n_H [cm^-3].
+inline constexpr double DEFAULT_MU = 1.4;           ///< mean gas mass per H atom [m_H]
+inline constexpr double DEFAULT_DUST_TO_GAS = 0.01; ///< dust mass / gas mass
+/// 1 M_sun pc^-3 in g cm^-3 (about 6.77e-23).
+inline constexpr double MSUN_PC3_G_CM3 = M_SUN_G / (PC_CM * PC_CM * PC_CM);
+
 /// W m^-2 -> L_sun pc^-2 (pc^2 / L_sun): turns a flux in SI into the renderer's units.
 inline constexpr double WM2_TO_LSUN_PC2 = PC_M * PC_M / L_SUN_W;
 

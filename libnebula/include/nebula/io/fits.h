@@ -1,0 +1,98 @@
+#pragma once
+/// @file fits.h
+/// A small RAII wrapper of cfitsio for nebula's FITS inputs and outputs (nebimport's cubes,
+/// nebexport's cubes, images): files opened read-only from disk or from bytes in memory, files
+/// created in memory and written out through AtomicFile, every cfitsio status checked and
+/// turned into an Error that names the file and the HDU. cfitsio itself stays out of this
+/// header (it is a private dependency of the io layer).
+
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace nebula {
+
+class FitsFile
+{
+public:
+    /// Opens @p path read-only at its primary HDU; @p name names it in messages. Throws Error
+    /// (missing, not FITS, damaged header).
+    static FitsFile open(const std::string& path, const std::string& name);
+    /// Opens a copy of @p bytes (a whole FITS file) read-only (fuzzers, tests).
+    static FitsFile openMemory(std::string_view bytes, const std::string& name);
+    /// Creates an empty FITS file in memory; add HDUs with createImage(), then take the bytes
+    /// with finishBytes() or write them with writeFile().
+    static FitsFile createMemory(const std::string& name);
+
+    FitsFile(FitsFile&& other) noexcept;
+    FitsFile& operator=(FitsFile&& other) noexcept;
+    FitsFile(const FitsFile&) = delete;
+    FitsFile& operator=(const FitsFile&) = delete;
+    ~FitsFile();
+
+    const std::string& name() const { return mName; }
+    /// The number of HDUs (the primary is HDU 0).
+    int hduCount() const;
+    /// Makes HDU @p index (0 = primary, as astropy counts) the current one.
+    void moveTo(int index);
+    /// Makes the extension whose EXTNAME (or HDUNAME) is @p extname the current one.
+    void moveTo(const std::string& extname);
+    /// The current HDU's index (0 = primary).
+    int hdu() const;
+    /// "HDU 2 (EXTNAME)" or "HDU 0", for messages.
+    std::string hduLabel() const;
+    /// True if the current HDU is an image (the primary is one, possibly with NAXIS = 0).
+    bool isImage() const;
+
+    /// The current image HDU's axis lengths in FITS order (NAXIS1 first); empty for NAXIS = 0.
+    std::vector<std::int64_t> imageShape() const;
+    /// The current image's BITPIX (8, 16, 32, 64, -32, -64).
+    int bitpix() const;
+    /// Byte offsets of the current HDU's data and of its end in the file (header checks: a
+    /// file shorter than its data end is truncated).
+    std::pair<std::int64_t, std::int64_t> dataSpan() const;
+    /// The file's size in bytes (for memory files: the bytes written so far).
+    std::int64_t fileSize() const;
+
+    /// A keyword's value, or nullopt if the current header lacks it; throws Error if present
+    /// with a value of another type.
+    std::optional<std::string> keyString(const std::string& key) const;
+    std::optional<double> keyDouble(const std::string& key) const;
+    std::optional<std::int64_t> keyInt(const std::string& key) const;
+
+    /// Writes (or updates) a keyword with its comment in the current header.
+    void writeKey(const std::string& key, const std::string& value, const std::string& comment);
+    void writeKey(const std::string& key, double value, const std::string& comment);
+    void writeKey(const std::string& key, std::int64_t value, const std::string& comment);
+    /// Appends HISTORY (COMMENT) cards; long text continues over several cards.
+    void writeHistory(const std::string& text);
+    void writeComment(const std::string& text);
+
+    /// Appends a float32 image HDU with @p shape (FITS order, any number of axes) and makes
+    /// it current; an empty primary HDU is replaced. @p extname names an extension ("" none).
+    void createImage(const std::vector<std::int64_t>& shape, const std::string& extname = "");
+    /// Writes @p count floats at element @p first (0-based, FITS order) of the current image.
+    void writeFloats(std::int64_t first, std::int64_t count, const float* values);
+    /// Reads @p count elements from element @p first (0-based) of the current image as
+    /// doubles, BSCALE/BZERO applied; undefined integer pixels (BLANK) become NaN.
+    void readDoubles(std::int64_t first, std::int64_t count, double* out) const;
+
+    /// Closes a file made by createMemory() and returns its bytes.
+    std::string finishBytes();
+    /// finishBytes() written to @p path ("-" = stdout) through AtomicFile (committed).
+    void writeFile(const std::string& path);
+
+    /// Throws Error "<file>: <HDU>: <what>: <cfitsio's message>" if @p status is not 0.
+    void check(int status, const std::string& what) const;
+
+private:
+    FitsFile() = default;
+    struct Impl;
+    std::unique_ptr<Impl> mImpl;
+    std::string mName;
+};
+
+} // namespace nebula

@@ -1,0 +1,210 @@
+#include "nebula/stages/export.h"
+
+#include "nebula/core/error.h"
+#include "nebula/io/grid_names.h"
+
+#include <fmt/format.h>
+#include <tbb/parallel_for.h>
+
+#include <climits>
+#include <cmath>
+
+namespace nebula {
+
+namespace {
+
+/// "1,2,3,4,5,6" as six integers, or nullopt.
+std::optional<std::array<int, 6>> sixIntegers(const std::string& text)
+{
+    std::array<int, 6> v{};
+    std::size_t pos = 0;
+    for (int i = 0; i < 6; ++i) {
+        const std::size_t end = i < 5 ? text.find(',', pos) : text.size();
+        if (end == std::string::npos) return std::nullopt;
+        const std::string part = text.substr(pos, end - pos);
+        if (part.empty() || part.size() > 11 ||
+            part.find_first_not_of("-0123456789") != std::string::npos) {
+            return std::nullopt;
+        }
+        const long long n = std::stoll(part);
+        if (n < INT_MIN / 2 || n > INT_MAX / 2) return std::nullopt;
+        v[std::size_t(i)] = int(n);
+        pos = end + 1;
+    }
+    return v;
+}
+
+bool startsWith(const std::string& s, const char* head)
+{
+    return s.rfind(head, 0) == 0;
+}
+
+/// The grid's nebula:cube record (import), or null.
+nlohmann::json cubeRecord(const openvdb::GridBase& grid)
+{
+    const auto meta = grid.getMetadata<openvdb::StringMetadata>("nebula:cube");
+    if (!meta) return nullptr;
+    try {
+        return nlohmann::json::parse(meta->value());
+    } catch (const nlohmann::json::exception&) {
+        return nullptr;
+    }
+}
+
+/// The WCS to write: the imported one, its reference pixel moved with the box, while it
+/// still describes @p spacing and @p origin [pc]; else null (CTYPE X/Y/Z in pc).
+nlohmann::json keptWcs(const nlohmann::json& record, const std::array<double, 3>& spacing,
+                       const std::array<double, 3>& origin, const std::array<int, 3>& lo)
+{
+    if (!record.is_object() || !record.contains("wcs")) return nullptr;
+    try {
+        nlohmann::json wcs = record["wcs"];
+        for (std::size_t a = 0; a < 3; ++a) {
+            const double f = *lengthUnitPc(wcs["cunit"][a].get<std::string>());
+            const double cdelt = wcs["cdelt"][a].get<double>();
+            const double crpix = wcs["crpix"][a].get<double>() - double(lo[a]);
+            const double crval = wcs["crval"][a].get<double>();
+            const double s = cdelt * f, o = (crval + cdelt * (1.0 - crpix)) * f;
+            const double tol = 1e-9 * std::abs(s);
+            if (std::abs(s - spacing[a]) > tol || std::abs(o - origin[a]) > tol) return nullptr;
+            wcs["crpix"][a] = crpix;
+        }
+        return wcs;
+    } catch (const std::exception&) {
+        return nullptr;
+    }
+}
+
+} // namespace
+
+void ExportOptions::validate() const
+{
+    if (bbox != "auto" && bbox != "active") {
+        const auto v = sixIntegers(bbox);
+        if (!v) {
+            throw UsageError("--bbox: expected auto, active or I0,J0,K0,I1,J1,K1, got \"" + bbox +
+                             "\"");
+        }
+        for (int a = 0; a < 3; ++a) {
+            if ((*v)[std::size_t(a)] > (*v)[std::size_t(a + 3)]) {
+                throw UsageError("--bbox " + bbox + ": the minimum exceeds the maximum");
+            }
+        }
+    }
+    if (grid.empty()) throw UsageError("--grid: empty name");
+}
+
+std::array<std::array<int, 3>, 2> exportBox(const openvdb::FloatGrid& grid, const std::string& text)
+{
+    if (text == "auto") {
+        const auto record = cubeRecord(grid);
+        if (record.is_object() && record.contains("dims") && record["dims"].is_array() &&
+            record["dims"].size() == 3) {
+            std::array<int, 3> hi{};
+            bool ok = true;
+            for (std::size_t a = 0; a < 3; ++a) {
+                const auto& d = record["dims"][a];
+                ok = ok && d.is_number_integer() && d.get<long long>() >= 1 &&
+                     d.get<long long>() <= INT_MAX;
+                if (ok) hi[a] = int(d.get<long long>() - 1);
+            }
+            if (ok) return {std::array<int, 3>{0, 0, 0}, hi};
+        }
+    }
+    if (text == "auto" || text == "active") {
+        const openvdb::CoordBBox box = grid.evalActiveVoxelBoundingBox();
+        if (box.empty()) {
+            throw Error("grid \"" + grid.getName() +
+                        "\" has no active voxels: nothing to export "
+                        "(give --bbox I0,J0,K0,I1,J1,K1)");
+        }
+        return {std::array<int, 3>{box.min().x(), box.min().y(), box.min().z()},
+                std::array<int, 3>{box.max().x(), box.max().y(), box.max().z()}};
+    }
+    const auto v = sixIntegers(text);
+    if (!v) throw UsageError("--bbox: expected auto, active or I0,J0,K0,I1,J1,K1");
+    return {std::array<int, 3>{(*v)[0], (*v)[1], (*v)[2]},
+            std::array<int, 3>{(*v)[3], (*v)[4], (*v)[5]}};
+}
+
+std::string cubeUnit(const openvdb::GridBase& grid)
+{
+    const std::string name = grid.getName();
+    if (name == "density" || startsWith(name, "density.")) return "cm-3";
+    if (startsWith(name, "tau.") || startsWith(name, "phase")) return "";
+    if (name == "temperature") return "K";
+    if (name == "emission" || startsWith(name, "emission.")) return "Lsun pc-3 sr-1";
+    if (startsWith(name, "scatter.") && name.find(".J.") != std::string::npos) {
+        return "Lsun pc-2 sr-1";
+    }
+    const auto meta = grid.getMetadata<openvdb::StringMetadata>("units");
+    if (!meta) return "";
+    // "n_H [cm^-3]": the part in brackets.
+    const std::string& u = meta->value();
+    const std::size_t a = u.find('['), b = u.find(']');
+    if (a != std::string::npos && b != std::string::npos && b > a)
+        return u.substr(a + 1, b - a - 1);
+    return u;
+}
+
+void exportCube(const GridSet& grids, const ExportOptions& opts, const Run& run)
+{
+    opts.validate();
+    const auto format = opts.format ? opts.format : cubeFormatOf(opts.output);
+    if (!format || *format == CubeFormat::Radmc) {
+        throw UsageError(
+            "-o " + opts.output +
+            ": cannot tell the format from the name (.fits, .npy, .h5); give --format");
+    }
+    const auto grid = grids.floatGrid(opts.grid, "--grid");
+    const auto box = exportBox(*grid, opts.bbox);
+    CubeHeader h;
+    for (std::size_t a = 0; a < 3; ++a)
+        h.dims[a] = std::int64_t(box[1][a]) - box[0][a] + 1;
+
+    // Axis-aligned transforms only: a dense cube's axes are the grid's.
+    const openvdb::math::Mat4d m = grid->transform().baseMap()->getAffineMap()->getMat4();
+    for (int i = 0; i < 3; ++i) {
+        for (int j = 0; j < 3; ++j) {
+            if (i != j && m[i][j] != 0.0) {
+                throw Error(grids.source + ": grid \"" + opts.grid +
+                            "\" is rotated or sheared; a cube's axes must be the world's");
+            }
+        }
+    }
+    const openvdb::Vec3d lo = grid->indexToWorld(openvdb::Vec3d(box[0][0], box[0][1], box[0][2]));
+    for (std::size_t a = 0; a < 3; ++a) {
+        h.spacing[a] = m[int(a)][int(a)];
+        h.origin[a] = lo[int(a)];
+    }
+    h.unit = cubeUnit(*grid);
+    h.name = opts.grid;
+    h.wcs = keptWcs(cubeRecord(*grid), h.spacing, h.origin, box[0]);
+    for (const auto& stage : grids.historyWith(run.tool(), run.command())) {
+        h.history.push_back(stage.value("tool", "?") + ": " + stage.value("command", ""));
+    }
+    run.info(fmt::format("{}: grid {} as a {} x {} x {} cube from index ({}, {}, {}), unit \"{}\"",
+                         opts.output, opts.grid, h.dims[0], h.dims[1], h.dims[2], box[0][0],
+                         box[0][1], box[0][2], h.unit));
+
+    const auto& tree = grid->tree();
+    const PlaneFunction plane = [&](const PlaneOrder& order, std::int64_t k, float* out) {
+        const int nu = int(h.dims[std::size_t(order.fastAxis)]);
+        const int nv = int(h.dims[std::size_t(order.slowAxis)]);
+        tbb::parallel_for(0, nv, [&](int v) {
+            openvdb::tree::ValueAccessor<const openvdb::FloatTree> acc(tree);
+            openvdb::Coord c;
+            c[order.planeAxis] = box[0][std::size_t(order.planeAxis)] + int(k);
+            c[order.slowAxis] = box[0][std::size_t(order.slowAxis)] + v;
+            float* line = out + std::size_t(v) * std::size_t(nu);
+            for (int u = 0; u < nu; ++u) {
+                c[order.fastAxis] = box[0][std::size_t(order.fastAxis)] + u;
+                line[u] = acc.getValue(c);
+            }
+        });
+    };
+    const std::string dataset = opts.dataset.empty() ? "/" + opts.grid : opts.dataset;
+    writeCube(*format, opts.output, h, dataset, plane);
+}
+
+} // namespace nebula

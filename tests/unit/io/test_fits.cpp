@@ -1,0 +1,113 @@
+/// @file test_fits.cpp
+/// io/fits.h: a FITS file made in memory and read back (keys with their types, HISTORY, image
+/// HDUs of any dimension and extension names), HDU navigation by number and name, and errors
+/// that name the file and HDU.
+
+#include "nebula/io/fits.h"
+
+#include "nebula/core/error.h"
+
+#include "test_util.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <fstream>
+#include <vector>
+
+using nebula::FitsFile;
+using nebula::test::contains;
+using nebula::test::errorMessage;
+
+namespace {
+
+std::string twoHdus()
+{
+    auto f = FitsFile::createMemory("mem.fits");
+    f.createImage({4, 3});
+    f.writeKey("OBJECT", std::string("a test"), "a string");
+    f.writeKey("EXPTIME", 0.1, "a double");
+    f.writeKey("NCOMBINE", std::int64_t(7), "an integer");
+    f.writeHistory("made by test_fits.cpp, a line long enough to go on over a second card of "
+                   "eighty characters");
+    const std::vector<float> image = {0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11};
+    f.writeFloats(0, 12, image.data());
+    f.createImage({2, 2, 2, 3}, "VEL");
+    std::vector<float> vel(24);
+    for (std::size_t i = 0; i < vel.size(); ++i)
+        vel[i] = float(i) * 0.5f;
+    f.writeFloats(0, 24, vel.data());
+    return f.finishBytes();
+}
+
+} // namespace
+
+TEST(Fits, WritesAndReadsKeysImagesAndExtensions)
+{
+    const std::string bytes = twoHdus();
+    EXPECT_EQ(bytes.size() % 2880, 0u);
+    auto f = FitsFile::openMemory(bytes, "mem.fits");
+    EXPECT_EQ(f.hduCount(), 2);
+    EXPECT_EQ(f.hdu(), 0);
+    EXPECT_TRUE(f.isImage());
+    EXPECT_EQ(f.imageShape(), (std::vector<std::int64_t>{4, 3}));
+    EXPECT_EQ(f.bitpix(), -32);
+    EXPECT_EQ(f.keyString("OBJECT"), "a test");
+    EXPECT_EQ(f.keyDouble("EXPTIME"), 0.1); // the shortest text, read back bit for bit
+    EXPECT_EQ(f.keyInt("NCOMBINE"), 7);
+    EXPECT_FALSE(f.keyDouble("MISSING"));
+    EXPECT_TRUE(contains(errorMessage([&] { f.keyDouble("OBJECT"); }), "keyword OBJECT"));
+    std::vector<double> row(4);
+    f.readDoubles(4, 4, row.data());
+    EXPECT_EQ(row, (std::vector<double>{4, 5, 6, 7}));
+
+    f.moveTo("VEL");
+    EXPECT_EQ(f.hdu(), 1);
+    EXPECT_EQ(f.hduLabel(), "HDU 1 (VEL)");
+    EXPECT_EQ(f.imageShape(), (std::vector<std::int64_t>{2, 2, 2, 3}));
+    std::vector<double> last(2);
+    f.readDoubles(22, 2, last.data());
+    EXPECT_EQ(last, (std::vector<double>{11, 11.5}));
+    f.moveTo(0);
+    EXPECT_EQ(f.hduLabel(), "HDU 0");
+    EXPECT_TRUE(contains(errorMessage([&] { f.moveTo(2); }), "no HDU 2 (the file has 2"));
+    EXPECT_TRUE(contains(errorMessage([&] { f.moveTo("NOPE"); }), "mem.fits: no HDU named"));
+}
+
+TEST(Fits, ErrorsNameTheFileAndHdu)
+{
+    EXPECT_TRUE(contains(errorMessage([] { FitsFile::openMemory("not a FITS file", "junk.fits"); }),
+                         "junk.fits: cannot open it as a FITS file"));
+    EXPECT_TRUE(
+        contains(errorMessage([] { FitsFile::open("/nonexistent/x.fits", "/nonexistent/x.fits"); }),
+                 "/nonexistent/x.fits: cannot open it"));
+    auto f = FitsFile::openMemory(twoHdus(), "mem.fits");
+    std::vector<double> out(100);
+    EXPECT_TRUE(contains(errorMessage([&] { f.readDoubles(0, 100, out.data()); }),
+                         "mem.fits: HDU 0: cannot read the image data"));
+    auto w = FitsFile::createMemory("new.fits");
+    w.createImage({1, 1, 1});
+    EXPECT_TRUE(contains(errorMessage([&] { w.writeKey("BAD", NAN, ""); }), "not a finite"));
+}
+
+class FitsFileTest : public nebula::test::TempFolder
+{
+};
+
+TEST_F(FitsFileTest, WriteFileGoesThroughAtomicFile)
+{
+    auto f = FitsFile::createMemory(path("a.fits"));
+    f.createImage({2, 2, 2});
+    const std::vector<float> v(8, 1.5f);
+    f.writeFloats(0, 8, v.data());
+    f.writeFile(path("a.fits"));
+    auto r = FitsFile::open(path("a.fits"), "a.fits");
+    EXPECT_EQ(r.imageShape(), (std::vector<std::int64_t>{2, 2, 2}));
+    EXPECT_EQ(r.fileSize(), 2 * 2880);
+    std::size_t files = 0;
+    for (const auto& e : std::filesystem::directory_iterator(dir)) {
+        (void)e;
+        ++files;
+    }
+    EXPECT_EQ(files, 1u); // no temporary left
+}
