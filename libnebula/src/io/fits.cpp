@@ -279,7 +279,12 @@ void FitsFile::writeKey(const std::string& key, const std::string& value,
                         const std::string& comment)
 {
     int status = 0;
-    fits_update_key_str(mImpl->fptr, key.c_str(), value.c_str(), comment.c_str(), &status);
+    if (value.size() > 68) {
+        fits_write_key_longwarn(mImpl->fptr, &status);
+        fits_update_key_longstr(mImpl->fptr, key.c_str(), value.c_str(), comment.c_str(), &status);
+    } else {
+        fits_update_key_str(mImpl->fptr, key.c_str(), value.c_str(), comment.c_str(), &status);
+    }
     check(status, "cannot write keyword " + key);
 }
 
@@ -327,6 +332,24 @@ void FitsFile::createImage(const std::vector<std::int64_t>& shape, const std::st
     fits_create_imgll(mImpl->fptr, FLOAT_IMG, int(axes.size()), axes.data(), &status);
     check(status, "cannot create an image HDU");
     if (!extname.empty()) writeKey("EXTNAME", extname, "name of this HDU");
+}
+
+void FitsFile::createDoubleTable(const std::string& extname, const std::string& column,
+                                 const std::vector<std::int64_t>& tdim,
+                                 const std::vector<double>& values, const std::string& unit)
+{
+    int status = 0;
+    std::string form = std::to_string(values.size()) + "D";
+    char* ttype[] = {const_cast<char*>(column.c_str())};
+    char* tform[] = {const_cast<char*>(form.c_str())};
+    char* tunit[] = {const_cast<char*>(unit.c_str())};
+    fits_create_tbl(mImpl->fptr, BINARY_TBL, 1, 1, ttype, tform, tunit, extname.c_str(), &status);
+    check(status, "cannot create the table " + extname);
+    std::vector<long> dims(tdim.begin(), tdim.end());
+    fits_write_tdim(mImpl->fptr, 1, int(dims.size()), dims.data(), &status);
+    fits_write_col(mImpl->fptr, TDOUBLE, 1, 1, 1, LONGLONG(values.size()),
+                   const_cast<double*>(values.data()), &status);
+    check(status, "cannot write the table " + extname);
 }
 
 void FitsFile::writeFloats(std::int64_t first, std::int64_t count, const float* values)

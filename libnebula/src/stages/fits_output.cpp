@@ -154,7 +154,9 @@ void writeCalibratedFits(AtomicFile& file, const Image& img, std::size_t starCou
         h.cards.push_back({"CTYPE3", std::string("WAVE-TAB"), "wavelength, from table WCS-TAB"});
         h.cards.push_back({"CUNIT3", std::string("m"), ""});
         h.cards.push_back({"CRPIX3", 1.0, ""});
-        h.cards.push_back({"CDELT3", 1.0, ""});
+        // With a CD matrix the third axis's scale is CD3_3 (mixing CDi_j and CDELTi is not
+        // allowed, WCS paper I §2.1.2).
+        h.cards.push_back({fits.sky ? "CD3_3" : "CDELT3", 1.0, ""});
         h.cards.push_back({"CRVAL3", 1.0, ""});
         h.cards.push_back({"PS3_0", std::string("WCS-TAB"), "the table of wavelengths"});
         h.cards.push_back({"PS3_1", std::string("COORDS"), "its column"});

@@ -213,7 +213,7 @@ bool frameExists(const std::string& exr, const std::string& png)
 
 /// The observer's and the inputs' header cards of --fits.
 std::vector<FitsCard> fitsCards(const GridSet& grids, const RenderOptions& opts,
-                                const RenderOutput& out, const Run& run)
+                                const DustParams& dust, const RenderOutput& out, const Run& run)
 {
     const Camera& c = opts.camera;
     const auto vec = [](const Vec3& v) {
@@ -235,6 +235,7 @@ std::vector<FitsCard> fitsCards(const GridSet& grids, const RenderOptions& opts,
     cards.push_back({"PIXSR", Projection(c).pixelSolidAngle(0.5 * c.width, 0.5 * c.height),
                      "solid angle of the central pixel [sr]"});
     if (out.fits.sky) cards.push_back({"POSANG", out.fits.positionAngle, "up, N through E [deg]"});
+    cards.push_back({"DUST", dust.toJson(), "the dust model (nebula:dust)"});
     cards.push_back({"COMMENT",
                      std::string("Monochromatic images at the WAVE axis' wavelengths: each star a "
                                  "black body of its bolometric luminosity (DESIGN section 13)."),
@@ -291,7 +292,7 @@ void renderOneFrame(const GridSet& grids, const RenderOptions& opts, const DustP
     if (!out.fits.path.empty()) {
         fitsFile.emplace(out.fits.path);
         writeCalibratedFits(*fitsFile, img, sscene.base.stars.size(), opts, out.fits,
-                            fitsCards(grids, opts, out, run));
+                            fitsCards(grids, opts, dust, out, run));
         files.push_back(&*fitsFile);
     }
     commitAll(files);

@@ -63,7 +63,8 @@ public:
     std::optional<double> keyDouble(const std::string& key) const;
     std::optional<std::int64_t> keyInt(const std::string& key) const;
 
-    /// Writes (or updates) a keyword with its comment in the current header.
+    /// Writes (or updates) a keyword with its comment in the current header; a string longer
+    /// than a card holds continues over several (the CONTINUE convention).
     void writeKey(const std::string& key, const std::string& value, const std::string& comment);
     void writeKey(const std::string& key, double value, const std::string& comment);
     void writeKey(const std::string& key, std::int64_t value, const std::string& comment);
@@ -74,6 +75,11 @@ public:
     /// Appends a float32 image HDU with @p shape (FITS order, any number of axes) and makes
     /// it current; an empty primary HDU is replaced. @p extname names an extension ("" none).
     void createImage(const std::vector<std::int64_t>& shape, const std::string& extname = "");
+    /// Appends a binary table HDU of one row and one column @p column of @p values (doubles,
+    /// TDIM @p tdim, TUNIT @p unit) and makes it current: e.g. a -TAB coordinate array.
+    void createDoubleTable(const std::string& extname, const std::string& column,
+                           const std::vector<std::int64_t>& tdim, const std::vector<double>& values,
+                           const std::string& unit);
     /// Writes @p count floats at element @p first (0-based, FITS order) of the current image.
     void writeFloats(std::int64_t first, std::int64_t count, const float* values);
     /// Reads @p count elements from element @p first (0-based) of the current image as

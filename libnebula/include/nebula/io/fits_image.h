@@ -1,9 +1,9 @@
 #pragma once
 /// @file fits_image.h
-/// Writing FITS files (FITS standard 4.0, through cfitsio): float images and cubes with their
+/// FITS files described as data (FITS standard 4.0): float images and cubes with their
 /// header cards, and the binary table of a -TAB coordinate axis (Greisen et al. 2006 §6), the
-/// calibrated images of nebrender --fits (DESIGN §13). The file is built in memory and written
-/// through an AtomicFile, so it lands whole or not at all.
+/// calibrated images of nebrender --fits (DESIGN §13). Built in memory through FitsFile
+/// (io/fits.h) and written through an AtomicFile, so the file lands whole or not at all.
 
 #include "nebula/core/atomic_file.h"
 
@@ -18,7 +18,7 @@ namespace nebula {
 struct FitsCard
 {
     std::string key;
-    std::variant<std::string, double, long long, bool> value;
+    std::variant<std::string, double, long long> value;
     std::string comment;
 };
 

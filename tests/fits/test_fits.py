@@ -1,0 +1,235 @@
+"""nebrender --fits (DESIGN §13) against closed forms and astropy.
+
+1. Absolute calibration: an optically thin uniform shell (n_H = 0.1 cm^-3 between 0.8 and
+   2.2 pc, tau_V = 2e-4) around a 10^3 L_sun, 10^4 K star seen by the orthographic camera from
+   1 kpc. Single scattering sends a k dR L_lambda / (4 pi) per steradian to the observer
+   whatever the phase function (the star is at the centre), so the SCATTERED flux density is
+   a k dR L_nu / (4 pi D^2) [Jy], with L_nu the star's black body (bolometric L) and k from
+   CCM89 (written out here). Within 1 % at each wavelength; the DIRECT flux is
+   L_nu e^-tau / (4 pi D^2) within 0.1 %; TOTAL = DIRECT + SCATTERED, FIELD = 0 (no field).
+2. WCS: three stars' sprites (DIRECT centroids) map through astropy's WCS to the stars' sky
+   positions, computed here from 3-D vectors (the gnomonic projection of the orthographic
+   offsets / D, or of the perspective camera's directions), within 0.05 pixel, at several sky
+   positions and position angles, one 0.05 degree from the celestial pole.
+3. The header: BUNIT, EXTNAMEs, the WAVE axis' wavelengths, DISTANCE, the history; the
+   W/m2/sr/nm unit consistent with MJy/sr.
+4. Refusals: exit 2, a message naming the option, nothing written.
+"""
+import json
+import math
+import os
+import subprocess
+import sys
+
+import numpy as np
+from astropy.io import fits
+from astropy.wcs import WCS
+import warnings
+
+warnings.simplefilter("ignore")  # astropy's FITSFixedWarning notes on WCS defaults
+
+tools, work = sys.argv[1], sys.argv[2]
+os.makedirs(work, exist_ok=True)
+failures = []
+
+
+def check(ok, what):
+    print(("ok   " if ok else "FAIL ") + what)
+    if not ok:
+        failures.append(what)
+
+
+def run(*args, expect=0):
+    r = subprocess.run([os.path.join(tools, args[0])] + list(args[1:]), capture_output=True,
+                       text=True)
+    if r.returncode != expect:
+        print(r.stderr)
+        raise SystemExit(f"{args[0]} exited {r.returncode}, expected {expect}")
+    return r
+
+
+def path(name):
+    return os.path.join(work, name)
+
+
+# Constants (CODATA 2018, IAU 2015), written out independently of the code.
+h, c, k_B, sigma = 6.62607015e-34, 299792458.0, 1.380649e-23, 5.670374419e-8
+L_SUN, PC = 3.828e26, 3.0856775814913673e16
+
+
+def ccm89(lam_nm, rv=3.1):
+    """A(lambda)/A_V, Cardelli, Clayton & Mathis 1989, optical (1.1 <= x <= 3.3 um^-1)."""
+    x = 1000.0 / lam_nm
+    y = x - 1.82
+    a = (1 + 0.17699 * y - 0.50447 * y**2 - 0.02427 * y**3 + 0.72085 * y**4 + 0.01979 * y**5
+         - 0.77530 * y**6 + 0.32999 * y**7)
+    b = (1.41338 * y + 2.28305 * y**2 + 1.07233 * y**3 - 5.38434 * y**4 - 0.62251 * y**5
+         + 5.30260 * y**6 - 2.09002 * y**7)
+    return a + b / rv
+
+
+def l_nu(L, T, lam_nm):
+    """A black body's spectral luminosity [W/Hz] for bolometric L [L_sun]."""
+    lam = lam_nm * 1e-9
+    B = 2 * h * c**2 / lam**5 / math.expm1(h * c / (lam * k_B * T))
+    L_lam = L * L_SUN * math.pi * B / (sigma * T**4)  # W/m
+    return L_lam * lam**2 / c
+
+
+# --- the shell: anti-aliased (4^3 samples per voxel) so its volume is right --------------
+N, hv, R1, R2, n0 = 96, 0.05, 0.8, 2.2, 0.1
+sub = (np.arange(4) + 0.5) / 4
+coords = ((np.arange(N)[:, None] + sub[None, :]).ravel() - N / 2) * hv
+x2 = coords**2
+frac = np.zeros((N, N, N), dtype=np.float64)
+for i in range(N * 4):
+    r = np.sqrt(x2[i] + x2[:, None] + x2[None, :])
+    inside = ((r >= R1) & (r <= R2)).astype(np.float64)
+    frac[i // 4] += inside.reshape(N, 4, N, 4).sum(axis=(1, 3))
+cube = (n0 * frac / 64).astype(np.float32)
+np.save(path("shell.npy"), cube)
+L, T, D = 1000.0, 10000.0, 1000.0
+run("nebimport", "-i", path("shell.npy"), "--unit", "cm-3", "--voxel-size", "0.05pc",
+    "--star", f"s:0,0,0:{L}:{T}", "-o", path("shell.vdb"))
+run("nebillum", "-i", path("shell.vdb"), "-o", path("lit.vdb"))
+W = 128
+run("nebrender", "-i", path("lit.vdb"), "--camera", "orthographic", "--eye", "0,0,-10",
+    "--look-at", "0,0,0", "--distance", str(D), "--pixel-size", "0.04pc", "--res", f"{W}x{W}",
+    "--sky", "83.82,-5.39", "-o", path("shell.exr"), "--png", "none", "--fits",
+    path("shell.fits"))
+hdul = fits.open(path("shell.fits"))
+names = [hdu.name for hdu in hdul]
+check(names == ["TOTAL", "DIRECT", "SCATTERED", "SINGLE", "FIELD", "WCS-TAB"], f"HDUs {names}")
+head = hdul[0].header
+dust = json.loads(head["DUST"])
+wcs = WCS(head, fobj=hdul)
+waves = wcs.pixel_to_world_values(0, 0, np.arange(3))[2] * 1e9
+check(np.allclose(waves, [435.8, 546.1, 700.0]), f"WAVE axis {waves} nm (ascending)")
+check(head["BUNIT"] == "MJy/sr" and head["DISTANCE"] == D, "BUNIT MJy/sr, DISTANCE")
+history = "\n".join(str(x) for x in head["HISTORY"])
+check(all(t in history for t in ("nebimport", "nebillum", "nebrender")), "history of the inputs")
+# The pixel's solid angle from the WCS: |det CD| in deg^2.
+cd = wcs.wcs.cd[:2, :2]
+omega = abs(np.linalg.det(cd)) * (math.pi / 180) ** 2
+check(abs(omega / (0.04 / D) ** 2 - 1) < 1e-9, f"pixel solid angle {omega:.6g} sr = (0.04 pc / D)^2")
+for plane, lam in enumerate(waves):
+    k = dust["kappa_V"] * ccm89(lam, dust.get("R_V", 3.1)) * n0  # per pc
+    expected = dust["albedo"] * k * (R2 - R1) * l_nu(L, T, lam) / (4 * math.pi * (D * PC) ** 2)
+    expected /= 1e-26  # Jy
+    scattered = hdul["SCATTERED"].data[plane].astype(np.float64).sum() * omega * 1e6
+    check(abs(scattered / expected - 1) < 0.01,
+          f"{lam:.1f} nm: scattered {scattered:.6g} Jy, single-scattering closed form "
+          f"{expected:.6g} Jy ({100 * (scattered / expected - 1):+.3f} %)")
+    tau = k * (R2 - R1)
+    direct_expected = l_nu(L, T, lam) * math.exp(-tau) / (4 * math.pi * (D * PC) ** 2) / 1e-26
+    direct = hdul["DIRECT"].data[plane].astype(np.float64).sum() * omega * 1e6
+    check(abs(direct / direct_expected - 1) < 1e-3,
+          f"{lam:.1f} nm: direct {direct:.6g} Jy, L_nu e^-tau / (4 pi D^2) {direct_expected:.6g}")
+    total = hdul["TOTAL"].data[plane].astype(np.float64)
+    parts = hdul["DIRECT"].data[plane] + hdul["SCATTERED"].data[plane]
+    check(np.allclose(total, parts, rtol=1e-5, atol=1e-6 * total.max()), f"{lam:.1f} nm: TOTAL = DIRECT + SCATTERED")
+    check(not hdul["FIELD"].data[plane].any(), f"{lam:.1f} nm: FIELD = 0 without a field")
+# The same render in W/m2/sr/nm: I_nu = I_lambda lambda^2 / c.
+run("nebrender", "-i", path("lit.vdb"), "--camera", "orthographic", "--eye", "0,0,-10",
+    "--distance", str(D), "--pixel-size", "0.04pc", "--res", f"{W}x{W}", "-o",
+    path("si.exr"), "--png", "none", "--fits", path("si.fits"), "--fits-unit", "W/m2/sr/nm")
+si = fits.open(path("si.fits"))
+check(si[0].header["BUNIT"] == "W/m2/sr/nm" and si[0].header["CTYPE1"] == "XOFFSET",
+      "W/m2/sr/nm, linear WCS in pc without --sky")
+for plane, lam in enumerate(waves):
+    a = hdul[0].data[plane].astype(np.float64)
+    b = si[0].data[plane].astype(np.float64) * 1e9 * (lam * 1e-9) ** 2 / c / 1e-20
+    check(np.allclose(a, b, rtol=1e-5, atol=1e-6 * a.max()), f"{lam:.1f} nm: MJy/sr = W/m2/sr/nm x lambda^2/c")
+
+# --- WCS: three stars' sprites against their sky positions --------------------------------
+stars = [("a", (0.9, 0.4, -0.3)), ("b", (-1.3, -0.7, 0.5)), ("c", (0.2, 1.6, 1.1))]
+args = []
+for name, p in stars:
+    args += ["--star", f"{name}:{p[0]},{p[1]},{p[2]}:100:6000"]
+run("nebillum", "-i", path("shell.vdb"), *args, "-o", path("stars.vdb"))
+
+
+def basis(eye, look, up):
+    f = np.subtract(look, eye) / np.linalg.norm(np.subtract(look, eye))
+    r = np.cross(f, up)
+    r /= np.linalg.norm(r)
+    return f, r, np.cross(r, f)
+
+
+def sky_of(xi, eta, ra0, dec0, pa):
+    """The sky position of tangent-plane offsets (xi along the image's right, eta up) [rad]
+    for an image whose up is at position angle pa (north through east) and whose centre is
+    (ra0, dec0): the gnomonic projection's inverse, in 3-D vectors."""
+    a, d, t = np.radians([ra0, dec0, pa])
+    centre = np.array([math.cos(d) * math.cos(a), math.cos(d) * math.sin(a), math.sin(d)])
+    east = np.array([-math.sin(a), math.cos(a), 0.0])
+    north = np.cross(centre, east)
+    e = -math.cos(t) * xi + math.sin(t) * eta
+    n = math.sin(t) * xi + math.cos(t) * eta
+    v = centre + e * east + n * north
+    v /= np.linalg.norm(v)
+    return math.degrees(math.atan2(v[1], v[0])) % 360, math.degrees(math.asin(v[2]))
+
+
+def separation(ra1, dec1, ra2, dec2):
+    v = [np.array([math.cos(math.radians(d)) * math.cos(math.radians(r)),
+                   math.cos(math.radians(d)) * math.sin(math.radians(r)), math.sin(math.radians(d))])
+         for r, d in ((ra1, dec1), (ra2, dec2))]
+    return math.degrees(math.atan2(np.linalg.norm(np.cross(v[0], v[1])), np.dot(v[0], v[1])))
+
+
+cases = [("orthographic", 10.0, 20.0, 0.0), ("orthographic", 250.0, -45.0, 35.0),
+         ("orthographic", 123.0, 89.95, 120.0), ("orthographic", 359.99, -89.9, -70.0),
+         ("perspective", 45.0, 10.0, 15.0)]
+eye, look, up = (1.0, 0.5, -12.0), (0.1, -0.2, 0.3), (0.2, 1.0, 0.1)
+f, right, upv = basis(eye, look, up)
+for model, ra0, dec0, pa in cases:
+    out = path("wcs.fits")
+    cam = ["--camera", model, "--eye", ",".join(map(str, eye)), "--look-at",
+           ",".join(map(str, look)), "--up", ",".join(map(str, up)), "--res", "160x120"]
+    cam += ["--distance", "700", "--pixel-size", "0.035pc"] if model == "orthographic" else ["--fov", "25"]
+    run("nebrender", "-i", path("stars.vdb"), *cam, "--sky", f"{ra0},{dec0}", "--position-angle",
+        str(pa), "-o", path("wcs.exr"), "--png", "none", "--fits", out)
+    hd = fits.open(out)
+    w = WCS(hd[0].header, fobj=hd)
+    scale = math.sqrt(abs(np.linalg.det(w.wcs.cd[:2, :2])))  # deg per pixel
+    direct = hd["DIRECT"].data[1].astype(np.float64)
+    for name, p in stars:
+        v = np.subtract(p, look) if model == "orthographic" else np.subtract(p, eye)
+        if model == "orthographic":
+            xi, eta = np.dot(v, right) / 700.0, np.dot(v, upv) / 700.0
+            px = 80 + np.dot(v, right) / 0.035 - 0.5  # 0-based FITS pixel (numpy column)
+            py = 60 + np.dot(v, upv) / 0.035 - 0.5
+        else:
+            z = np.dot(v, f)
+            xi, eta = np.dot(v, right) / z, np.dot(v, upv) / z
+            tanh = math.tan(math.radians(12.5))
+            px = 80 + xi / (2 * tanh / 160) - 0.5  # square pixels of 2 tan(fov/2) / W
+            py = 60 + eta / (2 * tanh / 160) - 0.5
+        x0, y0 = int(round(px)), int(round(py))
+        win = direct[y0 - 6:y0 + 7, x0 - 6:x0 + 7]
+        yy, xx = np.mgrid[y0 - 6:y0 + 7, x0 - 6:x0 + 7]
+        cx, cy = (win * xx).sum() / win.sum(), (win * yy).sum() / win.sum()
+        ra, dec = w.pixel_to_world_values(cx, cy, 0)[:2]
+        want = sky_of(xi, eta, ra0, dec0, pa)
+        off = separation(float(ra), float(dec), *want) / scale
+        check(off < 0.05, f"{model} sky {ra0},{dec0} PA {pa}: star {name} at pixel "
+              f"({cx:.3f}, {cy:.3f}) -> {float(ra):.6f}, {float(dec):.6f}; expected "
+              f"{want[0]:.6f}, {want[1]:.6f}: {off:.4f} pixel")
+
+# --- refusals: exit 2, the option named, nothing written -----------------------------------
+base = ["-i", path("lit.vdb"), "-o", path("bad.exr"), "--png", "none", "--fits", path("bad.fits")]
+for extra, needle in [(["--camera", "orthographic", "--distance", "0"], "--distance"),
+                      (["--camera", "fisheye", "--res", "64x64"], "--fits"),
+                      (["--camera", "perspective"], "--sky"),
+                      (["--camera", "orthographic", "--sky", "400,0"], "--sky"),
+                      (["--camera", "orthographic", "--pixel-size", "2arcsec"], "--distance"),
+                      (["--camera", "orthographic", "--fits-unit", "Jy"], "--fits-unit")]:
+    r = run("nebrender", *base, *extra, expect=2)
+    left = [n for n in os.listdir(work) if n.startswith("bad")]
+    check(needle in r.stderr and not left, f"refused {' '.join(extra)}: {r.stderr.strip()[:90]}")
+
+if failures:
+    print(f"{len(failures)} check(s) failed")
+    sys.exit(1)
+print("all checks passed")
