@@ -49,6 +49,15 @@ for tool in nebgen nebillum nebphase nebpyramid nebscatter nebrender nebtone neb
     case ":$TOOL_PATH:" in *":$dir:"*) ;; *) TOOL_PATH=${TOOL_PATH:+$TOOL_PATH:}$dir ;; esac
 done
 export PATH=$TOOL_PATH:$PATH
+# The README's python3 is Debian's, with the packages the Makefile installs (numpy, astropy,
+# h5py, matplotlib). Where another python3 comes first on PATH (a virtual environment, pyenv)
+# and lacks them, Debian's runs the README's python3 commands.
+if ! python3 -c 'import numpy, astropy' 2>/dev/null && /usr/bin/python3 -c 'import numpy, astropy' 2>/dev/null; then
+    shim=$(mktemp -d)
+    trap 'rm -rf "$shim"' EXIT
+    ln -s /usr/bin/python3 "$shim/python3"
+    export PATH=$shim:$PATH
+fi
 
 mkdir -p "$WORK_DIR" || fail "cannot create $WORK_DIR"
 WORK_DIR=$(cd "$WORK_DIR" && pwd)

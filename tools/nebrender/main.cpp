@@ -61,6 +61,9 @@ int main(int argc, char** argv)
                    "(monochromatic; stars as black bodies of bolometric luminosity; the EXR\n"
                    "then holds spectral radiance per nm), components TOTAL, DIRECT, SCATTERED,\n"
                    "SINGLE, FIELD as HDUs; --camera orthographic (or perspective with --sky)");
+    app.add_option("--sed", out.fits.sed,
+                   "Also the SED: flux density at the observer [Jy] per component at each\n"
+                   "wavelength, as CSV (also the table SED of --fits); calibrated like --fits");
     app.add_option("--fits-unit", out.fits.unit, "FITS unit: MJy/sr or W/m2/sr/nm")
         ->capture_default_str();
     std::vector<double> sky;

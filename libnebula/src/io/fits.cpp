@@ -352,6 +352,32 @@ void FitsFile::createDoubleTable(const std::string& extname, const std::string& 
     check(status, "cannot write the table " + extname);
 }
 
+void FitsFile::createTable(const std::string& extname, const std::vector<Column>& columns)
+{
+    if (columns.empty()) throw Error(mName + ": table " + extname + ": no columns");
+    const std::size_t rows = columns.front().values.size();
+    std::vector<char*> ttype, tform, tunit;
+    std::string form = "1D";
+    for (const auto& c : columns) {
+        if (c.values.size() != rows) {
+            throw Error(mName + ": table " + extname + ": column " + c.name + " has " +
+                        std::to_string(c.values.size()) + " rows, not " + std::to_string(rows));
+        }
+        ttype.push_back(const_cast<char*>(c.name.c_str()));
+        tform.push_back(form.data());
+        tunit.push_back(const_cast<char*>(c.unit.c_str()));
+    }
+    int status = 0;
+    fits_create_tbl(mImpl->fptr, BINARY_TBL, LONGLONG(rows), int(columns.size()), ttype.data(),
+                    tform.data(), tunit.data(), extname.c_str(), &status);
+    check(status, "cannot create the table " + extname);
+    for (std::size_t i = 0; i < columns.size(); ++i) {
+        fits_write_col(mImpl->fptr, TDOUBLE, int(i) + 1, 1, 1, LONGLONG(rows),
+                       const_cast<double*>(columns[i].values.data()), &status);
+    }
+    check(status, "cannot write the table " + extname);
+}
+
 void FitsFile::writeFloats(std::int64_t first, std::int64_t count, const float* values)
 {
     int status = 0;

@@ -8,7 +8,8 @@
 namespace nebula {
 
 void writeFits(AtomicFile& file, const std::vector<FitsImageHdu>& images,
-               const std::vector<FitsTableHdu>& tables)
+               const std::vector<FitsTableHdu>& tables,
+               const std::vector<FitsColumnsHdu>& columnTables)
 {
     if (images.empty()) throw Error(file.path() + ": FITS: no image to write");
     FitsFile f = FitsFile::createMemory(file.path());
@@ -42,6 +43,8 @@ void writeFits(AtomicFile& file, const std::vector<FitsImageHdu>& images,
         f.createDoubleTable(t.name, t.column,
                             std::vector<std::int64_t>(t.tdim.begin(), t.tdim.end()), t.values,
                             t.unit);
+    for (const auto& t : columnTables)
+        f.createTable(t.name, t.columns);
     const std::string bytes = f.finishBytes();
     file.stream().write(bytes.data(), std::streamsize(bytes.size()));
 }

@@ -5,31 +5,36 @@
 #include "nebula/core/units.h"
 #include "nebula/render/camera.h"
 
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <cmath>
 #include <numeric>
+#include <ostream>
 
 namespace nebula {
 
 void checkFitsOutput(const FitsOutput& fits, const RenderOptions& opts, bool manyFrames)
 {
-    if (fits.path.empty()) return;
+    if (!calibrated(fits)) return;
+    const std::string option = fits.path.empty() ? "--sed" : "--fits";
     if (fits.unit != "MJy/sr" && fits.unit != "W/m2/sr/nm") {
         throw UsageError("--fits-unit must be MJy/sr or W/m2/sr/nm, got \"" +
                          detail::printable(fits.unit, 40) + "\"");
     }
     if (opts.spectral.enabled) {
-        throw UsageError("--fits is for RGB mode (monochromatic images at the --wavelengths); "
-                         "--spectral has no calibrated output yet");
+        throw UsageError(option + " is for RGB mode (monochromatic images at the --wavelengths); "
+                                  "--spectral has no calibrated output yet");
     }
-    if (manyFrames) throw UsageError("--fits writes one image: render one frame");
+    if (manyFrames) throw UsageError(option + " is for one image: render one frame");
     const CameraModel m = opts.camera.model;
     if (m != CameraModel::Orthographic && m != CameraModel::Perspective) {
-        throw UsageError("--fits needs --camera orthographic (a telescope's view) or perspective "
-                         "with --sky; " +
+        throw UsageError(option +
+                         " needs --camera orthographic (a telescope's view) or "
+                         "perspective; " +
                          toString(m) + " images have no FITS projection here");
     }
-    if (m == CameraModel::Perspective && !fits.sky) {
+    if (m == CameraModel::Perspective && !fits.sky && !fits.path.empty()) {
         throw UsageError("--fits with the perspective camera needs --sky RA,DEC: its pixels are "
                          "angles (or use --camera orthographic for offsets in pc)");
     }
@@ -46,7 +51,7 @@ void checkFitsOutput(const FitsOutput& fits, const RenderOptions& opts, bool man
     }
     const auto& w = opts.wavelengths;
     if (w[0] == w[1] || w[1] == w[2] || w[0] == w[2]) {
-        throw UsageError("--fits needs three different --wavelengths (its wavelength axis)");
+        throw UsageError(option + " needs three different --wavelengths (its wavelength axis)");
     }
 }
 
@@ -99,25 +104,114 @@ std::vector<FitsCard> imageWcsCards(const Camera& camera, const FitsOutput& fits
     return cards;
 }
 
+namespace {
+
+enum Part { Total, Direct, Scattered, Single, Field, PARTS };
+
+/// The render's component layers (frameImage(): the stars', transmittance, then field,
+/// emission, direct).
+struct Components
+{
+    const Image& img;
+    const std::vector<float>& field;
+    const std::vector<float>& emission;
+    const std::vector<float>& direct;
+
+    Components(const Image& image, std::size_t starCount, const std::string& what)
+        : img(image), field(layer(image, starCount + 1, what)),
+          emission(layer(image, starCount + 2, what)), direct(layer(image, starCount + 3, what))
+    {}
+    static const std::vector<float>& layer(const Image& img, std::size_t i, const std::string& what)
+    {
+        if (img.layers.size() <= i) throw Error(what + ": the render has no component layers");
+        return img.layers[i].rgb;
+    }
+    /// Component @p part of channel @p c at pixel @p p [L_sun pc^-2 sr^-1 nm^-1].
+    double at(int part, std::size_t p, std::size_t c) const
+    {
+        const double total = img.rgba[p * 4 + c];
+        const double d = direct[p * 3 + c], f = field[p * 3 + c];
+        const double scattered = total - d - emission[p * 3 + c];
+        switch (part) {
+        case Total: return total;
+        case Direct: return d;
+        case Scattered: return scattered;
+        case Single: return scattered - f;
+        default: return f;
+        }
+    }
+};
+
+/// The channels in ascending wavelength.
+std::array<std::size_t, 3> ascending(const RenderOptions& opts)
+{
+    std::array<std::size_t, 3> order{0, 1, 2};
+    std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
+        return opts.wavelengths[a] < opts.wavelengths[b];
+    });
+    return order;
+}
+
+/// The SED as the FITS table "SED".
+FitsColumnsHdu sedTable(const std::vector<SedRow>& sed)
+{
+    FitsColumnsHdu t;
+    t.name = "SED";
+    t.columns = {{"WAVELENGTH", "nm", {}}, {"TOTAL", "Jy", {}},  {"DIRECT", "Jy", {}},
+                 {"SCATTERED", "Jy", {}},  {"SINGLE", "Jy", {}}, {"FIELD", "Jy", {}}};
+    for (const auto& r : sed) {
+        const double v[] = {r.lambda_nm, r.total, r.direct, r.scattered, r.single, r.field};
+        for (std::size_t i = 0; i < 6; ++i)
+            t.columns[i].values.push_back(v[i]);
+    }
+    return t;
+}
+
+} // namespace
+
+std::vector<SedRow> imageSed(const Image& img, std::size_t starCount, const RenderOptions& opts)
+{
+    const Components parts(img, starCount, "the SED");
+    const Projection projection(opts.camera);
+    std::vector<SedRow> sed;
+    for (const std::size_t c : ascending(opts)) {
+        double sum[PARTS] = {};
+        for (int y = 0; y < img.height; ++y)
+            for (int x = 0; x < img.width; ++x) {
+                const std::size_t p = std::size_t(y) * std::size_t(img.width) + std::size_t(x);
+                const double omega = projection.pixelSolidAngle(x + 0.5, y + 0.5);
+                for (int part = Total; part < PARTS; ++part)
+                    sum[part] += parts.at(part, p, c) * omega;
+            }
+        // L_sun pc^-2 nm^-1 -> Jy: the MJy/sr factor times 1e6.
+        const double jy = perNmToMegajanskyPerSr(opts.wavelengths[c]) * 1e6;
+        sed.push_back({opts.wavelengths[c], sum[Total] * jy, sum[Direct] * jy, sum[Scattered] * jy,
+                       sum[Single] * jy, sum[Field] * jy});
+    }
+    return sed;
+}
+
+void writeSedCsv(AtomicFile& file, const std::vector<SedRow>& sed,
+                 const std::vector<std::string>& comments)
+{
+    std::ostream& out = file.stream();
+    for (const auto& c : comments)
+        out << "# " << c << "\n";
+    out << "wavelength_nm,total_Jy,direct_Jy,scattered_Jy,single_Jy,field_Jy\n";
+    for (const auto& r : sed) {
+        out << fmt::format("{:.10g},{:.10g},{:.10g},{:.10g},{:.10g},{:.10g}\n", r.lambda_nm,
+                           r.total, r.direct, r.scattered, r.single, r.field);
+    }
+}
+
 void writeCalibratedFits(AtomicFile& file, const Image& img, std::size_t starCount,
                          const RenderOptions& opts, const FitsOutput& fits,
                          const std::vector<FitsCard>& cards)
 {
     const std::size_t W = std::size_t(img.width), H = std::size_t(img.height);
     const std::size_t plane = W * H;
-    // frameImage()'s layers: the stars', transmittance, then field, emission, direct.
-    if (img.layers.size() < starCount + 4) {
-        throw Error(file.path() + ": the render has no component layers for --fits");
-    }
-    const auto& field = img.layers[starCount + 1].rgb;
-    const auto& emission = img.layers[starCount + 2].rgb;
-    const auto& direct = img.layers[starCount + 3].rgb;
-    // Planes in ascending wavelength.
-    std::array<int, 3> order{0, 1, 2};
-    std::sort(order.begin(), order.end(), [&](int a, int b) {
-        return opts.wavelengths[std::size_t(a)] < opts.wavelengths[std::size_t(b)];
-    });
-    enum Part { Total, Direct, Scattered, Single, Field };
+    const Components components(img, starCount, file.path());
+    const auto order = ascending(opts);
     const char* names[] = {"TOTAL", "DIRECT", "SCATTERED", "SINGLE", "FIELD"};
     const char* what[] = {"everything that reaches the observer: starlight, scattered light",
                           "the stars' light that reached the observer unscattered (the sprites)",
@@ -126,28 +220,18 @@ void writeCalibratedFits(AtomicFile& file, const Image& img, std::size_t starCou
                           "light scattered more than once (nebscatter's field)"};
     std::vector<FitsImageHdu> hdus;
     const auto wcs = imageWcsCards(opts.camera, fits);
-    for (int part = Total; part <= Field; ++part) {
+    for (int part = Total; part < PARTS; ++part) {
         FitsImageHdu h;
         h.name = names[part];
         h.axes = {long(W), long(H), 3};
         h.data.resize(plane * 3);
         for (std::size_t k = 0; k < 3; ++k) {
-            const std::size_t c = std::size_t(order[k]);
+            const std::size_t c = order[k];
             const double f = surfaceBrightnessFactor(fits.unit, opts.wavelengths[c]);
             for (std::size_t row = 0; row < H; ++row) { // FITS rows go up from the bottom
                 const std::size_t src = (H - 1 - row) * W;
-                for (std::size_t x = 0; x < W; ++x) {
-                    const std::size_t p = src + x;
-                    const double total = img.rgba[p * 4 + c];
-                    const double d = direct[p * 3 + c], fl = field[p * 3 + c];
-                    const double scattered = total - d - emission[p * 3 + c];
-                    const double v = part == Total       ? total
-                                     : part == Direct    ? d
-                                     : part == Scattered ? scattered
-                                     : part == Single    ? scattered - fl
-                                                         : fl;
-                    h.data[k * plane + row * W + x] = float(v * f);
-                }
+                for (std::size_t x = 0; x < W; ++x)
+                    h.data[k * plane + row * W + x] = float(components.at(part, src + x, c) * f);
             }
         }
         h.cards = wcs;
@@ -172,9 +256,9 @@ void writeCalibratedFits(AtomicFile& file, const Image& img, std::size_t starCou
     table.column = "COORDS";
     table.unit = "m";
     table.tdim = {1, 3};
-    for (const int c : order)
-        table.values.push_back(opts.wavelengths[std::size_t(c)] * 1e-9);
-    writeFits(file, hdus, {table});
+    for (const std::size_t c : order)
+        table.values.push_back(opts.wavelengths[c] * 1e-9);
+    writeFits(file, hdus, {table}, {sedTable(imageSed(img, starCount, opts))});
 }
 
 } // namespace nebula

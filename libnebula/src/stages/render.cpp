@@ -295,6 +295,20 @@ void renderOneFrame(const GridSet& grids, const RenderOptions& opts, const DustP
                             fitsCards(grids, opts, dust, out, run));
         files.push_back(&*fitsFile);
     }
+    std::optional<AtomicFile> sedFile;
+    if (!out.fits.sed.empty()) {
+        sedFile.emplace(out.fits.sed);
+        const Camera& c = opts.camera;
+        writeSedCsv(
+            *sedFile, imageSed(img, sscene.base.stars.size(), opts),
+            {"nebula SED: flux density at the observer [Jy] per component (DESIGN section 13)",
+             std::string("camera ") + toString(c.model) +
+                 (c.model == CameraModel::Orthographic
+                      ? fmt::format(", distance {:g} pc", c.observerDistance())
+                      : std::string(", at the eye")),
+             "command: " + run.command()});
+        files.push_back(&*sedFile);
+    }
     commitAll(files);
     std::string names = exr;
     for (std::size_t i = 1; i < files.size(); ++i)
@@ -308,7 +322,7 @@ void renderToFiles(const GridSet& grids, const RenderOptions& given, const DustP
                    const RenderOutput& out, const Run& run)
 {
     RenderOptions opts = given;
-    if (!out.fits.path.empty()) { // calibrated: monochromatic channels and their components
+    if (calibrated(out.fits)) { // monochromatic channels and their components
         opts.monochromatic = true;
         opts.componentLayers = true;
     }
@@ -338,14 +352,16 @@ void renderToFiles(const GridSet& grids, const RenderOptions& given, const DustP
         if (!png.empty()) checkOutputWritable(expandFramePattern(png, f), "PNG");
     }
     checkFitsOutput(out.fits, opts, frames.size() > 1);
-    if (!out.fits.path.empty()) {
-        checkOutputWritable(out.fits.path, "FITS");
+    if (calibrated(out.fits)) {
+        if (!out.fits.path.empty()) checkOutputWritable(out.fits.path, "FITS");
+        if (!out.fits.sed.empty()) checkOutputWritable(out.fits.sed, "SED");
+        const std::string option = out.fits.path.empty() ? "--sed" : "--fits";
         if (opts.integrator != Integrator::Fast) {
-            throw UsageError("--fits needs the fast integrator (its component layers)");
+            throw UsageError(option + " needs the fast integrator (its component layers)");
         }
         if (grids.find(opts.emissionGrid)) {
-            run.warn("--fits: the gas's glow (grid \"" + opts.emissionGrid +
-                     "\") has no spectral calibration in RGB mode and is left out of the images");
+            run.warn(option + ": the gas's glow (grid \"" + opts.emissionGrid +
+                     "\") has no spectral calibration in RGB mode and is left out");
         }
     }
     checkIntegratorOptions(grids, opts, run);

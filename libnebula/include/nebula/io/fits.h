@@ -80,6 +80,16 @@ public:
     void createDoubleTable(const std::string& extname, const std::string& column,
                            const std::vector<std::int64_t>& tdim, const std::vector<double>& values,
                            const std::string& unit);
+    /// A column of a table: its name, unit (TUNIT) and one double per row.
+    struct Column
+    {
+        std::string name;
+        std::string unit;
+        std::vector<double> values;
+    };
+    /// Appends a binary table HDU whose rows are the columns' values (all of one length) and
+    /// makes it current.
+    void createTable(const std::string& extname, const std::vector<Column>& columns);
     /// Writes @p count floats at element @p first (0-based, FITS order) of the current image.
     void writeFloats(std::int64_t first, std::int64_t count, const float* values);
     /// Reads @p count elements from element @p first (0-based) of the current image as

@@ -6,6 +6,7 @@
 /// (io/fits.h) and written through an AtomicFile, so the file lands whole or not at all.
 
 #include "nebula/core/atomic_file.h"
+#include "nebula/io/fits.h"
 
 #include <string>
 #include <variant>
@@ -43,9 +44,17 @@ struct FitsTableHdu
     std::string unit; ///< TUNIT of the column
 };
 
-/// Writes @p images (the first is the primary HDU) and then @p tables to @p file. Throws Error
-/// naming the file, the HDU and cfitsio's message on any failure.
+/// A binary table of columns of doubles, one row per value (e.g. an SED).
+struct FitsColumnsHdu
+{
+    std::string name;
+    std::vector<FitsFile::Column> columns;
+};
+
+/// Writes @p images (the first is the primary HDU), then @p tables and @p columnTables to
+/// @p file. Throws Error naming the file, the HDU and cfitsio's message on any failure.
 void writeFits(AtomicFile& file, const std::vector<FitsImageHdu>& images,
-               const std::vector<FitsTableHdu>& tables = {});
+               const std::vector<FitsTableHdu>& tables = {},
+               const std::vector<FitsColumnsHdu>& columnTables = {});
 
 } // namespace nebula

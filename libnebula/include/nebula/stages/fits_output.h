@@ -20,6 +20,7 @@ namespace nebula {
 struct FitsOutput
 {
     std::string path;            ///< "" for none
+    std::string sed;             ///< --sed: the SED as CSV ("" for none)
     std::string unit = "MJy/sr"; ///< BUNIT: "MJy/sr" or "W/m2/sr/nm"
     /// A celestial WCS: the look-at point at right ascension @p ra, declination @p dec
     /// [degrees] (ICRS); the image's up at position angle @p positionAngle [degrees] from
@@ -30,9 +31,15 @@ struct FitsOutput
     double positionAngle = 0.0;
 };
 
-/// Throws UsageError naming the option unless --fits suits the render: the fast or path
-/// integrator in RGB mode, a perspective or orthographic camera (perspective needs --sky),
-/// one frame, --fits-unit known, --sky within [0, 360) x [-90, 90], distinct wavelengths.
+/// Whether a calibrated output (--fits or --sed) is asked for.
+inline bool calibrated(const FitsOutput& fits)
+{
+    return !fits.path.empty() || !fits.sed.empty();
+}
+
+/// Throws UsageError naming the option unless --fits and --sed suit the render: RGB mode, a
+/// perspective or orthographic camera (a perspective FITS needs --sky), one frame,
+/// --fits-unit known, --sky within [0, 360) x [-90, 90], distinct wavelengths.
 void checkFitsOutput(const FitsOutput& fits, const RenderOptions& opts, bool manyFrames);
 
 /// The factor that turns spectral radiance [L_sun pc^-2 sr^-1 nm^-1] at @p lambda_nm into
@@ -45,10 +52,27 @@ double surfaceBrightnessFactor(const std::string& unit, double lambda_nm);
 /// pixel / distance radians); else linear offsets in pc from the look-at point.
 std::vector<FitsCard> imageWcsCards(const Camera& camera, const FitsOutput& fits);
 
+/// The flux density at the observer [Jy] of each component at one wavelength: the sum over
+/// the image of surface brightness times each pixel's solid angle.
+struct SedRow
+{
+    double lambda_nm = 0.0;
+    double total = 0.0, direct = 0.0, scattered = 0.0, single = 0.0, field = 0.0;
+};
+
+/// The SED of @p img (a monochromatic render with component layers, @p starCount stars, the
+/// camera of @p opts) at its channels' wavelengths, ascending.
+std::vector<SedRow> imageSed(const Image& img, std::size_t starCount, const RenderOptions& opts);
+
+/// Writes @p sed as CSV (wavelength_nm, total_Jy, direct_Jy, scattered_Jy, single_Jy,
+/// field_Jy), after `#` comment lines @p comments.
+void writeSedCsv(AtomicFile& file, const std::vector<SedRow>& sed,
+                 const std::vector<std::string>& comments);
+
 /// The HDUs of @p img (a monochromatic render with component layers, @p starCount stars):
 /// TOTAL (primary), DIRECT, SCATTERED (single + field), SINGLE, FIELD, each W x H x N planes
 /// in ascending wavelength, rows bottom first (FITS), with @p cards (observer, history) and
-/// the WCS; and the WCS-TAB table of the wavelengths.
+/// the WCS; the WCS-TAB table of the wavelengths; and the table SED (imageSed()).
 void writeCalibratedFits(AtomicFile& file, const Image& img, std::size_t starCount,
                          const RenderOptions& opts, const FitsOutput& fits,
                          const std::vector<FitsCard>& cards);
