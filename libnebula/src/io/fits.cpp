@@ -25,7 +25,8 @@ struct FitsFile::Impl
     std::string bytes;        ///< the copy a memory file was opened from (openMemory())
     void* bytesPtr = nullptr; ///< cfitsio keeps the addresses of these two (openMemory())
     std::size_t bytesSize = 0;
-    void* buffer = nullptr; ///< a created memory file's buffer (cfitsio reallocates it)
+    std::size_t fileSize = 0; ///< the bytes given to openMemory(), before the padding
+    void* buffer = nullptr;   ///< a created memory file's buffer (cfitsio reallocates it)
     std::size_t bufferSize = 0;
     std::string path; ///< the disk file (fileSize())
 
@@ -101,7 +102,11 @@ FitsFile FitsFile::openMemory(std::string_view bytes, const std::string& name)
     FitsFile f;
     f.mName = name;
     f.mImpl = std::make_unique<Impl>();
+    // cfitsio's memory driver reads whole 2880-byte records: pad the copy with zeros so that
+    // it never reads past a file whose length is not a multiple of 2880 (a truncated one).
     f.mImpl->bytes.assign(bytes.data(), bytes.size());
+    f.mImpl->fileSize = bytes.size();
+    f.mImpl->bytes.resize((bytes.size() + 2879) / 2880 * 2880 + 2880, '\0');
     f.mImpl->bytesPtr = f.mImpl->bytes.data();
     f.mImpl->bytesSize = f.mImpl->bytes.size();
     int status = 0;
@@ -221,7 +226,7 @@ std::pair<std::int64_t, std::int64_t> FitsFile::dataSpan() const
 
 std::int64_t FitsFile::fileSize() const
 {
-    if (!mImpl->bytes.empty()) return std::int64_t(mImpl->bytes.size());
+    if (!mImpl->bytes.empty()) return std::int64_t(mImpl->fileSize);
     if (!mImpl->path.empty()) {
         struct stat st
         {
