@@ -14,6 +14,7 @@
 #include <cstring>
 #include <iostream>
 #include <limits>
+#include <malloc.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -59,6 +60,18 @@ std::string fitsMessage(int status)
         }
     }
     return detail.empty() ? msg : msg + " (" + detail + ")";
+}
+
+/// realloc() for cfitsio's memory files that zeroes every byte it adds: cfitsio reads parts of
+/// its buffer it has not written yet (looking for the END card), which must not be garbage.
+void* zeroingRealloc(void* p, std::size_t size)
+{
+    const std::size_t old = p ? malloc_usable_size(p) : 0;
+    void* q = std::realloc(p, size);
+    if (!q) return nullptr;
+    const std::size_t now = malloc_usable_size(q);
+    if (now > old) std::memset(static_cast<char*>(q) + old, 0, now - old);
+    return q;
 }
 
 } // namespace
@@ -125,11 +138,11 @@ FitsFile FitsFile::createMemory(const std::string& name)
     f.mName = name;
     f.mImpl = std::make_unique<Impl>();
     f.mImpl->bufferSize = 2880;
-    f.mImpl->buffer = std::malloc(f.mImpl->bufferSize);
+    f.mImpl->buffer = zeroingRealloc(nullptr, f.mImpl->bufferSize);
     if (!f.mImpl->buffer) throw Error(name + ": out of memory");
     int status = 0;
     fits_create_memfile(&f.mImpl->fptr, &f.mImpl->buffer, &f.mImpl->bufferSize,
-                        std::size_t(1) << 24, std::realloc, &status);
+                        std::size_t(1) << 24, zeroingRealloc, &status);
     if (status) {
         f.mImpl->fptr = nullptr;
         f.check(status, "cannot create a FITS file in memory");
