@@ -50,8 +50,8 @@ struct CubeGeometry
 /// What a CubeSource holds: the voxel counts, how its planes run, its unit and geometry.
 struct CubeInfo
 {
-    std::string name;                 ///< "cube.fits, HDU 0", for messages
-    std::array<std::int64_t, 3> dims; ///< voxels along x, y, z
+    std::string name;                          ///< "cube.fits, HDU 0", for messages
+    std::array<std::int64_t, 3> dims{0, 0, 0}; ///< voxels along x, y, z
     /// Planes are perpendicular to planeAxis (the file's slowest axis); within a plane,
     /// fastAxis varies fastest, then slowAxis.
     int planeAxis = 2, fastAxis = 0, slowAxis = 1;
