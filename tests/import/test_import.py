@@ -239,6 +239,12 @@ refused("negative voxel", "nebimport", ["-i", "a_f.npy", "--unit", "cm-3", "--vo
                                         "-2au", "-o", "out.vdb"], "--voxel-size")
 refused("missing grid", "nebexport", ["-i", "a_fits.vdb", "--grid", "nope", "-o", "out.fits"],
         '"nope"', output="out.fits")
+refused("a FITS cube larger than memory", "nebexport",
+        ["-i", "a_fits.vdb", "--bbox", "0,0,0,4094,4094,4094", "-o", "out.fits"],
+        "of memory; this machine has", output="out.fits")
+refused("a cube of more than 2^36 voxels", "nebexport",
+        ["-i", "a_fits.vdb", "--bbox", "0,0,0,9999,9999,9999", "-o", "out.npy"],
+        "more than the 2^36", output="out.npy")
 refused("unknown extension", "nebexport", ["-i", "a_fits.vdb", "-o", "out.txt"], "--format",
         output="out.txt")
 
