@@ -171,7 +171,7 @@ struct CubeHeader
     std::array<double, 3> spacing{1, 1, 1}; ///< [pc] per axis, signed
     std::array<double, 3> origin{0, 0, 0};  ///< voxel (0, 0, 0)'s centre [pc]
     std::string unit;                       ///< BUNIT / units attribute ("" none)
-    std::string name;                       ///< the grid's name (FITS OBJECT)
+    std::string name;                       ///< the grid's name (FITS BTYPE, HDF5 attribute grid)
     nlohmann::json wcs;                     ///< FITS keywords to write instead of pc ones, or null
     std::vector<std::string> history;       ///< the pipeline's stages, one line each
 };

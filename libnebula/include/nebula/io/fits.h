@@ -72,7 +72,8 @@ public:
     void writeComment(const std::string& text);
 
     /// Appends a float32 image HDU with @p shape (FITS order, any number of axes) and makes
-    /// it current; an empty primary HDU is replaced. @p extname names an extension ("" none).
+    /// it current: the first is the primary HDU, later ones extensions. @p extname sets EXTNAME
+    /// ("" none).
     void createImage(const std::vector<std::int64_t>& shape, const std::string& extname = "");
     /// Writes @p count floats at element @p first (0-based, FITS order) of the current image.
     void writeFloats(std::int64_t first, std::int64_t count, const float* values);
