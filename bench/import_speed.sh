@@ -5,6 +5,7 @@
 # Targets (issue 25): at most 20 s, and a peak RSS of at most 1.5x the cube (768 MiB).
 #
 #   bench/import_speed.sh [BUILD] [N]     (defaults: build, 512)
+#   DENSE=1 bench/import_speed.sh ...      every voxel non-zero: the grid's worst case
 set -euo pipefail
 build=${1:-build}
 n=${2:-512}
@@ -19,11 +20,11 @@ done
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 
-"$python" - "$work/cube.fits" "$n" <<'PY'
+"$python" - "$work/cube.fits" "$n" "${DENSE:-0}" <<'PY'
 import sys
 import numpy as np
 from astropy.io import fits
-path, n = sys.argv[1], int(sys.argv[2])
+path, n, dense = sys.argv[1], int(sys.argv[2]), sys.argv[3] == "1"
 rng = np.random.default_rng(25)
 centres = rng.uniform(0.2 * n, 0.8 * n, size=(12, 3))
 widths = rng.uniform(0.04 * n, 0.12 * n, size=12)
@@ -53,7 +54,10 @@ with open(path, 'ab') as f:
                 continue
             plane += np.float32(p) * np.exp(-((x - c[0]) ** 2 + (y - c[1]) ** 2 + dz) / np.float32(2 * w * w))
         plane += rng.normal(0, 1, size=(n, n)).astype(np.float32)
-        plane[plane < 5] = 0
+        if dense:
+            plane = np.abs(plane) + np.float32(1)
+        else:
+            plane[plane < 5] = 0
         f.write(plane.astype('>f4').tobytes())
     pad = (-(n * n * n * 4)) % 2880
     f.write(b'\0' * pad)

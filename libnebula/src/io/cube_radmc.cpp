@@ -154,6 +154,14 @@ RadmcDataHeader parseRadmcDataHeader(std::string_view bytes, bool binary, const 
     h.species = r.integer("the species count", 1, 100000);
     h.precision = 0;
     h.dataOffset = r.pos();
+    // Each value takes a character and a separator at least: a header that promises more
+    // than the text can hold is truncated (and its counts cannot overflow a later product).
+    const double values = double(h.cells) * double(h.species);
+    if (2.0 * values - 1.0 > double(bytes.size() - h.dataOffset)) {
+        throw Error(name + fmt::format(": truncated: the header says {} cells of {} species, "
+                                       "more values than the {} bytes after it can hold",
+                                       h.cells, h.species, bytes.size() - h.dataOffset));
+    }
     return h;
 }
 
@@ -293,7 +301,8 @@ private:
     {
         throw Error(mInfo.name + fmt::format(": truncated: expected {} values ({} cells x {} "
                                              "species), the file ends after {}",
-                                             mH.cells * mH.species, mH.cells, mH.species, read));
+                                             double(mH.cells) * double(mH.species), mH.cells,
+                                             mH.species, read));
     }
 
     /// The next z plane of cells into mCellPlane.

@@ -14,6 +14,7 @@
 #include <cstring>
 #include <iostream>
 #include <limits>
+#include <malloc.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -25,7 +26,8 @@ struct FitsFile::Impl
     std::string bytes;        ///< the copy a memory file was opened from (openMemory())
     void* bytesPtr = nullptr; ///< cfitsio keeps the addresses of these two (openMemory())
     std::size_t bytesSize = 0;
-    void* buffer = nullptr; ///< a created memory file's buffer (cfitsio reallocates it)
+    std::size_t fileSize = 0; ///< the bytes given to openMemory(), before the padding
+    void* buffer = nullptr;   ///< a created memory file's buffer (cfitsio reallocates it)
     std::size_t bufferSize = 0;
     std::string path; ///< the disk file (fileSize())
 
@@ -58,6 +60,18 @@ std::string fitsMessage(int status)
         }
     }
     return detail.empty() ? msg : msg + " (" + detail + ")";
+}
+
+/// realloc() for cfitsio's memory files that zeroes every byte it adds: cfitsio reads parts of
+/// its buffer it has not written yet (looking for the END card), which must not be garbage.
+void* zeroingRealloc(void* p, std::size_t size)
+{
+    const std::size_t old = p ? malloc_usable_size(p) : 0;
+    void* q = std::realloc(p, size);
+    if (!q) return nullptr;
+    const std::size_t now = malloc_usable_size(q);
+    if (now > old) std::memset(static_cast<char*>(q) + old, 0, now - old);
+    return q;
 }
 
 } // namespace
@@ -101,7 +115,11 @@ FitsFile FitsFile::openMemory(std::string_view bytes, const std::string& name)
     FitsFile f;
     f.mName = name;
     f.mImpl = std::make_unique<Impl>();
+    // cfitsio's memory driver reads whole 2880-byte records: pad the copy with zeros so that
+    // it never reads past a file whose length is not a multiple of 2880 (a truncated one).
     f.mImpl->bytes.assign(bytes.data(), bytes.size());
+    f.mImpl->fileSize = bytes.size();
+    f.mImpl->bytes.resize((bytes.size() + 2879) / 2880 * 2880 + 2880, '\0');
     f.mImpl->bytesPtr = f.mImpl->bytes.data();
     f.mImpl->bytesSize = f.mImpl->bytes.size();
     int status = 0;
@@ -120,11 +138,11 @@ FitsFile FitsFile::createMemory(const std::string& name)
     f.mName = name;
     f.mImpl = std::make_unique<Impl>();
     f.mImpl->bufferSize = 2880;
-    f.mImpl->buffer = std::malloc(f.mImpl->bufferSize);
+    f.mImpl->buffer = zeroingRealloc(nullptr, f.mImpl->bufferSize);
     if (!f.mImpl->buffer) throw Error(name + ": out of memory");
     int status = 0;
     fits_create_memfile(&f.mImpl->fptr, &f.mImpl->buffer, &f.mImpl->bufferSize,
-                        std::size_t(1) << 24, std::realloc, &status);
+                        std::size_t(1) << 24, zeroingRealloc, &status);
     if (status) {
         f.mImpl->fptr = nullptr;
         f.check(status, "cannot create a FITS file in memory");
@@ -221,7 +239,7 @@ std::pair<std::int64_t, std::int64_t> FitsFile::dataSpan() const
 
 std::int64_t FitsFile::fileSize() const
 {
-    if (!mImpl->bytes.empty()) return std::int64_t(mImpl->bytes.size());
+    if (!mImpl->bytes.empty()) return std::int64_t(mImpl->fileSize);
     if (!mImpl->path.empty()) {
         struct stat st
         {

@@ -159,8 +159,16 @@ void exportCube(const GridSet& grids, const ExportOptions& opts, const Run& run)
     const auto grid = grids.floatGrid(opts.grid, "--grid");
     const auto box = exportBox(*grid, opts.bbox);
     CubeHeader h;
-    for (std::size_t a = 0; a < 3; ++a)
+    double voxels = 1.0;
+    for (std::size_t a = 0; a < 3; ++a) {
         h.dims[a] = std::int64_t(box[1][a]) - box[0][a] + 1;
+        voxels *= double(h.dims[a]);
+    }
+    if (voxels > double(MAX_CUBE_VOXELS)) {
+        throw UsageError(fmt::format("--bbox {}: a {} x {} x {} cube is {:.3g} voxels, more than "
+                                     "the 2^36 (4096^3) a cube may have",
+                                     opts.bbox, h.dims[0], h.dims[1], h.dims[2], voxels));
+    }
 
     // Axis-aligned transforms only: a dense cube's axes are the grid's.
     const openvdb::math::Mat4d m = grid->transform().baseMap()->getAffineMap()->getMat4();

@@ -318,11 +318,14 @@ TEST_F(CubeIo, RadmcBadFilesAreRefused)
     EXPECT_TRUE(contains(errorMessage([&] { nebula::openCube(dir.string(), CubeSelect{}); }),
                          "25 cells, but amr_grid.inp has 2 x 3 x 4 = 24"));
     write("dust_density.inp", "1\n24\n1\n1 2 3\n");
+    EXPECT_TRUE(contains(errorMessage([&] { nebula::openCube(dir.string(), CubeSelect{}); }),
+                         "more values than the 7 bytes after it can hold"));
+    write("dust_density.inp", "1\n24\n1\n1 2 3\n" + std::string(60, ' '));
     auto cube = nebula::openCube(dir.string(), CubeSelect{});
     std::vector<double> plane(6);
     EXPECT_TRUE(contains(errorMessage([&] { cube->readPlane(0, plane.data()); }),
                          "truncated: expected 24 values"));
-    write("dust_density.inp", "1\n24\n1\n1 2 x3\n");
+    write("dust_density.inp", "1\n24\n1\n1 2 x3\n" + std::string(60, ' '));
     cube = nebula::openCube(dir.string(), CubeSelect{});
     EXPECT_TRUE(
         contains(errorMessage([&] { cube->readPlane(0, plane.data()); }), "\"x3\" at byte"));

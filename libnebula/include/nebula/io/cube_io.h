@@ -50,8 +50,8 @@ struct CubeGeometry
 /// What a CubeSource holds: the voxel counts, how its planes run, its unit and geometry.
 struct CubeInfo
 {
-    std::string name;                 ///< "cube.fits, HDU 0", for messages
-    std::array<std::int64_t, 3> dims; ///< voxels along x, y, z
+    std::string name;                          ///< "cube.fits, HDU 0", for messages
+    std::array<std::int64_t, 3> dims{0, 0, 0}; ///< voxels along x, y, z
     /// Planes are perpendicular to planeAxis (the file's slowest axis); within a plane,
     /// fastAxis varies fastest, then slowAxis.
     int planeAxis = 2, fastAxis = 0, slowAxis = 1;
@@ -171,7 +171,7 @@ struct CubeHeader
     std::array<double, 3> spacing{1, 1, 1}; ///< [pc] per axis, signed
     std::array<double, 3> origin{0, 0, 0};  ///< voxel (0, 0, 0)'s centre [pc]
     std::string unit;                       ///< BUNIT / units attribute ("" none)
-    std::string name;                       ///< the grid's name (FITS OBJECT)
+    std::string name;                       ///< the grid's name (FITS BTYPE, HDF5 attribute grid)
     nlohmann::json wcs;                     ///< FITS keywords to write instead of pc ones, or null
     std::vector<std::string> history;       ///< the pipeline's stages, one line each
 };

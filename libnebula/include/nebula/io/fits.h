@@ -73,7 +73,8 @@ public:
     void writeComment(const std::string& text);
 
     /// Appends a float32 image HDU with @p shape (FITS order, any number of axes) and makes
-    /// it current; an empty primary HDU is replaced. @p extname names an extension ("" none).
+    /// it current: the first is the primary HDU, later ones extensions. @p extname sets EXTNAME
+    /// ("" none).
     void createImage(const std::vector<std::int64_t>& shape, const std::string& extname = "");
     /// Appends a binary table HDU of one row and one column @p column of @p values (doubles,
     /// TDIM @p tdim, TUNIT @p unit) and makes it current: e.g. a -TAB coordinate array.

@@ -1,0 +1,47 @@
+// libFuzzer target: FITS files in memory (io/fits.h, cfitsio) and nebula's reading of them:
+// every HDU's type, shape, BUNIT and WCS (readFitsGeometry()), and the data of small images
+// whose header says they lie inside the bytes. Anything but a clean nebula::Error is a
+// finding.
+#include "nebula/core/error.h"
+#include "nebula/io/cube_io.h"
+#include "nebula/io/fits.h"
+
+#include <cstddef>
+#include <cstdint>
+#include <string_view>
+#include <vector>
+
+extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size)
+{
+    const std::string_view bytes(reinterpret_cast<const char*>(data), size);
+    try {
+        auto f = nebula::FitsFile::openMemory(bytes, "fuzz.fits");
+        const int n = f.hduCount();
+        for (int i = 0; i < n && i < 8; ++i) {
+            f.moveTo(i);
+            (void)f.hduLabel();
+            if (!f.isImage()) continue;
+            const auto shape = f.imageShape();
+            (void)f.keyString("BUNIT");
+            if (shape.size() == 3) {
+                try {
+                    (void)nebula::readFitsGeometry(f);
+                } catch (const nebula::Error&) {
+                }
+            }
+            double count = shape.empty() ? 0.0 : 1.0;
+            for (auto a : shape)
+                count *= double(a);
+            const auto [start, end] = f.dataSpan();
+            (void)end;
+            const int bytesPer = f.bitpix() < 0 ? -f.bitpix() / 8 : f.bitpix() / 8;
+            if (count > 0 && count <= 4096 &&
+                double(start) + count * bytesPer <= double(f.fileSize())) {
+                std::vector<double> values(static_cast<std::size_t>(count));
+                f.readDoubles(0, std::int64_t(count), values.data());
+            }
+        }
+    } catch (const nebula::Error&) {
+    }
+    return 0;
+}
