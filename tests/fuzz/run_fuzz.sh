@@ -1,11 +1,11 @@
 #!/usr/bin/env bash
 # Runs the libFuzzer targets for a bounded time from the committed seed corpus, and fails on
 # any finding.
-# Usage: run_fuzz.sh FUZZ_BUILD_DIR [SECONDS]   (default 90: the five targets run side by
+# Usage: run_fuzz.sh FUZZ_BUILD_DIR [SECONDS]   (default 90: the six targets run side by
 # side for SECONDS of wall time each, which keeps both cores of a CI machine busy)
 # Targets: the VDB structure checker and the grid reader (corpus/grid), the star and dust
-# parsers (corpus/metadata), every JSON consumer (corpus/json, with deep and wide documents)
-# and config files (corpus/config).
+# parsers (corpus/metadata), every JSON consumer (corpus/json, with deep and wide documents),
+# config files (corpus/config) and filter files (corpus/filter).
 # The corpus grows in a scratch copy (FUZZ_BUILD_DIR/corpus); a finding is saved as
 # FUZZ_BUILD_DIR/findings/crash-* (or leak-*, oom-*, timeout-*). Keep it as a regression
 # test: copy it into tests/fuzz/regressions/ (the unit test
@@ -39,9 +39,10 @@ run_target fuzz_grid_reader "$src/corpus/grid" "$seconds" 65536 & pids+=($!)
 run_target fuzz_metadata "$src/corpus/metadata" "$seconds" 65536 & pids+=($!)
 run_target fuzz_json "$src/corpus/json" "$seconds" 4096 & pids+=($!)
 run_target fuzz_config "$src/corpus/config" "$seconds" 4096 & pids+=($!)
+run_target fuzz_filter_file "$src/corpus/filter" "$seconds" 4096 & pids+=($!)
 for pid in "${pids[@]}"; do wait "$pid" || status=1; done
 total=0
-for target in fuzz_vdb_check fuzz_grid_reader fuzz_metadata fuzz_json fuzz_config; do
+for target in fuzz_vdb_check fuzz_grid_reader fuzz_metadata fuzz_json fuzz_config fuzz_filter_file; do
     echo "== $target (${seconds} s)"
     grep -E "stat::number_of_executed_units|stat::average_exec_per_sec|stat::peak_rss_mb" \
         "$build/$target.log" | sed "s/^/  /"
