@@ -102,8 +102,10 @@ TEST(Filters, UnknownNameListsTheKnownOnes)
 }
 
 /// Pivot wavelengths [nm] against published values, within 1 %:
-/// - HST ACS/WFC: Sirianni et al. 2005, PASP 117, 1049, Table 10 (pivot wavelengths of the
-///   WFC throughput tables): F435W 431.74, F555W 535.96, F814W 805.98 nm.
+/// - HST ACS/WFC: the central wavelengths of CDS's VizieR photometry filter list (G. Landais,
+///   CDS, 2022: HST/ACS F435W 0.4319, F555W 0.5361, F814W 0.8057 um; the list does not say
+///   so, but these are the ACS Instrument Handbook's pivot wavelengths of the pre-2006
+///   tables, as far as we know): 431.9, 536.1, 805.7 nm.
 /// - Johnson U, B, V (Bessell 1990): FSPS's filter table (python-fsps documentation,
 ///   "filter_table", lambda_eff of "Johnson U/B/V from Bessell 1990 via M. Blanton"):
 ///   358.48, 437.09, 547.76 nm; they match the photon-counting pivot of Bessell's curves
