@@ -124,21 +124,25 @@ void checkPoint(double lambda_nm, double response, const Filter& filter, const s
 {
     if (!std::isfinite(response) || response < 0.0)
         throw Error(where + ": response " + numberText(response) + " is not a finite number >= 0");
-    if (!std::isfinite(lambda_nm) || lambda_nm <= 0.0 || lambda_nm >= MAX_FILTER_LAMBDA_NM)
-        throw Error(where + ": wavelength " + numberText(lambda_nm) + " nm is outside (0, " +
-                    numberText(MAX_FILTER_LAMBDA_NM) + ") nm");
+    if (!std::isfinite(lambda_nm) || lambda_nm < MIN_FILTER_LAMBDA_NM ||
+        lambda_nm >= MAX_FILTER_LAMBDA_NM)
+        throw Error(where + ": wavelength " + numberText(lambda_nm) + " nm is outside [" +
+                    numberText(MIN_FILTER_LAMBDA_NM) + ", " + numberText(MAX_FILTER_LAMBDA_NM) +
+                    ") nm");
     if (!filter.lambda_nm.empty() && !(lambda_nm > filter.lambda_nm.back()))
         throw Error(where + ": not monotonic in wavelength: " + numberText(lambda_nm) +
                     " nm follows " + numberText(filter.lambda_nm.back()) +
                     " nm (wavelengths must increase strictly)");
 }
 
-/// An energy-response curve R_E as the photon-counting T = R_E / lambda, peak 1.
+/// An energy-response curve R_E as the photon-counting T = R_E / lambda, peak 1 (scaled by
+/// R_E's peak first, so that neither step overflows).
 void energyToPhoton(Filter& filter)
 {
+    const double peakE = *std::max_element(filter.response.begin(), filter.response.end());
     double peak = 0.0;
     for (std::size_t i = 0; i < filter.response.size(); ++i) {
-        filter.response[i] /= filter.lambda_nm[i];
+        filter.response[i] = filter.response[i] / peakE / filter.lambda_nm[i];
         peak = std::max(peak, filter.response[i]);
     }
     for (double& t : filter.response)
@@ -177,6 +181,10 @@ BandMeasure bandMeasure(const Filter& filter)
     const auto& t = filter.response;
     if (x.size() < 2 || t.size() != x.size())
         throw Error(filter.source + ": a filter needs at least 2 (wavelength, response) points");
+    // T over its peak: the measure's scale cancels in every ratio, and a response of 1e300
+    // must not overflow.
+    const double peak = *std::max_element(t.begin(), t.end());
+    if (!(peak > 0.0)) throw Error(filter.source + ": the response is 0 at every wavelength");
     const double span = x.back() - x.front();
     const double maxPiece = std::max(std::min(MAX_PIECE_NM, span / MIN_PIECES), span / MAX_PIECES);
     for (std::size_t i = 0; i + 1 < x.size(); ++i) {
@@ -189,7 +197,7 @@ BandMeasure bandMeasure(const Filter& filter)
             for (std::size_t k = 0; k < GL_X.size(); ++k) {
                 const double lambda = a + 0.5 * h * (1.0 + GL_X[k]);
                 const double s = (lambda - x[i]) / width;
-                const double T = (1.0 - s) * t[i] + s * t[i + 1];
+                const double T = (1.0 - s) * (t[i] / peak) + s * (t[i + 1] / peak);
                 if (T <= 0.0) continue;
                 m.lambda_nm.push_back(lambda);
                 m.weight.push_back(0.5 * h * GL_W[k] * T / lambda);
@@ -345,8 +353,9 @@ double pivotWavelength(const Filter& filter)
     double num = 0.0, den = 0.0;
     const auto& x = filter.lambda_nm;
     const auto& t = filter.response;
+    const double peak = *std::max_element(t.begin(), t.end()); // against overflow
     for (std::size_t i = 0; i + 1 < x.size(); ++i) {
-        const double a = x[i], b = x[i + 1], ta = t[i], tb = t[i + 1];
+        const double a = x[i], b = x[i + 1], ta = t[i] / peak, tb = t[i + 1] / peak;
         const double slope = (tb - ta) / (b - a), icpt = ta - slope * a; // T = icpt + slope x
         num += icpt * 0.5 * (b * b - a * a) + slope * (b * b * b - a * a * a) / 3.0;
         den += icpt * std::log(b / a) + slope * (b - a);

@@ -331,7 +331,8 @@ TEST(FilterFile, RefusesBadInputsNamingFileAndLine)
         {"500 0\n510 1\n510 0\n", "band.dat:3: not monotonic in wavelength"},
         {"500 0\n520 1\n510 0\n", "band.dat:3: not monotonic in wavelength"},
         {"500 0\n510 0\n520 0\n", "band.dat: the response is 0 at every wavelength"},
-        {"0 0\n510 1\n", "band.dat:1: wavelength 0 nm is outside (0, 1e+07) nm"},
+        {"0 0\n510 1\n", "band.dat:1: wavelength 0 nm is outside [0.001, 1e+07) nm"},
+        {"1e-4 0\n510 1\n", "band.dat:1: wavelength 0.0001 nm is outside"},
         {"-5 0\n510 1\n", "band.dat:1: wavelength -5 nm is outside"},
         {"500 0\n1e7 1\n", "band.dat:2: wavelength 1e+07 nm is outside"},
         {"unit um\n1 0\n1e4 1\n", "band.dat:3: wavelength 1e+07 nm is outside"},
@@ -340,6 +341,27 @@ TEST(FilterFile, RefusesBadInputsNamingFileAndLine)
         const std::string what = parseError(c.text);
         EXPECT_NE(what.find(c.message), std::string::npos)
             << "input \"" << c.text << "\": got \"" << what << "\"";
+    }
+}
+
+TEST(FilterFile, ExtremeButValidFilesGiveFiniteResults)
+{
+    // The widest range and responses near the double's limits: no overflow anywhere.
+    for (const char* text :
+         {"0.001 1e300\n9999999 1e300\n", "0.001 1e-300\n0.002 0\n",
+          "0.001 0\n1 5e-324\n9999999 0\n", "0.001 1.7976931348623157e308\n0.002 1.7e308\n",
+          "response energy\n0.001 1.7976931348623157e308\n9999999 1e308\n"}) {
+        const Filter f = nebula::parseFilterFile(text, "extreme.dat");
+        EXPECT_TRUE(std::isfinite(nebula::pivotWavelength(f))) << text;
+        EXPECT_TRUE(std::isfinite(nebula::bandAverageFnu(f, [](double l) { return l; }))) << text;
+        const auto q = nebula::bandQuadrature(f, 3);
+        ASSERT_FALSE(q.weight.empty()) << text;
+        double sum = 0.0;
+        for (double w : q.weight)
+            sum += w;
+        EXPECT_NEAR(sum, 1.0, 1e-12) << text;
+        for (double l : q.lambda_nm)
+            EXPECT_TRUE(std::isfinite(l)) << text;
     }
 }
 

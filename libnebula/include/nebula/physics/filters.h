@@ -33,8 +33,9 @@ enum class FilterWavelengthUnit { Nanometre, Angstrom, Micrometre };
 /// The most lines a filter file may have (parseFilterFile()).
 inline constexpr int MAX_FILTER_LINES = 100000;
 
-/// Wavelengths a filter may span [nm]: (0, MAX_FILTER_LAMBDA_NM) exclusive (1 cm).
-inline constexpr double MAX_FILTER_LAMBDA_NM = 1e7;
+/// Wavelengths a filter may span [nm]: [MIN_FILTER_LAMBDA_NM, MAX_FILTER_LAMBDA_NM), from
+/// 0.01 Angstrom (gamma rays; 1 / lambda stays far from overflow) to 1 cm.
+inline constexpr double MIN_FILTER_LAMBDA_NM = 1e-3, MAX_FILTER_LAMBDA_NM = 1e7;
 
 /// The most quadrature nodes bandQuadrature() computes.
 inline constexpr int MAX_BAND_NODES = 16;
@@ -46,7 +47,7 @@ inline constexpr int MAX_BAND_NODES = 16;
 /// the photon-counting T = R_E / lambda and scaled to a peak of 1); a colon may replace the
 /// comma. @p unit is the wavelength unit when the file names none (a tool's --filter-unit).
 /// Throws Error naming @p source and the line for: a line that is not two numbers, a
-/// non-finite or negative response, a wavelength outside (0, 1e7) nm, wavelengths not
+/// non-finite or negative response, a wavelength outside [0.001, 1e7) nm, wavelengths not
 /// strictly increasing ("not monotonic in wavelength"), fewer than 2 points, a response that
 /// is 0 everywhere, more than MAX_FILTER_LINES lines. The Filter's name and source are
 /// @p source.
