@@ -265,6 +265,9 @@ Filter parseFilterFile(std::string_view text, const std::string& source, FilterW
     Filter filter;
     filter.name = source;
     filter.source = source;
+    if (text.size() > MAX_FILTER_BYTES)
+        throw Error(source + ": " + std::to_string(text.size()) +
+                    " bytes, more than a filter file's " + std::to_string(MAX_FILTER_BYTES));
     FilterHeader header{unit};
     int lineNumber = 0;
     std::size_t pos = 0;

@@ -371,6 +371,10 @@ TEST(FilterFile, RefusesTooManyLines)
     for (int i = 0; i <= nebula::MAX_FILTER_LINES; ++i)
         text += "#\n";
     EXPECT_NE(parseError(text).find("more than 100000 lines"), std::string::npos);
+    const std::string huge(nebula::MAX_FILTER_BYTES + 1, ' ');
+    EXPECT_NE(parseError(huge).find("band.dat: 8388609 bytes, more than a filter file's 8388608"),
+              std::string::npos)
+        << parseError(huge);
 }
 
 TEST(FilterFile, ShippedFilesAreWhatTheLibraryReads)

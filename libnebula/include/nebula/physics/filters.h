@@ -10,6 +10,7 @@
 /// piecewise linear between its nodes, 0 outside them. The band average of f_nu is
 ///   <f_nu> = int f_nu T dnu/nu / int T dnu/nu = int f_nu T dlambda/lambda / int T dlambda/lambda.
 
+#include <cstddef>
 #include <functional>
 #include <string>
 #include <string_view>
@@ -30,8 +31,9 @@ struct Filter
 /// Wavelength unit of a filter file's first column.
 enum class FilterWavelengthUnit { Nanometre, Angstrom, Micrometre };
 
-/// The most lines a filter file may have (parseFilterFile()).
+/// The most lines and bytes a filter file may have (parseFilterFile()).
 inline constexpr int MAX_FILTER_LINES = 100000;
+inline constexpr std::size_t MAX_FILTER_BYTES = std::size_t(8) << 20;
 
 /// Wavelengths a filter may span [nm]: [MIN_FILTER_LAMBDA_NM, MAX_FILTER_LAMBDA_NM), from
 /// 0.01 Angstrom (gamma rays; 1 / lambda stays far from overflow) to 1 cm.
@@ -49,8 +51,8 @@ inline constexpr int MAX_BAND_NODES = 16;
 /// Throws Error naming @p source and the line for: a line that is not two numbers, a
 /// non-finite or negative response, a wavelength outside [0.001, 1e7) nm, wavelengths not
 /// strictly increasing ("not monotonic in wavelength"), fewer than 2 points, a response that
-/// is 0 everywhere, more than MAX_FILTER_LINES lines. The Filter's name and source are
-/// @p source.
+/// is 0 everywhere, more than MAX_FILTER_LINES lines or MAX_FILTER_BYTES bytes. The Filter's
+/// name and source are @p source.
 Filter parseFilterFile(std::string_view text, const std::string& source,
                        FilterWavelengthUnit unit = FilterWavelengthUnit::Nanometre);
 
