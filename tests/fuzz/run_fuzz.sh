@@ -1,20 +1,20 @@
 #!/usr/bin/env bash
 # Runs the libFuzzer targets for a bounded time from the committed seed corpus, and fails on
 # any finding.
-# Usage: run_fuzz.sh FUZZ_BUILD_DIR [SECONDS]   (default 36: the eight targets run side by
-# side for SECONDS of wall time each, which keeps both cores of a CI machine busy; 8 x 36 s
-# is about the five minutes of fuzzing CI has room for)
+# Usage: run_fuzz.sh FUZZ_BUILD_DIR [SECONDS]   (default 60: the nine targets run side by
+# side for SECONDS of wall time each, which keeps both cores of a CI machine busy)
 # Targets: the VDB structure checker and the grid reader (corpus/grid), the star and dust
 # parsers (corpus/metadata), every JSON consumer (corpus/json, with deep and wide documents),
-# config files (corpus/config), and nebimport's cube formats: .npy headers (corpus/npy),
-# RADMC-3D's grid and density headers (corpus/radmc) and FITS files (corpus/fits).
+# config files (corpus/config), nebimport's cube formats: .npy headers (corpus/npy),
+# RADMC-3D's grid and density headers (corpus/radmc) and FITS files (corpus/fits), and
+# filter files (corpus/filter).
 # The corpus grows in a scratch copy (FUZZ_BUILD_DIR/corpus); a finding is saved as
 # FUZZ_BUILD_DIR/findings/crash-* (or leak-*, oom-*, timeout-*). Keep it as a regression
 # test: copy it into tests/fuzz/regressions/ (the unit test
 # DamagedInputs.FuzzRegressionsAreRefusedOrRead replays every file there).
 set -euo pipefail
 build=$1
-seconds=${2:-36}
+seconds=${2:-60}
 src=$(cd "$(dirname "$0")" && pwd)
 mkdir -p "$build/findings"
 
@@ -45,10 +45,11 @@ run_target fuzz_npy_header "$src/corpus/npy" "$seconds" 4096 & pids+=($!)
 run_target fuzz_radmc "$src/corpus/radmc" "$seconds" 4096 & pids+=($!)
 # FITS comes in 2880-byte blocks: a header and a little data fit in 16 KiB.
 run_target fuzz_fits "$src/corpus/fits" "$seconds" 16384 & pids+=($!)
+run_target fuzz_filter_file "$src/corpus/filter" "$seconds" 4096 & pids+=($!)
 for pid in "${pids[@]}"; do wait "$pid" || status=1; done
 total=0
 for target in fuzz_vdb_check fuzz_grid_reader fuzz_metadata fuzz_json fuzz_config fuzz_npy_header \
-    fuzz_radmc fuzz_fits; do
+    fuzz_radmc fuzz_fits fuzz_filter_file; do
     echo "== $target (${seconds} s)"
     grep -E "stat::number_of_executed_units|stat::average_exec_per_sec|stat::peak_rss_mb" \
         "$build/$target.log" | sed "s/^/  /"
