@@ -71,7 +71,7 @@ def ccm89(lam_nm, rv=3.1):
 def l_nu(L, T, lam_nm):
     """A black body's spectral luminosity [W/Hz] for bolometric L [L_sun]."""
     lam = lam_nm * 1e-9
-    B = 2 * h * c**2 / lam**5 / math.expm1(h * c / (lam * k_B * T))
+    B = 2 * h * c**2 / lam**5 / np.expm1(h * c / (lam * k_B * T))
     L_lam = L * L_SUN * math.pi * B / (sigma * T**4)  # W/m
     return L_lam * lam**2 / c
 
@@ -99,7 +99,7 @@ run("nebrender", "-i", path("lit.vdb"), "--camera", "orthographic", "--eye", "0,
     path("shell.fits"))
 hdul = fits.open(path("shell.fits"))
 names = [hdu.name for hdu in hdul]
-check(names == ["TOTAL", "DIRECT", "SCATTERED", "SINGLE", "FIELD", "WCS-TAB"], f"HDUs {names}")
+check(names == ["TOTAL", "DIRECT", "SCATTERED", "SINGLE", "FIELD", "WCS-TAB", "SED"], f"HDUs {names}")
 head = hdul[0].header
 dust = json.loads(head["DUST"])
 wcs = WCS(head, fobj=hdul)
@@ -216,6 +216,81 @@ for model, ra0, dec0, pa in cases:
         check(off < 0.05, f"{model} sky {ra0},{dec0} PA {pa}: star {name} at pixel "
               f"({cx:.3f}, {cy:.3f}) -> {float(ra):.6f}, {float(dec):.6f}; expected "
               f"{want[0]:.6f}, {want[1]:.6f}: {off:.4f} pixel")
+
+# --- filter photometry: a black-body star through every shipped filter -------------------
+# The render's band average (--filter X --sed: its DIRECT flux, the sprite of a star behind a
+# nearly empty shell) against direct integration of the filter's data file here: <f_nu> =
+# int f_nu T dl/l / int T dl/l, T photon-counting (an energy response divided by lambda),
+# linear between the file's points; AB magnitudes within 0.01 mag (the target).
+data = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "libnebula", "data",
+                    "filters")
+
+
+def read_filter(fname):
+    unit, energy, lam, resp = 1.0, False, [], []
+    with open(os.path.join(data, fname)) as f:
+        for line in f:
+            line = line.split("#")[0].strip()
+            if not line:
+                continue
+            parts = [p for p in line.replace(",", " ").replace(":", " ").split() if p]
+            if parts[0] == "unit":
+                unit = {"nm": 1.0, "Angstrom": 0.1, "A": 0.1, "um": 1000.0, "micron": 1000.0}[parts[1]]
+            elif parts[0] == "response":
+                energy = parts[1] == "energy"
+            else:
+                lam.append(float(parts[0]) * unit)
+                resp.append(float(parts[1]))
+    lam, resp = np.array(lam), np.array(resp)
+    return lam, resp / lam if energy else resp
+
+
+def band_average(lam, T, fnu):
+    x = np.linspace(lam[0], lam[-1], 200001)
+    w = np.interp(x, lam, T) / x
+    return np.trapz(fnu(x) * w, x) / np.trapz(w, x)
+
+
+files = {"U": "bessell_U.csv", "B": "bessell_B.csv", "V": "bessell_V.csv", "R": "bessell_R.csv",
+         "I": "bessell_I.csv", "sdss_u": "sdss_u.csv", "sdss_g": "sdss_g.csv",
+         "sdss_r": "sdss_r.csv", "sdss_i": "sdss_i.csv", "sdss_z": "sdss_z.csv",
+         "F435W": "acs_wfc_F435W.csv", "F555W": "acs_wfc_F555W.csv", "F814W": "acs_wfc_F814W.csv"}
+Tstar, Lstar = 4500.0, 50.0
+run("nebillum", "-i", path("shell.vdb"), "--star", f"p:0,0,-3:{Lstar}:{Tstar}", "-o",
+    path("phot.vdb"))
+worst = 0.0
+for name, fname in files.items():
+    run("nebrender", "-i", path("phot.vdb"), "--camera", "orthographic", "--eye", "0,0,-10",
+        "--distance", "1000", "--pixel-size", "0.1pc", "--res", "64x64", "-o", path("phot.exr"),
+        "--png", "none", "--sed", path("phot.csv"), "--filter", name)
+    rows = [line for line in open(path("phot.csv")) if not line.startswith("#")]
+    direct = float(rows[1].split(",")[2])
+    lam, T = read_filter(fname)
+    # The star at z = -3 pc lies outside the shell (R2 = 2.2 pc), between it and the eye's
+    # plane: its light reaches the observer unattenuated.
+    want = band_average(lam, T, lambda x: l_nu(Lstar, Tstar, x)) / (4 * math.pi * (1000 * PC) ** 2) / 1e-26
+    dm = -2.5 * math.log10(direct / want)
+    worst = max(worst, abs(dm))
+    check(abs(dm) < 0.01, f"filter {name}: AB {-2.5 * math.log10(direct / 3631):.4f}, direct "
+          f"integration {-2.5 * math.log10(want / 3631):.4f} ({dm:+.5f} mag)")
+print(f"worst filter photometry difference: {worst:.5f} mag")
+# A filter file of one's own, and one that is not monotonic.
+with open(path("box.dat"), "w") as f:
+    f.write("# a box from 500 to 600 nm\n499 0\n500 1\n600 1\n601 0\n")
+run("nebrender", "-i", path("phot.vdb"), "--camera", "orthographic", "--eye", "0,0,-10",
+    "--distance", "1000", "--pixel-size", "0.1pc", "--res", "64x64", "-o", path("phot.exr"),
+    "--png", "none", "--sed", path("phot.csv"), "--filter-file", path("box.dat"))
+rows = [line for line in open(path("phot.csv")) if not line.startswith("#")]
+box = band_average(np.array([499.0, 500, 600, 601]), np.array([0.0, 1, 1, 0]),
+                   lambda x: l_nu(Lstar, Tstar, x)) / (4 * math.pi * (1000 * PC) ** 2) / 1e-26
+check(abs(float(rows[1].split(",")[2]) / box - 1) < 0.005, "--filter-file: a box filter's band average")
+with open(path("zigzag.dat"), "w") as f:
+    f.write("500 0.5\n600 1\n550 0.3\n")
+r = run("nebrender", "-i", path("phot.vdb"), "--camera", "orthographic", "--eye", "0,0,-10",
+        "-o", path("bad.exr"), "--png", "none", "--sed", path("bad.csv"), "--filter-file",
+        path("zigzag.dat"), expect=1)
+check("monotonic" in r.stderr and not [n for n in os.listdir(work) if n.startswith("bad")],
+      f"a filter file not monotonic in wavelength is refused: {r.stderr.strip()[:100]}")
 
 # --- refusals: exit 2, the option named, nothing written -----------------------------------
 base = ["-i", path("lit.vdb"), "-o", path("bad.exr"), "--png", "none", "--fits", path("bad.fits")]

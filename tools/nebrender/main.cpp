@@ -145,8 +145,13 @@ int main(int argc, char** argv)
                    "--step of its voxels; 0: full resolution everywhere")
         ->capture_default_str()
         ->check(nebula::cli::numberIn(0.0, 1e6));
-    nebula::cli::addVec3(app, "--wavelengths", opts.wavelengths,
-                         "R,G,B channel wavelengths [nm] for the extinction curve");
+    auto* wavelengthsOpt =
+        nebula::cli::addVec3(app, "--wavelengths", opts.wavelengths,
+                             "R,G,B channel wavelengths [nm] for the extinction curve");
+    nebula::FilterOptions filterOpts;
+    nebula::cli::addFilter(app, filterOpts,
+                           "--fits and --sed give its band average, rendered at the band's three\n"
+                           "quadrature wavelengths; a field must be made with the same --filter");
     app.add_option("--emission-grid", opts.emissionGrid, "Gas emission grid")
         ->capture_default_str();
     app.add_option("--emission-scale", opts.emissionScale,
@@ -345,6 +350,13 @@ int main(int argc, char** argv)
             out.fits.sky = true;
             out.fits.ra = sky.at(0);
             out.fits.dec = sky.at(1);
+        }
+        if (const auto band = nebula::cli::loadFilter(filterOpts)) {
+            if (!nebula::calibrated(out.fits)) {
+                throw nebula::UsageError("--filter and --filter-file need --fits or --sed");
+            }
+            opts.wavelengths = nebula::cli::filterWavelengths(*band, wavelengthsOpt->count() > 0);
+            out.fits.filter = *band;
         }
         opts.drawStars = !noStars;
         opts.scatterField = !noScatterField;

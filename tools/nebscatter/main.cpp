@@ -1,5 +1,6 @@
 // nebscatter - the field of multiply scattered light, computed once per scene (DESIGN §5b).
 #include "nebula/cli/cli.h"
+#include "nebula/cli/options.h"
 #include "nebula/cli/process_ranks.h"
 #include "nebula/core/error.h"
 #include "nebula/stages/scatter.h"
@@ -93,9 +94,12 @@ int main(int argc, char** argv)
     app.add_flag("--no-emission", noEmission, "Leave out the gas emission's scattered light");
     app.add_option("--emission-grid", opts.emissionGrid, "Gas emission grid")
         ->capture_default_str();
-    nebula::cli::addVec3(
+    auto* wavelengthsOpt = nebula::cli::addVec3(
         app, "--wavelengths", opts.wavelengths,
         "R,G,B channel wavelengths [nm] for the extinction curve (as nebrender's)");
+    nebula::FilterOptions filterOpts;
+    nebula::cli::addFilter(app, filterOpts,
+                           "the field at its three quadrature wavelengths, for nebrender --filter");
     app.add_option("--spectral", opts.spectral,
                    "The starlight's field for nebrender --spectral at N wavelengths evenly\n"
                    "spaced over 380-780 nm, 2..64 (6 keep colours within Delta E 2000 < 0.4 of\n"
@@ -112,6 +116,9 @@ int main(int argc, char** argv)
     std::unique_ptr<nebula::Ranks> ranks; // MPI's, when mpirun or srun started this process
     const int rc = nebula::cli::run(app, "nebscatter", common, argc, argv, [&](nebula::Run& run) {
         nebula::refuseBinaryToTerminal(common.output, "-o");
+        if (const auto band = nebula::cli::loadFilter(filterOpts)) {
+            opts.wavelengths = nebula::cli::filterWavelengths(*band, wavelengthsOpt->count() > 0);
+        }
         ranks = nebula::cli::processRanks("nebscatter");
         if (ranks->size() > 1 && common.input == "-") {
             throw nebula::UsageError(

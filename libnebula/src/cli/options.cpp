@@ -130,6 +130,54 @@ std::vector<Star> loadStars(const StarOptions& opts)
     return stars;
 }
 
+void addFilter(CLI::App& app, FilterOptions& opts, const std::string& what)
+{
+    std::string names;
+    for (const auto& n : standardFilterNames())
+        names += (names.empty() ? "" : " ") + n;
+    auto* name =
+        app.add_option("--filter", opts.name, "A standard passband (" + what + "): " + names);
+    app.add_option("--filter-file", opts.file,
+                   "A passband of your own: lines of wavelength and photon-counting response\n"
+                   "(see the README), strictly increasing in wavelength")
+        ->excludes(name);
+    app.add_option("--filter-unit", opts.unit,
+                   "--filter-file's wavelength unit when the file names none: nm, Angstrom, um")
+        ->check(CLI::IsMember({"nm", "Angstrom", "A", "um", "micron"}))
+        ->capture_default_str();
+}
+
+std::optional<Filter> loadFilter(const FilterOptions& opts)
+{
+    if (!opts.name.empty()) return standardFilter(opts.name);
+    if (opts.file.empty()) return std::nullopt;
+    InputSpec spec;
+    spec.option = "--filter-file";
+    spec.format = "a filter file";
+    spec.limit = MAX_FILTER_BYTES;
+    const FilterWavelengthUnit unit = opts.unit == "nm" ? FilterWavelengthUnit::Nanometre
+                                      : opts.unit == "um" || opts.unit == "micron"
+                                          ? FilterWavelengthUnit::Micrometre
+                                          : FilterWavelengthUnit::Angstrom;
+    return parseFilterFile(readInput(opts.file, spec), inputName(opts.file) + " (--filter-file)",
+                           unit);
+}
+
+std::array<double, 3> filterWavelengths(const Filter& filter, bool wavelengthsGiven)
+{
+    if (wavelengthsGiven) {
+        throw UsageError("--filter and --filter-file set the channels' wavelengths (the band's "
+                         "quadrature nodes): leave out --wavelengths");
+    }
+    const BandQuadrature q = bandQuadrature(filter, 3);
+    if (q.lambda_nm.size() != 3) {
+        throw UsageError("the filter " + filter.name +
+                         " has too few distinct wavelengths for a "
+                         "three-node quadrature");
+    }
+    return {q.lambda_nm[0], q.lambda_nm[1], q.lambda_nm[2]};
+}
+
 void addDust(CLI::App& app, DustOptions& opts, bool withKappa)
 {
     const DustParams d;

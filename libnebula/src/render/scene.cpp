@@ -219,9 +219,9 @@ void readScatterField(const GridSet& grids, const RenderOptions& opts, const Dus
     for (int c = 0; c < 3 && !spectral; ++c) {
         if (!close(wl[std::size_t(c)], opts.wavelengths[std::size_t(c)])) {
             throw Error(what + " was made for channel wavelengths " + detail::numbersText(wl) +
-                        " nm, but --wavelengths is " + numberText(opts.wavelengths[0]) + ", " +
-                        numberText(opts.wavelengths[1]) + ", " + numberText(opts.wavelengths[2]) +
-                        rerun);
+                        " nm, but this render's channels (--wavelengths or --filter) are " +
+                        numberText(opts.wavelengths[0]) + ", " + numberText(opts.wavelengths[1]) +
+                        ", " + numberText(opts.wavelengths[2]) + rerun);
         }
     }
     if (!close(meta.minStarDistance, opts.minStarDistance)) {

@@ -169,7 +169,8 @@ FitsColumnsHdu sedTable(const std::vector<SedRow>& sed)
 
 } // namespace
 
-std::vector<SedRow> imageSed(const Image& img, std::size_t starCount, const RenderOptions& opts)
+std::vector<SedRow> imageSed(const Image& img, std::size_t starCount, const RenderOptions& opts,
+                             const std::optional<Filter>& filter)
 {
     const Components parts(img, starCount, "the SED");
     const Projection projection(opts.camera);
@@ -188,7 +189,20 @@ std::vector<SedRow> imageSed(const Image& img, std::size_t starCount, const Rend
         sed.push_back({opts.wavelengths[c], sum[Total] * jy, sum[Direct] * jy, sum[Scattered] * jy,
                        sum[Single] * jy, sum[Field] * jy});
     }
-    return sed;
+    if (!filter) return sed;
+    // The band average: the quadrature's weights on the ascending nodes.
+    const BandQuadrature q = bandQuadrature(*filter, 3);
+    SedRow band;
+    band.lambda_nm = pivotWavelength(*filter);
+    for (std::size_t k = 0; k < sed.size() && k < q.weight.size(); ++k) {
+        const double w = q.weight[k];
+        band.total += w * sed[k].total;
+        band.direct += w * sed[k].direct;
+        band.scattered += w * sed[k].scattered;
+        band.single += w * sed[k].single;
+        band.field += w * sed[k].field;
+    }
+    return {band};
 }
 
 void writeSedCsv(AtomicFile& file, const std::vector<SedRow>& sed,
@@ -220,6 +234,50 @@ void writeCalibratedFits(AtomicFile& file, const Image& img, std::size_t starCou
                           "light scattered more than once (nebscatter's field)"};
     std::vector<FitsImageHdu> hdus;
     const auto wcs = imageWcsCards(opts.camera, fits);
+    if (fits.filter) { // one band-averaged image per component
+        const BandQuadrature q = bandQuadrature(*fits.filter, 3);
+        const double pivot = pivotWavelength(*fits.filter);
+        // <f_lambda> = <f_nu> c / lambda_p^2: MJy/sr -> W m^-2 sr^-1 nm^-1.
+        const double toUnit = fits.unit == "MJy/sr" ? 1.0
+                                                    : 1e6 * JANSKY * SPEED_OF_LIGHT /
+                                                          (pivot * 1e-9 * pivot * 1e-9) * 1e-9;
+        for (int part = Total; part < PARTS; ++part) {
+            FitsImageHdu h;
+            h.name = names[part];
+            h.axes = {long(W), long(H)};
+            h.data.assign(plane, 0.0f);
+            std::vector<double> sum(plane, 0.0);
+            for (std::size_t k = 0; k < 3; ++k) {
+                const std::size_t c = order[k];
+                const double f = q.weight[k] * perNmToMegajanskyPerSr(opts.wavelengths[c]) * toUnit;
+                for (std::size_t row = 0; row < H; ++row) {
+                    const std::size_t src = (H - 1 - row) * W;
+                    for (std::size_t x = 0; x < W; ++x)
+                        sum[row * W + x] += components.at(part, src + x, c) * f;
+                }
+            }
+            for (std::size_t i = 0; i < plane; ++i)
+                h.data[i] = float(sum[i]);
+            h.cards = wcs;
+            h.cards.push_back({"BUNIT", fits.unit, "band-averaged surface brightness"});
+            h.cards.push_back({"BTYPE", std::string("phot.flux.density.sb"), "IVOA UCD"});
+            h.cards.push_back({"COMPONT", std::string(names[part]), what[part]});
+            h.cards.push_back({"FILTER", fits.filter->name, "passband (photon-counting)"});
+            h.cards.push_back({"PIVOT", pivot, "pivot wavelength [nm]"});
+            h.cards.push_back({"FILTSRC", fits.filter->source, "the passband's source"});
+            for (std::size_t k = 0; k < 3; ++k) {
+                h.cards.push_back({"QNODE" + std::to_string(k + 1), q.lambda_nm[k],
+                                   "quadrature wavelength [nm]"});
+                h.cards.push_back(
+                    {"QWGHT" + std::to_string(k + 1), q.weight[k], "quadrature weight"});
+            }
+            for (const auto& card : cards)
+                h.cards.push_back(card);
+            hdus.push_back(std::move(h));
+        }
+        writeFits(file, hdus, {}, {sedTable(imageSed(img, starCount, opts, fits.filter))});
+        return;
+    }
     for (int part = Total; part < PARTS; ++part) {
         FitsImageHdu h;
         h.name = names[part];

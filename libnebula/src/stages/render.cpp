@@ -236,10 +236,14 @@ std::vector<FitsCard> fitsCards(const GridSet& grids, const RenderOptions& opts,
                      "solid angle of the central pixel [sr]"});
     if (out.fits.sky) cards.push_back({"POSANG", out.fits.positionAngle, "up, N through E [deg]"});
     cards.push_back({"DUST", dust.toJson(), "the dust model (nebula:dust)"});
-    cards.push_back({"COMMENT",
-                     std::string("Monochromatic images at the WAVE axis' wavelengths: each star a "
-                                 "black body of its bolometric luminosity (DESIGN section 13)."),
-                     ""});
+    cards.push_back(
+        {"COMMENT",
+         std::string(out.fits.filter ? "Band averages: monochromatic images at the quadrature "
+                                       "wavelengths QNODEi, weighted by QWGHTi."
+                                     : "Monochromatic images at the WAVE axis' wavelengths.") +
+             " Each star a black body of its bolometric luminosity (DESIGN section "
+             "13).",
+         ""});
     for (const auto& h : grids.historyWith(run.tool(), run.command())) {
         const std::string tool = h.value("tool", std::string("?"));
         const std::string command = h.value("command", std::string());
@@ -299,9 +303,17 @@ void renderOneFrame(const GridSet& grids, const RenderOptions& opts, const DustP
     if (!out.fits.sed.empty()) {
         sedFile.emplace(out.fits.sed);
         const Camera& c = opts.camera;
+        const auto sed = imageSed(img, sscene.base.stars.size(), opts, out.fits.filter);
+        std::string band = "monochromatic at each wavelength";
+        if (out.fits.filter && sed.front().total > 0.0) {
+            band = fmt::format("band averages <f_nu> through {} at its pivot wavelength; AB "
+                               "magnitude of the total {:.4f}",
+                               out.fits.filter->name, abMagnitude(sed.front().total));
+        }
         writeSedCsv(
-            *sedFile, imageSed(img, sscene.base.stars.size(), opts),
-            {"nebula SED: flux density at the observer [Jy] per component (DESIGN section 13)",
+            *sedFile, sed,
+            {"nebula SED: flux density at the observer [Jy] per component (DESIGN section 13), " +
+                 band,
              std::string("camera ") + toString(c.model) +
                  (c.model == CameraModel::Orthographic
                       ? fmt::format(", distance {:g} pc", c.observerDistance())

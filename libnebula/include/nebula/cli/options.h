@@ -3,10 +3,12 @@
 /// Option groups shared by several tools: stars (--star, --stars) and dust parameters.
 
 #include "nebula/physics/dust.h"
+#include "nebula/physics/filters.h"
 #include "nebula/physics/stars.h"
 
 #include <CLI/CLI.hpp>
 
+#include <array>
 #include <optional>
 #include <string>
 #include <vector>
@@ -18,6 +20,14 @@ struct StarOptions
 {
     std::vector<std::string> star; ///< "NAME:X,Y,Z:LUMINOSITY:CLASS_OR_KELVIN"
     std::string starsFile;         ///< JSON file in the nebula:stars format
+};
+
+/// A passband given on the command line: --filter NAME (a standard one) or --filter-file.
+struct FilterOptions
+{
+    std::string name;
+    std::string file;
+    std::string unit = "nm"; ///< --filter-unit: the file's wavelength unit if it names none
 };
 
 /// Dust parameters given on the command line; unset ones keep the file's (or the defaults).
@@ -44,6 +54,18 @@ Star parseStarOption(const std::string& text);
 /// --kappa-v, --albedo, --g, --phase-function, --rv, --extinction-curve. @p withKappa false leaves
 /// out --kappa-v.
 void addDust(CLI::App& app, DustOptions& opts, bool withKappa = true);
+
+/// Adds --filter, --filter-file and --filter-unit (@p what says what the band does).
+void addFilter(CLI::App& app, FilterOptions& opts, const std::string& what);
+
+/// The filter given, if any: standardFilter() or the parsed file (read with readInput(),
+/// errors naming --filter-file).
+std::optional<Filter> loadFilter(const FilterOptions& opts);
+
+/// The three wavelengths [nm] of a band's three-node quadrature (bandQuadrature()): the
+/// channels a render or a field through the band uses. Throws UsageError if --wavelengths
+/// was given too (@p wavelengthsGiven).
+std::array<double, 3> filterWavelengths(const Filter& filter, bool wavelengthsGiven);
 
 } // namespace cli
 } // namespace nebula

@@ -9,8 +9,10 @@
 #include "nebula/core/atomic_file.h"
 #include "nebula/io/fits_image.h"
 #include "nebula/io/image.h"
+#include "nebula/physics/filters.h"
 #include "nebula/render/options.h"
 
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -29,6 +31,9 @@ struct FitsOutput
     double ra = 0.0;
     double dec = 0.0;
     double positionAngle = 0.0;
+    /// A passband (--filter): the channels are its three quadrature nodes, and each
+    /// component is one band-averaged image (DESIGN §13.1), the SED one row at the pivot.
+    std::optional<Filter> filter;
 };
 
 /// Whether a calibrated output (--fits or --sed) is asked for.
@@ -61,8 +66,10 @@ struct SedRow
 };
 
 /// The SED of @p img (a monochromatic render with component layers, @p starCount stars, the
-/// camera of @p opts) at its channels' wavelengths, ascending.
-std::vector<SedRow> imageSed(const Image& img, std::size_t starCount, const RenderOptions& opts);
+/// camera of @p opts) at its channels' wavelengths, ascending; through @p filter (the
+/// channels its quadrature nodes), one row: the band averages <f_nu> at the pivot wavelength.
+std::vector<SedRow> imageSed(const Image& img, std::size_t starCount, const RenderOptions& opts,
+                             const std::optional<Filter>& filter = std::nullopt);
 
 /// Writes @p sed as CSV (wavelength_nm, total_Jy, direct_Jy, scattered_Jy, single_Jy,
 /// field_Jy), after `#` comment lines @p comments.
