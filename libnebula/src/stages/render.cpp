@@ -260,10 +260,10 @@ void renderOneFrame(const GridSet& grids, const RenderOptions& opts, const DustP
 {
     const auto start = std::chrono::steady_clock::now();
     RenderStats stats;
-    const Image img = opts.spectral.enabled ? renderSpectral(sscene, opts, &run, &stats)
-                      : opts.integrator == Integrator::Path
-                          ? renderPathTraced(sscene.base, opts, &run, &stats)
-                          : renderFrame(sscene.base, opts, &run, &stats);
+    Image img = opts.spectral.enabled ? renderSpectral(sscene, opts, &run, &stats)
+                : opts.integrator == Integrator::Path
+                    ? renderPathTraced(sscene.base, opts, &run, &stats)
+                    : renderFrame(sscene.base, opts, &run, &stats);
     const auto done = std::chrono::steady_clock::now();
     reportStats(opts, sscene, stats, tBuild, std::chrono::duration<double>(done - start).count(),
                 run);
@@ -280,26 +280,14 @@ void renderOneFrame(const GridSet& grids, const RenderOptions& opts, const DustP
                                                 {"log_mean", lum.logMean},
                                                 {"lit_pixels", lum.lit}})
                                     .dump();
-    // All outputs or none: each is written and fsynced before any replaces its target.
-    AtomicFile exrFile(exr);
-    writeExr(exrFile, img, attrs);
-    std::vector<AtomicFile*> files{&exrFile};
-    std::optional<AtomicFile> pngFile, fitsFile;
-    if (!png.empty()) {
-        pngFile.emplace(png);
-        writePng(*pngFile, img, curve,
-                 {{"Software", std::string("nebrender ") + NEBULA_VERSION_STRING},
-                  {"Comment", run.command()}},
-                 out.pngBits);
-        files.push_back(&*pngFile);
-    }
+    // All outputs or none: each is written and fsynced before any replaces its target. The
+    // calibrated outputs first: they read the component layers, which the EXR leaves out.
+    std::optional<AtomicFile> fitsFile, sedFile;
     if (!out.fits.path.empty()) {
         fitsFile.emplace(out.fits.path);
         writeCalibratedFits(*fitsFile, img, sscene.base.stars.size(), opts, out.fits,
                             fitsCards(grids, opts, dust, out, run));
-        files.push_back(&*fitsFile);
     }
-    std::optional<AtomicFile> sedFile;
     if (!out.fits.sed.empty()) {
         sedFile.emplace(out.fits.sed);
         const Camera& c = opts.camera;
@@ -319,8 +307,22 @@ void renderOneFrame(const GridSet& grids, const RenderOptions& opts, const DustP
                       ? fmt::format(", distance {:g} pc", c.observerDistance())
                       : std::string(", at the eye")),
              "command: " + run.command()});
-        files.push_back(&*sedFile);
     }
+    if (opts.componentLayers) img.layers.resize(img.layers.size() - 3); // field, emission, direct
+    AtomicFile exrFile(exr);
+    writeExr(exrFile, img, attrs);
+    std::vector<AtomicFile*> files{&exrFile};
+    std::optional<AtomicFile> pngFile;
+    if (!png.empty()) {
+        pngFile.emplace(png);
+        writePng(*pngFile, img, curve,
+                 {{"Software", std::string("nebrender ") + NEBULA_VERSION_STRING},
+                  {"Comment", run.command()}},
+                 out.pngBits);
+        files.push_back(&*pngFile);
+    }
+    for (auto* f : {&fitsFile, &sedFile})
+        if (*f) files.push_back(&**f);
     commitAll(files);
     std::string names = exr;
     for (std::size_t i = 1; i < files.size(); ++i)

@@ -80,10 +80,11 @@ struct RenderOptions
     /// luminosity bolometric), not its sRGB colour; the gas's emission, which has no
     /// spectral calibration in RGB mode, is left out.
     bool monochromatic = false;
-    /// Fast integrator: the EXR layers "field" (the light scattered more than once, from
+    /// Fast integrator: the image layers "field" (the light scattered more than once, from
     /// nebscatter's field), "emission" (the gas's glow) and "direct" (the star sprites: their
-    /// light that reached the eye unscattered), the components of calibrated images; the
-    /// rest of the beauty is single scattering.
+    /// light that reached the eye unscattered), the components of calibrated images (the
+    /// rest of the beauty is single scattering); nebrender writes them into the FITS, not the
+    /// EXR.
     bool componentLayers = false;
     double emissionScale = 1.0;                          ///< multiplies the emission grid
     std::array<double, 3> emissionColor{1.0, 0.15, 0.2}; ///< linear sRGB (H-alpha + H-beta pink)
