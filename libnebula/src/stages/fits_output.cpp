@@ -152,6 +152,44 @@ std::array<std::size_t, 3> ascending(const RenderOptions& opts)
     return order;
 }
 
+/// One plane of the calibrated output: its wavelength [nm] and, per channel, the factor that
+/// turns spectral radiance [L_sun pc^-2 sr^-1 nm^-1] into @p unit; the plane is the sum.
+struct Plane
+{
+    double lambda_nm;
+    std::array<double, 3> factor;
+};
+
+/// The planes in @p unit: one per channel in ascending wavelength (monochromatic), or through
+/// @p filter one band average at the pivot wavelength, the channels (its quadrature nodes,
+/// ascending) weighted by the quadrature: <f_nu> in MJy/sr, or <f_lambda> = <f_nu> c /
+/// lambda_p^2 in W/m2/sr/nm.
+std::vector<Plane> planes(const RenderOptions& opts, const std::string& unit,
+                          const std::optional<Filter>& filter)
+{
+    const auto order = ascending(opts);
+    if (!filter) {
+        std::vector<Plane> out;
+        for (const std::size_t c : order) {
+            Plane p{opts.wavelengths[c], {0.0, 0.0, 0.0}};
+            p.factor[c] = surfaceBrightnessFactor(unit, opts.wavelengths[c]);
+            out.push_back(p);
+        }
+        return out;
+    }
+    const BandQuadrature q = bandQuadrature(*filter, 3);
+    const double pivot = pivotWavelength(*filter);
+    const double toUnit =
+        unit == "MJy/sr" ? 1.0
+                         : 1e6 * JANSKY * SPEED_OF_LIGHT / (pivot * 1e-9 * pivot * 1e-9) * 1e-9;
+    Plane band{pivot, {0.0, 0.0, 0.0}};
+    for (std::size_t k = 0; k < 3 && k < q.weight.size(); ++k) {
+        const std::size_t c = order[k];
+        band.factor[c] = q.weight[k] * perNmToMegajanskyPerSr(opts.wavelengths[c]) * toUnit;
+    }
+    return {band};
+}
+
 /// The SED as the FITS table "SED".
 FitsColumnsHdu sedTable(const std::vector<SedRow>& sed)
 {
@@ -174,35 +212,28 @@ std::vector<SedRow> imageSed(const Image& img, std::size_t starCount, const Rend
 {
     const Components parts(img, starCount, "the SED");
     const Projection projection(opts.camera);
+    const auto bands = planes(opts, "MJy/sr", filter);
+    // Per plane and component: surface brightness [MJy/sr] times solid angle, summed.
+    std::vector<std::array<double, PARTS>> sum(bands.size(), std::array<double, PARTS>{});
+    for (int y = 0; y < img.height; ++y)
+        for (int x = 0; x < img.width; ++x) {
+            const std::size_t p = std::size_t(y) * std::size_t(img.width) + std::size_t(x);
+            const double omega = projection.pixelSolidAngle(x + 0.5, y + 0.5);
+            for (std::size_t b = 0; b < bands.size(); ++b)
+                for (std::size_t c = 0; c < 3; ++c) {
+                    if (bands[b].factor[c] == 0.0) continue;
+                    const double f = bands[b].factor[c] * omega;
+                    for (int part = Total; part < PARTS; ++part)
+                        sum[b][std::size_t(part)] += parts.at(part, p, c) * f;
+                }
+        }
     std::vector<SedRow> sed;
-    for (const std::size_t c : ascending(opts)) {
-        double sum[PARTS] = {};
-        for (int y = 0; y < img.height; ++y)
-            for (int x = 0; x < img.width; ++x) {
-                const std::size_t p = std::size_t(y) * std::size_t(img.width) + std::size_t(x);
-                const double omega = projection.pixelSolidAngle(x + 0.5, y + 0.5);
-                for (int part = Total; part < PARTS; ++part)
-                    sum[part] += parts.at(part, p, c) * omega;
-            }
-        // L_sun pc^-2 nm^-1 -> Jy: the MJy/sr factor times 1e6.
-        const double jy = perNmToMegajanskyPerSr(opts.wavelengths[c]) * 1e6;
-        sed.push_back({opts.wavelengths[c], sum[Total] * jy, sum[Direct] * jy, sum[Scattered] * jy,
-                       sum[Single] * jy, sum[Field] * jy});
+    for (std::size_t b = 0; b < bands.size(); ++b) { // MJy -> Jy
+        const auto& s = sum[b];
+        sed.push_back({bands[b].lambda_nm, s[Total] * 1e6, s[Direct] * 1e6, s[Scattered] * 1e6,
+                       s[Single] * 1e6, s[Field] * 1e6});
     }
-    if (!filter) return sed;
-    // The band average: the quadrature's weights on the ascending nodes.
-    const BandQuadrature q = bandQuadrature(*filter, 3);
-    SedRow band;
-    band.lambda_nm = pivotWavelength(*filter);
-    for (std::size_t k = 0; k < sed.size() && k < q.weight.size(); ++k) {
-        const double w = q.weight[k];
-        band.total += w * sed[k].total;
-        band.direct += w * sed[k].direct;
-        band.scattered += w * sed[k].scattered;
-        band.single += w * sed[k].single;
-        band.field += w * sed[k].field;
-    }
-    return {band};
+    return sed;
 }
 
 void writeSedCsv(AtomicFile& file, const std::vector<SedRow>& sed,
@@ -220,103 +251,83 @@ void writeSedCsv(AtomicFile& file, const std::vector<SedRow>& sed,
 
 void writeCalibratedFits(AtomicFile& file, const Image& img, std::size_t starCount,
                          const RenderOptions& opts, const FitsOutput& fits,
-                         const std::vector<FitsCard>& cards)
+                         const std::vector<SedRow>& sed, const std::vector<FitsCard>& cards)
 {
     const std::size_t W = std::size_t(img.width), H = std::size_t(img.height);
     const std::size_t plane = W * H;
     const Components components(img, starCount, file.path());
-    const auto order = ascending(opts);
+    const auto bands = planes(opts, fits.unit, fits.filter);
     const char* names[] = {"TOTAL", "DIRECT", "SCATTERED", "SINGLE", "FIELD"};
     const char* what[] = {"everything that reaches the observer: starlight, scattered light",
                           "the stars' light that reached the observer unscattered (the sprites)",
                           "light scattered by the dust once or more (SINGLE + FIELD)",
                           "light scattered once (exact from the tau grids)",
                           "light scattered more than once (nebscatter's field)"};
+    // The cards of the third axis (monochromatic: WAVE-TAB) or of the band (a filter).
+    std::vector<FitsCard> axisCards;
+    if (fits.filter) {
+        const BandQuadrature q = bandQuadrature(*fits.filter, 3);
+        axisCards = {{"FILTER", fits.filter->name, "passband (photon-counting)"},
+                     {"PIVOT", bands.front().lambda_nm, "pivot wavelength [nm]"},
+                     {"FILTSRC", fits.filter->source, "the passband's source"}};
+        for (std::size_t k = 0; k < q.lambda_nm.size(); ++k) {
+            axisCards.push_back(
+                {"QNODE" + std::to_string(k + 1), q.lambda_nm[k], "quadrature wavelength [nm]"});
+            axisCards.push_back(
+                {"QWGHT" + std::to_string(k + 1), q.weight[k], "quadrature weight"});
+        }
+    } else {
+        axisCards = {{"CTYPE3", std::string("WAVE-TAB"), "wavelength, from table WCS-TAB"},
+                     {"CUNIT3", std::string("m"), ""},
+                     {"CRPIX3", 1.0, ""},
+                     // With a CD matrix the third axis's scale is CD3_3 (mixing CDi_j and
+                     // CDELTi is not allowed, WCS paper I §2.1.2).
+                     {fits.sky ? "CD3_3" : "CDELT3", 1.0, ""},
+                     {"CRVAL3", 1.0, ""},
+                     {"PS3_0", std::string("WCS-TAB"), "the table of wavelengths"},
+                     {"PS3_1", std::string("COORDS"), "its column"}};
+    }
     std::vector<FitsImageHdu> hdus;
     const auto wcs = imageWcsCards(opts.camera, fits);
-    if (fits.filter) { // one band-averaged image per component
-        const BandQuadrature q = bandQuadrature(*fits.filter, 3);
-        const double pivot = pivotWavelength(*fits.filter);
-        // <f_lambda> = <f_nu> c / lambda_p^2: MJy/sr -> W m^-2 sr^-1 nm^-1.
-        const double toUnit = fits.unit == "MJy/sr" ? 1.0
-                                                    : 1e6 * JANSKY * SPEED_OF_LIGHT /
-                                                          (pivot * 1e-9 * pivot * 1e-9) * 1e-9;
-        for (int part = Total; part < PARTS; ++part) {
-            FitsImageHdu h;
-            h.name = names[part];
-            h.axes = {long(W), long(H)};
-            h.data.assign(plane, 0.0f);
-            std::vector<double> sum(plane, 0.0);
-            for (std::size_t k = 0; k < 3; ++k) {
-                const std::size_t c = order[k];
-                const double f = q.weight[k] * perNmToMegajanskyPerSr(opts.wavelengths[c]) * toUnit;
-                for (std::size_t row = 0; row < H; ++row) {
-                    const std::size_t src = (H - 1 - row) * W;
-                    for (std::size_t x = 0; x < W; ++x)
-                        sum[row * W + x] += components.at(part, src + x, c) * f;
-                }
-            }
-            for (std::size_t i = 0; i < plane; ++i)
-                h.data[i] = float(sum[i]);
-            h.cards = wcs;
-            h.cards.push_back({"BUNIT", fits.unit, "band-averaged surface brightness"});
-            h.cards.push_back({"BTYPE", std::string("phot.flux.density.sb"), "IVOA UCD"});
-            h.cards.push_back({"COMPONT", std::string(names[part]), what[part]});
-            h.cards.push_back({"FILTER", fits.filter->name, "passband (photon-counting)"});
-            h.cards.push_back({"PIVOT", pivot, "pivot wavelength [nm]"});
-            h.cards.push_back({"FILTSRC", fits.filter->source, "the passband's source"});
-            for (std::size_t k = 0; k < 3; ++k) {
-                h.cards.push_back({"QNODE" + std::to_string(k + 1), q.lambda_nm[k],
-                                   "quadrature wavelength [nm]"});
-                h.cards.push_back(
-                    {"QWGHT" + std::to_string(k + 1), q.weight[k], "quadrature weight"});
-            }
-            for (const auto& card : cards)
-                h.cards.push_back(card);
-            hdus.push_back(std::move(h));
-        }
-        writeFits(file, hdus, {}, {sedTable(imageSed(img, starCount, opts, fits.filter))});
-        return;
-    }
     for (int part = Total; part < PARTS; ++part) {
         FitsImageHdu h;
         h.name = names[part];
-        h.axes = {long(W), long(H), 3};
-        h.data.resize(plane * 3);
-        for (std::size_t k = 0; k < 3; ++k) {
-            const std::size_t c = order[k];
-            const double f = surfaceBrightnessFactor(fits.unit, opts.wavelengths[c]);
+        h.axes = {long(W), long(H)};
+        if (!fits.filter) h.axes.push_back(long(bands.size()));
+        h.data.resize(plane * bands.size());
+        for (std::size_t b = 0; b < bands.size(); ++b)
             for (std::size_t row = 0; row < H; ++row) { // FITS rows go up from the bottom
                 const std::size_t src = (H - 1 - row) * W;
-                for (std::size_t x = 0; x < W; ++x)
-                    h.data[k * plane + row * W + x] = float(components.at(part, src + x, c) * f);
+                for (std::size_t x = 0; x < W; ++x) {
+                    double v = 0.0;
+                    for (std::size_t c = 0; c < 3; ++c)
+                        if (bands[b].factor[c] != 0.0)
+                            v += components.at(part, src + x, c) * bands[b].factor[c];
+                    h.data[b * plane + row * W + x] = float(v);
+                }
             }
-        }
         h.cards = wcs;
-        h.cards.push_back({"CTYPE3", std::string("WAVE-TAB"), "wavelength, from table WCS-TAB"});
-        h.cards.push_back({"CUNIT3", std::string("m"), ""});
-        h.cards.push_back({"CRPIX3", 1.0, ""});
-        // With a CD matrix the third axis's scale is CD3_3 (mixing CDi_j and CDELTi is not
-        // allowed, WCS paper I §2.1.2).
-        h.cards.push_back({fits.sky ? "CD3_3" : "CDELT3", 1.0, ""});
-        h.cards.push_back({"CRVAL3", 1.0, ""});
-        h.cards.push_back({"PS3_0", std::string("WCS-TAB"), "the table of wavelengths"});
-        h.cards.push_back({"PS3_1", std::string("COORDS"), "its column"});
-        h.cards.push_back({"BUNIT", fits.unit, "surface brightness"});
+        h.cards.insert(h.cards.end(), axisCards.begin(), axisCards.end());
+        h.cards.push_back(
+            {"BUNIT", fits.unit,
+             fits.filter ? "band-averaged surface brightness" : "surface brightness"});
         h.cards.push_back({"BTYPE", std::string("phot.flux.density.sb"), "IVOA UCD"});
         h.cards.push_back({"COMPONT", std::string(names[part]), what[part]});
-        for (const auto& card : cards)
-            h.cards.push_back(card);
+        h.cards.insert(h.cards.end(), cards.begin(), cards.end());
         hdus.push_back(std::move(h));
     }
-    FitsTableHdu table;
-    table.name = "WCS-TAB";
-    table.column = "COORDS";
-    table.unit = "m";
-    table.tdim = {1, 3};
-    for (const std::size_t c : order)
-        table.values.push_back(opts.wavelengths[c] * 1e-9);
-    writeFits(file, hdus, {table}, {sedTable(imageSed(img, starCount, opts))});
+    std::vector<FitsTableHdu> tables;
+    if (!fits.filter) {
+        FitsTableHdu table;
+        table.name = "WCS-TAB";
+        table.column = "COORDS";
+        table.unit = "m";
+        table.tdim = {1, long(bands.size())};
+        for (const auto& b : bands)
+            table.values.push_back(b.lambda_nm * 1e-9);
+        tables.push_back(std::move(table));
+    }
+    writeFits(file, hdus, tables, {sedTable(sed)});
 }
 
 } // namespace nebula

@@ -283,15 +283,16 @@ void renderOneFrame(const GridSet& grids, const RenderOptions& opts, const DustP
     // All outputs or none: each is written and fsynced before any replaces its target. The
     // calibrated outputs first: they read the component layers, which the EXR leaves out.
     std::optional<AtomicFile> fitsFile, sedFile;
+    std::vector<SedRow> sed; // the FITS's table and the CSV: computed once
+    if (calibrated(out.fits)) sed = imageSed(img, sscene.base.stars.size(), opts, out.fits.filter);
     if (!out.fits.path.empty()) {
         fitsFile.emplace(out.fits.path);
-        writeCalibratedFits(*fitsFile, img, sscene.base.stars.size(), opts, out.fits,
+        writeCalibratedFits(*fitsFile, img, sscene.base.stars.size(), opts, out.fits, sed,
                             fitsCards(grids, opts, dust, out, run));
     }
     if (!out.fits.sed.empty()) {
         sedFile.emplace(out.fits.sed);
         const Camera& c = opts.camera;
-        const auto sed = imageSed(img, sscene.base.stars.size(), opts, out.fits.filter);
         std::string band = "monochromatic at each wavelength";
         if (out.fits.filter && sed.front().total > 0.0) {
             band = fmt::format("band averages <f_nu> through {} at its pivot wavelength; AB "

@@ -78,10 +78,11 @@ void writeSedCsv(AtomicFile& file, const std::vector<SedRow>& sed,
 
 /// The HDUs of @p img (a monochromatic render with component layers, @p starCount stars):
 /// TOTAL (primary), DIRECT, SCATTERED (single + field), SINGLE, FIELD, each W x H x N planes
-/// in ascending wavelength, rows bottom first (FITS), with @p cards (observer, history) and
-/// the WCS; the WCS-TAB table of the wavelengths; and the table SED (imageSed()).
+/// in ascending wavelength (through fits.filter: one band-averaged W x H image), rows bottom
+/// first (FITS), with @p cards (observer, history) and the WCS; the WCS-TAB table of the
+/// wavelengths (not with a filter); and the table SED, @p sed (imageSed() of the same image).
 void writeCalibratedFits(AtomicFile& file, const Image& img, std::size_t starCount,
                          const RenderOptions& opts, const FitsOutput& fits,
-                         const std::vector<FitsCard>& cards);
+                         const std::vector<SedRow>& sed, const std::vector<FitsCard>& cards);
 
 } // namespace nebula
