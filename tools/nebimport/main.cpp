@@ -20,7 +20,7 @@ int main(int argc, char** argv)
         "  nebimport -i rho.npy --unit Msun/pc3 --voxel-size 500au --threshold 1 -o n.vdb\n"
         "  nebimport -i radmc_model/ --star s:0,0,0:1e4:B0V -o - | nebillum -i - -o lit.vdb\n"
         "  nebimport -i n.fits --temperature t.fits --velocity vx.fits,vy.fits,vz.fits \\\n"
-        "            -o spectral.vdb\n\n"
+        "            --emission halpha.fits --lines H-alpha:1 -o spectral.vdb\n\n"
         "Axes: voxel (x, y, z) = FITS (NAXIS1, NAXIS2, NAXIS3) = numpy a[x, y, z] (C or\n"
         "Fortran order) = HDF5 dataset [x, y, z] as h5py reads it = RADMC-3D (ix, iy, iz).\n"
         "Units: the file's (FITS BUNIT, an HDF5 attribute units/unit; RADMC-3D is dust mass\n"
@@ -70,6 +70,14 @@ int main(int argc, char** argv)
     grp->add_option("--velocity", opts.velocity,
                     "Velocity [km/s]: FX,FY,FZ (three cubes) or FILE[:HDU or dataset] (4-D, a "
                     "first or last axis of 3) -> Vec3f grid velocity");
+    grp->add_option("--emission", opts.emission,
+                    "The gas's emissivity cube: FILE[:HDU or dataset] -> grid emission (active\n"
+                    "where > 0), its lines' summed emissivity for nebrender --spectral --fits");
+    grp->add_option("--emission-unit", opts.emissionUnit,
+                    "Its unit: Lsun/pc3/sr or erg/s/cm3/sr (default: the file's)");
+    grp->add_option("--lines", opts.lines,
+                    "What it emits, NAME:STRENGTH or LAMBDA_NM:STRENGTH, comma-separated (e.g.\n"
+                    "H-alpha:1,H-beta:0.35; default: the renderer's)");
     grp->add_option("--grid", opts.gridName, "Name of the density grid")->capture_default_str();
     nebula::cli::addStars(app, starOpts);
 

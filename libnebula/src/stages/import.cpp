@@ -1,8 +1,10 @@
 #include "nebula/stages/import.h"
 
 #include "nebula/core/error.h"
+#include "nebula/core/format.h"
 #include "nebula/core/memory.h"
 #include "nebula/io/grid_names.h"
+#include "nebula/physics/lines.h"
 
 #include <fmt/format.h>
 #include <openvdb/tools/Prune.h>
@@ -106,9 +108,10 @@ std::unique_ptr<FloatLeaf> slabLeaf(const CubeInfo& info, const float* values, s
     return leaf;
 }
 
-/// The sparse grid of @p cube: voxels > @p threshold active, built leaf by leaf per slab.
-openvdb::FloatGrid::Ptr readDensity(CubeSource& cube, double factor, double threshold,
-                                    const Run& run)
+/// The sparse grid of @p cube (values times @p factor): voxels > @p threshold active, built
+/// leaf by leaf per slab; errors name the cube @p what.
+openvdb::FloatGrid::Ptr readSparse(CubeSource& cube, double factor, double threshold,
+                                   const std::string& what, const Run& run)
 {
     const CubeInfo& info = cube.info();
     auto grid = openvdb::FloatGrid::create(0.0f);
@@ -130,7 +133,7 @@ openvdb::FloatGrid::Ptr readDensity(CubeSource& cube, double factor, double thre
             row.clear();
         }
     };
-    forEachSlab(cube, factor, false, "density", run, slab);
+    forEachSlab(cube, factor, false, what, run, slab);
     openvdb::tools::prune(tree);
     return grid;
 }
@@ -297,6 +300,42 @@ openvdb::FloatGrid::Ptr readTemperature(const ImportOptions& opts,
     return grid;
 }
 
+/// The emission grid [L_sun pc^-3 sr^-1], active where the emissivity is > 0 (the gas may
+/// glow where there is little dust), with nebula:lines from --lines.
+openvdb::FloatGrid::Ptr readEmission(const ImportOptions& opts,
+                                     const std::array<std::int64_t, 3>& dims, const Run& run)
+{
+    auto cube = openSide(opts.emission, "--emission", -1, dims);
+    const std::string& fileUnit = cube->info().unit;
+    const std::string unit = opts.emissionUnit.empty() ? fileUnit : opts.emissionUnit;
+    if (unit.empty()) {
+        throw Error("--emission: " + cube->info().name +
+                    " says nothing of its unit: give --emission-unit Lsun/pc3/sr or "
+                    "erg/s/cm3/sr");
+    }
+    const auto factor = emissivityUnitFactor(unit);
+    if (!factor) {
+        throw Error("--emission: " + cube->info().name + ": unknown emissivity unit \"" +
+                    detail::printable(unit, 40) + "\" (expected Lsun/pc3/sr or erg/s/cm3/sr)");
+    }
+    if (!opts.emissionUnit.empty() && !fileUnit.empty() && emissivityUnitFactor(fileUnit) &&
+        *emissivityUnitFactor(fileUnit) != *factor) {
+        throw Error("--emission: " + cube->info().name + " says its unit is \"" + fileUnit +
+                    "\", but --emission-unit says \"" + opts.emissionUnit + "\"");
+    }
+    auto grid = readSparse(*cube, *factor, 0.0, "emission", run);
+    grid->setName("emission");
+    grid->setGridClass(openvdb::GRID_FOG_VOLUME);
+    grid->insertMeta("units", openvdb::StringMetadata("L_sun pc^-3 sr^-1"));
+    if (!opts.lines.empty()) {
+        grid->insertMeta(META_LINES, openvdb::StringMetadata(
+                                         lineListToString(parseLineList(opts.lines, "--lines"))));
+    }
+    run.info(fmt::format("emission: {} active voxels (x {} -> L_sun pc^-3 sr^-1)",
+                         grid->activeVoxelCount(), *factor));
+    return grid;
+}
+
 /// The velocity grid [km/s] on the density's active voxels: three cubes or one 4-D one.
 openvdb::Vec3fGrid::Ptr readVelocity(const ImportOptions& opts, const openvdb::FloatGrid& density,
                                      const std::array<std::int64_t, 3>& dims, const Run& run)
@@ -363,6 +402,33 @@ void ImportOptions::validate() const
                          "\" (expected cm-3, g/cm3, g/cm3-dust or Msun/pc3)");
     }
     if (select.species < 1) throw UsageError("--species must be 1 or more");
+    if (emission.empty() && (!emissionUnit.empty() || !lines.empty())) {
+        throw UsageError(std::string(lines.empty() ? "--emission-unit" : "--lines") +
+                         " is for the emission cube: give --emission FILE");
+    }
+    if (!emissionUnit.empty() && !emissivityUnitFactor(emissionUnit)) {
+        throw UsageError("--emission-unit: unknown emissivity unit \"" +
+                         detail::printable(emissionUnit, 40) +
+                         "\" (expected Lsun/pc3/sr or erg/s/cm3/sr)");
+    }
+    if (!lines.empty()) {
+        try {
+            parseLineList(lines, "--lines");
+        } catch (const Error& e) {
+            throw UsageError(e.what());
+        }
+    }
+}
+
+std::optional<double> emissivityUnitFactor(const std::string& unit)
+{
+    // nebexport writes "Lsun pc-3 sr-1" (an emission grid's BUNIT): it reads back.
+    if (unit == "Lsun/pc3/sr" || unit == "Lsun pc-3 sr-1" || unit == "L_sun pc^-3 sr^-1")
+        return 1.0;
+    if (unit == "erg/s/cm3/sr" || unit == "erg s-1 cm-3 sr-1" || unit == "erg/(s cm3 sr)") {
+        return PC_CM * PC_CM * PC_CM / L_SUN_CGS;
+    }
+    return std::nullopt;
 }
 
 double parseLength(const std::string& text, const std::string& option)
@@ -425,7 +491,7 @@ GridSet importCube(const ImportOptions& opts, const Run& run)
                          info.name, info.dims[0], info.dims[1], info.dims[2], densityUnitName(unit),
                          factor, xform->voxelSize()[0]));
 
-    auto density = readDensity(*cube, factor, opts.threshold, run);
+    auto density = readSparse(*cube, factor, opts.threshold, "density", run);
     cube.reset();
     density->setTransform(xform);
     density->setName(opts.gridName);
@@ -449,6 +515,11 @@ GridSet importCube(const ImportOptions& opts, const Run& run)
         auto v = readVelocity(opts, *density, info.dims, run);
         v->setTransform(xform->copy());
         set.grids.push_back(v);
+    }
+    if (!opts.emission.empty()) {
+        auto e = readEmission(opts, info.dims, run);
+        e->setTransform(xform->copy());
+        set.grids.push_back(e);
     }
     set.setStars(opts.stars);
     set.setDust(DustParams{});

@@ -24,14 +24,18 @@ struct ImportOptions
     double dustToGas = DEFAULT_DUST_TO_GAS;      ///< dust mass / gas mass (dust densities -> n_H)
     std::optional<double> voxelSize;             ///< [pc], replaces the file's
     std::optional<std::array<double, 3>> origin; ///< centre of voxel (0, 0, 0) [pc]
-    double threshold = 0.0;  ///< n_H [cm^-3] at or below which a voxel stays inactive
-    std::string temperature; ///< FILE[:HDU|DATASET] of temperatures [K], "" none
-    std::string velocity;    ///< FX,FY,FZ (three cubes) or FILE[:HDU|DATASET] (4-D) [km/s]
+    double threshold = 0.0;   ///< n_H [cm^-3] at or below which a voxel stays inactive
+    std::string temperature;  ///< FILE[:HDU|DATASET] of temperatures [K], "" none
+    std::string velocity;     ///< FX,FY,FZ (three cubes) or FILE[:HDU|DATASET] (4-D) [km/s]
+    std::string emission;     ///< FILE[:HDU|DATASET] of the gas's emissivity, "" none
+    std::string emissionUnit; ///< its unit (--emission-unit); "" = the file's own
+    std::string lines;        ///< --lines: the emission grid's nebula:lines, "" none
     std::string gridName = "density";
     std::vector<Star> stars; ///< nebula:stars (may be empty)
 
     /// Throws UsageError naming the option: mu, dust-to-gas, voxel size <= 0 or not finite,
-    /// a negative or non-finite threshold, an unknown --unit.
+    /// a negative or non-finite threshold, an unknown --unit or --emission-unit, --lines that
+    /// do not parse, --emission-unit or --lines without --emission.
     void validate() const;
 };
 
@@ -43,8 +47,14 @@ double parseLength(const std::string& text, const std::string& option);
 /// does not; otherwise {text, ""}.
 std::pair<std::string, std::string> splitCubeSelector(const std::string& text);
 
+/// The factor that turns an emissivity in @p unit ("Lsun/pc3/sr", "erg/s/cm3/sr") into
+/// L_sun pc^-3 sr^-1; nullopt for an unknown unit.
+std::optional<double> emissivityUnitFactor(const std::string& unit);
+
 /// The cube as grids: `density` (n_H [cm^-3], fog volume, active where > threshold), and
-/// `temperature` [K], `velocity` [km/s] on the density's active voxels if asked for; the
+/// `temperature` [K], `velocity` [km/s] on the density's active voxels if asked for, and
+/// `emission` (the gas's emissivity [L_sun pc^-3 sr^-1], active where > 0, with
+/// nebula:lines from opts.lines) if asked for; the
 /// transform from the file's geometry or the options; `nebula:stars`, `nebula:dust`
 /// (defaults) and the grid metadata `nebula:cube` (source, format, unit, dims, WCS) that
 /// nebexport uses to write the cube back. The cube is read plane by plane into the tree: no
