@@ -258,6 +258,8 @@ public:
                         v += mLayerOfNode[std::size_t(b) * J + j] * att[s * J + j];
                     }
                     img.channels[std::size_t(b)].values[pix] += float(v * factor);
+                    if (mOpts.componentLayers) // SPECTRAL_COMPONENTS[0]: direct
+                        img.channels[std::size_t(NL + b)].values[pix] += float(v * factor);
                 }
             });
     }
@@ -279,29 +281,37 @@ private:
             for (int m = -l; m <= l; ++m)
                 mFieldPl[shIndex(l, m)] = mDust.albedo * p[std::size_t(l)];
         const auto& wl = mFieldLambda;
+        const std::size_t last = wl.size() - 1;
         for (const double lam : mNodes.lam) {
             const auto it = std::upper_bound(wl.begin(), wl.end(), lam);
-            std::size_t i1 = std::size_t(it - wl.begin());
-            std::size_t i0 = i1 == 0 ? 0 : i1 - 1;
-            double frac = 0.0;
-            if (i1 >= wl.size()) {
-                i0 = i1 = wl.size() - 1;
-            } else if (i1 == 0) {
-                i0 = 0;
+            const std::size_t i1 = std::size_t(it - wl.begin());
+            if (i1 > last || i1 == 0) {
+                // Beyond the field's wavelengths: the power law through the end two,
+                // S = S_a (S_a / S_o)^e with e = ln(lambda / lambda_a) / ln(lambda_a / lambda_o).
+                const std::size_t a = i1 == 0 ? 0 : last, o = i1 == 0 ? 1 : last - 1;
+                mNodeField.push_back({a, o, std::log(lam / wl[a]) / std::log(wl[a] / wl[o]), true});
             } else {
-                frac = (lam - wl[i0]) / (wl[i1] - wl[i0]);
+                const std::size_t i0 = i1 - 1;
+                mNodeField.push_back({i0, i1, (lam - wl[i0]) / (wl[i1] - wl[i0]), false});
             }
-            mNodeField.push_back({i0, i1, frac});
         }
     }
 
     /// Star spectra at the continuum nodes, normalised so that each star's Y is L_s in this
-    /// representation (the RGB mode's convention, DESIGN §3).
+    /// representation (the RGB mode's convention, DESIGN §3), or calibrated
+    /// (RenderOptions::monochromatic): the black body of bolometric luminosity L_s.
     void starSpectra()
     {
         const std::size_t S = mRs.stars.size(), J = mNodes.size();
         mStarSpec.resize(S * J);
         for (std::size_t s = 0; s < S; ++s) {
+            if (mOpts.monochromatic) {
+                const Star& star = mRs.stars[s];
+                for (std::size_t j = 0; j < J; ++j)
+                    mStarSpec[s * J + j] = blackbodySpectralLuminosity(
+                        star.luminosity, star.temperature, mNodes.lam[j]);
+                continue;
+            }
             double Y = 0.0;
             for (std::size_t j = 0; j < J; ++j) {
                 mStarSpec[s * J + j] =
@@ -400,7 +410,8 @@ private:
     /// The light scattered at least once before (nebscatter --spectral's field, DESIGN §5b)
     /// scattered towards the eye at xW, at each node: the source function a sum_l p_l sum_m
     /// c_lm Y_lm(-d) at each field wavelength (a negative sum counts as none), linear in
-    /// wavelength between them, attenuated to the eye, times 1 - e^-x Lambda (sc.A).
+    /// wavelength between them and the power law of the end two beyond them (held where
+    /// either is 0), attenuated to the eye, times 1 - e^-x Lambda (sc.A).
     void scatterField(const Vec3& xW, const SpectralRay& ray, SpectralScratch& sc) const
     {
         mField->sample(mFieldW2I.apply(xW), sc.fs.data());
@@ -416,7 +427,9 @@ private:
         if (!any) return;
         for (std::size_t j = 0; j < mNodes.size(); ++j) {
             const NodeField& nf = mNodeField[j];
-            const double S = sc.Sfield[nf.i0] + nf.frac * (sc.Sfield[nf.i1] - sc.Sfield[nf.i0]);
+            const double s0 = sc.Sfield[nf.i0], s1 = sc.Sfield[nf.i1];
+            double S = s0 + nf.frac * (s1 - s0);
+            if (nf.powerLaw) S = s0 > 0.0 && s1 > 0.0 ? s0 * std::pow(s0 / s1, nf.frac) : s0;
             sc.Cfield[j] += S * std::exp(-ray.tau * mNodes.lamExt[j]) * sc.A[j];
         }
     }
@@ -555,10 +568,22 @@ private:
             }
         }
         for (int b = 0; b < NL; ++b) {
+            const double* weight = &mLayerOfNode[std::size_t(b) * J];
             double v = sc.layerAcc[std::size_t(b)];
             for (std::size_t j = 0; j < J; ++j)
-                v += mLayerOfNode[std::size_t(b) * J + j] * sc.Ctotal[j];
+                v += weight[j] * sc.Ctotal[j];
             img.channels[std::size_t(b)].values[pix] = float(v);
+            if (!mOpts.componentLayers) continue;
+            // SPECTRAL_COMPONENTS after the sprites' "direct": single, field, emission.
+            double single = 0.0, field = 0.0, emission = sc.layerAcc[std::size_t(b)];
+            for (std::size_t j = 0; j < J; ++j) {
+                single += weight[j] * (sc.Ctotal[j] - sc.Cgas[j] - sc.Cfield[j]); // the stars'
+                field += weight[j] * sc.Cfield[j];
+                emission += weight[j] * sc.Cgas[j];
+            }
+            img.channels[std::size_t(2 * NL + b)].values[pix] = float(single);
+            img.channels[std::size_t(3 * NL + b)].values[pix] = float(field);
+            img.channels[std::size_t(4 * NL + b)].values[pix] = float(emission);
         }
         if (mSo.countPieces && !mNodes.bandsMode) countPieces(sc);
         sc.stats.pieces += mNodes.bandsMode ? 0 : J - 1;
@@ -604,7 +629,10 @@ private:
     struct NodeField
     {
         std::size_t i0 = 0, i1 = 0; ///< the field wavelengths a continuum node lies between
-        double frac = 0.0;          ///< its position between them
+        /// Between them: its position (linear in wavelength). Beyond the field's range
+        /// (powerLaw): i0 the end wavelength, i1 its neighbour, frac the exponent e.
+        double frac = 0.0;
+        bool powerLaw = false;
     };
     const SparseVolume* mField = nullptr;
     std::optional<StarDepth> mDepth; ///< with RenderOptions::exactStarDepth
@@ -624,11 +652,20 @@ Image renderSpectral(const SpectralScene& scene, const RenderOptions& opts, cons
     if (view.width <= 0 || view.height <= 0) throw UsageError("--res must be WxH with W, H > 0");
     requireRayStep(scene.base, opts.step);
     const SpectralIntegrator integrator(scene, opts);
-    Image img = detail::frameImage(scene.base, opts, {}, std::size_t(integrator.layers()));
-    for (int b = 0; b < integrator.layers(); ++b) {
-        img.channels.push_back({bandName(SPECTRAL_MIN_NM + (b + 0.5) * integrator.layerWidth()),
-                                std::vector<float>(std::size_t(view.width) * view.height, 0.0f)});
+    const std::size_t NL = std::size_t(integrator.layers());
+    const std::size_t parts = opts.componentLayers ? 1 + SPECTRAL_COMPONENT_COUNT : 1;
+    if (opts.componentLayers && NL == 0) {
+        throw UsageError("the spectral components need spectral layers (--spectral-layers)");
     }
+    Image img = detail::frameImage(scene.base, opts, {}, NL * parts);
+    for (std::size_t k = 0; k < parts; ++k)
+        for (std::size_t b = 0; b < NL; ++b) {
+            const std::string band =
+                bandName(SPECTRAL_MIN_NM + (double(b) + 0.5) * integrator.layerWidth());
+            img.channels.push_back(
+                {k == 0 ? band : std::string(SPECTRAL_COMPONENTS[k - 1]) + "." + band,
+                 std::vector<float>(std::size_t(view.width) * view.height, 0.0f)});
+        }
     detail::forEachRowBand(view.height, 4, run, "nebrender", stats,
                            [&](int y0, int y1, RenderStats& band) {
                                SpectralScratch sc = integrator.scratch();

@@ -160,8 +160,8 @@ inline constexpr double SPECTRAL_FIELD_MAX_NM = 780.0;
 inline constexpr std::size_t SPECTRAL_FIELD_MAX_WAVELENGTHS = 64;
 
 /// The wavelengths of a spectral field of @p n (>= 2) wavelengths: evenly spaced over
-/// 380-780 nm, the ends included (nebrender --spectral holds the end values beyond them,
-/// where the colour-matching functions are below 0.4 % of their peaks).
+/// 380-780 nm, the ends included (beyond them, where the colour-matching functions are below
+/// 0.4 % of their peaks, nebrender --spectral extends the power law of the end two).
 std::vector<double> spectralFieldWavelengths(int n);
 
 /// Star @p star's spectral power at @p lambda_nm [L_sun nm^-1]: its black body normalised
