@@ -23,8 +23,9 @@ def read(path):
         sys.exit(f"plot_sed.py: {path}: {e.strerror}")
     reader = csv.DictReader(lines)
     need = ["wavelength_nm", "total_Jy", "direct_Jy", "scattered_Jy", "single_Jy", "field_Jy"]
-    if reader.fieldnames != need:
-        sys.exit(f"plot_sed.py: {path}: expected the columns {','.join(need)} (nebrender --sed)")
+    if reader.fieldnames not in (need, need + ["emission_Jy"]):
+        sys.exit(f"plot_sed.py: {path}: expected the columns {','.join(need)}[,emission_Jy] "
+                 "(nebrender --sed)")
     for r in reader:
         try:
             rows.append({k: float(v) for k, v in r.items()})
@@ -46,8 +47,9 @@ def main():
     lam = [r["wavelength_nm"] for r in rows]
     for key, label, style in [("total_Jy", "total", "k-o"), ("direct_Jy", "direct (stars)", "C0--s"),
                               ("scattered_Jy", "scattered", "C3-^"), ("single_Jy", "single", "C1:."),
-                              ("field_Jy", "multiple (field)", "C2:.")]:
-        values = [r[key] for r in rows]
+                              ("field_Jy", "multiple (field)", "C2:."),
+                              ("emission_Jy", "gas emission", "C4-")]:
+        values = [r.get(key, 0.0) for r in rows]
         if any(v > 0 for v in values):
             ax.plot(lam, [v if v > 0 else float("nan") for v in values], style, label=label, ms=4)
     ax.set_yscale("log")

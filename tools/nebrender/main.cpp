@@ -60,7 +60,10 @@ int main(int argc, char** argv)
                    "Also a calibrated FITS image: surface brightness at each --wavelengths\n"
                    "(monochromatic; stars as black bodies of bolometric luminosity; the EXR\n"
                    "then holds spectral radiance per nm), components TOTAL, DIRECT, SCATTERED,\n"
-                   "SINGLE, FIELD as HDUs; --camera orthographic (or perspective with --sky)");
+                   "SINGLE, FIELD as HDUs; --camera orthographic (or perspective with --sky).\n"
+                   "With --spectral: cubes of --spectral-layers bands (47 of 10 nm if not\n"
+                   "given) and EMISSION, the gas's lines calibrated (grid x --emission-scale =\n"
+                   "their emissivity, L_sun pc^-3 sr^-1)");
     app.add_option("--sed", out.fits.sed,
                    "Also the SED: flux density at the observer [Jy] per component at each\n"
                    "wavelength, as CSV (also the table SED of --fits); calibrated like --fits");
@@ -151,7 +154,8 @@ int main(int argc, char** argv)
     nebula::FilterOptions filterOpts;
     nebula::cli::addFilter(app, filterOpts,
                            "--fits and --sed give its band average, rendered at the band's three\n"
-                           "quadrature wavelengths; a field must be made with the same --filter");
+                           "quadrature wavelengths (with --spectral: from the spectral layers);\n"
+                           "a field must be made with the same --filter");
     app.add_option("--emission-grid", opts.emissionGrid, "Gas emission grid")
         ->capture_default_str();
     app.add_option("--emission-scale", opts.emissionScale,

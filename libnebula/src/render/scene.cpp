@@ -185,6 +185,16 @@ std::array<double, 3> monochromaticFieldFactors(const std::array<double, 3>& pow
     return f;
 }
 
+/// A star's spectral field was made with starSpectralPower() (luminance Y = L) of the star
+/// as it was then (@p made): the factor, the same at every wavelength, that scales it to the
+/// black body of bolometric luminosity @p now.luminosity (RenderOptions::monochromatic).
+double calibratedSpectralFieldFactor(const Star& now, const Star& made)
+{
+    constexpr double lambda = 550.0; // any: both are the same black body's shape
+    return blackbodySpectralLuminosity(now.luminosity, now.temperature, lambda) /
+           starSpectralPower(made, lambda);
+}
+
 /// Reads nebscatter's field (DESIGN §5b, io/scatter_field_vdb.h) into scene.scatter, checking
 /// that it was made for this scene; see buildScene(). @p spectral: the spectral field
 /// (nebscatter --spectral, for the spectral renderer) instead of the R, G, B one.
@@ -268,6 +278,18 @@ void readScatterField(const GridSet& grids, const RenderOptions& opts, const Dus
                 factor[std::size_t(c)] =
                     opts.monochromatic ? 0.0
                                        : opts.emissionScale * opts.emissionColor[std::size_t(c)];
+        } else if (src == "stars" && opts.monochromatic && spectral) {
+            // All stars in one field, each made with luminance Y = L: one factor scales it to
+            // bolometric luminosities only if it is the same for every star (one temperature).
+            for (std::size_t s = 0; s < scene.stars.size(); ++s) {
+                const double f = calibratedSpectralFieldFactor(scene.stars[s], meta.stars[s]);
+                if (s > 0 && std::abs(f - factor[0]) > 1e-9 * std::abs(factor[0])) {
+                    throw Error(what + " holds the stars' light as one field; stars of "
+                                       "different temperatures need a field per star for "
+                                       "--fits: run nebscatter --spectral --per-star");
+                }
+                std::fill(factor.begin(), factor.end(), f);
+            }
         } else if (src == "stars" && opts.monochromatic && !spectral) {
             // All stars in one field, made with their sRGB colours: one factor per channel
             // scales it to the stars' spectral luminosities only if it is the same for every
@@ -289,7 +311,12 @@ void readScatterField(const GridSet& grids, const RenderOptions& opts, const Dus
                 if ("star_" + scene.stars[s].name != src) continue;
                 std::fill(factor.begin(), factor.end(),
                           scene.stars[s].luminosity / meta.stars[s].luminosity);
-                if (!opts.monochromatic || spectral) continue;
+                if (!opts.monochromatic) continue;
+                if (spectral) {
+                    std::fill(factor.begin(), factor.end(),
+                              calibratedSpectralFieldFactor(scene.stars[s], meta.stars[s]));
+                    continue;
+                }
                 const auto f =
                     monochromaticFieldFactors(scene.starColor[s], meta.stars[s], what, rerun);
                 factor.assign(f.begin(), f.end());

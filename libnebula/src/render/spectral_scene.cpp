@@ -85,14 +85,17 @@ emissionGrids(const GridSet& grids, const RenderOptions& opts, SpectralScene& sc
         SpectralEmitter e;
         e.grid = g->getName();
         e.lines = (main && !so.lines.empty()) ? fallback : gridLines(*g, grids.source, fallback);
-        double Y = 0.0;
-        for (const auto& l : e.lines)
+        double Y = 0.0, strength = 0.0;
+        for (const auto& l : e.lines) {
             Y += l.strength * cmfAt(l.wavelength)[1];
+            strength += l.strength;
+        }
         if (!(Y > 0.0)) {
             throw Error(grids.source + ": grid \"" + e.grid + "\" emits only lines outside " +
                         "360-830 nm (" + lineListToString(e.lines) + "): nothing to see");
         }
-        e.unit = targetY / Y;
+        // Calibrated: the grid times --emission-scale is the lines' summed emissivity.
+        e.unit = opts.monochromatic ? opts.emissionScale / strength : targetY / Y;
         scene.emitters.push_back(e);
         emitGrids.push_back(g);
     };

@@ -4,6 +4,7 @@
 #include "nebula/core/format.h"
 #include "nebula/core/units.h"
 #include "nebula/render/camera.h"
+#include "nebula/render/spectral.h"
 
 #include <fmt/format.h>
 
@@ -14,6 +15,12 @@
 
 namespace nebula {
 
+namespace {
+/// The most of a filter's weight (int T dlambda/lambda) that may lie outside 360-830 nm for a
+/// spectral band average: the part lost, 1e-3, is 0.001 mag.
+constexpr double MAX_FILTER_WEIGHT_OUTSIDE = 1e-3;
+} // namespace
+
 void checkFitsOutput(const FitsOutput& fits, const RenderOptions& opts, bool manyFrames)
 {
     if (!calibrated(fits)) return;
@@ -21,10 +28,6 @@ void checkFitsOutput(const FitsOutput& fits, const RenderOptions& opts, bool man
     if (fits.unit != "MJy/sr" && fits.unit != "W/m2/sr/nm") {
         throw UsageError("--fits-unit must be MJy/sr or W/m2/sr/nm, got \"" +
                          detail::printable(fits.unit, 40) + "\"");
-    }
-    if (opts.spectral.enabled) {
-        throw UsageError(option + " is for RGB mode (monochromatic images at the --wavelengths); "
-                                  "--spectral has no calibrated output yet");
     }
     if (manyFrames) throw UsageError(option + " is for one image: render one frame");
     const CameraModel m = opts.camera.model;
@@ -48,6 +51,23 @@ void checkFitsOutput(const FitsOutput& fits, const RenderOptions& opts, bool man
             throw UsageError("--position-angle must be in [-360, 360] degrees, got " +
                              detail::numberText(fits.positionAngle));
         }
+    }
+    if (opts.spectral.enabled) {
+        // The band average integrates the spectrum under the filter: all but a negligible
+        // part of the band (its weight, 1e-3 at the most: 0.001 mag) must be rendered.
+        if (fits.filter) {
+            const Filter& f = *fits.filter;
+            const double inside = bandAverageFnu(f, [](double lambda) {
+                return lambda >= SPECTRAL_MIN_NM && lambda <= SPECTRAL_MAX_NM ? 1.0 : 0.0;
+            });
+            if (!(inside >= 1.0 - MAX_FILTER_WEIGHT_OUTSIDE)) {
+                throw UsageError(fmt::format(
+                    "--filter {}: {:.3g} % of its passband's weight lies outside the spectral "
+                    "renderer's {:g}-{:g} nm; render it in RGB mode (without --spectral)",
+                    f.name, 100.0 * (1.0 - inside), SPECTRAL_MIN_NM, SPECTRAL_MAX_NM));
+            }
+        }
+        return;
     }
     const auto& w = opts.wavelengths;
     if (w[0] == w[1] || w[1] == w[2] || w[0] == w[2]) {
@@ -106,100 +126,164 @@ std::vector<FitsCard> imageWcsCards(const Camera& camera, const FitsOutput& fits
 
 namespace {
 
-enum Part { Total, Direct, Scattered, Single, Field, PARTS };
+enum Part { Total, Direct, Scattered, Single, Field, Emission, PARTS };
 
-/// The render's component layers (frameImage(): the stars', transmittance, then field,
-/// emission, direct).
-struct Components
+constexpr const char* PART_NAMES[PARTS] = {"TOTAL",  "DIRECT", "SCATTERED",
+                                           "SINGLE", "FIELD",  "EMISSION"};
+
+/// The calibrated samples of a render, per pixel and component: RGB mode, its three channels
+/// (monochromatic at their wavelengths) with the component layers "field", "emission" and
+/// "direct"; spectral mode, its N spectral layers (bands' means) followed by N channels of
+/// each of SPECTRAL_COMPONENTS. Spectral radiance [L_sun pc^-2 sr^-1 nm^-1].
+class Components
 {
-    const Image& img;
-    const std::vector<float>& field;
-    const std::vector<float>& emission;
-    const std::vector<float>& direct;
-
-    Components(const Image& image, std::size_t starCount, const std::string& what)
-        : img(image), field(layer(image, starCount + 1, what)),
-          emission(layer(image, starCount + 2, what)), direct(layer(image, starCount + 3, what))
-    {}
-    static const std::vector<float>& layer(const Image& img, std::size_t i, const std::string& what)
+public:
+    Components(const Image& image, const RenderOptions& opts, const std::string& what)
+        : mImg(image), mSpectral(opts.spectral.enabled)
     {
-        if (img.layers.size() <= i) throw Error(what + ": the render has no component layers");
-        return img.layers[i].rgb;
+        if (!mSpectral) {
+            for (std::size_t c = 0; c < 3; ++c)
+                mLambda.push_back(opts.wavelengths[c]);
+            mField = &layer("field", what);
+            mEmission = &layer("emission", what);
+            mDirect = &layer("direct", what);
+            return;
+        }
+        mLayers = std::size_t(std::max(opts.spectral.layers, 0));
+        const double width =
+            (SPECTRAL_MAX_NM - SPECTRAL_MIN_NM) / double(std::max<std::size_t>(mLayers, 1));
+        for (std::size_t b = 0; b < mLayers; ++b)
+            mLambda.push_back(SPECTRAL_MIN_NM + (double(b) + 0.5) * width);
+        if (mLayers == 0 || image.channels.size() != mLayers * (1 + SPECTRAL_COMPONENT_COUNT)) {
+            throw Error(what + ": the spectral render has no component channels");
+        }
     }
-    /// Component @p part of channel @p c at pixel @p p [L_sun pc^-2 sr^-1 nm^-1].
-    double at(int part, std::size_t p, std::size_t c) const
+
+    bool spectral() const { return mSpectral; }
+    /// The components this render has: the gas's emission only in spectral mode.
+    int parts() const { return mSpectral ? PARTS : Emission; }
+    std::size_t samples() const { return mLambda.size(); }
+    double lambda(std::size_t k) const { return mLambda[k]; }
+    /// Spectral mode: the bands' width [nm].
+    double bandWidth() const { return (SPECTRAL_MAX_NM - SPECTRAL_MIN_NM) / double(mLayers); }
+
+    /// Component @p part of sample @p k at pixel @p p [L_sun pc^-2 sr^-1 nm^-1].
+    double at(int part, std::size_t p, std::size_t k) const
     {
-        const double total = img.rgba[p * 4 + c];
-        const double d = direct[p * 3 + c], f = field[p * 3 + c];
-        const double scattered = total - d - emission[p * 3 + c];
+        if (mSpectral) {
+            const auto ch = [&](std::size_t i) {
+                return double(mImg.channels[i * mLayers + k].values[p]);
+            };
+            switch (part) { // channels: total, then SPECTRAL_COMPONENTS
+            case Total: return ch(0);
+            case Direct: return ch(1);
+            case Scattered: return ch(2) + ch(3);
+            case Single: return ch(2);
+            case Field: return ch(3);
+            default: return ch(4);
+            }
+        }
+        const double total = mImg.rgba[p * 4 + k];
+        const double d = (*mDirect)[p * 3 + k], f = (*mField)[p * 3 + k];
+        const double scattered = total - d - (*mEmission)[p * 3 + k];
         switch (part) {
         case Total: return total;
         case Direct: return d;
         case Scattered: return scattered;
         case Single: return scattered - f;
-        default: return f;
+        case Field: return f;
+        default: return (*mEmission)[p * 3 + k];
         }
     }
+
+private:
+    const std::vector<float>& layer(const std::string& name, const std::string& what) const
+    {
+        for (const auto& l : mImg.layers)
+            if (l.name == name) return l.rgb;
+        throw Error(what + ": the render has no component layer \"" + name + "\"");
+    }
+
+    const Image& mImg;
+    bool mSpectral;
+    std::vector<double> mLambda; ///< each sample's wavelength [nm]
+    std::size_t mLayers = 0;     ///< spectral mode: N
+    const std::vector<float>* mField = nullptr;
+    const std::vector<float>* mEmission = nullptr;
+    const std::vector<float>* mDirect = nullptr;
 };
 
-/// The channels in ascending wavelength.
-std::array<std::size_t, 3> ascending(const RenderOptions& opts)
-{
-    std::array<std::size_t, 3> order{0, 1, 2};
-    std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
-        return opts.wavelengths[a] < opts.wavelengths[b];
-    });
-    return order;
-}
-
-/// One plane of the calibrated output: its wavelength [nm] and, per channel, the factor that
-/// turns spectral radiance [L_sun pc^-2 sr^-1 nm^-1] into @p unit; the plane is the sum.
+/// One plane of the calibrated output: its wavelength [nm] and the samples it sums, each
+/// with the factor that turns spectral radiance [L_sun pc^-2 sr^-1 nm^-1] into the unit.
 struct Plane
 {
     double lambda_nm;
-    std::array<double, 3> factor;
+    std::vector<std::pair<std::size_t, double>> terms;
 };
 
-/// The planes in @p unit: one per channel in ascending wavelength (monochromatic), or through
-/// @p filter one band average at the pivot wavelength, the channels (its quadrature nodes,
-/// ascending) weighted by the quadrature: <f_nu> in MJy/sr, or <f_lambda> = <f_nu> c /
-/// lambda_p^2 in W/m2/sr/nm.
-std::vector<Plane> planes(const RenderOptions& opts, const std::string& unit,
+/// The planes in @p unit: one per sample in ascending wavelength, or through @p filter one
+/// band average at the pivot wavelength, <f_nu> in MJy/sr or <f_lambda> = <f_nu> c /
+/// lambda_p^2 in W/m2/sr/nm. RGB mode: the channels are the filter's quadrature nodes,
+/// weighted by the quadrature. Spectral mode: each layer's weight is the band average of
+/// its constant f_lambda (direct integration of the filter curve, DESIGN §13.1).
+std::vector<Plane> planes(const Components& parts, const std::string& unit,
                           const std::optional<Filter>& filter)
 {
-    const auto order = ascending(opts);
+    std::vector<std::size_t> order(parts.samples());
+    std::iota(order.begin(), order.end(), std::size_t(0));
+    std::sort(order.begin(), order.end(),
+              [&](std::size_t a, std::size_t b) { return parts.lambda(a) < parts.lambda(b); });
     if (!filter) {
         std::vector<Plane> out;
-        for (const std::size_t c : order) {
-            Plane p{opts.wavelengths[c], {0.0, 0.0, 0.0}};
-            p.factor[c] = surfaceBrightnessFactor(unit, opts.wavelengths[c]);
-            out.push_back(p);
-        }
+        for (const std::size_t k : order)
+            out.push_back({parts.lambda(k), {{k, surfaceBrightnessFactor(unit, parts.lambda(k))}}});
         return out;
     }
-    const BandQuadrature q = bandQuadrature(*filter, 3);
     const double pivot = pivotWavelength(*filter);
     const double toUnit =
         unit == "MJy/sr" ? 1.0
                          : 1e6 * JANSKY * SPEED_OF_LIGHT / (pivot * 1e-9 * pivot * 1e-9) * 1e-9;
-    Plane band{pivot, {0.0, 0.0, 0.0}};
-    for (std::size_t k = 0; k < 3 && k < q.weight.size(); ++k) {
-        const std::size_t c = order[k];
-        band.factor[c] = q.weight[k] * perNmToMegajanskyPerSr(opts.wavelengths[c]) * toUnit;
+    Plane band{pivot, {}};
+    if (parts.spectral()) {
+        const double width = parts.bandWidth();
+        for (const std::size_t k : order) {
+            const double lo = parts.lambda(k) - 0.5 * width, hi = lo + width;
+            const double w = bandAverageFnu(*filter, [&](double lambda) {
+                return lambda >= lo && lambda < hi ? perNmToMegajanskyPerSr(lambda) : 0.0;
+            });
+            if (w != 0.0) band.terms.push_back({k, w * toUnit});
+        }
+        return {band};
+    }
+    const BandQuadrature q = bandQuadrature(*filter, 3);
+    for (std::size_t i = 0; i < 3 && i < q.weight.size(); ++i) {
+        const std::size_t k = order[i];
+        band.terms.push_back({k, q.weight[i] * perNmToMegajanskyPerSr(parts.lambda(k)) * toUnit});
     }
     return {band};
 }
 
+/// Plane @p plane of component @p part at pixel @p p, in the planes' unit.
+double planeValue(const Components& parts, const Plane& plane, int part, std::size_t p)
+{
+    double v = 0.0;
+    for (const auto& [k, factor] : plane.terms)
+        v += parts.at(part, p, k) * factor;
+    return v;
+}
+
 /// The SED as the FITS table "SED".
-FitsColumnsHdu sedTable(const std::vector<SedRow>& sed)
+FitsColumnsHdu sedTable(const std::vector<SedRow>& sed, bool emission)
 {
     FitsColumnsHdu t;
     t.name = "SED";
     t.columns = {{"WAVELENGTH", "nm", {}}, {"TOTAL", "Jy", {}},  {"DIRECT", "Jy", {}},
                  {"SCATTERED", "Jy", {}},  {"SINGLE", "Jy", {}}, {"FIELD", "Jy", {}}};
+    if (emission) t.columns.push_back({"EMISSION", "Jy", {}});
     for (const auto& r : sed) {
-        const double v[] = {r.lambda_nm, r.total, r.direct, r.scattered, r.single, r.field};
-        for (std::size_t i = 0; i < 6; ++i)
+        const double v[] = {r.lambda_nm, r.total, r.direct,  r.scattered,
+                            r.single,    r.field, r.emission};
+        for (std::size_t i = 0; i < t.columns.size(); ++i)
             t.columns[i].values.push_back(v[i]);
     }
     return t;
@@ -207,12 +291,12 @@ FitsColumnsHdu sedTable(const std::vector<SedRow>& sed)
 
 } // namespace
 
-std::vector<SedRow> imageSed(const Image& img, std::size_t starCount, const RenderOptions& opts,
+std::vector<SedRow> imageSed(const Image& img, const RenderOptions& opts,
                              const std::optional<Filter>& filter)
 {
-    const Components parts(img, starCount, "the SED");
+    const Components parts(img, opts, "the SED");
     const Projection projection(opts.camera);
-    const auto bands = planes(opts, "MJy/sr", filter);
+    const auto bands = planes(parts, "MJy/sr", filter);
     // Per plane and component: surface brightness [MJy/sr] times solid angle, summed.
     std::vector<std::array<double, PARTS>> sum(bands.size(), std::array<double, PARTS>{});
     for (int y = 0; y < img.height; ++y)
@@ -220,68 +304,82 @@ std::vector<SedRow> imageSed(const Image& img, std::size_t starCount, const Rend
             const std::size_t p = std::size_t(y) * std::size_t(img.width) + std::size_t(x);
             const double omega = projection.pixelSolidAngle(x + 0.5, y + 0.5);
             for (std::size_t b = 0; b < bands.size(); ++b)
-                for (std::size_t c = 0; c < 3; ++c) {
-                    if (bands[b].factor[c] == 0.0) continue;
-                    const double f = bands[b].factor[c] * omega;
-                    for (int part = Total; part < PARTS; ++part)
-                        sum[b][std::size_t(part)] += parts.at(part, p, c) * f;
-                }
+                for (int part = Total; part < parts.parts(); ++part)
+                    sum[b][std::size_t(part)] += planeValue(parts, bands[b], part, p) * omega;
         }
     std::vector<SedRow> sed;
     for (std::size_t b = 0; b < bands.size(); ++b) { // MJy -> Jy
         const auto& s = sum[b];
         sed.push_back({bands[b].lambda_nm, s[Total] * 1e6, s[Direct] * 1e6, s[Scattered] * 1e6,
-                       s[Single] * 1e6, s[Field] * 1e6});
+                       s[Single] * 1e6, s[Field] * 1e6, s[Emission] * 1e6});
     }
     return sed;
 }
 
-void writeSedCsv(AtomicFile& file, const std::vector<SedRow>& sed,
+void writeSedCsv(AtomicFile& file, const std::vector<SedRow>& sed, bool emission,
                  const std::vector<std::string>& comments)
 {
     std::ostream& out = file.stream();
     for (const auto& c : comments)
         out << "# " << c << "\n";
-    out << "wavelength_nm,total_Jy,direct_Jy,scattered_Jy,single_Jy,field_Jy\n";
+    out << "wavelength_nm,total_Jy,direct_Jy,scattered_Jy,single_Jy,field_Jy"
+        << (emission ? ",emission_Jy\n" : "\n");
     for (const auto& r : sed) {
-        out << fmt::format("{:.10g},{:.10g},{:.10g},{:.10g},{:.10g},{:.10g}\n", r.lambda_nm,
-                           r.total, r.direct, r.scattered, r.single, r.field);
+        out << fmt::format("{:.10g},{:.10g},{:.10g},{:.10g},{:.10g},{:.10g}", r.lambda_nm, r.total,
+                           r.direct, r.scattered, r.single, r.field);
+        out << (emission ? fmt::format(",{:.10g}\n", r.emission) : std::string("\n"));
     }
 }
 
-void writeCalibratedFits(AtomicFile& file, const Image& img, std::size_t starCount,
-                         const RenderOptions& opts, const FitsOutput& fits,
-                         const std::vector<SedRow>& sed, const std::vector<FitsCard>& cards)
+void writeCalibratedFits(AtomicFile& file, const Image& img, const RenderOptions& opts,
+                         const FitsOutput& fits, const std::vector<SedRow>& sed,
+                         const std::vector<FitsCard>& cards)
 {
     const std::size_t W = std::size_t(img.width), H = std::size_t(img.height);
     const std::size_t plane = W * H;
-    const Components components(img, starCount, file.path());
-    const auto bands = planes(opts, fits.unit, fits.filter);
-    const char* names[] = {"TOTAL", "DIRECT", "SCATTERED", "SINGLE", "FIELD"};
-    const char* what[] = {"everything that reaches the observer: starlight, scattered light",
-                          "the stars' light that reached the observer unscattered (the sprites)",
-                          "light scattered by the dust once or more (SINGLE + FIELD)",
-                          "light scattered once (exact from the tau grids)",
-                          "light scattered more than once (nebscatter's field)"};
-    // The cards of the third axis (monochromatic: WAVE-TAB) or of the band (a filter).
+    const Components components(img, opts, file.path());
+    const auto bands = planes(components, fits.unit, fits.filter);
+    const char* what[PARTS] = {
+        components.spectral()
+            ? "everything that reaches the observer: starlight, scattered light, gas emission"
+            : "everything that reaches the observer: starlight, scattered light",
+        "the stars' light that reached the observer unscattered (the sprites)",
+        "light scattered by the dust once or more (SINGLE + FIELD)",
+        "light scattered once (exact from the tau grids)",
+        "light scattered more than once (nebscatter's field)",
+        "the gas's emission: its lines and black bodies"};
+    // The cards of the third axis (RGB: WAVE-TAB; spectral: linear) or of the band (a filter).
     std::vector<FitsCard> axisCards;
     if (fits.filter) {
-        const BandQuadrature q = bandQuadrature(*fits.filter, 3);
         axisCards = {{"FILTER", fits.filter->name, "passband (photon-counting)"},
                      {"PIVOT", bands.front().lambda_nm, "pivot wavelength [nm]"},
                      {"FILTSRC", fits.filter->source, "the passband's source"}};
-        for (std::size_t k = 0; k < q.lambda_nm.size(); ++k) {
+        if (components.spectral()) {
             axisCards.push_back(
-                {"QNODE" + std::to_string(k + 1), q.lambda_nm[k], "quadrature wavelength [nm]"});
-            axisCards.push_back(
-                {"QWGHT" + std::to_string(k + 1), q.weight[k], "quadrature weight"});
+                {"BANDWID", components.bandWidth(), "the spectrum's bands, each constant [nm]"});
+        } else {
+            const BandQuadrature q = bandQuadrature(*fits.filter, 3);
+            for (std::size_t k = 0; k < q.lambda_nm.size(); ++k) {
+                axisCards.push_back({"QNODE" + std::to_string(k + 1), q.lambda_nm[k],
+                                     "quadrature wavelength [nm]"});
+                axisCards.push_back(
+                    {"QWGHT" + std::to_string(k + 1), q.weight[k], "quadrature weight"});
+            }
         }
+    } else if (components.spectral()) {
+        // With a CD matrix the third axis's scale is CD3_3 (mixing CDi_j and CDELTi is not
+        // allowed, WCS paper I §2.1.2).
+        axisCards = {
+            {"CTYPE3", std::string("WAVE"), "wavelength (lines at their air wavelengths)"},
+            {"CUNIT3", std::string("m"), ""},
+            {"CRPIX3", 1.0, ""},
+            {"CRVAL3", bands.front().lambda_nm * 1e-9, "the first band's centre [m]"},
+            {fits.sky ? "CD3_3" : "CDELT3", components.bandWidth() * 1e-9, "band width [m]"},
+            {"BANDWID", components.bandWidth(), "each plane: the band's mean [nm]"}};
     } else {
         axisCards = {{"CTYPE3", std::string("WAVE-TAB"), "wavelength, from table WCS-TAB"},
                      {"CUNIT3", std::string("m"), ""},
                      {"CRPIX3", 1.0, ""},
-                     // With a CD matrix the third axis's scale is CD3_3 (mixing CDi_j and
-                     // CDELTi is not allowed, WCS paper I §2.1.2).
                      {fits.sky ? "CD3_3" : "CDELT3", 1.0, ""},
                      {"CRVAL3", 1.0, ""},
                      {"PS3_0", std::string("WCS-TAB"), "the table of wavelengths"},
@@ -289,22 +387,18 @@ void writeCalibratedFits(AtomicFile& file, const Image& img, std::size_t starCou
     }
     std::vector<FitsImageHdu> hdus;
     const auto wcs = imageWcsCards(opts.camera, fits);
-    for (int part = Total; part < PARTS; ++part) {
+    for (int part = Total; part < components.parts(); ++part) {
         FitsImageHdu h;
-        h.name = names[part];
+        h.name = PART_NAMES[part];
         h.axes = {long(W), long(H)};
         if (!fits.filter) h.axes.push_back(long(bands.size()));
         h.data.resize(plane * bands.size());
         for (std::size_t b = 0; b < bands.size(); ++b)
             for (std::size_t row = 0; row < H; ++row) { // FITS rows go up from the bottom
                 const std::size_t src = (H - 1 - row) * W;
-                for (std::size_t x = 0; x < W; ++x) {
-                    double v = 0.0;
-                    for (std::size_t c = 0; c < 3; ++c)
-                        if (bands[b].factor[c] != 0.0)
-                            v += components.at(part, src + x, c) * bands[b].factor[c];
-                    h.data[b * plane + row * W + x] = float(v);
-                }
+                for (std::size_t x = 0; x < W; ++x)
+                    h.data[b * plane + row * W + x] =
+                        float(planeValue(components, bands[b], part, src + x));
             }
         h.cards = wcs;
         h.cards.insert(h.cards.end(), axisCards.begin(), axisCards.end());
@@ -312,12 +406,12 @@ void writeCalibratedFits(AtomicFile& file, const Image& img, std::size_t starCou
             {"BUNIT", fits.unit,
              fits.filter ? "band-averaged surface brightness" : "surface brightness"});
         h.cards.push_back({"BTYPE", std::string("phot.flux.density.sb"), "IVOA UCD"});
-        h.cards.push_back({"COMPONT", std::string(names[part]), what[part]});
+        h.cards.push_back({"COMPONT", std::string(PART_NAMES[part]), what[part]});
         h.cards.insert(h.cards.end(), cards.begin(), cards.end());
         hdus.push_back(std::move(h));
     }
     std::vector<FitsTableHdu> tables;
-    if (!fits.filter) {
+    if (!fits.filter && !components.spectral()) {
         FitsTableHdu table;
         table.name = "WCS-TAB";
         table.column = "COORDS";
@@ -327,7 +421,7 @@ void writeCalibratedFits(AtomicFile& file, const Image& img, std::size_t starCou
             table.values.push_back(b.lambda_nm * 1e-9);
         tables.push_back(std::move(table));
     }
-    writeFits(file, hdus, tables, {sedTable(sed)});
+    writeFits(file, hdus, tables, {sedTable(sed, components.spectral())});
 }
 
 } // namespace nebula

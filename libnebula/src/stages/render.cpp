@@ -13,6 +13,7 @@
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <filesystem>
@@ -236,14 +237,23 @@ std::vector<FitsCard> fitsCards(const GridSet& grids, const RenderOptions& opts,
                      "solid angle of the central pixel [sr]"});
     if (out.fits.sky) cards.push_back({"POSANG", out.fits.positionAngle, "up, N through E [deg]"});
     cards.push_back({"DUST", dust.toJson(), "the dust model (nebula:dust)"});
-    cards.push_back(
-        {"COMMENT",
-         std::string(out.fits.filter ? "Band averages: monochromatic images at the quadrature "
-                                       "wavelengths QNODEi, weighted by QWGHTi."
-                                     : "Monochromatic images at the WAVE axis' wavelengths.") +
-             " Each star a black body of its bolometric luminosity (DESIGN section "
-             "13).",
-         ""});
+    const bool spectral = opts.spectral.enabled;
+    std::string how = spectral
+                          ? (out.fits.filter ? "Band averages of the spectrum (constant across "
+                                               "each band of BANDWID nm) through the filter."
+                                             : "Spectral cube: each plane the spectrum's mean "
+                                               "over its band, BANDWID nm wide.")
+                          : (out.fits.filter ? "Band averages: monochromatic images at the "
+                                               "quadrature wavelengths QNODEi, weighted by "
+                                               "QWGHTi."
+                                             : "Monochromatic images at the WAVE axis' "
+                                               "wavelengths.");
+    how += " Each star a black body of its bolometric luminosity";
+    how += spectral ? "; the emission grid times EMSCALE is the lines' emissivity [L_sun pc^-3 "
+                      "sr^-1] (DESIGN section 13)."
+                    : " (DESIGN section 13).";
+    if (spectral) cards.push_back({"EMSCALE", opts.emissionScale, "nebrender --emission-scale"});
+    cards.push_back({"COMMENT", how, ""});
     for (const auto& h : grids.historyWith(run.tool(), run.command())) {
         const std::string tool = h.value("tool", std::string("?"));
         const std::string command = h.value("command", std::string());
@@ -256,7 +266,7 @@ std::vector<FitsCard> fitsCards(const GridSet& grids, const RenderOptions& opts,
 void renderOneFrame(const GridSet& grids, const RenderOptions& opts, const DustParams& dust,
                     const SpectralScene& sscene, const RenderOutput& out, const std::string& exr,
                     const std::string& png, const std::map<std::string, std::string>& extra,
-                    double tBuild, const Run& run)
+                    std::size_t exrChannels, double tBuild, const Run& run)
 {
     const auto start = std::chrono::steady_clock::now();
     RenderStats stats;
@@ -284,23 +294,27 @@ void renderOneFrame(const GridSet& grids, const RenderOptions& opts, const DustP
     // calibrated outputs first: they read the component layers, which the EXR leaves out.
     std::optional<AtomicFile> fitsFile, sedFile;
     std::vector<SedRow> sed; // the FITS's table and the CSV: computed once
-    if (calibrated(out.fits)) sed = imageSed(img, sscene.base.stars.size(), opts, out.fits.filter);
+    if (calibrated(out.fits)) sed = imageSed(img, opts, out.fits.filter);
     if (!out.fits.path.empty()) {
         fitsFile.emplace(out.fits.path);
-        writeCalibratedFits(*fitsFile, img, sscene.base.stars.size(), opts, out.fits, sed,
+        writeCalibratedFits(*fitsFile, img, opts, out.fits, sed,
                             fitsCards(grids, opts, dust, out, run));
     }
     if (!out.fits.sed.empty()) {
         sedFile.emplace(out.fits.sed);
         const Camera& c = opts.camera;
-        std::string band = "monochromatic at each wavelength";
+        std::string band =
+            opts.spectral.enabled
+                ? fmt::format("the spectrum's mean over bands of {:g} nm",
+                              (SPECTRAL_MAX_NM - SPECTRAL_MIN_NM) / opts.spectral.layers)
+                : "monochromatic at each wavelength";
         if (out.fits.filter && sed.front().total > 0.0) {
             band = fmt::format("band averages <f_nu> through {} at its pivot wavelength; AB "
                                "magnitude of the total {:.4f}",
                                out.fits.filter->name, abMagnitude(sed.front().total));
         }
         writeSedCsv(
-            *sedFile, sed,
+            *sedFile, sed, hasCalibratedEmission(opts),
             {"nebula SED: flux density at the observer [Jy] per component (DESIGN section 13), " +
                  band,
              std::string("camera ") + toString(c.model) +
@@ -309,7 +323,15 @@ void renderOneFrame(const GridSet& grids, const RenderOptions& opts, const DustP
                       : std::string(", at the eye")),
              "command: " + run.command()});
     }
-    if (opts.componentLayers) img.layers.resize(img.layers.size() - 3); // field, emission, direct
+    // The components (and layers the user did not ask for) stay out of the EXR.
+    if (opts.componentLayers) {
+        const auto component = [](const ImageLayer& l) {
+            return l.name == "field" || l.name == "emission" || l.name == "direct";
+        };
+        img.layers.erase(std::remove_if(img.layers.begin(), img.layers.end(), component),
+                         img.layers.end());
+    }
+    if (img.channels.size() > exrChannels) img.channels.resize(exrChannels);
     AtomicFile exrFile(exr);
     writeExr(exrFile, img, attrs);
     std::vector<AtomicFile*> files{&exrFile};
@@ -337,9 +359,13 @@ void renderToFiles(const GridSet& grids, const RenderOptions& given, const DustP
                    const RenderOutput& out, const Run& run)
 {
     RenderOptions opts = given;
-    if (calibrated(out.fits)) { // monochromatic channels and their components
+    // The EXR's single channels: the spectral layers asked for.
+    const std::size_t exrChannels = std::size_t(std::max(given.spectral.layers, 0));
+    if (calibrated(out.fits)) { // calibrated light and its components
         opts.monochromatic = true;
         opts.componentLayers = true;
+        if (opts.spectral.enabled && opts.spectral.layers == 0)
+            opts.spectral.layers = CALIBRATED_SPECTRAL_LAYERS;
     }
     const std::string png = pngPath(out);
     std::vector<long> frames = out.frames;
@@ -374,9 +400,10 @@ void renderToFiles(const GridSet& grids, const RenderOptions& given, const DustP
         if (opts.integrator != Integrator::Fast) {
             throw UsageError(option + " needs the fast integrator (its component layers)");
         }
-        if (grids.find(opts.emissionGrid)) {
+        if (grids.find(opts.emissionGrid) && !hasCalibratedEmission(opts)) {
             run.warn(option + ": the gas's glow (grid \"" + opts.emissionGrid +
-                     "\") has no spectral calibration in RGB mode and is left out");
+                     "\") has no spectral calibration in RGB mode and is left out "
+                     "(--spectral calibrates it)");
         }
     }
     checkIntegratorOptions(grids, opts, run);
@@ -439,7 +466,8 @@ void renderToFiles(const GridSet& grids, const RenderOptions& given, const DustP
                          " s)");
         }
         frameOpts.camera = cameras[i];
-        renderOneFrame(grids, frameOpts, dust, sscene, out, exr, framePng, extra, tBuild, run);
+        renderOneFrame(grids, frameOpts, dust, sscene, out, exr, framePng, extra, exrChannels,
+                       tBuild, run);
     }
     if (skipped > 0) {
         run.info(std::to_string(skipped) + " of " + std::to_string(frames.size()) +

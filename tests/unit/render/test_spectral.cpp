@@ -1,8 +1,10 @@
 // Spectral rendering (DESIGN §7): the spectral ray caster against closed forms, its
 // fixed-band mode and the RGB mode. (The Doppler line profiles it draws, physics/lines.h,
 // are tested in physics/test_lines.cpp.)
+#include "nebula/physics/blackbody.h"
 #include "nebula/physics/colour.h"
 #include "nebula/physics/stars.h"
+#include "nebula/render/camera.h"
 #include "nebula/render/fast.h"
 #include "nebula/render/spectral.h"
 
@@ -368,6 +370,68 @@ TEST(SpectralRender, AgreesWithRgbModeForGreyDustAndABlackBodyStar)
             }
         }
     }
+}
+
+// Calibrated components (RenderOptions::monochromatic, componentLayers): a star in dust
+// with a glowing line at 603 nm. The component channels follow the total's N layers in the
+// order of SPECTRAL_COMPONENTS and add up to it; "emission" holds the line alone (its band,
+// 600-610 nm at 47 layers, and nothing elsewhere here); "direct" the sprite; "field" is 0
+// without a field. The calibrated star is the black body of bolometric L: in a dust-free
+// line of sight its sprite's layers, seen by an orthographic camera from D = 100 pc, sum to
+// the flux of L pi B_lambda / (sigma T^4) over 360-830 nm, L_sun / (4 pi D^2) per nm, within
+// 2e-3 (the spectrum is linear between 10 nm nodes).
+TEST(SpectralRender, CalibratedComponentsAddUpAndStarsAreBolometric)
+{
+    Star star;
+    star.name = "s";
+    star.position = {1.0, 1.0, -2.0}; // in front of the cube: its sprite unattenuated
+    star.luminosity = 50.0;
+    star.temperature = 8000.0;
+    auto dust = [](int i, int j, int k) {
+        return 200.0 * (1.0 + 0.5 * std::sin(0.7 * i + 0.3 * j + 0.5 * k));
+    };
+    auto gas = [](int i, int, int) { return i > 10 ? 2.0 : 0.0; };
+    auto still = [](int, int, int) { return std::array<double, 3>{0, 0, 0}; };
+    const SpectralScene scene = makeScene(dust, gas, still, {star}, oneLine(603.0));
+    auto o = zCamera(32, 25.0);
+    o.camera.model = CameraModel::Orthographic; // a telescope 100 pc away: fluxes L / (4 pi D^2)
+    o.camera.pixelSizePc = 0.0625;              // the sprite well inside the image
+    o.camera.distancePc = 100.0;
+    o.drawStars = true;
+    o.monochromatic = true;
+    o.componentLayers = true;
+    o.spectral.layers = 47;
+    const Image img = renderSpectral(scene, o);
+    const std::size_t NL = 47, P = 32 * 32;
+    ASSERT_EQ(img.channels.size(), NL * (1 + SPECTRAL_COMPONENT_COUNT));
+    EXPECT_EQ(img.channels[NL].name, "direct." + img.channels[0].name);
+    EXPECT_EQ(img.channels[4 * NL + 3].name, "emission." + img.channels[3].name);
+    const Projection proj(o.camera);
+    double emissionOutside = 0.0, emissionIn = 0.0, direct = 0.0;
+    for (std::size_t b = 0; b < NL; ++b)
+        for (std::size_t p = 0; p < P; ++p) {
+            const auto ch = [&](std::size_t k) {
+                return double(img.channels[k * NL + b].values[p]);
+            };
+            const double sum = ch(1) + ch(2) + ch(3) + ch(4);
+            ASSERT_NEAR(ch(0), sum, 1e-5 * std::max(std::abs(ch(0)), 1e-30)) << b << " " << p;
+            EXPECT_EQ(ch(3), 0.0); // no field
+            (b == 24 ? emissionIn : emissionOutside) += ch(4);
+            // The sprite's flux: radiance times the band [nm] and the pixel's solid angle.
+            direct +=
+                ch(1) * 10.0 * proj.pixelSolidAngle(double(p % 32) + 0.5, double(p / 32) + 0.5);
+        }
+    EXPECT_GT(emissionIn, 0.0);
+    EXPECT_EQ(emissionOutside, 0.0);
+    // The sprite's flux is the star's in 360-830 nm: the sum over bands of
+    // L pi B / (sigma T^4) / (4 pi D^2).
+    double flux = 0.0;
+    for (int l = 0; l < 4700; ++l) { // 0.1 nm steps
+        const double lam = 360.0 + 0.1 * (l + 0.5);
+        flux += 0.1 * blackbodySpectralLuminosity(50.0, 8000.0, lam);
+    }
+    flux /= 4.0 * PI * 100.0 * 100.0;
+    EXPECT_NEAR(direct, flux, 2e-3 * flux);
 }
 
 // The spectral mode renders every camera model: a fisheye's centre pixel looks where a

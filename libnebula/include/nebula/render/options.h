@@ -74,17 +74,21 @@ struct RenderOptions
     /// RenderScene::MAX_DETAIL_LEVEL. 0: always full resolution.
     double lod = 2.0;
     std::array<double, 3> wavelengths{700.0, 546.1, 435.8}; ///< R, G, B channels [nm]
-    /// Calibrated channels (DESIGN §13; nebrender --fits): each channel is the monochromatic
-    /// image at its wavelength, spectral radiance [L_sun pc^-2 sr^-1 nm^-1]: each star shines
-    /// its black body's spectral luminosity there (blackbodySpectralLuminosity(), its
-    /// luminosity bolometric), not its sRGB colour; the gas's emission, which has no
-    /// spectral calibration in RGB mode, is left out.
+    /// Calibrated light (DESIGN §13; nebrender --fits): every star shines its black body's
+    /// spectral luminosity (blackbodySpectralLuminosity(), its luminosity bolometric), not its
+    /// sRGB colour (RGB mode) or a spectrum of luminance Y = L (spectral mode), so the
+    /// renderer's values are spectral radiance [L_sun pc^-2 sr^-1 nm^-1]. RGB mode: each
+    /// channel is the monochromatic image at its wavelength; the gas's emission, which has
+    /// no spectral calibration there, is left out. Spectral mode: the spectral layers are the
+    /// calibrated bands, and each emission grid times --emission-scale is its lines' summed
+    /// emissivity [L_sun pc^-3 sr^-1], shared among them by their strengths.
     bool monochromatic = false;
-    /// Fast integrator: the image layers "field" (the light scattered more than once, from
-    /// nebscatter's field), "emission" (the gas's glow) and "direct" (the star sprites: their
-    /// light that reached the eye unscattered), the components of calibrated images (the
-    /// rest of the beauty is single scattering); nebrender writes them into the FITS, not the
-    /// EXR.
+    /// The components of calibrated images, which nebrender writes into the FITS, not the
+    /// EXR. Fast integrator: the image layers "field" (the light scattered more than once,
+    /// from nebscatter's field), "emission" (the gas's glow) and "direct" (the star sprites:
+    /// their light that reached the eye unscattered); the rest of the beauty is single
+    /// scattering. Spectral renderer: after the N spectral layers, N more channels per
+    /// component of SPECTRAL_COMPONENTS (render/spectral.h), "<component>.S0.<centre>nm".
     bool componentLayers = false;
     double emissionScale = 1.0;                          ///< multiplies the emission grid
     std::array<double, 3> emissionColor{1.0, 0.15, 0.2}; ///< linear sRGB (H-alpha + H-beta pink)

@@ -7,7 +7,8 @@
 /// integral of the piecewise-linear spectrum against the CIE 1931 colour-matching functions,
 /// then linear sRGB. A fixed-band mode point-samples the same spectra for comparison. The
 /// light scattered more than once comes from nebscatter --spectral's field (DESIGN §5b),
-/// if the input has one, linear in wavelength between the field's wavelengths.
+/// if the input has one, linear in wavelength between the field's wavelengths (the power
+/// law of the end two beyond them).
 
 #include "nebula/core/run.h"
 #include "nebula/io/image.h"
@@ -17,6 +18,7 @@
 #include "nebula/render/scene.h"
 
 #include <cmath>
+#include <cstddef>
 #include <string>
 #include <vector>
 
@@ -27,6 +29,13 @@ struct GridSet;
 /// The visible range every spectral image covers (the CMF table's range) [nm].
 inline constexpr double SPECTRAL_MIN_NM = 360.0;
 inline constexpr double SPECTRAL_MAX_NM = 830.0;
+/// The components of a calibrated spectral render (RenderOptions::componentLayers), in the
+/// order their channels follow the spectral layers: the stars' light that reached the eye
+/// unscattered (the sprites), the starlight scattered once, the light scattered more than
+/// once (nebscatter --spectral's field), the gas's emission (lines and black body).
+inline constexpr const char* SPECTRAL_COMPONENTS[] = {"direct", "single", "field", "emission"};
+inline constexpr std::size_t SPECTRAL_COMPONENT_COUNT = 4;
+
 /// One emission grid as the spectral renderer sees it.
 struct SpectralEmitter
 {
@@ -35,7 +44,9 @@ struct SpectralEmitter
     std::vector<SpectralLine> lines; ///< what it emits
     /// Energy of line l per unit of the grid per pc: unit * lines[l].strength. Chosen so that
     /// the line mix has the luminance Y of the RGB mode's --emission-color times
-    /// --emission-scale: the two modes show the gas equally bright.
+    /// --emission-scale: the two modes show the gas equally bright. Calibrated
+    /// (RenderOptions::monochromatic): --emission-scale / the lines' summed strength, so that
+    /// the grid times --emission-scale is the lines' emissivity [L_sun pc^-3 sr^-1].
     double unit = 1.0;
 };
 
@@ -69,7 +80,9 @@ SpectralScene buildSpectralScene(const GridSet& grids, const RenderOptions& opts
 /// sRGB gamut, such as a lone H-alpha line), A = 1 - T at the green channel's wavelength,
 /// layers star.<name> and transmittance, plus opts.spectral.layers single channels
 /// "S0.<centre>nm" (mean spectral radiance per nm over equal bands of 360-830 nm, named
-/// after the OpenEXR spectral layout of Fichet et al. 2021, with ',' for the decimal point).
+/// after the OpenEXR spectral layout of Fichet et al. 2021, with ',' for the decimal point),
+/// and with opts.componentLayers the same bands of each of SPECTRAL_COMPONENTS. With
+/// opts.monochromatic the stars and lines are calibrated (RenderOptions::monochromatic).
 Image renderSpectral(const SpectralScene& scene, const RenderOptions& opts,
                      const Run* run = nullptr, RenderStats* stats = nullptr);
 

@@ -1,10 +1,12 @@
 #pragma once
 /// @file fits_output.h
-/// nebrender --fits: calibrated images (DESIGN §13). The render's channels are monochromatic
-/// images at their wavelengths (RenderOptions::monochromatic, with its component layers);
-/// this turns them into surface brightness in an astronomer's unit, one HDU per component
-/// (total, direct, scattered, single, field), each a cube (x, y, wavelength) with a
-/// celestial TAN (or linear) WCS and a WAVE-TAB wavelength axis, and the observer's keywords.
+/// nebrender --fits: calibrated images (DESIGN §13). The render is calibrated
+/// (RenderOptions::monochromatic, with its component layers): in RGB mode its channels are
+/// monochromatic images at their wavelengths, in spectral mode its spectral layers are
+/// bands' mean spectral radiance. This turns them into surface brightness in an astronomer's
+/// unit, one HDU per component (total, direct, scattered, single, field, and the gas's
+/// emission in spectral mode), each a cube (x, y, wavelength) with a celestial TAN (or
+/// linear) WCS and a wavelength axis, and the observer's keywords.
 
 #include "nebula/core/atomic_file.h"
 #include "nebula/io/fits_image.h"
@@ -42,9 +44,10 @@ inline bool calibrated(const FitsOutput& fits)
     return !fits.path.empty() || !fits.sed.empty();
 }
 
-/// Throws UsageError naming the option unless --fits and --sed suit the render: RGB mode, a
+/// Throws UsageError naming the option unless --fits and --sed suit the render: a
 /// perspective or orthographic camera (a perspective FITS needs --sky), one frame,
-/// --fits-unit known, --sky within [0, 360) x [-90, 90], distinct wavelengths.
+/// --fits-unit known, --sky within [0, 360) x [-90, 90], distinct wavelengths (RGB mode), a
+/// filter inside 360-830 nm (spectral mode).
 void checkFitsOutput(const FitsOutput& fits, const RenderOptions& opts, bool manyFrames);
 
 /// The factor that turns spectral radiance [L_sun pc^-2 sr^-1 nm^-1] at @p lambda_nm into
@@ -58,31 +61,48 @@ double surfaceBrightnessFactor(const std::string& unit, double lambda_nm);
 std::vector<FitsCard> imageWcsCards(const Camera& camera, const FitsOutput& fits);
 
 /// The flux density at the observer [Jy] of each component at one wavelength: the sum over
-/// the image of surface brightness times each pixel's solid angle.
+/// the image of surface brightness times each pixel's solid angle. The gas's emission is
+/// calibrated in spectral mode only (hasCalibratedEmission()); in RGB mode it is 0.
 struct SedRow
 {
     double lambda_nm = 0.0;
     double total = 0.0, direct = 0.0, scattered = 0.0, single = 0.0, field = 0.0;
+    double emission = 0.0;
 };
 
-/// The SED of @p img (a monochromatic render with component layers, @p starCount stars, the
-/// camera of @p opts) at its channels' wavelengths, ascending; through @p filter (the
-/// channels its quadrature nodes), one row: the band averages <f_nu> at the pivot wavelength.
-std::vector<SedRow> imageSed(const Image& img, std::size_t starCount, const RenderOptions& opts,
+/// Whether a calibrated render with @p opts has the gas's emission as a component: spectral
+/// mode (its lines and black bodies have spectra); RGB mode leaves the glow out.
+inline bool hasCalibratedEmission(const RenderOptions& opts)
+{
+    return opts.spectral.enabled;
+}
+
+/// The SED of @p img (a calibrated render with component layers: RenderOptions::
+/// monochromatic and componentLayers, with the camera of @p opts) at its wavelengths,
+/// ascending: RGB mode, the channels'; spectral mode, the spectral layers' centres (each the
+/// band's mean). Through @p filter, one row: the band averages <f_nu> at the pivot
+/// wavelength (RGB mode: from the channels, its quadrature nodes; spectral mode: from the
+/// layers, the spectrum constant across each).
+std::vector<SedRow> imageSed(const Image& img, const RenderOptions& opts,
                              const std::optional<Filter>& filter = std::nullopt);
 
 /// Writes @p sed as CSV (wavelength_nm, total_Jy, direct_Jy, scattered_Jy, single_Jy,
-/// field_Jy), after `#` comment lines @p comments.
-void writeSedCsv(AtomicFile& file, const std::vector<SedRow>& sed,
+/// field_Jy, and with @p emission emission_Jy), after `#` comment lines @p comments.
+void writeSedCsv(AtomicFile& file, const std::vector<SedRow>& sed, bool emission,
                  const std::vector<std::string>& comments);
 
-/// The HDUs of @p img (a monochromatic render with component layers, @p starCount stars):
-/// TOTAL (primary), DIRECT, SCATTERED (single + field), SINGLE, FIELD, each W x H x N planes
-/// in ascending wavelength (through fits.filter: one band-averaged W x H image), rows bottom
-/// first (FITS), with @p cards (observer, history) and the WCS; the WCS-TAB table of the
-/// wavelengths (not with a filter); and the table SED, @p sed (imageSed() of the same image).
-void writeCalibratedFits(AtomicFile& file, const Image& img, std::size_t starCount,
-                         const RenderOptions& opts, const FitsOutput& fits,
-                         const std::vector<SedRow>& sed, const std::vector<FitsCard>& cards);
+/// The HDUs of @p img (as imageSed()): TOTAL (primary), DIRECT, SCATTERED (single + field),
+/// SINGLE, FIELD and in spectral mode EMISSION, each W x H x N planes in ascending
+/// wavelength (through fits.filter: one band-averaged W x H image), rows bottom first
+/// (FITS), with @p cards (observer, history) and the WCS; the wavelength axis: RGB mode
+/// WAVE-TAB with the table WCS-TAB, spectral mode a linear WAVE axis of band centres; and
+/// the table SED, @p sed (imageSed() of the same image).
+void writeCalibratedFits(AtomicFile& file, const Image& img, const RenderOptions& opts,
+                         const FitsOutput& fits, const std::vector<SedRow>& sed,
+                         const std::vector<FitsCard>& cards);
+
+/// How many spectral layers a calibrated spectral render takes when --spectral-layers does
+/// not say: bands of 10 nm over 360-830 nm.
+inline constexpr int CALIBRATED_SPECTRAL_LAYERS = 47;
 
 } // namespace nebula
