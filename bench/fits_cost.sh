@@ -5,6 +5,10 @@
 # monochromatic with component layers (three more image layers) and writes the FITS file.
 #
 #   bench/fits_cost.sh FIELD.vdb [RES] [RUNS]     (e.g. a nebscatter --per-star output)
+#   EXTRA=--spectral bench/fits_cost.sh SPECTRAL-FIELD.vdb [RES] [RUNS]
+#
+# EXTRA: options for both renders. With --spectral the --fits render also computes 47
+# spectral layers and their four components (235 channels) and writes them as six cubes.
 set -euo pipefail
 [[ $# -ge 1 ]] || { echo "usage: $0 FIELD.vdb [RES] [RUNS]" >&2; exit 2; }
 in=$1 res=${2:-512} runs=${3:-3}
@@ -13,6 +17,8 @@ tools=${TOOLS:-$here/build/tools}
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 view=(--camera orthographic --eye 0,0,-30 --distance 400 --res "${res}x${res}" --png none -v)
+# shellcheck disable=SC2206 # EXTRA is a list of options
+view+=(${EXTRA:-})
 measure() { # label, args...
     local label=$1
     shift

@@ -422,6 +422,15 @@ std::string FitsFile::finishBytes()
     return std::string(static_cast<const char*>(mImpl->buffer), mImpl->bufferSize);
 }
 
+void FitsFile::finishTo(std::ostream& out)
+{
+    int status = 0;
+    fits_close_file(mImpl->fptr, &status);
+    mImpl->fptr = nullptr;
+    check(status, "cannot finish the FITS file");
+    out.write(static_cast<const char*>(mImpl->buffer), std::streamsize(mImpl->bufferSize));
+}
+
 void FitsFile::writeFile(const std::string& path)
 {
     int status = 0;

@@ -11,9 +11,19 @@ void writeFits(AtomicFile& file, const std::vector<FitsImageHdu>& images,
                const std::vector<FitsTableHdu>& tables,
                const std::vector<FitsColumnsHdu>& columnTables)
 {
-    if (images.empty()) throw Error(file.path() + ": FITS: no image to write");
+    writeFits(
+        file, images.size(), [&](std::size_t i) { return images[i]; }, tables, columnTables);
+}
+
+void writeFits(AtomicFile& file, std::size_t count,
+               const std::function<FitsImageHdu(std::size_t)>& image,
+               const std::vector<FitsTableHdu>& tables,
+               const std::vector<FitsColumnsHdu>& columnTables)
+{
+    if (count == 0) throw Error(file.path() + ": FITS: no image to write");
     FitsFile f = FitsFile::createMemory(file.path());
-    for (const FitsImageHdu& img : images) {
+    for (std::size_t i = 0; i < count; ++i) {
+        const FitsImageHdu img = image(i);
         std::int64_t n = 1;
         for (const long a : img.axes)
             n *= a;
@@ -45,8 +55,7 @@ void writeFits(AtomicFile& file, const std::vector<FitsImageHdu>& images,
                             t.unit);
     for (const auto& t : columnTables)
         f.createTable(t.name, t.columns);
-    const std::string bytes = f.finishBytes();
-    file.stream().write(bytes.data(), std::streamsize(bytes.size()));
+    f.finishTo(file.stream());
 }
 
 } // namespace nebula

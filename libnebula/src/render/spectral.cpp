@@ -36,6 +36,7 @@
 #include <cstdio>
 #include <limits>
 #include <optional>
+#include <utility>
 
 namespace nebula {
 
@@ -254,7 +255,8 @@ public:
             [&](std::size_t s, std::size_t pix, double factor) {
                 for (int b = 0; b < NL; ++b) {
                     double v = 0.0;
-                    for (std::size_t j = 0; j < J; ++j) {
+                    const auto [j0, j1] = mLayerNodes[std::size_t(b)];
+                    for (std::size_t j = j0; j < j1; ++j) {
                         v += mLayerOfNode[std::size_t(b) * J + j] * att[s * J + j];
                     }
                     img.channels[std::size_t(b)].values[pix] += float(v * factor);
@@ -336,6 +338,7 @@ private:
         const auto& lam = mNodes.lam;
         mLayerWidth = NL > 0 ? (SPECTRAL_MAX_NM - SPECTRAL_MIN_NM) / NL : 0.0;
         mLayerOfNode.assign(std::size_t(NL) * J, 0.0); // [b][j]
+        mLayerNodes.assign(std::size_t(NL), {J, 0});
         for (int b = 0; b < NL; ++b) {
             const double a = SPECTRAL_MIN_NM + b * mLayerWidth, e = a + mLayerWidth;
             for (std::size_t j = 0; j < J; ++j) {
@@ -350,6 +353,11 @@ private:
                         v += pieceIntegral(pieceThrough(lam[j], 1.0, lam[j + 1], 0.0), a, e);
                 }
                 mLayerOfNode[std::size_t(b) * J + j] = v / mLayerWidth;
+                if (v > 0.0) {
+                    auto& range = mLayerNodes[std::size_t(b)];
+                    range.first = std::min(range.first, j);
+                    range.second = j + 1;
+                }
             }
         }
     }
@@ -569,14 +577,15 @@ private:
         }
         for (int b = 0; b < NL; ++b) {
             const double* weight = &mLayerOfNode[std::size_t(b) * J];
+            const auto [j0, j1] = mLayerNodes[std::size_t(b)];
             double v = sc.layerAcc[std::size_t(b)];
-            for (std::size_t j = 0; j < J; ++j)
+            for (std::size_t j = j0; j < j1; ++j)
                 v += weight[j] * sc.Ctotal[j];
             img.channels[std::size_t(b)].values[pix] = float(v);
             if (!mOpts.componentLayers) continue;
             // SPECTRAL_COMPONENTS after the sprites' "direct": single, field, emission.
             double single = 0.0, field = 0.0, emission = sc.layerAcc[std::size_t(b)];
-            for (std::size_t j = 0; j < J; ++j) {
+            for (std::size_t j = j0; j < j1; ++j) {
                 single += weight[j] * (sc.Ctotal[j] - sc.Cgas[j] - sc.Cfield[j]); // the stars'
                 field += weight[j] * sc.Cfield[j];
                 emission += weight[j] * sc.Cgas[j];
@@ -620,6 +629,8 @@ private:
     std::vector<double> mStarSpec;    ///< [s][j]
     double mLayerWidth = 0.0;         ///< [nm]
     std::vector<double> mLayerOfNode; ///< [b][j]
+    /// Per layer b: the nodes [first, second) whose weight in it is not 0 (a few).
+    std::vector<std::pair<std::size_t, std::size_t>> mLayerNodes;
     double mRmin2 = 0.0;
     std::vector<Vec3> mStarPos;
     double mBbFactor = 0.0;

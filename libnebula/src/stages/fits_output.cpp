@@ -385,9 +385,10 @@ void writeCalibratedFits(AtomicFile& file, const Image& img, const RenderOptions
                      {"PS3_0", std::string("WCS-TAB"), "the table of wavelengths"},
                      {"PS3_1", std::string("COORDS"), "its column"}};
     }
-    std::vector<FitsImageHdu> hdus;
     const auto wcs = imageWcsCards(opts.camera, fits);
-    for (int part = Total; part < components.parts(); ++part) {
+    // One component's cube at a time: only it is held besides the file's bytes.
+    const auto hdu = [&](std::size_t i) {
+        const int part = int(i);
         FitsImageHdu h;
         h.name = PART_NAMES[part];
         h.axes = {long(W), long(H)};
@@ -408,8 +409,8 @@ void writeCalibratedFits(AtomicFile& file, const Image& img, const RenderOptions
         h.cards.push_back({"BTYPE", std::string("phot.flux.density.sb"), "IVOA UCD"});
         h.cards.push_back({"COMPONT", std::string(PART_NAMES[part]), what[part]});
         h.cards.insert(h.cards.end(), cards.begin(), cards.end());
-        hdus.push_back(std::move(h));
-    }
+        return h;
+    };
     std::vector<FitsTableHdu> tables;
     if (!fits.filter && !components.spectral()) {
         FitsTableHdu table;
@@ -421,7 +422,8 @@ void writeCalibratedFits(AtomicFile& file, const Image& img, const RenderOptions
             table.values.push_back(b.lambda_nm * 1e-9);
         tables.push_back(std::move(table));
     }
-    writeFits(file, hdus, tables, {sedTable(sed, components.spectral())});
+    writeFits(file, std::size_t(components.parts()), hdu, tables,
+              {sedTable(sed, components.spectral())});
 }
 
 } // namespace nebula

@@ -7,6 +7,7 @@
 /// header (it is a private dependency of the io layer).
 
 #include <cstdint>
+#include <iosfwd>
 #include <memory>
 #include <optional>
 #include <string>
@@ -99,6 +100,8 @@ public:
 
     /// Closes a file made by createMemory() and returns its bytes.
     std::string finishBytes();
+    /// Closes a file made by createMemory() and writes its bytes to @p out (no copy).
+    void finishTo(std::ostream& out);
     /// finishBytes() written to @p path ("-" = stdout) through AtomicFile (committed).
     void writeFile(const std::string& path);
 

@@ -8,6 +8,8 @@
 #include "nebula/core/atomic_file.h"
 #include "nebula/io/fits.h"
 
+#include <cstddef>
+#include <functional>
 #include <string>
 #include <variant>
 #include <vector>
@@ -54,6 +56,13 @@ struct FitsColumnsHdu
 /// Writes @p images (the first is the primary HDU), then @p tables and @p columnTables to
 /// @p file. Throws Error naming the file, the HDU and cfitsio's message on any failure.
 void writeFits(AtomicFile& file, const std::vector<FitsImageHdu>& images,
+               const std::vector<FitsTableHdu>& tables = {},
+               const std::vector<FitsColumnsHdu>& columnTables = {});
+
+/// The same for @p count images made one at a time by @p image(i), so that only one image's
+/// data is held besides the file's bytes.
+void writeFits(AtomicFile& file, std::size_t count,
+               const std::function<FitsImageHdu(std::size_t)>& image,
                const std::vector<FitsTableHdu>& tables = {},
                const std::vector<FitsColumnsHdu>& columnTables = {});
 
