@@ -2,6 +2,7 @@
 // metadata, images, exit codes, messages, and that failures leave no output.
 #include "cli_fixture.h"
 
+#include "nebula/core/version.h"
 #include "nebula/io/grid_io.h"
 #include "nebula/io/image.h"
 

@@ -2,6 +2,7 @@
 // limit, determinism, the dust it is made for, slab runs, and bad input.
 #include "cli_fixture.h"
 
+#include "nebula/core/version.h"
 #include "nebula/io/grid_io.h"
 #include "nebula/io/phase_table_vdb.h"
 #include "nebula/physics/dust.h"

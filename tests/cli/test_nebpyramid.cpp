@@ -2,6 +2,7 @@
 // conservation, metadata, pass-through and --only-new, determinism, and bad input.
 #include "cli_fixture.h"
 
+#include "nebula/core/version.h"
 #include "nebula/io/grid_io.h"
 #include "nebula/stages/pyramid.h"
 

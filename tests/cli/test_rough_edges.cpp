@@ -3,6 +3,7 @@
 // table, and JSON attributes built from awkward file names.
 #include "cli_fixture.h"
 
+#include "nebula/core/version.h"
 #include "nebula/io/grid_io.h"
 #include "nebula/io/image.h"
 

@@ -5,6 +5,7 @@
 #include "nebula/core/format.h"
 #include "nebula/core/input.h"
 #include "nebula/core/units.h"
+#include "nebula/core/version.h"
 
 #include <fmt/format.h>
 #include <openvdb/openvdb.h>

@@ -4,6 +4,7 @@
 #include "nebula/core/error.h"
 #include "nebula/core/format.h"
 #include "nebula/core/input.h"
+#include "nebula/core/version.h"
 #include "nebula/io/checksum.h"
 #include "nebula/io/vdb_check.h"
 
@@ -437,6 +438,7 @@ GridSet readGridsFromMemory(const std::string& bytes, const std::string& source)
 
 GridSet readGridsFromBytes(const InputBytes& bytes, const std::string& source)
 {
+    openvdb::initialize(); // the grid types (idempotent): a program of one's own needs no call
     GridSet set;
     set.source = source;
     // Structure first: OpenVDB trusts the lengths in the file (a damaged one can make it

@@ -4,6 +4,7 @@
 #include "nebula/core/error.h"
 #include "nebula/core/frames.h"
 #include "nebula/core/memory.h"
+#include "nebula/core/version.h"
 #include "nebula/io/grid_names.h"
 #include "nebula/io/image_check.h"
 #include "nebula/render/fast.h"

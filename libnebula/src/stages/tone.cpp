@@ -4,6 +4,7 @@
 #include "nebula/core/error.h"
 #include "nebula/core/format.h"
 #include "nebula/core/frames.h"
+#include "nebula/core/version.h"
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>

@@ -6,6 +6,7 @@
 #include "nebula/cli/cli.h"
 
 #include "nebula/core/error.h"
+#include "nebula/core/version.h"
 
 #include "test_util.h"
 

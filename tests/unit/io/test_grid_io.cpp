@@ -6,6 +6,7 @@
 #include "nebula/io/grid_io.h"
 
 #include "nebula/core/error.h"
+#include "nebula/core/version.h"
 
 #include "test_util.h"
 

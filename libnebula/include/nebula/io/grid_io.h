@@ -67,7 +67,8 @@ struct GridSet
 /// no second copy of a file in memory; its structure is checked
 /// (checkVdbStructure()) before OpenVDB parses it; grid names must be unique; the grids are
 /// verified against `nebula:checksums` where the file has it. Throws Error naming the file
-/// (and grid): missing, not a VDB, too large, truncated, damaged or unreadable.
+/// (and grid): missing, not a VDB, too large, truncated, damaged or unreadable. Initialises
+/// OpenVDB (openvdb::initialize()) first, so a program of one's own need not.
 GridSet readGrids(const std::string& path, const std::string& option = "-i");
 
 /// readGrids() of a whole file or stream already in memory; @p source names it in messages.

@@ -1,0 +1,66 @@
+# Installation and packages (README "Install"):
+#   cmake --install build --prefix ~/.local     the tools, libnebula, its headers, the CMake
+#                                               package (find_package(nebula CONFIG) gives
+#                                               nebula::nebula) and nebula.pc
+#   make -f Makefile.data deb                   nebula_<version>_amd64.deb (CPack)
+# libnebula installs as its seven static layer libraries plus the interface target
+# nebula::nebula that links them all: static, because the library's ABI is not stable yet
+# (0.x) and a program linked against it then runs without it; the .deb's tools need no shared
+# library of ours either. The tools need no data file at run time (the CIE tables and filter
+# curves are compiled in).
+include(CMakePackageConfigHelpers)
+
+set(NEBULA_CMAKE_DIR ${CMAKE_INSTALL_LIBDIR}/cmake/nebula)
+
+install(TARGETS nebgen nebillum nebscatter nebphase nebpyramid nebrender nebtone nebimport
+                nebexport
+        RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR} COMPONENT tools)
+install(TARGETS nebula_core nebula_volume nebula_physics nebula_io nebula_render nebula_stages
+                nebula_cli nebula
+        EXPORT nebulaTargets
+        ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR} COMPONENT dev)
+install(DIRECTORY ${PROJECT_SOURCE_DIR}/libnebula/include/nebula
+        DESTINATION ${CMAKE_INSTALL_INCLUDEDIR} COMPONENT dev FILES_MATCHING PATTERN "*.h")
+install(FILES ${NEBULA_VERSION_HEADER} DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}/nebula/core
+        COMPONENT dev)
+install(EXPORT nebulaTargets NAMESPACE nebula:: DESTINATION ${NEBULA_CMAKE_DIR} COMPONENT dev)
+configure_package_config_file(${PROJECT_SOURCE_DIR}/cmake/nebulaConfig.cmake.in
+                              ${CMAKE_CURRENT_BINARY_DIR}/nebulaConfig.cmake
+                              INSTALL_DESTINATION ${NEBULA_CMAKE_DIR})
+# 0.x: a minor version may break the API, so only the same minor version is compatible.
+write_basic_package_version_file(${CMAKE_CURRENT_BINARY_DIR}/nebulaConfigVersion.cmake
+                                 VERSION ${PROJECT_VERSION} COMPATIBILITY SameMinorVersion)
+install(FILES ${CMAKE_CURRENT_BINARY_DIR}/nebulaConfig.cmake
+              ${CMAKE_CURRENT_BINARY_DIR}/nebulaConfigVersion.cmake
+        DESTINATION ${NEBULA_CMAKE_DIR} COMPONENT dev)
+# nebula.pc is relocatable: its prefix is found from where the file is (${pcfiledir}), so
+# cmake --install --prefix P and the .deb's /usr both work.
+file(RELATIVE_PATH NEBULA_PC_UP /p/${CMAKE_INSTALL_LIBDIR}/pkgconfig /p)
+configure_file(${PROJECT_SOURCE_DIR}/cmake/nebula.pc.in ${CMAKE_CURRENT_BINARY_DIR}/nebula.pc
+               @ONLY)
+install(FILES ${CMAKE_CURRENT_BINARY_DIR}/nebula.pc
+        DESTINATION ${CMAKE_INSTALL_LIBDIR}/pkgconfig COMPONENT dev)
+install(FILES ${PROJECT_SOURCE_DIR}/README.md ${PROJECT_SOURCE_DIR}/CHANGELOG.md
+        DESTINATION ${CMAKE_INSTALL_DOCDIR} COMPONENT tools)
+
+# The Debian package: everything above in one .deb; its dependencies are the shared libraries
+# the tools load, found by dpkg-shlibdeps, plus the -dev packages a program built against
+# libnebula needs (its headers include OpenVDB's, fmt's and nlohmann-json's).
+set(CPACK_GENERATOR DEB)
+set(CPACK_PACKAGE_NAME nebula)
+set(CPACK_PACKAGE_VERSION ${NEBULA_VERSION})
+set(CPACK_PACKAGE_CONTACT "nebula developers <nebula@localhost>")
+set(CPACK_PACKAGE_DESCRIPTION_SUMMARY
+    "physically based rendering of reflection and emission nebulae from OpenVDB grids")
+set(CPACK_PACKAGE_DESCRIPTION
+    "Command-line tools (nebgen, nebillum, nebscatter, nebphase, nebpyramid, nebrender, \
+nebtone, nebimport, nebexport) that generate, light and render nebulae from OpenVDB grids, \
+with multiple scattering, spectral rendering and calibrated FITS output; and libnebula, \
+the static library they are built on, with its CMake and pkg-config packages.")
+set(CPACK_DEBIAN_FILE_NAME DEB-DEFAULT) # nebula_<version>_amd64.deb
+set(CPACK_DEBIAN_PACKAGE_SECTION science)
+set(CPACK_DEBIAN_PACKAGE_SHLIBDEPS ON)
+set(CPACK_DEBIAN_PACKAGE_RECOMMENDS "libopenvdb-dev, libfmt-dev, nlohmann-json3-dev")
+set(CPACK_DEBIAN_PACKAGE_SUGGESTS "python3-astropy, python3-matplotlib, openmpi-bin")
+set(CPACK_STRIP_FILES ON)
+include(CPack)
