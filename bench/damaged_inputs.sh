@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
-# Damaged inputs through a real tool, with counts by outcome and the peak RSS (README
-# "Failure behaviour"; the fixed-seed unit tests DamagedInputs.* cover the same in process).
+# Damaged inputs through a real tool, with counts by outcome and the peak RSS
+# (docs/failures.md; the fixed-seed unit tests DamagedInputs.* cover the same in process).
 # Makes a small lit nebula, then runs `nebillum -i in.vdb -o out.vdb` on
 #   - N mutants (1-4 bytes XORed with random values, fixed seed),
 #   - the file missing its last 1..32 bytes, and cut to 10, 100 bytes and half, as a file and

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
-# Time and peak memory of a planetarium dome master: the README's tilted fisheye from inside
-# the example nebula, at each size asked, with and without the level of detail.
+# Time and peak memory of a planetarium dome master: the tilted fisheye of docs/cameras.md
+# from inside the example nebula, at each size asked, with and without the level of detail.
 #
 # Usage: bench/dome_master.sh SCATTERED.vdb [SIZE...]   (default sizes: 4096; 8192 when asked)
 # Environment: TOOLS (default build/tools), LODS (default "2 0": --lod values to run),

@@ -3,8 +3,8 @@
 
     python3 bench/tile_png.py out.png a.png b.png c.png ...
 
-Used by bench/error_table.sh for the README's side-by-side figures (nebrender writes
-8-bit RGBA PNGs)."""
+Used by bench/error_table.sh for the side-by-side figures of docs/accuracy.md
+(nebrender writes 8-bit RGBA PNGs)."""
 import struct
 import sys
 import zlib

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Regenerates the README's figures for the effective phase function (nebphase):
+# Regenerates the figures of docs/tools/nebphase.md, the effective phase function:
 #   examples/phase.svg          Phi(t, theta) of the default dust for a few voxel thicknesses t
 #   examples/phase-single.png   a thick nebula, single scattering (a p(mu))
 #   examples/phase-table.png    the same with nebrender --phase (same exposure)

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Regenerates the README's figures for spectral rendering (nebrender --spectral):
+# Regenerates the figures of docs/spectral.md (nebrender --spectral):
 #   examples/spectral.png   the example nebula with spectral grids: RGB mode | spectral mode
 #   examples/doppler.png    a rotating [O III] + H-beta shell: at rest | velocities x500
 # Needs the build (make -f Makefile.data build). Usage: examples/spectral_figures.sh [WORKDIR]

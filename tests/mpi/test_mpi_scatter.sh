@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
-# nebscatter over MPI ranks (README, "nebscatter over MPI"), with OpenMPI's mpirun on this
-# machine (--oversubscribe: more ranks than cores is fine for a test).
+# nebscatter over MPI ranks (docs/tools/nebscatter.md, "nebscatter over MPI"), with OpenMPI's
+# mpirun on this machine (--oversubscribe: more ranks than cores is fine for a test).
 #
 #   test_mpi_scatter.sh TOOLS_DIR WORK_DIR HAVE_MPI
 #
