@@ -1,5 +1,6 @@
 # Installation and packages (README "Install"):
-#   cmake --install build --prefix ~/.local     the tools, libnebula, its headers, the CMake
+#   cmake --install build --prefix ~/.local     the tools, their man pages and bash completion,
+#                                               libnebula, its headers, the CMake
 #                                               package (find_package(nebula CONFIG) gives
 #                                               nebula::nebula) and nebula.pc
 #   make -f Makefile.data deb                   nebula_<version>_amd64.deb (CPack)
@@ -15,6 +16,12 @@ set(NEBULA_CMAKE_DIR ${CMAKE_INSTALL_LIBDIR}/cmake/nebula)
 install(TARGETS nebgen nebillum nebscatter nebphase nebpyramid nebrender nebtone nebimport
                 nebexport
         RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR} COMPONENT tools)
+foreach(tool IN LISTS NEBULA_TOOLS)
+    install(FILES ${PROJECT_BINARY_DIR}/man/${tool}.1 DESTINATION ${CMAKE_INSTALL_MANDIR}/man1
+            COMPONENT tools)
+    install(FILES ${PROJECT_BINARY_DIR}/completion/${tool}
+            DESTINATION ${CMAKE_INSTALL_DATADIR}/bash-completion/completions COMPONENT tools)
+endforeach()
 install(TARGETS nebula_core nebula_volume nebula_physics nebula_io nebula_render nebula_stages
                 nebula_cli nebula
         EXPORT nebulaTargets

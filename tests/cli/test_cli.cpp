@@ -2,6 +2,7 @@
 // metadata, images, exit codes, messages, and that failures leave no output.
 #include "cli_fixture.h"
 
+#include "nebula/cli/manual.h"
 #include "nebula/core/version.h"
 #include "nebula/io/grid_io.h"
 #include "nebula/io/image.h"
@@ -167,6 +168,24 @@ TEST_F(Cli, HelpStartsWithExamplesAndVersion)
         const auto opts = help.find("Options:");
         ASSERT_NE(opts, std::string::npos);
         EXPECT_LT(ex, opts) << tool;
+        // --help: the purpose, at most five examples, the man page's name; then the options.
+        int examples = 0;
+        for (std::size_t at = help.find("\n  " + tool, ex); at < opts;
+             at = help.find("\n  " + tool, at + 1))
+            ++examples;
+        EXPECT_GE(examples, 2) << tool;
+        EXPECT_LE(examples, nebula::cli::MAX_HELP_EXAMPLES) << tool;
+        EXPECT_LT(help.find("man " + tool), opts) << tool;
+        // The man page: the whole description (every example) and every option.
+        ASSERT_EQ(run(tool + " --man > man.txt").code, 0);
+        std::ifstream min(path("man.txt"));
+        std::stringstream m;
+        m << min.rdbuf();
+        const std::string man = m.str();
+        for (const char* section :
+             {".SH NAME", ".SH DESCRIPTION", ".SH OPTIONS", ".SH EXIT STATUS"})
+            EXPECT_NE(man.find(section), std::string::npos) << tool << " " << section;
+        EXPECT_NE(man.find("Examples:"), std::string::npos) << tool;
         const Result v = run(tool + " --version > version.txt");
         EXPECT_EQ(v.code, 0);
         std::ifstream vin(path("version.txt"));

@@ -29,7 +29,8 @@ dpkg-deb -c "$deb" > "$work/contents.txt"
 for f in ./usr/bin/nebrender ./usr/bin/nebscatter ./usr/lib/libnebula_core.a \
     ./usr/include/nebula/render/fast.h ./usr/include/nebula/core/nebula_version.h \
     ./usr/lib/cmake/nebula/nebulaConfig.cmake ./usr/lib/pkgconfig/nebula.pc \
-    ./usr/share/doc/nebula/CHANGELOG.md; do
+    ./usr/share/doc/nebula/CHANGELOG.md ./usr/share/man/man1/nebrender.1 \
+    ./usr/share/bash-completion/completions/nebrender; do
     grep -q " $f\$" "$work/contents.txt" || { echo "FAIL: the package lacks $f" >&2; exit 1; }
 done
 dpkg -x "$deb" "$work/root"

@@ -1,5 +1,7 @@
 #include "nebula/cli/cli.h"
 
+#include "nebula/cli/manual.h"
+
 #include "nebula/core/atomic_file.h"
 #include "nebula/core/error.h"
 #include "nebula/core/format.h"
@@ -664,6 +666,16 @@ void useHugePageMalloc(const std::string& tool, int argc, char** argv)
 int run(CLI::App& app, const std::string& tool, CommonOptions& opts, int argc, char** argv,
         const std::function<void(Run&)>& body)
 {
+    // The build's man page and completion (cli/manual.h), from the options as defined; the
+    // man page has the whole description, --help its purpose and first examples.
+    const std::string description = app.get_description();
+    if (argc == 2 && (std::string_view(argv[1]) == "--man" ||
+                      std::string_view(argv[1]) == "--bash-completion")) {
+        std::cout << (std::string_view(argv[1]) == "--man" ? manPage(app, tool, description)
+                                                           : bashCompletion(app, tool));
+        return std::cout.flush() ? 0 : 1;
+    }
+    app.description(shortHelp(description, tool));
     useHugePageMalloc(tool, argc, argv);
     try {
         checkNumbers(app);

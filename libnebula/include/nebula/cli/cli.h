@@ -64,6 +64,8 @@ namespace cli {
 /// @p tunables with glibc.malloc.hugetlb=1 added.
 std::optional<std::string> hugePageTunables(const char* tunables, const std::string& thpMode);
 
+/// `TOOL --man` and `TOOL --bash-completion` (alone) print the tool's man page and bash
+/// completion (cli/manual.h) and return 0: the build installs them.
 /// First, where hugePageTunables() says so (glibc 2.35 and later; not for --help and
 /// --version, nor under AddressSanitizer), runs the program again, before reading anything,
 /// with that GLIBC_TUNABLES, so that OpenVDB's trees sit on transparent huge pages (README,
