@@ -17,7 +17,7 @@ install(TARGETS nebgen nebillum nebscatter nebphase nebpyramid nebrender nebtone
                 nebexport
         RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR} COMPONENT tools)
 foreach(tool IN LISTS NEBULA_TOOLS)
-    install(FILES ${PROJECT_BINARY_DIR}/man/${tool}.1 DESTINATION ${CMAKE_INSTALL_MANDIR}/man1
+    install(FILES ${PROJECT_BINARY_DIR}/man/${tool}.1.gz DESTINATION ${CMAKE_INSTALL_MANDIR}/man1
             COMPONENT tools)
     install(FILES ${PROJECT_BINARY_DIR}/completion/${tool}
             DESTINATION ${CMAKE_INSTALL_DATADIR}/bash-completion/completions COMPONENT tools)
@@ -49,6 +49,20 @@ install(FILES ${CMAKE_CURRENT_BINARY_DIR}/nebula.pc
         DESTINATION ${CMAKE_INSTALL_LIBDIR}/pkgconfig COMPONENT dev)
 install(FILES ${PROJECT_SOURCE_DIR}/README.md ${PROJECT_SOURCE_DIR}/CHANGELOG.md
         DESTINATION ${CMAKE_INSTALL_DOCDIR} COMPONENT tools)
+# Debian's changelog.gz of a native package, pointing at CHANGELOG.md (gzip -n, at build time).
+string(TIMESTAMP NEBULA_DEB_DATE "%a, %d %b %Y %H:%M:%S +0000" UTC)
+file(WRITE ${CMAKE_CURRENT_BINARY_DIR}/debian-changelog
+     "nebula (${NEBULA_VERSION}) unstable; urgency=low\n\n"
+     "  * Built from git describe ${NEBULA_VERSION}; the changes are in\n"
+     "    /usr/share/doc/nebula/CHANGELOG.md.\n\n"
+     " -- nebula developers <nebula@localhost>  ${NEBULA_DEB_DATE}\n")
+add_custom_command(OUTPUT ${CMAKE_CURRENT_BINARY_DIR}/changelog.gz
+    COMMAND sh -c "gzip -9n < debian-changelog > changelog.gz"
+    DEPENDS ${CMAKE_CURRENT_BINARY_DIR}/debian-changelog
+    WORKING_DIRECTORY ${CMAKE_CURRENT_BINARY_DIR} VERBATIM)
+add_custom_target(nebula_debian_changelog ALL DEPENDS ${CMAKE_CURRENT_BINARY_DIR}/changelog.gz)
+install(FILES ${CMAKE_CURRENT_BINARY_DIR}/changelog.gz DESTINATION ${CMAKE_INSTALL_DOCDIR}
+        COMPONENT tools)
 
 # The Debian package: everything above in one .deb; its dependencies are the shared libraries
 # the tools load, found by dpkg-shlibdeps, plus the -dev packages a program built against
@@ -59,15 +73,20 @@ set(CPACK_PACKAGE_VERSION ${NEBULA_VERSION})
 set(CPACK_PACKAGE_CONTACT "nebula developers <nebula@localhost>")
 set(CPACK_PACKAGE_DESCRIPTION_SUMMARY
     "physically based rendering of reflection and emission nebulae from OpenVDB grids")
+# Lines of at most 80 characters (Debian policy 5.6.13).
 set(CPACK_PACKAGE_DESCRIPTION
-    "Command-line tools (nebgen, nebillum, nebscatter, nebphase, nebpyramid, nebrender, \
-nebtone, nebimport, nebexport) that generate, light and render nebulae from OpenVDB grids, \
-with multiple scattering, spectral rendering and calibrated FITS output; and libnebula, \
-the static library they are built on, with its CMake and pkg-config packages.")
+    "Command-line tools (nebgen, nebillum, nebscatter, nebphase, nebpyramid,
+nebrender, nebtone, nebimport, nebexport) that generate, light and render
+nebulae from OpenVDB grids, with multiple scattering, spectral rendering and
+calibrated FITS output; and libnebula, the static library they are built on,
+with its CMake and pkg-config packages.")
 set(CPACK_DEBIAN_FILE_NAME DEB-DEFAULT) # nebula_<version>_amd64.deb
 set(CPACK_DEBIAN_PACKAGE_SECTION science)
 set(CPACK_DEBIAN_PACKAGE_SHLIBDEPS ON)
-set(CPACK_DEBIAN_PACKAGE_RECOMMENDS "libopenvdb-dev, libfmt-dev, nlohmann-json3-dev")
+# bash-completion loads the completion files on demand; the -dev packages are for building
+# against libnebula.
+set(CPACK_DEBIAN_PACKAGE_RECOMMENDS
+    "bash-completion, libopenvdb-dev, libfmt-dev, nlohmann-json3-dev")
 set(CPACK_DEBIAN_PACKAGE_SUGGESTS "python3-astropy, python3-matplotlib, openmpi-bin")
 set(CPACK_STRIP_FILES ON)
 include(CPack)

@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # The Debian package (cmake/NebulaPackage.cmake) built by CPack from this build: its control
 # lists the shared libraries the tools load as dependencies, its contents are the tools,
-# libnebula, the headers, the CMake and pkg-config packages; unpacked into a scratch root
-# (dpkg -x) the installed nebrender runs and prints the package's version.
+# libnebula, the headers, the CMake and pkg-config packages, the man pages (gzipped) and bash
+# completion; apt-get accepts it (a dry run, as root); unpacked into a scratch root (dpkg -x)
+# the installed nebrender runs and prints the package's version.
 #   test_deb.sh BUILD_DIR WORK
 set -euo pipefail
 build=$1 work=$2
@@ -29,10 +30,19 @@ dpkg-deb -c "$deb" > "$work/contents.txt"
 for f in ./usr/bin/nebrender ./usr/bin/nebscatter ./usr/lib/libnebula_core.a \
     ./usr/include/nebula/render/fast.h ./usr/include/nebula/core/nebula_version.h \
     ./usr/lib/cmake/nebula/nebulaConfig.cmake ./usr/lib/pkgconfig/nebula.pc \
-    ./usr/share/doc/nebula/CHANGELOG.md ./usr/share/man/man1/nebrender.1 \
+    ./usr/share/doc/nebula/CHANGELOG.md ./usr/share/man/man1/nebrender.1.gz \
     ./usr/share/bash-completion/completions/nebrender; do
     grep -q " $f\$" "$work/contents.txt" || { echo "FAIL: the package lacks $f" >&2; exit 1; }
 done
+# apt accepts it: its dependencies resolve against this system (a dry run, nothing installed).
+if [[ $(id -u) -eq 0 ]] && command -v apt-get > /dev/null; then
+    apt-get install -s -qq "$deb" > "$work/apt.txt" 2>&1 || {
+        cat "$work/apt.txt" >&2
+        echo "FAIL: apt-get install -s $deb" >&2
+        exit 1
+    }
+    grep -q "^Inst nebula " "$work/apt.txt" || { cat "$work/apt.txt" >&2; exit 1; }
+fi
 dpkg -x "$deb" "$work/root"
 out=$("$work/root/usr/bin/nebrender" --version)
 echo "$out"
