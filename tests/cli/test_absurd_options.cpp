@@ -177,6 +177,29 @@ TEST_F(Cli, TinyRayStepIsRefusedWithTheSmallestAllowed)
                   "range 125-3333 nm");
 }
 
+// An ODS stereo base larger than the scene is refused (exit 2, nothing written); the
+// camera's own checks name their options.
+TEST_F(Cli, OdsStereoBaseMustSuitTheScene)
+{
+    makeLit();
+    expectFailure("nebrender -i lit.vdb --camera ods --ipd 1000 --res 16x16 -o f.exr", 2,
+                  "--ipd 1000 pc is larger than the scene, whose box is ");
+    EXPECT_FALSE(fs::exists(path("f.exr")));
+    expectFailure("nebrender -i lit.vdb --camera ods --res 16x16 -o f.exr", 2,
+                  "--camera ods needs --ipd");
+    expectFailure("nebrender -i lit.vdb --camera ods --ipd 0 --res 16x16 -o f.exr", 2,
+                  "--camera ods needs --ipd, the inter-pupillary distance, a finite length > 0");
+    expectFailure("nebrender -i lit.vdb --camera ods --ipd 0.1 --res 32x16 -o f.exr", 2,
+                  "must be square with an even height");
+    expectFailure("nebrender -i lit.vdb --ipd 0.1 --res 16x16 -o f.exr", 2,
+                  "--ipd is for --camera ods");
+    expectFailure("nebrender -i lit.vdb --camera ods --ipd 0.1 --pole-merge 80,70 --res 16x16 "
+                  "-o f.exr",
+                  2, "--pole-merge FROM,TO must have 0 <= FROM < TO <= 90 degrees, got 80,70");
+    const Result ok = run("nebrender -i lit.vdb --camera ods --ipd 0.1 --res 32x32 -o f.exr");
+    EXPECT_EQ(ok.code, 0) << ok.err;
+}
+
 // 4. Sizes that would not fit in memory are refused before anything is allocated, saying how
 // much they need and how much the machine has; no bare std::bad_alloc.
 TEST_F(Cli, AllocationsTooLargeForTheMachineAreRefused)

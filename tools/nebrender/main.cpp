@@ -93,8 +93,10 @@ int main(int argc, char** argv)
                    "view inside the circle, --fov the full angle); equirect: a 360 x 180\n"
                    "latitude-longitude panorama (2:1), the view direction at the centre;\n"
                    "orthographic: a telescope's parallel view along --eye -> --look-at, the rays\n"
-                   "starting on the plane through --eye (put it outside the nebula)")
-        ->check(CLI::IsMember({"perspective", "fisheye", "equirect", "orthographic"}))
+                   "starting on the plane through --eye (put it outside the nebula); ods:\n"
+                   "omni-directional stereo, two equirect panoramas (left eye on top, square\n"
+                   "image) from eyes --ipd apart")
+        ->check(CLI::IsMember({"perspective", "fisheye", "equirect", "orthographic", "ods"}))
         ->capture_default_str();
     auto* fovOpt = app.add_option("--fov", opts.camera.fovDeg,
                                   "Field of view [degrees]: perspective: horizontal, in (0, 179]\n"
@@ -112,6 +114,16 @@ int main(int argc, char** argv)
                    "(0 a horizontal dome: the look-at point on the bottom edge; 90 the same as\n"
                    "no tilt: the centre at --look-at)")
         ->check(nebula::cli::numberIn(0.0, 90.0));
+    app.add_option("--ipd", opts.camera.ipdPc,
+                   "ODS: the inter-pupillary distance [pc] (required; about 1/30 of the distance\n"
+                   "to the nebula gives a comfortable depth)");
+    std::vector<double> poleMerge;
+    app.add_option("--pole-merge", poleMerge,
+                   "ODS: the latitudes FROM,TO [degrees] between which the IPD fades to 0, so\n"
+                   "the poles have no parallax (default 60,75)")
+        ->delimiter(',')
+        ->expected(2)
+        ->type_name("FROM,TO");
     std::string pixelSizeText;
     app.add_option("--pixel-size", pixelSizeText,
                    "Orthographic: the pixel's size, 0.01pc (pc if no unit) or, with --distance,\n"
@@ -310,6 +322,10 @@ int main(int argc, char** argv)
             nebula::cli::parseResolution(res, opts.camera.width, opts.camera.height);
         } else if (opts.camera.model == nebula::CameraModel::Equirect) {
             opts.camera.width = 2 * opts.camera.height;
+        }
+        if (poleMerge.size() == 2) {
+            opts.camera.poleMergeFromDeg = poleMerge[0];
+            opts.camera.poleMergeToDeg = poleMerge[1];
         }
         if (!pixelSizeText.empty()) {
             opts.camera.pixelSizePc =

@@ -16,6 +16,7 @@ std::string toString(CameraModel model)
     case CameraModel::Fisheye: return "fisheye";
     case CameraModel::Equirect: return "equirect";
     case CameraModel::Orthographic: return "orthographic";
+    case CameraModel::Ods: return "ods";
     case CameraModel::Perspective: break;
     }
     return "perspective";
@@ -24,11 +25,12 @@ std::string toString(CameraModel model)
 CameraModel cameraModelFromString(const std::string& name)
 {
     for (const auto m : {CameraModel::Perspective, CameraModel::Fisheye, CameraModel::Equirect,
-                         CameraModel::Orthographic}) {
+                         CameraModel::Orthographic, CameraModel::Ods}) {
         if (name == toString(m)) return m;
     }
-    throw UsageError("--camera must be perspective, fisheye, equirect or orthographic, got \"" +
-                     detail::printable(name, 40) + "\"");
+    throw UsageError(
+        "--camera must be perspective, fisheye, equirect, orthographic or ods, got \"" +
+        detail::printable(name, 40) + "\"");
 }
 
 namespace {
@@ -71,6 +73,38 @@ Projection::Projection(const Camera& c)
         mPixel = c.orthographicPixel();
         mDistance = c.observerDistance();
     }
+    if (mModel == CameraModel::Ods) {
+        mIpdHalf = 0.5 * c.ipdPc;
+        mMergeFrom = c.poleMergeFromDeg * DEG;
+        mMergeTo = c.poleMergeToDeg * DEG;
+    }
+}
+
+double Projection::ipdFade(double lat) const
+{
+    const double a = std::fabs(lat);
+    if (a <= mMergeFrom) return 1.0;
+    if (a >= mMergeTo) return 0.0;
+    return (mMergeTo - a) / (mMergeTo - mMergeFrom);
+}
+
+int Projection::odsView(double py, double& local) const
+{
+    const double half = 0.5 * mHeight;
+    const int view = py < half ? 0 : 1;
+    local = py - view * half;
+    return view;
+}
+
+void Projection::viewRows(int view, int& y0, int& y1) const
+{
+    if (mModel != CameraModel::Ods) {
+        y0 = 0;
+        y1 = mHeight;
+        return;
+    }
+    y0 = view * (mHeight / 2);
+    y1 = y0 + mHeight / 2;
 }
 
 double Camera::orthographicPixel() const
@@ -86,6 +120,16 @@ double Camera::observerDistance() const
 
 Vec3 Projection::origin(double px, double py) const
 {
+    if (mModel == CameraModel::Ods) {
+        // Half the IPD (faded towards the poles) to the left or right of the ray's
+        // horizontal direction: t = right cos(lon) - forward sin(lon).
+        double y = 0.0;
+        const int view = odsView(py, y);
+        const double lon = (px / mWidth - 0.5) * 2.0 * PI;
+        const double lat = (0.5 - y / (0.5 * mHeight)) * PI;
+        const double s = (view == 0 ? -mIpdHalf : mIpdHalf) * ipdFade(lat);
+        return mEye + (mRight * std::cos(lon) - mForward * std::sin(lon)) * s;
+    }
     if (mModel != CameraModel::Orthographic) return mEye;
     return mEye + mRight * ((px - 0.5 * mWidth) * mPixel) + mUp * ((0.5 * mHeight - py) * mPixel);
 }
@@ -134,6 +178,16 @@ bool Projection::direction(double px, double py, Vec3& d) const
         return true;
     }
     case CameraModel::Orthographic: d = mForward; return true;
+    case CameraModel::Ods: {
+        double y = 0.0;
+        odsView(py, y);
+        const double lon = (px / mWidth - 0.5) * 2.0 * PI;
+        const double lat = (0.5 - y / (0.5 * mHeight)) * PI;
+        const double cl = std::cos(lat);
+        d = (mForward * (cl * std::cos(lon)) + mRight * (cl * std::sin(lon)) + mUp * std::sin(lat))
+                .normalized();
+        return true;
+    }
     }
     return false;
 }
@@ -189,6 +243,14 @@ double Projection::pixelSolidAngle(double px, double py) const
                (std::sin(std::min(latTop, 0.5 * PI)) - std::sin(std::max(latBottom, -0.5 * PI)));
     }
     case CameraModel::Orthographic: return (mPixel / mDistance) * (mPixel / mDistance);
+    case CameraModel::Ods: { // each view an equirect panorama W x H/2
+        double y = 0.0;
+        odsView(py, y);
+        const double h = 0.5 * mHeight;
+        const double latTop = (0.5 - (y - 0.5) / h) * PI, latBottom = (0.5 - (y + 0.5) / h) * PI;
+        return 2.0 * PI / mWidth *
+               (std::sin(std::min(latTop, 0.5 * PI)) - std::sin(std::max(latBottom, -0.5 * PI)));
+    }
     }
     return 0.0;
 }
@@ -200,8 +262,36 @@ double Projection::pixelAngle(double px, double py) const
     return std::sqrt(pixelSolidAngle(px, py));
 }
 
+bool Projection::project(const Vec3& p, double& px, double& py, int view) const
+{
+    if (mModel != CameraModel::Ods) return project(p, px, py);
+    // The ray of this eye through p: its longitude lon = lon0 - asin(s / r_h), with s the
+    // signed offset of its origin (-IPD/2 left, +IPD/2 right, faded at its latitude) and
+    // r_h p's horizontal distance; its latitude atan2(height, r_h cos(lon0 - lon)). The fade
+    // depends on the latitude: a few fixed-point steps (it converges: |d fade / d lat| IPD is
+    // far below r_h).
+    const Vec3 v = p - mEye;
+    const double a = v.dot(mForward), b = v.dot(mRight), c = v.dot(mUp);
+    const double rh = std::sqrt(a * a + b * b);
+    const double lon0 = std::atan2(b, a);
+    double lat = std::atan2(c, rh), lon = lon0;
+    for (int i = 0; i < 8; ++i) {
+        const double s = (view == 0 ? -mIpdHalf : mIpdHalf) * ipdFade(lat);
+        if (!(std::fabs(s) < rh)) return false;
+        const double delta = std::asin(s / rh);
+        lon = lon0 - delta;
+        lat = std::atan2(c, rh * std::cos(delta));
+    }
+    lon = std::remainder(lon, 2.0 * PI);
+    const double h = 0.5 * mHeight;
+    px = (lon / (2.0 * PI) + 0.5) * mWidth;
+    py = view * h + (0.5 - lat / PI) * h;
+    return true;
+}
+
 bool Projection::project(const Vec3& p, double& px, double& py) const
 {
+    if (mModel == CameraModel::Ods) return project(p, px, py, 0);
     const Vec3 v = p - mEye;
     switch (mModel) {
     case CameraModel::Perspective: {
@@ -240,6 +330,7 @@ bool Projection::project(const Vec3& p, double& px, double& py) const
         py = 0.5 * mHeight - v.dot(mUp) / mPixel;
         return true;
     }
+    case CameraModel::Ods: break; // per view, above
     }
     return false;
 }
@@ -324,6 +415,25 @@ void validateCamera(const Camera& c)
                              std::to_string(c.height));
         }
         break;
+    case CameraModel::Ods:
+        if (c.width != c.height || c.height % 2 != 0) {
+            throw UsageError("--camera ods makes two 2:1 panoramas, the left eye's above the "
+                             "right's: --res " +
+                             res + " must be square with an even height, e.g. " +
+                             std::to_string(c.width) + "x" + std::to_string(c.width + c.width % 2));
+        }
+        if (!(c.ipdPc > 0.0) || !std::isfinite(c.ipdPc) || c.ipdPc > MAX_CAMERA_COORDINATE) {
+            throw UsageError("--camera ods needs --ipd, the inter-pupillary distance, a finite "
+                             "length > 0 [pc], got " +
+                             detail::numberText(c.ipdPc));
+        }
+        if (!(c.poleMergeFromDeg >= 0.0 && c.poleMergeFromDeg < c.poleMergeToDeg &&
+              c.poleMergeToDeg <= 90.0)) {
+            throw UsageError("--pole-merge FROM,TO must have 0 <= FROM < TO <= 90 degrees, got " +
+                             detail::numberText(c.poleMergeFromDeg) + "," +
+                             detail::numberText(c.poleMergeToDeg));
+        }
+        break;
     case CameraModel::Equirect:
         if (c.width != 2 * c.height) {
             throw UsageError("--camera equirect makes a 2:1 panorama: --res " + res +
@@ -349,6 +459,13 @@ void validateCamera(const Camera& c)
             throw UsageError("the orthographic camera's pixel must be finite and > 0 [pc], got " +
                              detail::numberText(p));
         }
+    }
+    if (c.model != CameraModel::Ods && !std::isnan(c.ipdPc)) {
+        throw UsageError("--ipd is for --camera ods");
+    }
+    if (c.model != CameraModel::Ods && (c.poleMergeFromDeg != Camera().poleMergeFromDeg ||
+                                        c.poleMergeToDeg != Camera().poleMergeToDeg)) {
+        throw UsageError("--pole-merge is for --camera ods");
     }
     if (!std::isnan(c.domeTiltDeg)) {
         if (c.model != CameraModel::Fisheye) {

@@ -165,8 +165,8 @@ public:
             // light falls as 1/r^2: steps of at most a quarter of the distance r to every star
             // there, so the coarse steps sample it as finely as level 0.
             const double footprint = mCam.pixelAngle(px + 0.5, py + 0.5);
-            for (std::size_t s = 0; s < S; ++s) { // closest approach: ray distance, b^2
-                const Vec3 v = mStarPos[s] - mCam.eye();
+            for (std::size_t s = 0; s < S; ++s) {    // closest approach: ray distance, b^2
+                const Vec3 v = mStarPos[s] - ray.oW; // from the ray's origin (ODS: off the eye)
                 const double tc = v.dot(ray.dW);
                 sc.closest[2 * s] = tc;
                 sc.closest[2 * s + 1] = std::max(0.0, v.dot(v) - tc * tc);

@@ -54,51 +54,54 @@ void drawStarSprites(Image& img, const RenderScene& scene, const RenderOptions& 
         // Column density eye -> star through the dust (channel 0), exact; the scene's
         // integrator (its cell occupancy built once per scene).
         const ColumnIntegrator& column = scene.column.get(vol);
-        for (std::size_t s = 0; s < S; ++s) {
-            double sx, sy;
-            if (!cam.project(starPos[s], sx, sy)) continue;
-            const double d2 = cam.distanceSquared(starPos[s]);
-            const double tauV = dust.kappa_V * column(w2i.apply(cam.originTowards(starPos[s])),
-                                                      w2i.apply(starPos[s]));
-            const double sigma = std::max(0.3, 0.5 * opts.spriteRadius);
-            const int R = int(std::ceil(2.0 * opts.spriteRadius)) + 1;
-            const int cx = int(std::floor(sx)), cy = int(std::floor(sy));
-            std::vector<double> w;
-            double wsum = 0.0;
-            for (int y = cy - R; y <= cy + R; ++y)
-                for (int x = cx - R; x <= cx + R; ++x) {
-                    const double dx = x + 0.5 - sx, dy = y + 0.5 - sy;
-                    w.push_back(std::exp(-(dx * dx + dy * dy) / (2 * sigma * sigma)));
-                    wsum += w.back();
-                }
-            std::array<double, 3> F;
-            for (int c = 0; c < 3; ++c) {
-                F[std::size_t(c)] =
-                    scene.starColor[s][c] / (4.0 * PI * d2) * std::exp(-dust.r[c] * tauV);
-            }
-            if (colour) {
-                const auto col = colour(s, tauV);
-                for (int c = 0; c < 3; ++c)
-                    F[std::size_t(c)] = col[std::size_t(c)] / (4.0 * PI * d2);
-            }
-            std::size_t wi = 0;
-            for (int y = cy - R; y <= cy + R; ++y)
-                for (int x = cx - R; x <= cx + R; ++x, ++wi) {
-                    // A panorama wraps around: its column W is column 0.
-                    const int xi = cam.wrapsHorizontally() ? ((x % W) + W) % W : x;
-                    if (xi < 0 || y < 0 || xi >= W || y >= H) continue;
-                    if (!cam.inView(xi + 0.5, y + 0.5)) continue; // outside a dome's circle
-                    const double omega = cam.pixelSolidAngle(xi + 0.5, y + 0.5);
-                    const std::size_t pix = std::size_t(y) * W + xi;
-                    if (footprint) footprint(s, pix, w[wi] / wsum / omega / (4.0 * PI * d2));
-                    for (int c = 0; c < 3; ++c) {
-                        const float Lpix = float(F[std::size_t(c)] * w[wi] / wsum / omega);
-                        img.rgba[pix * 4 + c] += Lpix;
-                        img.layers[s].rgb[pix * 3 + c] += Lpix;
-                        if (direct) (*direct)[pix * 3 + c] += Lpix;
+        for (std::size_t s = 0; s < S; ++s)
+            for (int view = 0; view < cam.views(); ++view) { // ODS: each eye
+                double sx, sy;
+                if (!cam.project(starPos[s], sx, sy, view)) continue;
+                int y0 = 0, y1 = H;
+                cam.viewRows(view, y0, y1);
+                const double d2 = cam.distanceSquared(starPos[s]);
+                const double tauV = dust.kappa_V * column(w2i.apply(cam.originTowards(starPos[s])),
+                                                          w2i.apply(starPos[s]));
+                const double sigma = std::max(0.3, 0.5 * opts.spriteRadius);
+                const int R = int(std::ceil(2.0 * opts.spriteRadius)) + 1;
+                const int cx = int(std::floor(sx)), cy = int(std::floor(sy));
+                std::vector<double> w;
+                double wsum = 0.0;
+                for (int y = cy - R; y <= cy + R; ++y)
+                    for (int x = cx - R; x <= cx + R; ++x) {
+                        const double dx = x + 0.5 - sx, dy = y + 0.5 - sy;
+                        w.push_back(std::exp(-(dx * dx + dy * dy) / (2 * sigma * sigma)));
+                        wsum += w.back();
                     }
+                std::array<double, 3> F;
+                for (int c = 0; c < 3; ++c) {
+                    F[std::size_t(c)] =
+                        scene.starColor[s][c] / (4.0 * PI * d2) * std::exp(-dust.r[c] * tauV);
                 }
-        }
+                if (colour) {
+                    const auto col = colour(s, tauV);
+                    for (int c = 0; c < 3; ++c)
+                        F[std::size_t(c)] = col[std::size_t(c)] / (4.0 * PI * d2);
+                }
+                std::size_t wi = 0;
+                for (int y = cy - R; y <= cy + R; ++y)
+                    for (int x = cx - R; x <= cx + R; ++x, ++wi) {
+                        // A panorama wraps around: its column W is column 0.
+                        const int xi = cam.wrapsHorizontally() ? ((x % W) + W) % W : x;
+                        if (xi < 0 || y < y0 || xi >= W || y >= y1) continue; // in its view
+                        if (!cam.inView(xi + 0.5, y + 0.5)) continue; // outside a dome's circle
+                        const double omega = cam.pixelSolidAngle(xi + 0.5, y + 0.5);
+                        const std::size_t pix = std::size_t(y) * W + xi;
+                        if (footprint) footprint(s, pix, w[wi] / wsum / omega / (4.0 * PI * d2));
+                        for (int c = 0; c < 3; ++c) {
+                            const float Lpix = float(F[std::size_t(c)] * w[wi] / wsum / omega);
+                            img.rgba[pix * 4 + c] += Lpix;
+                            img.layers[s].rgb[pix * 3 + c] += Lpix;
+                            if (direct) (*direct)[pix * 3 + c] += Lpix;
+                        }
+                    }
+            }
     }
 }
 

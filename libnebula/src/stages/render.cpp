@@ -144,6 +144,12 @@ std::map<std::string, std::string> exrAttributes(const GridSet& grids, const Ren
         {"up", vec(opts.camera.up)},       {"fov_deg", opts.camera.fovDeg},
         {"roll_deg", opts.camera.rollDeg}, {"projection", toString(opts.camera.model)}};
     if (opts.camera.model == CameraModel::Equirect) cam.erase("fov_deg");
+    if (opts.camera.model == CameraModel::Ods) {
+        cam.erase("fov_deg");
+        cam["ipd_pc"] = opts.camera.ipdPc;
+        cam["pole_merge_deg"] = {opts.camera.poleMergeFromDeg, opts.camera.poleMergeToDeg};
+        cam["layout"] = "left eye top";
+    }
     if (!std::isnan(opts.camera.domeTiltDeg)) cam["dome_tilt_deg"] = opts.camera.domeTiltDeg;
     if (opts.camera.model == CameraModel::Orthographic) {
         cam.erase("fov_deg");
@@ -431,6 +437,18 @@ void renderToFiles(const GridSet& grids, const RenderOptions& given, const DustP
     }
     const double tBuild =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    if (opts.camera.model == CameraModel::Ods) { // a stereo base beyond the scene is a mistake
+        const SparseVolume& v = sscene.base.fields;
+        const double across =
+            v.indexToWorld.applyLinear(Vec3(v.dims()[0], v.dims()[1], v.dims()[2])).length();
+        if (opts.camera.ipdPc > across) {
+            throw UsageError(fmt::format("--ipd {:g} pc is larger than the scene, whose box is "
+                                         "{:.4g} pc across: the eyes would stand outside each "
+                                         "other's view of it (try about 1/30 of the distance to "
+                                         "the nebula)",
+                                         opts.camera.ipdPc, across));
+        }
+    }
     {
         const SparseVolume& v = sscene.base.fields;
         const double box = double(v.dims()[0]) * v.dims()[1] * v.dims()[2] * v.channels() * 4.0;

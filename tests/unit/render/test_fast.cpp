@@ -400,6 +400,103 @@ TEST(Render, StarSpriteConservesFluxInEveryProjection)
     }
 }
 
+// ODS stereo: the sprite of a star at azimuth lon0 (on the horizon), distance r, sits in
+// each eye's panorama where that eye's ray through it is: the left eye (top half) at
+// lon0 + asin(IPD / 2r), the right eye (bottom half) at lon0 - asin(IPD / 2r), both on the
+// equator row; each eye's sprite carries the star's flux L / (4 pi r^2) (within 1e-3: the
+// eyes are IPD/2 off the centre). Centroids within 0.02 pixel.
+TEST(Render, OdsEyesSeeAStarWithTheParallaxOfTheirIpd)
+{
+    auto o = centreCamera(CameraModel::Ods, 256, 256, 0);
+    o.camera.ipdPc = 0.2;
+    o.drawStars = true;
+    const Projection proj(o.camera);
+    const double lon0 = 35.0 * PI / 180.0, r = 1.5;
+    const Vec3 p =
+        o.camera.eye + (proj.forward() * std::cos(lon0) + proj.right() * std::sin(lon0)) * r;
+    Star s;
+    s.name = "s";
+    s.position = {p.x, p.y, p.z};
+    s.luminosity = 100.0;
+    const Image img = renderFrame(cube(0.0, 0.0, {s}), o);
+    const double delta = std::asin(0.1 / r);
+    for (int view = 0; view < 2; ++view) {
+        double sx = 0, sy = 0, sw = 0, flux = 0;
+        for (int y = view * 128; y < view * 128 + 128; ++y)
+            for (int x = 0; x < 256; ++x) {
+                const double w = img.rgba[(std::size_t(y) * 256 + x) * 4 + 1];
+                sx += w * (x + 0.5);
+                sy += w * (y + 0.5 - view * 128);
+                sw += w;
+                flux += w * proj.pixelSolidAngle(x + 0.5, y + 0.5);
+            }
+        const double lon = view == 0 ? lon0 + delta : lon0 - delta;
+        EXPECT_NEAR(sx / sw, (lon / (2 * PI) + 0.5) * 256, 0.02) << "view " << view;
+        EXPECT_NEAR(sy / sw, 64.0, 0.02) << "view " << view;
+        const double expected = 100.0 / (4 * PI * r * r);
+        EXPECT_NEAR(flux, expected, 1e-3 * expected) << "view " << view;
+        // project() agrees with the picture.
+        double px, py;
+        ASSERT_TRUE(proj.project(p, px, py, view));
+        EXPECT_NEAR(px, sx / sw, 0.02);
+        EXPECT_NEAR(py, sy / sw + view * 128, 0.02);
+    }
+}
+
+// ODS: no parallax at the poles. Above the --pole-merge latitudes (75 degrees by default) the
+// rays leave from the eye itself, so a star at latitude 80 degrees is at the same place in
+// both eyes; halfway through the fade (67.5 degrees) the ray origin is a quarter of the IPD
+// from the eye, and below 60 degrees half of it.
+TEST(Render, OdsHasNoParallaxAtThePoles)
+{
+    auto o = centreCamera(CameraModel::Ods, 256, 256, 0);
+    o.camera.ipdPc = 0.2;
+    const Projection proj(o.camera);
+    const auto latRow = [](double latDeg) { return (0.5 - latDeg / 180.0) * 128; };
+    for (const double lat : {80.0, 67.5, 30.0}) {
+        const double want = lat > 75 ? 0.0 : lat > 60 ? 0.05 : 0.1;
+        for (int view = 0; view < 2; ++view) {
+            const Vec3 origin = proj.origin(100.5, latRow(lat) + view * 128);
+            EXPECT_NEAR((origin - o.camera.eye).length(), want, 1e-12) << lat << " " << view;
+        }
+    }
+    const double la = 80.0 * PI / 180.0, lo = 20.0 * PI / 180.0;
+    const Vec3 p = o.camera.eye +
+                   (proj.forward() * (std::cos(la) * std::cos(lo)) +
+                    proj.right() * (std::cos(la) * std::sin(lo)) + proj.upward() * std::sin(la)) *
+                       1.2;
+    double x0, y0, x1, y1;
+    ASSERT_TRUE(proj.project(p, x0, y0, 0));
+    ASSERT_TRUE(proj.project(p, x1, y1, 1));
+    EXPECT_NEAR(x0, x1, 1e-9);
+    EXPECT_NEAR(y0 + 128, y1, 1e-9);
+    EXPECT_NEAR(y0, latRow(80.0), 1e-9);
+}
+
+// ODS: each eye sees the flux the mono equirect panorama sees, from inside a uniformly glowing
+// cube (no dust): radiance times pixel solid angle summed over each half, within 1 % (the
+// eyes stand 0.05 pc off the centre of a 3.9 pc cube).
+TEST(Render, OdsEachEyeSeesTheMonoFlux)
+{
+    const auto scene = cube(0.0, 1.0, {});
+    auto eq = centreCamera(CameraModel::Equirect, 192, 96, 0);
+    const double mono = fluxOf(renderFrame(scene, eq), eq.camera);
+    auto ods = centreCamera(CameraModel::Ods, 192, 192, 0);
+    ods.camera.ipdPc = 0.1;
+    const Image img = renderFrame(scene, ods);
+    const Projection proj(ods.camera);
+    for (int view = 0; view < 2; ++view) {
+        double flux = 0.0;
+        for (int y = view * 96; y < view * 96 + 96; ++y)
+            for (int x = 0; x < 192; ++x)
+                flux += img.rgba[(std::size_t(y) * 192 + x) * 4 + 1] *
+                        proj.pixelSolidAngle(x + 0.5, y + 0.5);
+        std::cout << "[ flux ] ODS view " << view << " / equirect - 1 = " << flux / mono - 1
+                  << "\n";
+        EXPECT_NEAR(flux, mono, 1e-2 * mono) << "view " << view;
+    }
+}
+
 // Level of detail (DESIGN §9) on a scene hard for it: a diffuse cloud crossed by filaments
 // one voxel thick and 7.5 times denser (optical depth 0.23 across one), lit by a star inside,
 // with gas emission, seen from far enough that a pixel spans about 3 voxels (the default

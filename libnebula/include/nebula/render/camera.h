@@ -12,7 +12,13 @@
 ///  - orthographic: a telescope's view from far away: parallel rays along the view direction,
 ///    starting on the plane through --eye perpendicular to it, pixels of --pixel-size pc;
 ///    the observer is at a distance D (--distance), which gives each pixel its solid angle
-///    (pixel / D)^2 and each star its flux L / (4 pi D^2).
+///    (pixel / D)^2 and each star its flux L / (4 pi D^2);
+///  - ods: omni-directional stereo, a square image of two equirect panoramas (each W x W/2),
+///    the left eye's on top (Google's ODS layout): every ray leaves from a point on the circle
+///    of diameter --ipd [pc] round the eye, half the IPD to the left (left eye) or right of
+///    its horizontal direction, the IPD fading to 0 towards the poles between the two
+///    --pole-merge latitudes, so that the poles have no parallax (Blender's spherical stereo
+///    does the same).
 /// Every pixel carries its true solid angle (pixelSolidAngle()), so radiance times solid
 /// angle summed over pixels is the flux in every projection.
 
@@ -23,9 +29,9 @@
 
 namespace nebula {
 
-enum class CameraModel { Perspective, Fisheye, Equirect, Orthographic };
+enum class CameraModel { Perspective, Fisheye, Equirect, Orthographic, Ods };
 
-/// "perspective", "fisheye", "equirect", "orthographic".
+/// "perspective", "fisheye", "equirect", "orthographic", "ods".
 std::string toString(CameraModel model);
 /// The inverse of toString(); throws UsageError naming --camera otherwise.
 CameraModel cameraModelFromString(const std::string& name);
@@ -54,6 +60,13 @@ struct Camera
     /// Orthographic only: the observer's distance D [pc] (pixel solid angles, star fluxes).
     /// NaN (the default): the distance from --eye to --look-at.
     double distancePc = std::numeric_limits<double>::quiet_NaN();
+    /// ODS only: the inter-pupillary distance [pc] (required; choose it for the scene's
+    /// depth: a pupil distance of about 1/30 of the distance to the nebula gives a
+    /// comfortable stereo depth).
+    double ipdPc = std::numeric_limits<double>::quiet_NaN();
+    /// ODS only: the latitudes [degrees] between which the IPD fades linearly from full to 0.
+    double poleMergeFromDeg = 60.0;
+    double poleMergeToDeg = 75.0;
 
     /// Orthographic: the pixel's edge [pc], pixelSizePc or its default.
     double orthographicPixel() const;
@@ -107,8 +120,19 @@ public:
     /// Projects world point @p p [pc] to image coordinates; false if it is not in view
     /// (behind a perspective eye, beyond a fisheye's angle, or at the eye).
     bool project(const Vec3& p, double& px, double& py) const;
-    /// Whether the image wraps around horizontally (equirect: column W is column 0).
-    bool wrapsHorizontally() const { return mModel == CameraModel::Equirect; }
+    /// Whether the image wraps around horizontally (equirect, ODS: column W is column 0).
+    bool wrapsHorizontally() const
+    {
+        return mModel == CameraModel::Equirect || mModel == CameraModel::Ods;
+    }
+    /// How many views the image holds: 2 for ODS (the left eye's rows on top), else 1.
+    int views() const { return mModel == CameraModel::Ods ? 2 : 1; }
+    /// The rows [y0, y1) of view @p view.
+    void viewRows(int view, int& y0, int& y1) const;
+    /// project() into view @p view (ODS: 0 left eye, 1 right eye): where the ray of that eye
+    /// that passes through @p p is; false if none does (p within half the IPD of the eye's
+    /// axis).
+    bool project(const Vec3& p, double& px, double& py, int view) const;
 
     const Vec3& eye() const { return mEye; }
     /// The axis (image centre), the image's right and up directions in the world.
@@ -125,6 +149,12 @@ private:
     double mThetaMax = 0.0; ///< fisheye: half the full angle [rad]
     double mPixel = 0.0;    ///< orthographic: the pixel's edge [pc]
     double mDistance = 0.0; ///< orthographic: the observer's distance [pc]
+    double mIpdHalf = 0.0;  ///< ODS: half the IPD [pc]
+    double mMergeFrom = 0.0, mMergeTo = 0.0; ///< ODS: the pole merge latitudes [rad]
+    /// ODS: the IPD's fraction at latitude @p lat [rad] (1 below mMergeFrom, 0 above mMergeTo).
+    double ipdFade(double lat) const;
+    /// ODS: view (0 left, 1 right) and the row within it of image row @p py.
+    int odsView(double py, double& local) const;
     int mWidth, mHeight;
 };
 
@@ -137,8 +167,9 @@ inline constexpr double MAX_CAMERA_COORDINATE = 1e150;
 /// look-at point and up is not parallel to the view direction; and unless --fov, --roll,
 /// --dome-tilt and --res suit the model (fisheye: square, fov in (0, 360], tilt in [0, 90];
 /// equirect: width = 2 x height; perspective: fov in (0, 179]; orthographic: fov in (0, 179]
-/// when it sets the pixel), and --pixel-size and --distance are finite and > 0 and given only
-/// for the orthographic camera.
+/// when it sets the pixel; ods: square with an even height), and --pixel-size and --distance
+/// are finite and > 0 and given only for the orthographic camera, --ipd (required) and
+/// --pole-merge (0 <= from < to <= 90) only for ods.
 void validateCamera(const Camera& camera);
 
 } // namespace nebula
