@@ -35,18 +35,13 @@ complete_words() { # TOOL WORD: what bash completion offers for "TOOL WORD"
     bash -c 'source "$1"; complete -p "$2" > /dev/null; COMP_WORDS=("$2" "$3"); COMP_CWORD=1
              "_nebula_$2"; printf "%s\n" "${COMPREPLY[@]}"' sh "$build/completion/$1" "$1" "$2"
 }
-offered=$(complete_words nebrender --cam)
-if [[ $offered == *"--camera"* && $offered == *"--camera-path"* ]]; then
-    echo "ok   nebrender --cam<Tab>: $(tr '\n' ' ' <<< "$offered")"
-else
-    echo "FAIL: nebrender --cam offers: $offered" >&2
-    fail=1
-fi
-offered=$(complete_words nebimport --emi)
-if [[ $offered == *"--emission"* && $offered == *"--emission-unit"* ]]; then
-    echo "ok   nebimport --emi<Tab>: $(tr '\n' ' ' <<< "$offered")"
-else
-    echo "FAIL: nebimport --emi offers: $offered" >&2
-    fail=1
-fi
+# TOOL WORD WANTED...: completing "TOOL WORD" offers each of WANTED.
+for check in "nebrender --cam --camera --camera-path" "nebimport --emi --emission --emission-unit"; do
+    read -r tool word wanted <<< "$check"
+    offered=$(complete_words "$tool" "$word")
+    for w in $wanted; do
+        grep -qx -- "$w" <<< "$offered" || { echo "FAIL: $tool $word offers: $offered" >&2; fail=1; }
+    done
+    echo "ok   $tool $word<Tab>: $(tr '\n' ' ' <<< "$offered")"
+done
 exit $fail
