@@ -88,11 +88,11 @@ double Projection::ipdFade(double lat) const
     return (mMergeTo - a) / (mMergeTo - mMergeFrom);
 }
 
-int Projection::odsView(double py, double& local) const
+int Projection::panoramaRow(double py, double& local, double& height) const
 {
-    const double half = 0.5 * mHeight;
-    const int view = py < half ? 0 : 1;
-    local = py - view * half;
+    height = mModel == CameraModel::Ods ? 0.5 * mHeight : double(mHeight);
+    const int view = mModel == CameraModel::Ods && py >= height ? 1 : 0; // equirect: py <= H
+    local = py - view * height;
     return view;
 }
 
@@ -123,10 +123,9 @@ Vec3 Projection::origin(double px, double py) const
     if (mModel == CameraModel::Ods) {
         // Half the IPD (faded towards the poles) to the left or right of the ray's
         // horizontal direction: t = right cos(lon) - forward sin(lon).
-        double y = 0.0;
-        const int view = odsView(py, y);
-        const double lon = (px / mWidth - 0.5) * 2.0 * PI;
-        const double lat = (0.5 - y / (0.5 * mHeight)) * PI;
+        double y = 0.0, h = 0.0;
+        const int view = panoramaRow(py, y, h);
+        const double lon = (px / mWidth - 0.5) * 2.0 * PI, lat = (0.5 - y / h) * PI;
         const double s = (view == 0 ? -mIpdHalf : mIpdHalf) * ipdFade(lat);
         return mEye + (mRight * std::cos(lon) - mForward * std::sin(lon)) * s;
     }
@@ -169,25 +168,17 @@ bool Projection::direction(double px, double py, Vec3& d) const
         d = (mForward * std::cos(theta) + mRight * (s * u) + mUp * (s * v)).normalized();
         return true;
     }
-    case CameraModel::Equirect: {
-        const double lon = (px / mWidth - 0.5) * 2.0 * PI;
-        const double lat = (0.5 - py / mHeight) * PI;
+    case CameraModel::Equirect:
+    case CameraModel::Ods: { // ODS: each eye's view an equirect panorama W x H/2
+        double y = 0.0, h = 0.0;
+        panoramaRow(py, y, h);
+        const double lon = (px / mWidth - 0.5) * 2.0 * PI, lat = (0.5 - y / h) * PI;
         const double cl = std::cos(lat);
         d = (mForward * (cl * std::cos(lon)) + mRight * (cl * std::sin(lon)) + mUp * std::sin(lat))
                 .normalized();
         return true;
     }
     case CameraModel::Orthographic: d = mForward; return true;
-    case CameraModel::Ods: {
-        double y = 0.0;
-        odsView(py, y);
-        const double lon = (px / mWidth - 0.5) * 2.0 * PI;
-        const double lat = (0.5 - y / (0.5 * mHeight)) * PI;
-        const double cl = std::cos(lat);
-        d = (mForward * (cl * std::cos(lon)) + mRight * (cl * std::sin(lon)) + mUp * std::sin(lat))
-                .normalized();
-        return true;
-    }
     }
     return false;
 }
@@ -236,21 +227,15 @@ double Projection::pixelSolidAngle(double px, double py) const
                 sum += fisheyeJacobian(u0 + (i + 0.5) * du / N, v0 - (j + 0.5) * dv / N);
         return sum * du * dv / (N * N);
     }
-    case CameraModel::Equirect: {
-        const double latTop = (0.5 - (py - 0.5) / mHeight) * PI;
-        const double latBottom = (0.5 - (py + 0.5) / mHeight) * PI;
-        return 2.0 * PI / mWidth *
-               (std::sin(std::min(latTop, 0.5 * PI)) - std::sin(std::max(latBottom, -0.5 * PI)));
-    }
-    case CameraModel::Orthographic: return (mPixel / mDistance) * (mPixel / mDistance);
-    case CameraModel::Ods: { // each view an equirect panorama W x H/2
-        double y = 0.0;
-        odsView(py, y);
-        const double h = 0.5 * mHeight;
+    case CameraModel::Equirect:
+    case CameraModel::Ods: { // ODS: each eye's view an equirect panorama W x H/2
+        double y = 0.0, h = 0.0;
+        panoramaRow(py, y, h);
         const double latTop = (0.5 - (y - 0.5) / h) * PI, latBottom = (0.5 - (y + 0.5) / h) * PI;
         return 2.0 * PI / mWidth *
                (std::sin(std::min(latTop, 0.5 * PI)) - std::sin(std::max(latBottom, -0.5 * PI)));
     }
+    case CameraModel::Orthographic: return (mPixel / mDistance) * (mPixel / mDistance);
     }
     return 0.0;
 }

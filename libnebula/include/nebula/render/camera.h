@@ -153,8 +153,9 @@ private:
     double mMergeFrom = 0.0, mMergeTo = 0.0; ///< ODS: the pole merge latitudes [rad]
     /// ODS: the IPD's fraction at latitude @p lat [rad] (1 below mMergeFrom, 0 above mMergeTo).
     double ipdFade(double lat) const;
-    /// ODS: view (0 left, 1 right) and the row within it of image row @p py.
-    int odsView(double py, double& local) const;
+    /// Equirect and ODS: the view of image row @p py (0; ODS 0 left eye, 1 right eye), the
+    /// row within it and the view's height [pixels].
+    int panoramaRow(double py, double& local, double& height) const;
     int mWidth, mHeight;
 };
 
