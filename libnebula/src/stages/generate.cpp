@@ -4,6 +4,8 @@
 #include "nebula/core/format.h"
 #include "nebula/core/memory.h"
 
+#include "nebula_model.h"
+
 #include <openvdb/tools/Prune.h>
 #include <openvdb/tree/LeafManager.h>
 
@@ -163,6 +165,7 @@ void validateParams(const NebulaParams& p)
     if (!(p.contrast > 0.0)) throw UsageError("--contrast must be > 0");
     if (!(p.exponent > 0.0)) throw UsageError("--exponent must be > 0");
     p.dust.validate();
+    detail::validatePresetParams(p);
     if (p.emissionShape == EmissionShape::Shell &&
         !(p.emissionRadius > 0.0 && std::isfinite(p.emissionRadius))) {
         throw UsageError("--emission-radius must be > 0 for --emission-shape shell, got " +
@@ -228,7 +231,7 @@ double maxDistance(const std::array<double, 3>& c, const std::array<double, 3>& 
 /// The procedural nebula (DESIGN §2): domain-warped fBm dust in a perturbed spherical
 /// envelope with cavities around the stars, and gas emission in a sphere or shell, with an
 /// inner [O III] zone.
-class NebulaField
+class NebulaField final : public detail::NebulaModel
 {
 public:
     explicit NebulaField(const NebulaParams& p)
@@ -247,7 +250,7 @@ public:
     }
 
     /// The fields at voxel (i, j, k) of a res^3 cube.
-    NebulaVoxel at(int i, int j, int k, bool withOiii) const
+    NebulaVoxel at(int i, int j, int k, bool withOiii) const override
     {
         const NebulaParams& p = mP;
         const int n = p.res;
@@ -286,7 +289,7 @@ public:
     /// and Perlin noise is a convex blend of gradient dot products of at most 2 in magnitude,
     /// so |fBm| <= 2: the dust envelope's edge is at most min(0.5, 1.7 envelope) from the
     /// centre, where env = 0.
-    bool mayHoldNebula(const openvdb::Coord& lo, const openvdb::Coord& hi) const
+    bool mayHoldNebula(const openvdb::Coord& lo, const openvdb::Coord& hi) const override
     {
         const NebulaParams& p = mP;
         // Bounds of the voxel centres in cube units, [-0.5, 0.5]^3.
@@ -350,7 +353,7 @@ using FloatLeaf = openvdb::FloatTree::LeafNodeType;
 /// NebulaField::mayHoldNebula(), in parallel over columns of leaves along x; then
 /// columnDone(kb, jb) once each column of layer kb is done.
 template <typename F>
-void forEachSupportLeaf(const NebulaField& field, int n, F&& f,
+void forEachSupportLeaf(const detail::NebulaModel& field, int n, F&& f,
                         const std::function<void(int kb, int jb)>& columnDone = {})
 {
     const int dim = int(FloatLeaf::DIM), nb = (n + dim - 1) / dim;
@@ -393,6 +396,13 @@ openvdb::FloatGrid::Ptr fogGrid(std::vector<LeafColumn>& columns,
     return grid;
 }
 
+/// The model of @p p's preset (without its lattice: only the support).
+std::unique_ptr<detail::NebulaModel> makeModel(const NebulaParams& p, bool withLattice)
+{
+    if (p.preset == NebulaPreset::Fbm) return std::make_unique<NebulaField>(p);
+    return detail::makePresetModel(p, withLattice);
+}
+
 } // namespace
 
 double generateBytes(const NebulaParams& p)
@@ -407,18 +417,19 @@ double generateBytes(const NebulaParams& p)
     if (p.spectral.enabled) perVoxel += sparseBytesPerVoxel(1.0) + sparseBytesPerVoxel(3.0);
     std::atomic<std::uint64_t> voxels{0};
     forEachSupportLeaf(
-        NebulaField(p), p.res, [&](const openvdb::Coord& lo, const openvdb::Coord& hi, int) {
+        *makeModel(p, false), p.res, [&](const openvdb::Coord& lo, const openvdb::Coord& hi, int) {
             voxels += std::uint64_t(hi.x() - lo.x() + 1) * std::uint64_t(hi.y() - lo.y() + 1) *
                       std::uint64_t(hi.z() - lo.z() + 1);
         });
-    return double(voxels.load()) * perVoxel;
+    const double lattice = p.preset == NebulaPreset::Fbm ? 0.0 : detail::presetModelBytes(p);
+    return double(voxels.load()) * perVoxel + lattice;
 }
 
 NebulaVoxel nebulaVoxel(const NebulaParams& params, int i, int j, int k)
 {
     validateParams(params);
     const bool oiiiOn = params.spectral.enabled && params.spectral.oiii > 0.0;
-    return NebulaField(params).at(i, j, k, oiiiOn);
+    return makeModel(params, true)->at(i, j, k, oiiiOn);
 }
 
 GridSet generateNebula(const NebulaParams& p, const std::function<void(std::size_t)>& progress)
@@ -434,7 +445,8 @@ GridSet generateNebula(const NebulaParams& p, const std::function<void(std::size
 
     // Leaf by leaf (8^3 voxels), in parallel over columns of leaves along x; leaves outside
     // the fields' support are never evaluated, and leaves of zeros never stored.
-    const NebulaField field(p);
+    const auto model = makeModel(p, true);
+    const detail::NebulaModel& field = *model;
     const int dim = int(FloatLeaf::DIM), nb = (n + dim - 1) / dim;
     std::vector<LeafColumn> columns(std::size_t(nb) * std::size_t(nb));
     std::vector<std::atomic<int>> layerDone(static_cast<std::size_t>(nb));

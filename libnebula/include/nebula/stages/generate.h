@@ -9,6 +9,7 @@
 #include "nebula/physics/motion.h"
 #include "nebula/physics/noise.h"
 #include "nebula/physics/stars.h"
+#include "nebula/physics/turbulence.h"
 
 #include <array>
 #include <cmath>
@@ -27,6 +28,19 @@ enum class EmissionShape {
     /// d, R = emissionRadius, w = shellWidth, so the shell's full width at half maximum is
     /// w R and it vanishes beyond R (1 +- w). Parts outside the cube are cut off.
     Shell,
+};
+
+/// The nebula's model (presets.h): the seeds' fBm cloud, or a turbulent lognormal cloud in
+/// a preset's geometry.
+enum class NebulaPreset {
+    Fbm,        ///< domain-warped fBm in a soft envelope (the seeds' model; the default)
+    Box,        ///< a periodic box of lognormal turbulence filling the cube, no geometry
+    Reflection, ///< a B star in a cavity at the edge of a turbulent cloud (NGC 1999, NGC 7023)
+    External,   ///< a striated cloud lit by a star outside it (Merope nebula, IC 2118)
+    Pillars,    ///< dense columns pointing at an O star, ionised rims (M16)
+    Bubble,     ///< a wind-blown shell broken on one side around an O star (NGC 7635)
+    Globule,    ///< a Bok globule with a dark core, a bright rim and a tail (IC 1396A, B68)
+    Bipolar,    ///< a young star's outflow cavities in a flattened envelope (NGC 2261)
 };
 
 /// The spectral grids of nebgen --spectral.
@@ -77,6 +91,14 @@ struct NebulaParams
     /// Lines of the `emission` grid (its nebula:lines metadata).
     std::vector<SpectralLine> lines = parseLineList(DEFAULT_EMISSION_LINES, "default lines");
     SpectralParams spectral;
+    /// The model. Every preset but fbm is a lognormal turbulent cloud (`turbulence`) times
+    /// its geometry; fbm uses frequency, fbm, threshold, contrast, exponent, warp, envelope,
+    /// emissionShape and shellWidth instead.
+    NebulaPreset preset = NebulaPreset::Fbm;
+    TurbulenceParams turbulence; ///< the turbulent presets' statistics
+    /// The turbulent presets' cloud edge: n_H = densityPeak x smoothstep(c, 2c, x), x =
+    /// exp(s) G, c = edgeCut; 0: no edge (the box).
+    double edgeCut = 0.3;
 };
 
 /// The motion centre [pc] of @p params: motionCentre, else the first star, else the origin.
