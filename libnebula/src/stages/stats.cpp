@@ -1,0 +1,234 @@
+#include "nebula/stages/stats.h"
+
+#include "nebula/core/error.h"
+#include "nebula/core/format.h"
+#include "nebula/core/units.h"
+#include "nebula/stages/export.h"
+
+#include <nlohmann/json.hpp>
+
+#include <cmath>
+#include <cstdio>
+#include <sstream>
+
+namespace nebula {
+
+using detail::numberText;
+
+void StatsOptions::validate() const
+{
+    if (axis < 0 || axis > 2) throw UsageError("--axis must be x, y or z");
+    if (kMin != 0.0 || kMax != 0.0) {
+        if (!(kMin > 0.0 && kMax > kMin && std::isfinite(kMax))) {
+            throw UsageError("--k-range must be KMIN,KMAX with 0 < KMIN < KMAX [cycles per map "
+                             "edge], got " +
+                             numberText(kMin) + "," + numberText(kMax));
+        }
+    }
+    if (!(binWidth > 0.0 && binWidth <= 1.0)) {
+        throw UsageError("--bin-width must be in (0, 1] (in ln N), got " + numberText(binWidth));
+    }
+    if (!(pdfFloor >= 0.0 && pdfFloor < 1.0)) {
+        throw UsageError("--pdf-floor must be in [0, 1) (times the mean column), got " +
+                         numberText(pdfFloor));
+    }
+    if (levels < 1 || levels > 100) throw UsageError("--levels must be in [1, 100]");
+    if (minArea < 1) throw UsageError("--min-area must be >= 1 pixel");
+}
+
+namespace {
+
+const char* axisName(int axis)
+{
+    return axis == 0 ? "x" : axis == 1 ? "y" : "z";
+}
+
+/// The map's axes (u, v) for a line of sight along @p axis: z -> (x, y), y -> (x, z),
+/// x -> (y, z).
+std::array<int, 2> mapAxes(int axis)
+{
+    return axis == 2   ? std::array<int, 2>{0, 1}
+           : axis == 1 ? std::array<int, 2>{0, 2}
+                       : std::array<int, 2>{1, 2};
+}
+
+} // namespace
+
+CloudStats cloudStatistics(const GridSet& grids, const StatsOptions& opts)
+{
+    opts.validate();
+    const auto grid = grids.floatGrid(opts.grid, "--grid");
+    CloudStats st;
+    st.grid = opts.grid;
+    st.axis = opts.axis;
+    st.box = exportBox(*grid, opts.bbox);
+    const auto vs = grid->transform().voxelSize();
+    if (std::abs(vs[0] - vs[1]) > 1e-9 * vs[0] || std::abs(vs[0] - vs[2]) > 1e-9 * vs[0]) {
+        throw UsageError("--grid " + opts.grid + ": voxels are not cubes (" + numberText(vs[0]) +
+                         " x " + numberText(vs[1]) + " x " + numberText(vs[2]) + " pc)");
+    }
+    st.voxelPc = vs[0];
+    const bool density = opts.grid == "density";
+    std::string units = "value";
+    if (const auto meta = (*grid)["units"]) units = meta->str();
+    st.columnUnit = density ? "cm^-2" : units + " pc";
+    const double length = density ? st.voxelPc * PC_CM : st.voxelPc;
+
+    const auto [ua, va] = mapAxes(opts.axis);
+    const auto& lo = st.box[0];
+    const auto& hi = st.box[1];
+    st.map.nu = hi[std::size_t(ua)] - lo[std::size_t(ua)] + 1;
+    st.map.nv = hi[std::size_t(va)] - lo[std::size_t(va)] + 1;
+    st.map.values.assign(std::size_t(st.map.nu) * std::size_t(st.map.nv), 0.0);
+    for (auto it = grid->cbeginValueOn(); it; ++it) {
+        openvdb::CoordBBox bb;
+        it.getBoundingBox(bb);
+        for (int k = std::max(bb.min().z(), lo[2]); k <= std::min(bb.max().z(), hi[2]); ++k) {
+            for (int j = std::max(bb.min().y(), lo[1]); j <= std::min(bb.max().y(), hi[1]); ++j) {
+                for (int i = std::max(bb.min().x(), lo[0]); i <= std::min(bb.max().x(), hi[0]);
+                     ++i) {
+                    const double v = *it;
+                    const int c[3] = {i, j, k};
+                    st.map
+                        .values[std::size_t(c[va] - lo[std::size_t(va)]) * std::size_t(st.map.nu) +
+                                std::size_t(c[ua] - lo[std::size_t(ua)])] += v * length;
+                    st.volume.add(v);
+                }
+            }
+        }
+    }
+    std::size_t pixels = 0;
+    for (double v : st.map.values) {
+        if (v > 0.0) {
+            st.meanColumn += v;
+            st.maxColumn = std::max(st.maxColumn, v);
+            ++pixels;
+        }
+    }
+    if (pixels == 0) {
+        throw UsageError("--grid " + opts.grid + ": no positive column along " +
+                         axisName(opts.axis) + " in the box");
+    }
+    st.meanColumn /= double(pixels);
+    st.pdf = fitColumnPdf(st.map, opts.binWidth, opts.pdfFloor);
+    const double edge = std::max(st.map.nu, st.map.nv);
+    const double kMin = opts.kMin > 0.0 ? opts.kMin : std::max(1.0, edge / 40.0);
+    const double kMax = opts.kMax > 0.0 ? opts.kMax : edge / 4.0;
+    try {
+        st.spectrum = powerSpectrum(st.map, kMin, kMax);
+    } catch (const Error& e) {
+        throw UsageError(std::string("--k-range: ") + e.what());
+    }
+    st.contours = perimeterAreaDimension(st.map, opts.levels, opts.minArea);
+    return st;
+}
+
+namespace {
+
+std::string fixed(double v, int digits)
+{
+    char b[64];
+    std::snprintf(b, sizeof b, "%.*f", digits, v);
+    return b;
+}
+
+std::string sci(double v)
+{
+    char b[64];
+    std::snprintf(b, sizeof b, "%.3g", v);
+    return b;
+}
+
+} // namespace
+
+std::string statsReport(const CloudStats& s)
+{
+    std::ostringstream o;
+    const double edgePc = std::max(s.map.nu, s.map.nv) * s.voxelPc;
+    o << "grid       " << s.grid << ", box " << s.box[0][0] << "," << s.box[0][1] << ","
+      << s.box[0][2] << " to " << s.box[1][0] << "," << s.box[1][1] << "," << s.box[1][2]
+      << ", voxel " << sci(s.voxelPc) << " pc\n";
+    o << "volume     ln(value): mean " << fixed(s.volume.mean(), 3) << ", sigma "
+      << fixed(s.volume.sigma(), 3) << " over " << s.volume.count() << " voxels > 0\n";
+    o << "column     along " << axisName(s.axis) << ": " << s.map.nu << " x " << s.map.nv
+      << " map; mean " << sci(s.meanColumn) << " " << s.columnUnit << ", max " << sci(s.maxColumn)
+      << ", over " << s.map.positive() << " pixels > 0\n";
+    if (s.pdf.fitted) {
+        o << "pdf        lognormal sigma(ln N) " << fixed(s.pdf.sigma, 3) << ", peak at ln(N/<N>) "
+          << fixed(s.pdf.mu, 3) << " (" << s.pdf.pixels << " pixels with N >= " << s.pdf.floor
+          << " <N>; " << s.pdf.fitBins << " bins of " << s.pdf.binWidth
+          << " with >= 10 % of the peak; sample sigma " << fixed(s.pdf.sampleSigma, 3) << ")\n";
+        if (s.pdf.highSide) {
+            o << "pdf tail   " << (s.pdf.tail ? "power law" : "none") << ": above peak + sigma, "
+              << fixed(s.pdf.tailExcess, 2) << "x the lognormal's pixels (a tail from 2x); "
+              << "p(ln N) ~ N^" << fixed(s.pdf.tailSlope, 2) << " over ln(N/<N>) "
+              << fixed(s.pdf.tailFrom, 2) << " to " << fixed(s.pdf.tailTo, 2) << " ("
+              << s.pdf.tailBins << " bins)\n";
+        } else {
+            o << "pdf tail   none (fewer than 3 bins above the peak + sigma)\n";
+        }
+    } else {
+        o << "pdf        not fitted (fewer than 3 bins about the peak)\n";
+    }
+    if (s.spectrum.fitted) {
+        o << "spectrum   P(k) ~ k^" << fixed(s.spectrum.slope, 2) << " +- "
+          << fixed(s.spectrum.slopeError, 2) << " over k = " << sci(s.spectrum.kMin) << " to "
+          << sci(s.spectrum.kMax) << " per map edge (scales " << sci(edgePc / s.spectrum.kMin)
+          << " to " << sci(edgePc / s.spectrum.kMax) << " pc, " << s.spectrum.bins << " rings)\n";
+        o << "anisotropy " << fixed(s.spectrum.anisotropy, 2) << " (mean power across the map's "
+          << axisName(mapAxes(s.axis)[0]) << " axis over power along it, same k range)\n";
+    }
+    if (s.contours.fitted) {
+        o << "contours   perimeter-area dimension " << fixed(s.contours.dimension, 3) << " +- "
+          << fixed(s.contours.error, 3) << " (" << s.contours.contours << " contours at "
+          << s.contours.levels << " levels, areas " << s.contours.areaMin << " to "
+          << s.contours.areaMax << " pixels)\n";
+    } else {
+        o << "contours   not fitted (" << s.contours.contours
+          << " closed contours; 5 or more spanning a factor 10 in area needed)\n";
+    }
+    return o.str();
+}
+
+std::string statsJson(const CloudStats& s)
+{
+    nlohmann::json j;
+    j["grid"] = s.grid;
+    j["axis"] = axisName(s.axis);
+    j["box"] = {{s.box[0][0], s.box[0][1], s.box[0][2]}, {s.box[1][0], s.box[1][1], s.box[1][2]}};
+    j["voxel_pc"] = s.voxelPc;
+    j["volume"] = {
+        {"voxels", s.volume.count()}, {"mean_ln", s.volume.mean()}, {"sigma_ln", s.volume.sigma()}};
+    j["column"] = {{"unit", s.columnUnit},       {"width", s.map.nu},    {"height", s.map.nv},
+                   {"pixels", s.map.positive()}, {"mean", s.meanColumn}, {"max", s.maxColumn}};
+    j["pdf"] = {{"fitted", s.pdf.fitted},
+                {"sigma_ln", s.pdf.sigma},
+                {"peak_ln", s.pdf.mu},
+                {"bin_width", s.pdf.binWidth},
+                {"floor", s.pdf.floor},
+                {"pixels", s.pdf.pixels},
+                {"fit_bins", s.pdf.fitBins},
+                {"sample_sigma_ln", s.pdf.sampleSigma},
+                {"tail", s.pdf.tail},
+                {"tail_excess", s.pdf.tailExcess},
+                {"tail_slope", s.pdf.tailSlope},
+                {"tail_from", s.pdf.tailFrom},
+                {"tail_to", s.pdf.tailTo},
+                {"tail_bins", s.pdf.tailBins}};
+    j["spectrum"] = {{"fitted", s.spectrum.fitted},
+                     {"slope", s.spectrum.slope},
+                     {"slope_error", s.spectrum.slopeError},
+                     {"k_min", s.spectrum.kMin},
+                     {"k_max", s.spectrum.kMax},
+                     {"rings", s.spectrum.bins},
+                     {"anisotropy", s.spectrum.anisotropy},
+                     {"k", s.spectrum.k},
+                     {"power", s.spectrum.power}};
+    j["contours"] = {{"fitted", s.contours.fitted},   {"dimension", s.contours.dimension},
+                     {"error", s.contours.error},     {"count", s.contours.contours},
+                     {"levels", s.contours.levels},   {"area_min", s.contours.areaMin},
+                     {"area_max", s.contours.areaMax}};
+    return j.dump(1) + "\n";
+}
+
+} // namespace nebula
