@@ -136,20 +136,30 @@ PdfFit fitColumnPdf(const ColumnMap& map, double binWidth, double floor)
     fit.fitBins = int(x.size());
     fit.sigma = std::sqrt(-1.0 / (2.0 * c[2]));
     fit.mu = -c[1] / (2.0 * c[2]);
-    // The high side: the bins from mu + sigma up to the last that holds 3 pixels or more. Its
-    // slope is a line through ln(count) against eta (bins of 2 pixels or more, weighted by
+    // The high side: from the first bin above mu + sigma whose count is 2x the lognormal's or
+    // more (the deviation point; else from mu + sigma) to the last bin that holds 3 pixels.
+    // Its slope is a line through ln(count) against eta (bins of 2 pixels or more, weighted by
     // their counts); it is a tail if it holds 2x or more the pixels the lognormal predicts.
     const auto model = [&](double e) { return std::exp(c[0] + c[1] * e + c[2] * e * e); };
     int last = bins - 1;
     while (last >= 0 && count[std::size_t(last)] < 3.0)
         --last;
+    int first = -1, start = -1;
+    for (int b = 0; b <= last; ++b) {
+        if (centre(b) < fit.mu + fit.sigma) continue;
+        if (start < 0) start = b;
+        if (count[std::size_t(b)] >= 2.0 * model(centre(b))) {
+            first = b;
+            break;
+        }
+    }
+    if (first < 0) first = start;
     x.clear();
     y.clear();
     w.clear();
     double observed = 0.0, predicted = 0.0;
-    for (int b = 0; b <= last; ++b) {
+    for (int b = std::max(first, 0); first >= 0 && b <= last; ++b) {
         const double e = centre(b), k = count[std::size_t(b)];
-        if (e < fit.mu + fit.sigma) continue;
         observed += k;
         predicted += model(e);
         if (k >= 2.0) {

@@ -45,10 +45,13 @@ double segmentDistance(const Vec3& p, const Vec3& a, const Vec3& b, double& t)
     return (p - (a + ab * t)).length();
 }
 
-/// A Gaussian bump of width @p w at @p d = 0.
+/// A Gaussian bump of width @p w at @p d = 0, brought to 0 between 2 w and 3 w (so that it
+/// ends, and leaves the voxels beyond inactive).
 double bump(double d, double w)
 {
-    return std::exp(-(d * d) / (w * w));
+    const double a = std::abs(d);
+    return a < 3.0 * w ? std::exp(-(d * d) / (w * w)) * (1.0 - smoothstep(2.0 * w, 3.0 * w, a))
+                       : 0.0;
 }
 
 /// A dense core: n ~ 1 / (1 + (r / rc)^2), an isothermal sphere's profile (flat inside rc,
@@ -317,7 +320,7 @@ std::vector<Ball> pillarsSupport()
 const Vec3 BUBBLE_CENTRE{0.0, 0.0, 0.02};
 constexpr double BUBBLE_RADIUS = 0.27, BUBBLE_WIDTH = 0.03;
 const Vec3 BUBBLE_OPENING = Vec3{0.75, 0.35, -0.3}.normalized();
-const Vec3 BUBBLE_CLOUD_CENTRE{-0.3, -0.04, 0.1}, BUBBLE_CLOUD_RADII{0.13, 0.34, 0.3};
+const Vec3 BUBBLE_CLOUD_CENTRE{-0.3, -0.04, 0.1}, BUBBLE_CLOUD_RADII{0.12, 0.32, 0.28};
 const Vec3 BUBBLE_CORES[] = {
     {-1.0, 0.3, -0.2}, {-0.9, -0.4, 0.1}, {-0.8, 0.1, 0.5}, {-0.7, -0.6, -0.4}};
 
@@ -359,10 +362,17 @@ Shape bubbleShape(const Where& w, const std::vector<Vec3>& stars)
         0.25 * (1.0 - intact) * (1.0 - smoothstep(R, 1.5 * R, r)) * smoothstep(0.5 * R, R, r);
     s.emission = std::max({inner, inside, outflow});
     if (!stars.empty()) {
-        // The cloud's face lit by the star.
+        // The cloud's face lit by the star: where the ellipsoid's normal points at it.
+        const Vec3 d = w.p - BUBBLE_CLOUD_CENTRE;
+        const Vec3 normal = Vec3{d.x / (BUBBLE_CLOUD_RADII.x * BUBBLE_CLOUD_RADII.x),
+                                 d.y / (BUBBLE_CLOUD_RADII.y * BUBBLE_CLOUD_RADII.y),
+                                 d.z / (BUBBLE_CLOUD_RADII.z * BUBBLE_CLOUD_RADII.z)};
         const Vec3 toStar = stars.front() - w.p;
-        const double facing = smoothstep(0.0, 0.5, toStar.normalized().x);
-        s.emission = std::max(s.emission, 0.4 * facing * bump(cloud - 1.0, 0.03));
+        const double cosine = normal.length() > 0.0 && toStar.length() > 0.0
+                                  ? normal.dot(toStar) / (normal.length() * toStar.length())
+                                  : 0.0;
+        s.emission =
+            std::max(s.emission, 0.4 * smoothstep(0.0, 0.5, cosine) * bump(cloud - 1.0, 0.03));
     }
     return s;
 }

@@ -57,7 +57,8 @@ struct PdfFit
 /// approximates a least-squares Gaussian fit to the counts themselves, which the peak
 /// dominates, not the wings; Guo 2011), over the contiguous bins about the peak that hold at
 /// least a tenth of the peak's count (and 3 pixels): a Gaussian in eta, sigma =
-/// sqrt(-1 / (2 a)). The high side: the bins from mu + sigma to the last bin that holds 3
+/// sqrt(-1 / (2 a)). The high side: from the deviation point (the first bin above mu + sigma
+/// that holds 2x the lognormal's count or more; else mu + sigma) to the last bin that holds 3
 /// pixels; its slope is a line through ln(count) against eta (bins of 2 pixels or more,
 /// weighted by their counts), and it is a power-law tail if it holds 2x or more the pixels
 /// the fitted lognormal predicts there. Not fitted if fewer than 3 bins qualify or the
