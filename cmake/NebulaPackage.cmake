@@ -14,7 +14,7 @@ include(CMakePackageConfigHelpers)
 set(NEBULA_CMAKE_DIR ${CMAKE_INSTALL_LIBDIR}/cmake/nebula)
 
 install(TARGETS nebgen nebillum nebscatter nebphase nebpyramid nebrender nebtone nebimport
-                nebexport
+                nebexport nebstats
         RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR} COMPONENT tools)
 foreach(tool IN LISTS NEBULA_TOOLS)
     install(FILES ${PROJECT_BINARY_DIR}/man/${tool}.1.gz DESTINATION ${CMAKE_INSTALL_MANDIR}/man1
@@ -76,10 +76,10 @@ set(CPACK_PACKAGE_DESCRIPTION_SUMMARY
 # Lines of at most 80 characters (Debian policy 5.6.13).
 set(CPACK_PACKAGE_DESCRIPTION
     "Command-line tools (nebgen, nebillum, nebscatter, nebphase, nebpyramid,
-nebrender, nebtone, nebimport, nebexport) that generate, light and render
-nebulae from OpenVDB grids, with multiple scattering, spectral rendering and
-calibrated FITS output; and libnebula, the static library they are built on,
-with its CMake and pkg-config packages.")
+nebrender, nebtone, nebimport, nebexport, nebstats) that generate, light,
+render and measure nebulae from OpenVDB grids, with multiple scattering,
+spectral rendering and calibrated FITS output; and libnebula, the static
+library they are built on, with its CMake and pkg-config packages.")
 set(CPACK_DEBIAN_FILE_NAME DEB-DEFAULT) # nebula_<version>_amd64.deb
 set(CPACK_DEBIAN_PACKAGE_SECTION science)
 set(CPACK_DEBIAN_PACKAGE_SHLIBDEPS ON)

@@ -304,9 +304,11 @@ int main(int argc, char** argv)
                                "PNG: fixed exposure in stops (white = 2^-E); turns off the "
                                "automatic tone curve")
                     ->check(nebula::cli::numberIn(-1000.0, 1000.0));
-    app.add_option("--gamma", out.tone.gamma, "PNG: gamma with --exposure")
-        ->capture_default_str()
-        ->check(nebula::cli::positive());
+    auto* gammaOpt = app.add_option("--gamma", out.tone.gamma,
+                                    "PNG: gamma with --exposure; alone, a fixed gamma with the "
+                                    "automatic white point (default: fitted to the frame)")
+                         ->capture_default_str()
+                         ->check(nebula::cli::positive());
     app.add_option("--percentile", out.tone.percentile,
                    "PNG: automatic white point = this luminance percentile")
         ->capture_default_str()
@@ -390,6 +392,8 @@ int main(int argc, char** argv)
         if (exp->count() > 0) {
             out.tone.automatic = false;
             out.tone.exposure = exposure;
+        } else if (gammaOpt->count() > 0) {
+            out.tone.fixedGamma = true;
         }
         if (!phaseFile.empty()) {
             opts.phaseTable = std::make_shared<const nebula::PhaseTable>(

@@ -420,7 +420,14 @@ ToneCurve computeToneCurve(const Image& image, const ToneParams& params)
         }
         return curve;
     }
-    return toneCurveFromStats(luminanceStats(image, params.percentile));
+    ToneCurve automatic = toneCurveFromStats(luminanceStats(image, params.percentile));
+    if (params.fixedGamma) {
+        if (!(params.gamma > 0.0) || !std::isfinite(params.gamma)) {
+            throw Error("tone curve: gamma must be positive, got " + std::to_string(params.gamma));
+        }
+        automatic.gamma = params.gamma;
+    }
+    return automatic;
 }
 
 LuminanceStats luminanceStats(const Image& image, double percentile)

@@ -156,19 +156,19 @@ std::vector<Ball> everywhere()
 /// large-scale noise.
 struct Slab
 {
-    static constexpr double EDGE_NOISE = 0.08;
     double a, b, zc, h;
+    double edgeNoise = 0.08; ///< the outline's relative displacement per unit noise
     double operator()(const Where& w, const Vec3& centre) const
     {
         const double x = (w.p.x - centre.x) / a, y = (w.p.y - centre.y) / b;
-        const double r = std::sqrt(x * x + y * y) / (1.0 + EDGE_NOISE * clampNoise(w.u1));
+        const double r = std::sqrt(x * x + y * y) / (1.0 + edgeNoise * clampNoise(w.u1));
         const double z = std::abs(w.p.z - zc) / (h * (1.0 + 0.05 * clampNoise(w.u2)));
         return softInside(r, 0.1) * softInside(z, 0.15);
     }
     /// Its largest extent from its centre [cube edges].
     double reach() const
     {
-        return std::hypot(std::max(a, b) * (1.0 + EDGE_NOISE * NOISE_CLAMP),
+        return std::hypot(std::max(a, b) * (1.0 + edgeNoise * NOISE_CLAMP),
                           h * (1.0 + 0.05 * NOISE_CLAMP));
     }
 };
@@ -177,18 +177,16 @@ struct Slab
 
 const Slab REFLECTION_CLOUD{0.34, 0.3, 0.08, 0.12};
 const Vec3 REFLECTION_CENTRE{-0.06, -0.03, REFLECTION_CLOUD.zc};
-/// Wisps of the same cloud in front of the star: a thin layer where only the densest gas
-/// remains (the dark lanes across NGC 1999 and NGC 7023).
-const Slab REFLECTION_VEIL{0.3, 0.26, -0.12, 0.025};
+/// The cavity's radius [cube edges] (0.8 pc in the 10 pc cube).
+constexpr double REFLECTION_CAVITY = 0.08;
 /// The cavity's opening: from the star towards the default camera (4, 3, -19) pc.
 const Vec3 REFLECTION_OPENING = Vec3{0.2, 0.15, -0.97}.normalized();
-const Vec3 REFLECTION_STAR{0.1, 0.07, -0.06};
+const Vec3 REFLECTION_STAR{0.1, 0.07, 0.0};
 
 void reflectionDefaults(NebulaParams& p)
 {
-    turbulent(p, 2.5, 0.4, 1000.0);
+    turbulent(p, 2.5, 0.4, 3000.0);
     p.turbulence.index = 3.2;
-    p.cavity = 0.6;
     p.emissionRadius = 0.05;
 }
 std::vector<Star> reflectionStars()
@@ -199,9 +197,6 @@ Shape reflectionShape(const Where& w, const std::vector<Vec3>& stars)
 {
     Shape s;
     s.dust = REFLECTION_CLOUD(w, REFLECTION_CENTRE);
-    // The veil: its densest filaments only, at half the cloud's density.
-    s.dust = std::max(s.dust, 0.5 * REFLECTION_VEIL(w, {0.05, 0.02, REFLECTION_VEIL.zc}) *
-                                  smoothstep(2.0, 4.0, w.turbulence));
     if (!stars.empty()) {
         // The cavity's cone, 35 degrees about the opening, cleared outwards from the star.
         const Vec3 d = w.p - stars.front();
@@ -211,6 +206,9 @@ Shape reflectionShape(const Where& w, const std::vector<Vec3>& stars)
             smoothstep(std::cos(42.0 * PI / 180.0), std::cos(30.0 * PI / 180.0), cosAngle) *
             smoothstep(0.0, 0.04, len);
         s.dust *= 1.0 - 0.97 * cone;
+        // The cavity the star has blown, its wall moved by the large-scale noise.
+        const double rc = REFLECTION_CAVITY * (1.0 + 0.35 * clampNoise(w.u2));
+        s.dust *= smoothstep(0.6 * rc, rc, len);
         // Its small H II region (off unless --emission): the star's ionised bubble.
         s.emission = 1.0 - smoothstep(0.02, 0.05, len);
     }
@@ -218,8 +216,7 @@ Shape reflectionShape(const Where& w, const std::vector<Vec3>& stars)
 }
 std::vector<Ball> reflectionSupport()
 {
-    return {{REFLECTION_CENTRE, REFLECTION_CLOUD.reach()},
-            {Vec3{0.05, 0.02, REFLECTION_VEIL.zc}, REFLECTION_VEIL.reach()}};
+    return {{REFLECTION_CENTRE, REFLECTION_CLOUD.reach()}};
 }
 
 // ---- external: the Merope nebula, IC 2118. ----
@@ -228,14 +225,15 @@ const Slab EXTERNAL_CLOUD{0.38, 0.26, 0.12, 0.1};
 
 void externalDefaults(NebulaParams& p)
 {
-    turbulent(p, 2.5, 0.4, 400.0);
+    turbulent(p, 2.5, 0.4, 120.0);
     p.turbulence.index = 3.2;
-    p.turbulence.anisotropy = 1.5;
+    p.turbulence.outerScale = 0.3;
+    p.turbulence.anisotropy = 3.0;
     p.turbulence.axis = {1.0, 0.25, 0.0};
 }
 std::vector<Star> externalStars()
 {
-    return {makeStar("star", {-0.1, 0.12, -0.22}, 600.0, "B6V")};
+    return {makeStar("star", {-0.1, 0.1, -0.01}, 600.0, "B6V")};
 }
 Shape externalShape(const Where& w, const std::vector<Vec3>&)
 {
@@ -254,18 +252,21 @@ struct Pillar
     double length, rBase, rHead;
 };
 const Pillar PILLARS[] = {
-    {{-0.17, -0.3, 0.08}, 0.27, 0.07, 0.042},
-    {{0.01, -0.3, 0.04}, 0.36, 0.075, 0.048},
-    {{0.19, -0.3, 0.12}, 0.2, 0.06, 0.038},
+    {{-0.16, -0.32, 0.02}, 0.36, 0.055, 0.035},
+    {{0.0, -0.32, -0.02}, 0.46, 0.06, 0.04},
+    {{0.17, -0.32, 0.04}, 0.28, 0.05, 0.032},
 };
-const Vec3 PILLARS_STAR{0.0, 0.2, 0.16};
+const Vec3 PILLARS_STAR{0.0, 0.3, 0.3};
+/// The H II region the star has ionised: behind and above the columns, bounded by the dust.
+const Vec3 PILLARS_HII_CENTRE{0.0, 0.08, 0.24}, PILLARS_HII_RADII{0.36, 0.34, 0.18};
 constexpr double PILLARS_CORE_PEAK = 60.0, PILLARS_CORE_RADIUS = 0.012;
-constexpr double PILLARS_HII_RADIUS = 0.2;
-const Vec3 PILLARS_WALL_CENTRE{0.0, -0.31, 0.08}, PILLARS_WALL_RADII{0.36, 0.12, 0.3};
+const Vec3 PILLARS_WALL_CENTRE{0.0, -0.34, 0.06}, PILLARS_WALL_RADII{0.36, 0.1, 0.28};
 
 void pillarsDefaults(NebulaParams& p)
 {
     turbulent(p, 6.0, 0.4, 1500.0);
+    p.turbulence.outerScale = 0.25; // the columns' width, a few driving scales across
+    p.turbulence.index = 3.3;
     p.emissionPeak = 15.0;
     p.emissionRadius = 0.45;
 }
@@ -301,12 +302,11 @@ Shape pillarsShape(const Where& w, const std::vector<Vec3>& stars)
         // The columns' sides glow faintly too: light grazes them.
         rim = std::max(rim, 0.3 * bump(d - r - 0.006, 0.01) * smoothstep(0.3, 0.9, t));
     }
-    // The H II region: the star's Stromgren sphere, its front on the columns, no gas inside
-    // the dust.
-    const double ds = (w.p - star).length();
-    const double hii =
-        (1.0 - std::min(s.dust, 1.0)) * 0.2 *
-        softInside(ds / (PILLARS_HII_RADIUS * (1.0 + 0.15 * clampNoise(w.u1))), 0.25);
+    // The H II region: behind the columns and around the star, no gas inside the dust.
+    const double hii = (1.0 - std::min(s.dust, 1.0)) * 0.2 *
+                       softInside(ellipsoidRadius(w.p, PILLARS_HII_CENTRE, PILLARS_HII_RADII) /
+                                      (1.0 + 0.15 * clampNoise(w.u1)),
+                                  0.4);
     s.emission = std::max(rim, hii);
     return s;
 }
@@ -326,8 +326,8 @@ const Vec3 BUBBLE_CORES[] = {
 
 void bubbleDefaults(NebulaParams& p)
 {
-    turbulent(p, 8.0, 0.4, 600.0);
-    p.emissionPeak = 10.0;
+    turbulent(p, 8.0, 0.4, 150.0);
+    p.emissionPeak = 30.0;
     p.emissionRadius = BUBBLE_RADIUS;
 }
 std::vector<Star> bubbleStars()
@@ -386,7 +386,7 @@ std::vector<Ball> bubbleSupport()
 
 const Vec3 GLOBULE_CENTRE{-0.05, -0.05, 0.05};
 constexpr double GLOBULE_CORE = 0.035, GLOBULE_RADIUS = 0.19;
-const Vec3 GLOBULE_STAR{0.26, 0.2, -0.28};
+const Vec3 GLOBULE_STAR{0.36, 0.22, 0.12};
 
 void globuleDefaults(NebulaParams& p)
 {

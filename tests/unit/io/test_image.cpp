@@ -355,6 +355,26 @@ TEST(ToneCurve, AutomaticGammaMapsLogMeanToKey)
     EXPECT_EQ(curve.gamma, 1.0);
 }
 
+TEST(ToneCurve, FixedGammaKeepsTheAutomaticWhite)
+{
+    // Half the pixels at 1, half at k^4: the automatic curve fits gamma 0.5; a fixed gamma of
+    // 0.8 keeps the same white (the 99.5th percentile) and its own gamma.
+    const double k = nebula::TONE_KEY;
+    nebula::Image image(10, 10);
+    for (std::size_t i = 0; i < 100; ++i)
+        setGrey(image, i, i % 2 ? 1.0f : float(std::pow(k, 4)));
+    nebula::ToneParams params;
+    params.fixedGamma = true;
+    params.gamma = 0.8;
+    const nebula::ToneCurve fitted = nebula::computeToneCurve(image, {});
+    const nebula::ToneCurve fixed = nebula::computeToneCurve(image, params);
+    EXPECT_NEAR(fitted.gamma, 0.5, 1e-6);
+    EXPECT_EQ(fixed.white, fitted.white);
+    EXPECT_EQ(fixed.gamma, 0.8);
+    params.gamma = -1.0;
+    EXPECT_THROW(nebula::computeToneCurve(image, params), nebula::Error);
+}
+
 TEST(ToneCurve, BlackAndNonFiniteImagesGiveAValidCurve)
 {
     nebula::Image black(8, 8);

@@ -42,14 +42,15 @@ struct Documented
 {
     NebulaPreset preset;
     Range pdfSigma, highSideSlope, spectrumSlope, dimension;
+    bool highSide = true; ///< the PDF's high side has 3 bins (not the globule's small map)
 };
 
 const Documented DOCUMENTED_64[] = {
     {NebulaPreset::Reflection, {0.3, 0.62}, {-4.5, -2.5}, {-3.2, -2.5}, {1.25, 1.45}},
-    {NebulaPreset::External, {0.3, 0.65}, {-4.5, -2.5}, {-3.3, -2.5}, {1.2, 1.45}},
-    {NebulaPreset::Pillars, {1.0, 2.0}, {-2.0, -0.5}, {-3.2, -2.2}, {1.2, 1.45}},
+    {NebulaPreset::External, {0.3, 0.65}, {-6.0, -2.5}, {-3.3, -2.5}, {1.2, 1.45}},
+    {NebulaPreset::Pillars, {0.8, 1.3}, {-2.0, -0.5}, {-3.2, -1.9}, {1.25, 1.45}},
     {NebulaPreset::Bubble, {1.0, 2.0}, {-2.0, -0.5}, {-3.2, -2.4}, {1.2, 1.45}},
-    {NebulaPreset::Globule, {0.7, 1.4}, {-5.0, -2.0}, {-3.6, -2.4}, {0.75, 1.2}},
+    {NebulaPreset::Globule, {0.7, 1.4}, {-5.0, -2.0}, {-3.8, -2.4}, {0.75, 1.2}, false},
     {NebulaPreset::Bipolar, {0.8, 1.4}, {-3.5, -1.5}, {-3.2, -2.3}, {1.05, 1.45}},
 };
 
@@ -94,8 +95,8 @@ TEST(Presets, StatisticsInTheDocumentedRangesAt64)
         const auto st = statsOf(generate(d.preset, 64));
         ASSERT_TRUE(st.pdf.fitted && st.spectrum.fitted && st.contours.fitted) << name;
         expectIn(st.pdf.sigma, d.pdfSigma, name + " sigma(ln N)");
-        ASSERT_TRUE(st.pdf.highSide) << name;
-        expectIn(st.pdf.tailSlope, d.highSideSlope, name + " high side");
+        EXPECT_EQ(st.pdf.highSide, d.highSide) << name;
+        if (d.highSide) expectIn(st.pdf.tailSlope, d.highSideSlope, name + " high side");
         expectIn(st.spectrum.slope, d.spectrumSlope, name + " spectrum");
         expectIn(st.contours.dimension, d.dimension, name + " perimeter-area");
     }
@@ -103,10 +104,11 @@ TEST(Presets, StatisticsInTheDocumentedRangesAt64)
 
 TEST(Presets, ObservedTargetsAt128)
 {
-    // The targets, where docs/presets.md says a preset meets them at 128^3: sigma(ln N)
+    // The observed targets, where docs/presets.md says a preset meets them at 128^3: sigma(ln N)
     // 0.3-0.6 for reflection and external; every preset's spectrum -2.5 to -3.2 over a decade
-    // of k; the contours' dimension 1.25-1.45 for reflection, external and bubble (pillars and
-    // bipolar reach it at 256^3; the globule's few, round contours stay near 1).
+    // of k; the contours' dimension 1.25-1.45 for reflection, external, pillars and bubble
+    // (bipolar reaches it at 256^3; the globule's few, round contours stay near 1); a
+    // power-law tail in the pillars' PDF (their heads' cores).
     for (const auto& info : nebula::nebulaPresets()) {
         if (info.id == NebulaPreset::Fbm || info.id == NebulaPreset::Box) continue;
         const auto st = statsOf(generate(info.id, 128));
@@ -115,8 +117,12 @@ TEST(Presets, ObservedTargetsAt128)
             expectIn(st.pdf.sigma, {0.3, 0.6}, std::string(info.name) + " sigma(ln N)");
         }
         if (info.id == NebulaPreset::Reflection || info.id == NebulaPreset::External ||
-            info.id == NebulaPreset::Bubble) {
+            info.id == NebulaPreset::Pillars || info.id == NebulaPreset::Bubble) {
             expectIn(st.contours.dimension, {1.25, 1.45}, std::string(info.name) + " D");
+        }
+        if (info.id == NebulaPreset::Pillars) {
+            EXPECT_TRUE(st.pdf.tail) << "excess " << st.pdf.tailExcess;
+            expectIn(st.pdf.tailSlope, {-3.0, -1.0}, "pillars' tail");
         }
     }
 }

@@ -74,6 +74,9 @@ struct ToneParams
     double exposure = 0.0;    ///< manual: white point = 2^-exposure (used when !automatic)
     double gamma = 1.0;       ///< manual: display = (L / white)^gamma before sRGB encoding
     double percentile = 99.5; ///< automatic: white point = this percentile of luminance
+    /// automatic: keep `gamma` instead of fitting it to the key (the white point stays
+    /// automatic), for scenes whose faint parts the fitted gamma would lift too far.
+    bool fixedGamma = false;
 };
 
 /// The tone curve actually applied to a frame.
@@ -92,9 +95,9 @@ constexpr double TONE_MIN_GAMMA = 0.3;
 /// Automatic curve: white = the @p params.percentile luminance (nearest rank) of the pixels
 /// with finite luminance > 0; gamma chosen so that the log-mean luminance of the pixels above
 /// 1e-6 white maps to display TONE_KEY, clamped to [TONE_MIN_GAMMA, 1] (DESIGN §8; a key
-/// of 0.5, as some tone mappers use, flattens nebulae whose 1/r^2 halo spans decades); a
-/// black frame gives white 1, gamma 1. Manual: white = 2^-exposure, gamma as given. Throws Error on
-/// an invalid parameter.
+/// of 0.5, as some tone mappers use, flattens nebulae whose 1/r^2 halo spans decades), or
+/// @p params.gamma with fixedGamma; a black frame gives white 1, gamma 1. Manual: white =
+/// 2^-exposure, gamma as given. Throws Error on an invalid parameter.
 ToneCurve computeToneCurve(const Image& image, const ToneParams& params);
 
 /// What the automatic tone curve reads from a frame (recorded in nebrender's EXRs as
