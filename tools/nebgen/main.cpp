@@ -117,7 +117,12 @@ int main(int argc, char** argv)
         "Metadata: nebula:stars (JSON), nebula:dust (JSON). Next step: nebillum.";
     CLI::App app{description, "nebgen"};
     nebula::cli::addCommon(app, common, nebula::cli::OUTPUT);
-    app.add_option("--preset", presetName, "The kind of nebula (above)")
+    std::string presetNames;
+    for (const auto& p : nebula::nebulaPresets())
+        presetNames += std::string(presetNames.empty() ? "" : ", ") + p.name;
+    app.add_option("--preset", presetName,
+                   "The kind of nebula: " + presetNames +
+                       " (each in man nebgen and docs/presets.md; fbm: the seeds' cloud)")
         ->capture_default_str()
         ->check([](const std::string& name) {
             try {
