@@ -120,6 +120,16 @@ TEST_F(Cli, NebstatsRefusesBadRequests)
         EXPECT_EQ(r.code, c.code) << c.args << ": " << r.err;
         EXPECT_TRUE(contains(r.err, c.expected)) << c.args << ": " << r.err;
     }
+    // A map too small for the default k range: the spectrum is not fitted, the rest stands.
+    ASSERT_EQ(run("nebgen --preset box --res 6 -o tiny.vdb").code, 0);
+    auto tiny = run("nebstats -i tiny.vdb > tiny.txt");
+    EXPECT_EQ(tiny.code, 0) << tiny.err;
+    EXPECT_TRUE(contains(readText(path("tiny.txt")), "spectrum   not fitted")) << tiny.err;
+    // A grid with no active voxel is named.
+    ASSERT_EQ(run("nebgen --preset reflection --res 2 -o empty.vdb").code, 0);
+    tiny = run("nebstats -i empty.vdb");
+    EXPECT_EQ(tiny.code, 2);
+    EXPECT_TRUE(contains(tiny.err, "no active voxels")) << tiny.err;
     const auto r = run("nebstats -i missing.vdb");
     EXPECT_NE(r.code, 0);
     EXPECT_TRUE(contains(r.err, "missing.vdb")) << r.err;

@@ -61,6 +61,11 @@ CloudStats cloudStatistics(const GridSet& grids, const StatsOptions& opts)
     CloudStats st;
     st.grid = opts.grid;
     st.axis = opts.axis;
+    if (grid->activeVoxelCount() == 0 && (opts.bbox == "auto" || opts.bbox == "active")) {
+        throw UsageError("--grid " + opts.grid +
+                         ": the grid has no active voxels: nothing to "
+                         "measure");
+    }
     st.box = exportBox(*grid, opts.bbox);
     const auto vs = grid->transform().voxelSize();
     if (std::abs(vs[0] - vs[1]) > 1e-9 * vs[0] || std::abs(vs[0] - vs[2]) > 1e-9 * vs[0]) {
@@ -117,7 +122,12 @@ CloudStats cloudStatistics(const GridSet& grids, const StatsOptions& opts)
     try {
         st.spectrum = powerSpectrum(st.map, kMin, kMax);
     } catch (const Error& e) {
-        throw UsageError(std::string("--k-range: ") + e.what());
+        // A range the user asked for must hold; the default one on a map too small for it
+        // leaves the spectrum unfitted and the rest of the report stands.
+        if (opts.kMin > 0.0) throw UsageError(std::string("--k-range: ") + e.what());
+        st.spectrum = SpectrumFit{};
+        st.spectrum.kMin = kMin;
+        st.spectrum.kMax = kMax;
     }
     st.contours = perimeterAreaDimension(st.map, opts.levels, opts.minArea);
     return st;
@@ -177,6 +187,10 @@ std::string statsReport(const CloudStats& s)
           << " to " << sci(edgePc / s.spectrum.kMax) << " pc, " << s.spectrum.bins << " rings)\n";
         o << "anisotropy " << fixed(s.spectrum.anisotropy, 2) << " (mean power across the map's "
           << axisName(mapAxes(s.axis)[0]) << " axis over power along it, same k range)\n";
+    } else {
+        o << "spectrum   not fitted (fewer than 3 rings of k between " << sci(s.spectrum.kMin)
+          << " and " << sci(s.spectrum.kMax) << " on a map of edge " << std::max(s.map.nu, s.map.nv)
+          << "; --k-range sets them)\n";
     }
     if (s.contours.fitted) {
         o << "contours   perimeter-area dimension " << fixed(s.contours.dimension, 3) << " +- "
