@@ -24,11 +24,7 @@ using detail::numberText;
 
 namespace {
 
-double smoothstep(double e0, double e1, double x)
-{
-    const double t = std::clamp((x - e0) / (e1 - e0), 0.0, 1.0);
-    return t * t * (3.0 - 2.0 * t);
-}
+using detail::smoothstep;
 
 /// Shapes fBm (about [-1, 1]) into a clumpy non-negative field: zero in the voids below
 /// the threshold, growing as a power into the clumps.
@@ -205,29 +201,6 @@ constexpr double sparseBytesPerVoxel(double floats)
 
 namespace {
 
-/// The least and greatest distance from @p c to the box [a, b].
-double minDistance(const std::array<double, 3>& c, const std::array<double, 3>& a,
-                   const std::array<double, 3>& b)
-{
-    double s = 0.0;
-    for (size_t d = 0; d < 3; ++d) {
-        const double e = std::max({a[d] - c[d], 0.0, c[d] - b[d]});
-        s += e * e;
-    }
-    return std::sqrt(s);
-}
-
-double maxDistance(const std::array<double, 3>& c, const std::array<double, 3>& a,
-                   const std::array<double, 3>& b)
-{
-    double s = 0.0;
-    for (size_t d = 0; d < 3; ++d) {
-        const double e = std::max(std::abs(a[d] - c[d]), std::abs(b[d] - c[d]));
-        s += e * e;
-    }
-    return std::sqrt(s);
-}
-
 /// The procedural nebula (DESIGN §2): domain-warped fBm dust in a perturbed spherical
 /// envelope with cavities around the stars, and gas emission in a sphere or shell, with an
 /// inner [O III] zone.
@@ -255,7 +228,8 @@ public:
         const NebulaParams& p = mP;
         const int n = p.res;
         // Position in cube units, [-0.5, 0.5]^3.
-        const double x = (i + 0.5) / n - 0.5, y = (j + 0.5) / n - 0.5, z = (k + 0.5) / n - 0.5;
+        const double x = detail::cubeCoordinate(i, n), y = detail::cubeCoordinate(j, n),
+                     z = detail::cubeCoordinate(k, n);
         const double r = std::sqrt(x * x + y * y + z * z);
         // Domain warp: displace the lookup by a vector fBm for filaments and lanes.
         const double f = p.frequency;
@@ -293,25 +267,21 @@ public:
     {
         const NebulaParams& p = mP;
         // Bounds of the voxel centres in cube units, [-0.5, 0.5]^3.
-        const double n = p.res;
-        std::array<double, 3> a{}, b{};
-        for (int d = 0; d < 3; ++d) {
-            a[size_t(d)] = (lo[d] + 0.5) / n - 0.5;
-            b[size_t(d)] = (hi[d] + 0.5) / n - 0.5;
-        }
+        const detail::CubeBox box = detail::cubeBox(lo, hi, p.res);
         const std::array<double, 3> origin{0.0, 0.0, 0.0}, centre{mCx, mCy, mCz};
         const double margin = 1e-9; // far above the rounding of r in at()
         // The dust: env = 0 where r >= edge (> 0).
         const double dustEdge = std::min(0.5, p.envelope * (1.0 + 0.35 * 2.0));
-        if (!(p.envelope > 0.0) || minDistance(origin, a, b) < dustEdge + margin) return true;
+        if (!(p.envelope > 0.0) || detail::minDistance(origin, box) < dustEdge + margin)
+            return true;
         if (!(p.emissionPeak > 0.0)) return false; // no emission anywhere
         if (mShell) {
             // 1 - smoothstep(0, wR, |dc - R|) = 0 where |dc - R| >= wR (> 0, validated).
-            return minDistance(centre, a, b) < mR + mWR + margin &&
-                   maxDistance(centre, a, b) > mR - mWR - margin;
+            return detail::minDistance(centre, box) < mR + mWR + margin &&
+                   detail::maxDistance(centre, box) > mR - mWR - margin;
         }
         // The ball: 1 - smoothstep(0.4 R, R, r) = 0 where r >= R (> 0).
-        return !(mR > 0.0) || minDistance(origin, a, b) < mR + margin;
+        return !(mR > 0.0) || detail::minDistance(origin, box) < mR + margin;
     }
 
 private:
@@ -331,13 +301,7 @@ private:
             const double d = fbm(qx * f, qy * f, qz * f, p.fbm, mSeed);
             dens = p.densityPeak * env * shape(d, p.threshold, p.contrast, p.exponent);
         }
-        for (const auto& s : p.stars) {
-            if (p.cavity <= 0.0) break;
-            const double sx = x * p.size - s.position[0], sy = y * p.size - s.position[1],
-                         sz = z * p.size - s.position[2];
-            const double dist = std::sqrt(sx * sx + sy * sy + sz * sz);
-            dens *= smoothstep(0.5 * p.cavity, p.cavity, dist);
-        }
+        detail::clearStarCavities(dens, {x * p.size, y * p.size, z * p.size}, p.stars, p.cavity);
         return dens;
     }
 
@@ -416,13 +380,12 @@ double generateBytes(const NebulaParams& p)
     double perVoxel = fields * sparseBytesPerVoxel(1.0);
     if (p.spectral.enabled) perVoxel += sparseBytesPerVoxel(1.0) + sparseBytesPerVoxel(3.0);
     std::atomic<std::uint64_t> voxels{0};
-    forEachSupportLeaf(
-        *makeModel(p, false), p.res, [&](const openvdb::Coord& lo, const openvdb::Coord& hi, int) {
-            voxels += std::uint64_t(hi.x() - lo.x() + 1) * std::uint64_t(hi.y() - lo.y() + 1) *
-                      std::uint64_t(hi.z() - lo.z() + 1);
-        });
-    const double lattice = p.preset == NebulaPreset::Fbm ? 0.0 : detail::presetModelBytes(p);
-    return double(voxels.load()) * perVoxel + lattice;
+    const auto model = makeModel(p, false);
+    forEachSupportLeaf(*model, p.res, [&](const openvdb::Coord& lo, const openvdb::Coord& hi, int) {
+        voxels += std::uint64_t(hi.x() - lo.x() + 1) * std::uint64_t(hi.y() - lo.y() + 1) *
+                  std::uint64_t(hi.z() - lo.z() + 1);
+    });
+    return double(voxels.load()) * perVoxel + model->heldBytes();
 }
 
 NebulaVoxel nebulaVoxel(const NebulaParams& params, int i, int j, int k)

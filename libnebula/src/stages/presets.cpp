@@ -16,11 +16,7 @@ namespace {
 
 // ---- Geometry helpers, in cube units (the cube is [-0.5, 0.5]^3). ----
 
-double smoothstep(double e0, double e1, double x)
-{
-    const double t = std::clamp((x - e0) / (e1 - e0), 0.0, 1.0);
-    return t * t * (3.0 - 2.0 * t);
-}
+using detail::smoothstep;
 
 /// 1 inside, 0 outside: the soft edge of a body whose scaled radius @p rho is 1 at its
 /// surface, falling from 1 at 1 - @p w to 0 at 1.
@@ -615,8 +611,8 @@ public:
 
     NebulaVoxel at(int i, int j, int k, bool withOiii) const override
     {
-        const double n = mP.res;
-        const Vec3 p{(i + 0.5) / n - 0.5, (j + 0.5) / n - 0.5, (k + 0.5) / n - 0.5};
+        const int n = mP.res;
+        const Vec3 p{cubeCoordinate(i, n), cubeCoordinate(j, n), cubeCoordinate(k, n)};
         Vec3 q = p;
         if (mP.warp > 0.0) {
             q = q + Vec3{unit(p + OFFSET_WX), unit(p + OFFSET_WY), unit(p + OFFSET_WZ)} * mP.warp;
@@ -630,7 +626,8 @@ public:
             const double x = w.turbulence * shape.dust;
             const double c = mP.edgeCut;
             v.density = mP.densityPeak * x * (c > 0.0 ? smoothstep(c, 2.0 * c, x) : 1.0);
-            v.density *= cavities(p);
+            clearStarCavities(v.density, {p.x * mP.size, p.y * mP.size, p.z * mP.size}, mP.stars,
+                              mP.cavity);
         }
         if (shape.emission > 0.0 && mP.emissionPeak > 0.0) {
             v.emission = mP.emissionPeak * shape.emission *
@@ -648,33 +645,19 @@ public:
     bool mayHoldNebula(const openvdb::Coord& lo, const openvdb::Coord& hi) const override
     {
         if (mSupport.empty()) return true;
-        const double n = mP.res;
+        const CubeBox box = cubeBox(lo, hi, mP.res);
         for (const Ball& b : mSupport) {
-            double s = 0.0;
-            for (int d = 0; d < 3; ++d) {
-                const double a = (lo[d] + 0.5) / n - 0.5, e = (hi[d] + 0.5) / n - 0.5;
-                const double x = std::max({a - b.c[d], 0.0, b.c[d] - e});
-                s += x * x;
-            }
-            if (std::sqrt(s) < b.r + 1e-9) return true;
+            if (minDistance({b.c.x, b.c.y, b.c.z}, box) < b.r + 1e-9) return true;
         }
         return false;
     }
+
+    double heldBytes() const override { return LognormalField::bytes(turbulenceLattice(mP.res)); }
 
 private:
     float sample(const Vec3& p) const { return (*mField)(p.x, p.y, p.z); }
     /// The lattice as a zero-mean, unit-variance noise.
     double unit(const Vec3& p) const { return (double(sample(p)) + mHalfVar) * mInvSigma; }
-    /// --cavity: dust cleared within the given radius of every star.
-    double cavities(const Vec3& p) const
-    {
-        if (!(mP.cavity > 0.0)) return 1.0;
-        double f = 1.0;
-        const double c = mP.cavity / mP.size;
-        for (const Vec3& s : mStars)
-            f *= smoothstep(0.5 * c, c, (p - s).length());
-        return f;
-    }
 
     const NebulaParams& mP;
     const PresetDef& mDef;
@@ -690,11 +673,6 @@ private:
 std::unique_ptr<NebulaModel> makePresetModel(const NebulaParams& params, bool withLattice)
 {
     return std::make_unique<PresetModel>(params, withLattice);
-}
-
-double presetModelBytes(const NebulaParams& params)
-{
-    return LognormalField::bytes(turbulenceLattice(params.res));
 }
 
 } // namespace detail
