@@ -5,11 +5,10 @@
 #include "nebula/core/units.h"
 #include "nebula/stages/export.h"
 
+#include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
 #include <cmath>
-#include <cstdio>
-#include <sstream>
 
 namespace nebula {
 
@@ -133,75 +132,60 @@ CloudStats cloudStatistics(const GridSet& grids, const StatsOptions& opts)
     return st;
 }
 
-namespace {
-
-std::string fixed(double v, int digits)
-{
-    char b[64];
-    std::snprintf(b, sizeof b, "%.*f", digits, v);
-    return b;
-}
-
-std::string sci(double v)
-{
-    char b[64];
-    std::snprintf(b, sizeof b, "%.3g", v);
-    return b;
-}
-
-} // namespace
-
 std::string statsReport(const CloudStats& s)
 {
-    std::ostringstream o;
     const double edgePc = std::max(s.map.nu, s.map.nv) * s.voxelPc;
-    o << "grid       " << s.grid << ", box " << s.box[0][0] << "," << s.box[0][1] << ","
-      << s.box[0][2] << " to " << s.box[1][0] << "," << s.box[1][1] << "," << s.box[1][2]
-      << ", voxel " << sci(s.voxelPc) << " pc\n";
-    o << "volume     ln(value): mean " << fixed(s.volume.mean(), 3) << ", sigma "
-      << fixed(s.volume.sigma(), 3) << " over " << s.volume.count() << " voxels > 0\n";
-    o << "column     along " << axisName(s.axis) << ": " << s.map.nu << " x " << s.map.nv
-      << " map; mean " << sci(s.meanColumn) << " " << s.columnUnit << ", max " << sci(s.maxColumn)
-      << ", over " << s.map.positive() << " pixels > 0\n";
+    std::string o = fmt::format("grid       {}, box {},{},{} to {},{},{}, voxel {:.3g} pc\n",
+                                s.grid, s.box[0][0], s.box[0][1], s.box[0][2], s.box[1][0],
+                                s.box[1][1], s.box[1][2], s.voxelPc);
+    o += fmt::format("volume     ln(value): mean {:.3f}, sigma {:.3f} over {} voxels > 0\n",
+                     s.volume.mean(), s.volume.sigma(), s.volume.count());
+    o += fmt::format("column     along {}: {} x {} map; mean {:.3g} {}, max {:.3g}, over {} "
+                     "pixels > 0\n",
+                     axisName(s.axis), s.map.nu, s.map.nv, s.meanColumn, s.columnUnit, s.maxColumn,
+                     s.map.positive());
     if (s.pdf.fitted) {
-        o << "pdf        lognormal sigma(ln N) " << fixed(s.pdf.sigma, 3) << ", peak at ln(N/<N>) "
-          << fixed(s.pdf.mu, 3) << " (" << s.pdf.pixels << " pixels with N >= " << s.pdf.floor
-          << " <N>; " << s.pdf.fitBins << " bins of " << s.pdf.binWidth
-          << " with >= 10 % of the peak; sample sigma " << fixed(s.pdf.sampleSigma, 3) << ")\n";
+        o += fmt::format("pdf        lognormal sigma(ln N) {:.3f}, peak at ln(N/<N>) {:.3f} ({} "
+                         "pixels with N >= {:g} <N>; {} bins of {:g} with >= 10 % of the peak; "
+                         "sample sigma {:.3f})\n",
+                         s.pdf.sigma, s.pdf.mu, s.pdf.pixels, s.pdf.floor, s.pdf.fitBins,
+                         s.pdf.binWidth, s.pdf.sampleSigma);
         if (s.pdf.highSide) {
-            o << "pdf tail   " << (s.pdf.tail ? "power law" : "none") << ": above peak + sigma, "
-              << fixed(s.pdf.tailExcess, 2) << "x the lognormal's pixels (a tail from 2x); "
-              << "p(ln N) ~ N^" << fixed(s.pdf.tailSlope, 2) << " over ln(N/<N>) "
-              << fixed(s.pdf.tailFrom, 2) << " to " << fixed(s.pdf.tailTo, 2) << " ("
-              << s.pdf.tailBins << " bins)\n";
+            o += fmt::format("pdf tail   {}: above peak + sigma, {:.2f}x the lognormal's pixels (a "
+                             "tail from 2x); p(ln N) ~ N^{:.2f} over ln(N/<N>) {:.2f} to {:.2f} "
+                             "({} bins)\n",
+                             s.pdf.tail ? "power law" : "none", s.pdf.tailExcess, s.pdf.tailSlope,
+                             s.pdf.tailFrom, s.pdf.tailTo, s.pdf.tailBins);
         } else {
-            o << "pdf tail   none (fewer than 3 bins above the peak + sigma)\n";
+            o += "pdf tail   none (fewer than 3 bins above the peak + sigma)\n";
         }
     } else {
-        o << "pdf        not fitted (fewer than 3 bins about the peak)\n";
+        o += "pdf        not fitted (fewer than 3 bins about the peak)\n";
     }
     if (s.spectrum.fitted) {
-        o << "spectrum   P(k) ~ k^" << fixed(s.spectrum.slope, 2) << " +- "
-          << fixed(s.spectrum.slopeError, 2) << " over k = " << sci(s.spectrum.kMin) << " to "
-          << sci(s.spectrum.kMax) << " per map edge (scales " << sci(edgePc / s.spectrum.kMin)
-          << " to " << sci(edgePc / s.spectrum.kMax) << " pc, " << s.spectrum.bins << " rings)\n";
-        o << "anisotropy " << fixed(s.spectrum.anisotropy, 2) << " (mean power across the map's "
-          << axisName(mapAxes(s.axis)[0]) << " axis over power along it, same k range)\n";
+        o += fmt::format("spectrum   P(k) ~ k^{:.2f} +- {:.2f} over k = {:.3g} to {:.3g} per map "
+                         "edge (scales {:.3g} to {:.3g} pc, {} rings)\n",
+                         s.spectrum.slope, s.spectrum.slopeError, s.spectrum.kMin, s.spectrum.kMax,
+                         edgePc / s.spectrum.kMin, edgePc / s.spectrum.kMax, s.spectrum.bins);
+        o += fmt::format("anisotropy {:.2f} (mean power across the map's {} axis over power "
+                         "along it, same k range)\n",
+                         s.spectrum.anisotropy, axisName(mapAxes(s.axis)[0]));
     } else {
-        o << "spectrum   not fitted (fewer than 3 rings of k between " << sci(s.spectrum.kMin)
-          << " and " << sci(s.spectrum.kMax) << " on a map of edge " << std::max(s.map.nu, s.map.nv)
-          << "; --k-range sets them)\n";
+        o += fmt::format("spectrum   not fitted (fewer than 3 rings of k between {:.3g} and "
+                         "{:.3g} on a map of edge {}; --k-range sets them)\n",
+                         s.spectrum.kMin, s.spectrum.kMax, std::max(s.map.nu, s.map.nv));
     }
     if (s.contours.fitted) {
-        o << "contours   perimeter-area dimension " << fixed(s.contours.dimension, 3) << " +- "
-          << fixed(s.contours.error, 3) << " (" << s.contours.contours << " contours at "
-          << s.contours.levels << " levels, areas " << s.contours.areaMin << " to "
-          << s.contours.areaMax << " pixels)\n";
+        o += fmt::format("contours   perimeter-area dimension {:.3f} +- {:.3f} ({} contours at {} "
+                         "levels, areas {:g} to {:g} pixels)\n",
+                         s.contours.dimension, s.contours.error, s.contours.contours,
+                         s.contours.levels, s.contours.areaMin, s.contours.areaMax);
     } else {
-        o << "contours   not fitted (" << s.contours.contours
-          << " closed contours; 5 or more spanning a factor 10 in area needed)\n";
+        o += fmt::format("contours   not fitted ({} closed contours; 5 or more spanning a factor "
+                         "10 in area needed)\n",
+                         s.contours.contours);
     }
-    return o.str();
+    return o;
 }
 
 std::string statsJson(const CloudStats& s)
