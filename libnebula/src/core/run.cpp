@@ -1,5 +1,7 @@
 #include "nebula/core/run.h"
 
+#include "nebula/core/error.h"
+
 #include <fmt/format.h>
 
 #include <algorithm>
@@ -24,6 +26,11 @@ void Run::info(const std::string& message) const
 void Run::warn(const std::string& message) const
 {
     if (!mVerbosity.quiet) std::cerr << mTool << ": warning: " << message << "\n";
+}
+
+void Run::checkCancel() const
+{
+    if (cancelled()) throw Cancelled();
 }
 
 Progress::Progress(const Run* run, std::string label, std::uint64_t total)

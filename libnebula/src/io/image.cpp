@@ -28,6 +28,7 @@
 #include <memory>
 #include <ostream>
 #include <set>
+#include <sstream>
 
 namespace nebula {
 
@@ -496,66 +497,35 @@ double srgbEncode(double linear)
 
 // ---- PNG ------------------------------------------------------------------------------------
 
-void writePng(AtomicFile& file, const Image& image, const ToneCurve& curve,
-              const std::map<std::string, std::string>& text, int bitDepth)
+namespace {
+
+/// Refuses a bit depth other than 8 or 16 and a tone curve that is not finite and positive.
+void checkToneOutput(const std::string& where, int bitDepth, const ToneCurve& curve)
 {
-    const std::string& path = file.path();
-    validateImage(path, image, false);
     if (bitDepth != 8 && bitDepth != 16) {
-        throw Error(path + ": PNG bit depth must be 8 or 16, got " + std::to_string(bitDepth));
+        throw Error(where + ": PNG bit depth must be 8 or 16, got " + std::to_string(bitDepth));
     }
     if (!(curve.white > 0.0) || !std::isfinite(curve.white) || !(curve.gamma > 0.0) ||
         !std::isfinite(curve.gamma)) {
-        throw Error(path + ": invalid tone curve (white " + std::to_string(curve.white) +
+        throw Error(where + ": invalid tone curve (white " + std::to_string(curve.white) +
                     ", gamma " + std::to_string(curve.gamma) + ")");
     }
+}
+
+/// The PNG of @p pixels (displayPixels()) with @p text's chunks into @p os; throws Error
+/// naming @p where.
+void encodePng(std::ostream& os, const std::string& where, const Image& image,
+               std::vector<std::uint8_t>& pixels, int bitDepth,
+               const std::map<std::string, std::string>& text)
+{
     for (const auto& [key, value] : text) {
         if (!validPngKeyword(key)) {
-            throw Error(path + ": PNG text key \"" + key +
+            throw Error(where + ": PNG text key \"" + key +
                         "\" must be 1 to 79 printable ASCII characters without leading, "
                         "trailing or double spaces");
         }
     }
-
-    // The tone curve acts on luminance and scales R,G,B alike, so hues survive (a per-channel
-    // curve would push the blue of a hot star's halo to white); a colour brighter than
-    // display white is scaled down as a whole. Then sRGB.
-    const std::size_t n = pixelCount(image.width, image.height);
-    const std::size_t bytes = bitDepth / 8; // per sample; 16-bit samples are big-endian
-    const double maxValue = bitDepth == 16 ? 65535.0 : 255.0;
-    std::vector<png_byte> pixels(n * 4 * bytes);
-    const auto put = [&](std::size_t sample, double v) { // v in [0, 1]
-        const long q = std::lround(v * maxValue);
-        if (bytes == 2) {
-            pixels[2 * sample] = png_byte(q >> 8);
-            pixels[2 * sample + 1] = png_byte(q & 0xff);
-        } else {
-            pixels[sample] = png_byte(q);
-        }
-    };
-    const double invWhite = 1.0 / curve.white;
-    for (std::size_t i = 0; i < n; ++i) {
-        double rgb[3];
-        for (int c = 0; c < 3; ++c) {
-            const double x = double(image.rgba[4 * i + c]) * invWhite;
-            rgb[c] = x > 0.0 ? x : 0.0; // NaN -> 0
-        }
-        const double Y = linearSRGBLuminance(rgb[0], rgb[1], rgb[2]);
-        const double scale = Y > 0.0 ? std::pow(Y, curve.gamma) / Y : 0.0;
-        const double peak = std::max({rgb[0], rgb[1], rgb[2]}) * scale;
-        const double fit = peak > 1.0 ? 1.0 / peak : 1.0;
-        for (int c = 0; c < 3; ++c) {
-            put(4 * i + std::size_t(c), srgbEncode(std::min(1.0, rgb[c] * scale * fit)));
-        }
-        // Space is black and opaque; a pixel outside the camera's view (a dome master's
-        // corners) is transparent black.
-        const bool outside = !image.inView.empty() && image.inView[i] == 0;
-        if (outside) {
-            for (int c = 0; c < 3; ++c)
-                put(4 * i + std::size_t(c), 0.0);
-        }
-        put(4 * i + 3, outside ? 0.0 : 1.0);
-    }
+    const std::size_t bytes = std::size_t(bitDepth / 8);
     std::vector<png_bytep> rows(std::size_t(image.height));
     for (int y = 0; y < image.height; ++y) {
         rows[std::size_t(y)] =
@@ -585,17 +555,83 @@ void writePng(AtomicFile& file, const Image& image, const ToneCurve& curve,
     if (!png || !info) {
         std::snprintf(err.message, sizeof err.message, "out of memory");
     } else {
-        ok = pngWriteAll(png, info, &file.stream(), png_uint_32(image.width),
-                         png_uint_32(image.height), bitDepth, rows.data(), chunks.data(),
-                         int(chunks.size()));
+        ok = pngWriteAll(png, info, &os, png_uint_32(image.width), png_uint_32(image.height),
+                         bitDepth, rows.data(), chunks.data(), int(chunks.size()));
     }
     if (png) png_destroy_write_struct(&png, info ? &info : nullptr);
-    if (!ok && file.stream()) {
+    if (!ok && os) {
         std::string why = err.message;
         if (err.lastWarning[0] != '\0') why += std::string(" (") + err.lastWarning + ")";
-        throw Error(path + ": cannot write PNG: " + why);
+        throw Error(where + ": cannot write PNG: " + why);
     }
+}
+
+} // namespace
+
+std::vector<std::uint8_t> displayPixels(const Image& image, const ToneCurve& curve, int bitDepth)
+{
+    validateImage("display pixels", image, false);
+    checkToneOutput("display pixels", bitDepth, curve);
+    // The tone curve acts on luminance and scales R,G,B alike, so hues survive (a per-channel
+    // curve would push the blue of a hot star's halo to white); a colour brighter than
+    // display white is scaled down as a whole. Then sRGB.
+    const std::size_t n = pixelCount(image.width, image.height);
+    const std::size_t bytes = std::size_t(bitDepth / 8); // 16-bit samples are big-endian
+    const double maxValue = bitDepth == 16 ? 65535.0 : 255.0;
+    std::vector<std::uint8_t> pixels(n * 4 * bytes);
+    const auto put = [&](std::size_t sample, double v) { // v in [0, 1]
+        const long q = std::lround(v * maxValue);
+        if (bytes == 2) {
+            pixels[2 * sample] = std::uint8_t(q >> 8);
+            pixels[2 * sample + 1] = std::uint8_t(q & 0xff);
+        } else {
+            pixels[sample] = std::uint8_t(q);
+        }
+    };
+    const double invWhite = 1.0 / curve.white;
+    for (std::size_t i = 0; i < n; ++i) {
+        double rgb[3];
+        for (int c = 0; c < 3; ++c) {
+            const double x = double(image.rgba[4 * i + c]) * invWhite;
+            rgb[c] = x > 0.0 ? x : 0.0; // NaN -> 0
+        }
+        const double Y = linearSRGBLuminance(rgb[0], rgb[1], rgb[2]);
+        const double scale = Y > 0.0 ? std::pow(Y, curve.gamma) / Y : 0.0;
+        const double peak = std::max({rgb[0], rgb[1], rgb[2]}) * scale;
+        const double fit = peak > 1.0 ? 1.0 / peak : 1.0;
+        for (int c = 0; c < 3; ++c) {
+            put(4 * i + std::size_t(c), srgbEncode(std::min(1.0, rgb[c] * scale * fit)));
+        }
+        // Space is black and opaque; a pixel outside the camera's view (a dome master's
+        // corners) is transparent black.
+        const bool outside = !image.inView.empty() && image.inView[i] == 0;
+        if (outside) {
+            for (int c = 0; c < 3; ++c)
+                put(4 * i + std::size_t(c), 0.0);
+        }
+        put(4 * i + 3, outside ? 0.0 : 1.0);
+    }
+    return pixels;
+}
+
+void writePng(AtomicFile& file, const Image& image, const ToneCurve& curve,
+              const std::map<std::string, std::string>& text, int bitDepth)
+{
+    const std::string& path = file.path();
+    validateImage(path, image, false);
+    checkToneOutput(path, bitDepth, curve);
+    std::vector<std::uint8_t> pixels = displayPixels(image, curve, bitDepth);
+    encodePng(file.stream(), path, image, pixels, bitDepth, text);
     file.finish(); // names the OS error of a failed write
+}
+
+std::string pngBytes(const Image& image, const ToneCurve& curve,
+                     const std::map<std::string, std::string>& text)
+{
+    std::vector<std::uint8_t> pixels = displayPixels(image, curve, 8);
+    std::ostringstream os;
+    encodePng(os, "PNG in memory", image, pixels, 8, text);
+    return std::move(os).str();
 }
 
 void writePng(const std::string& path, const Image& image, const ToneCurve& curve,

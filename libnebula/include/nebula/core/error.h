@@ -1,6 +1,7 @@
 #pragma once
 /// @file error.h
-/// The one exception type libnebula throws. Tools turn it into "tool: error: ..." and exit 1.
+/// The exceptions libnebula throws. Tools turn Error into "tool: error: ..." and exit 1;
+/// Cancelled ends work a caller asked to stop (Run::setCancel()) and is never an error.
 
 #include <stdexcept>
 #include <string>
@@ -20,6 +21,14 @@ class UsageError : public Error
 {
 public:
     explicit UsageError(const std::string& what) : Error(what) {}
+};
+
+/// Thrown by long work (a frame's rows) when its Run's cancel flag is set: the caller that set
+/// it (nebview, when a newer camera arrives) catches it and drops the partial result.
+class Cancelled : public std::exception
+{
+public:
+    const char* what() const noexcept override { return "cancelled"; }
 };
 
 } // namespace nebula

@@ -39,11 +39,20 @@ public:
     /// Whether progress bars are drawn (stderr is a TTY and not -q).
     bool showProgress() const { return mProgress; }
 
+    /// Work done under this run stops early, throwing Cancelled, once @p flag is true (null:
+    /// never). The flag outlives the work; whoever sets it catches Cancelled.
+    void setCancel(const std::atomic<bool>* flag) { mCancel = flag; }
+    /// Whether the work should stop now (see setCancel()).
+    bool cancelled() const { return mCancel && mCancel->load(std::memory_order_relaxed); }
+    /// Throws Cancelled if cancelled().
+    void checkCancel() const;
+
 private:
     std::string mTool;
     std::string mCommand;
     Verbosity mVerbosity;
     bool mProgress = false;
+    const std::atomic<bool>* mCancel = nullptr;
 };
 
 /// " 12 s left", " 7 min left", " 3.2 h left", " 41 days left": the time a task that has run

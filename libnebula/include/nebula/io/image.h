@@ -6,6 +6,7 @@
 #include "nebula/core/atomic_file.h"
 
 #include <cstddef>
+#include <cstdint>
 #include <map>
 #include <string>
 #include <vector>
@@ -138,6 +139,15 @@ void writePng(const std::string& path, const Image& image, const ToneCurve& curv
 /// writePng() into an open AtomicFile, finished but not committed (see writeExr()).
 void writePng(AtomicFile& file, const Image& image, const ToneCurve& curve,
               const std::map<std::string, std::string>& text, int bitDepth = 8);
+
+/// The display pixels writePng() writes: RGBA, 8 bits per sample (or 16, big-endian), rows
+/// top first, after @p curve and the sRGB encoding (nebview's JPEG frames are these).
+/// Throws Error on an invalid curve or bit depth.
+std::vector<std::uint8_t> displayPixels(const Image& image, const ToneCurve& curve,
+                                        int bitDepth = 8);
+/// The 8-bit PNG writePng() would write, as bytes in memory (nebview's lossless frames).
+std::string pngBytes(const Image& image, const ToneCurve& curve,
+                     const std::map<std::string, std::string>& text = {});
 
 /// True if @p path is a regular file that decodes whole as a PNG (its header, every row and
 /// the end chunk, CRCs checked): what --skip-existing requires of a PNG it keeps. A missing,
