@@ -14,7 +14,7 @@ include(CMakePackageConfigHelpers)
 set(NEBULA_CMAKE_DIR ${CMAKE_INSTALL_LIBDIR}/cmake/nebula)
 
 install(TARGETS nebgen nebillum nebscatter nebphase nebpyramid nebrender nebtone nebimport
-                nebexport nebstats
+                nebexport nebstats nebview
         RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR} COMPONENT tools)
 foreach(tool IN LISTS NEBULA_TOOLS)
     install(FILES ${PROJECT_BINARY_DIR}/man/${tool}.1.gz DESTINATION ${CMAKE_INSTALL_MANDIR}/man1
@@ -27,7 +27,8 @@ install(TARGETS nebula_core nebula_volume nebula_physics nebula_io nebula_render
         EXPORT nebulaTargets
         ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR} COMPONENT dev)
 install(DIRECTORY ${PROJECT_SOURCE_DIR}/libnebula/include/nebula
-        DESTINATION ${CMAKE_INSTALL_INCLUDEDIR} COMPONENT dev FILES_MATCHING PATTERN "*.h")
+        DESTINATION ${CMAKE_INSTALL_INCLUDEDIR} COMPONENT dev FILES_MATCHING PATTERN "*.h"
+        PATTERN "serve" EXCLUDE) # nebview's server: a tool's, not the library's API
 install(FILES ${NEBULA_VERSION_HEADER} DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}/nebula/core
         COMPONENT dev)
 install(EXPORT nebulaTargets NAMESPACE nebula:: DESTINATION ${NEBULA_CMAKE_DIR} COMPONENT dev)
@@ -76,10 +77,11 @@ set(CPACK_PACKAGE_DESCRIPTION_SUMMARY
 # Lines of at most 80 characters (Debian policy 5.6.13).
 set(CPACK_PACKAGE_DESCRIPTION
     "Command-line tools (nebgen, nebillum, nebscatter, nebphase, nebpyramid,
-nebrender, nebtone, nebimport, nebexport, nebstats) that generate, light,
-render and measure nebulae from OpenVDB grids, with multiple scattering,
-spectral rendering and calibrated FITS output; and libnebula, the static
-library they are built on, with its CMake and pkg-config packages.")
+nebrender, nebtone, nebimport, nebexport, nebstats, nebview) that generate,
+light, render, measure and show live nebulae from OpenVDB grids, with
+multiple scattering, spectral rendering and calibrated FITS output; and
+libnebula, the static library they are built on, with its CMake and
+pkg-config packages.")
 set(CPACK_DEBIAN_FILE_NAME DEB-DEFAULT) # nebula_<version>_amd64.deb
 set(CPACK_DEBIAN_PACKAGE_SECTION science)
 set(CPACK_DEBIAN_PACKAGE_SHLIBDEPS ON)

@@ -10,7 +10,7 @@ import pathlib
 import re
 import sys
 
-LAYERS = ["core", "volume", "physics", "io", "render", "stages", "cli"]
+LAYERS = ["core", "volume", "physics", "io", "render", "stages", "cli", "serve"]
 INCLUDE = re.compile(r'^\s*#\s*include\s+[<"]nebula/([a-z]+)/([A-Za-z0-9_]+\.h)[>"]')
 
 

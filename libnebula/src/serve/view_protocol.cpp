@@ -1,0 +1,236 @@
+#include "nebula/serve/view_protocol.h"
+
+#include "nebula/core/format.h"
+
+#include <fmt/format.h>
+
+#include <cmath>
+
+namespace nebula {
+
+namespace {
+
+using nlohmann::json;
+
+double number(const json& j, const char* key, const std::string& where)
+{
+    const auto it = j.find(key);
+    if (it == j.end() || !it->is_number()) {
+        throw Error(where + ": \"" + key + "\" must be a number");
+    }
+    const double v = it->get<double>();
+    if (!std::isfinite(v)) throw Error(where + ": \"" + key + "\" must be finite");
+    return v;
+}
+
+bool flag(const json& j, const char* key, bool fallback, const std::string& where)
+{
+    const auto it = j.find(key);
+    if (it == j.end()) return fallback;
+    if (!it->is_boolean()) throw Error(where + ": \"" + key + "\" must be true or false");
+    return it->get<bool>();
+}
+
+Vec3 vec3(const json& j, const char* key, const Vec3& fallback, const std::string& where)
+{
+    const auto it = j.find(key);
+    if (it == j.end()) return fallback;
+    if (!it->is_array() || it->size() != 3) {
+        throw Error(where + ": \"" + key + "\" must be an array of 3 numbers");
+    }
+    double v[3];
+    for (std::size_t i = 0; i < 3; ++i) {
+        if (!(*it)[i].is_number() || !std::isfinite((*it)[i].get<double>())) {
+            throw Error(where + ": \"" + key + "\" must be an array of 3 finite numbers");
+        }
+        v[i] = (*it)[i].get<double>();
+    }
+    return {v[0], v[1], v[2]};
+}
+
+const json& object(const json& j, const char* key, const std::string& where)
+{
+    const auto it = j.find(key);
+    if (it == j.end() || !it->is_object()) {
+        throw Error(where + ": \"" + key + "\" must be an object");
+    }
+    return *it;
+}
+
+CameraPath pathFromJson(const json& j, const Camera& base, const std::string& name)
+{
+    if (!j.is_object()) throw Error(name + ": a camera path must be a JSON object");
+    return parseCameraPath(j.dump(), name, base);
+}
+
+} // namespace
+
+json cameraJson(const Camera& c)
+{
+    json j = {{"eye", {c.eye.x, c.eye.y, c.eye.z}},
+              {"look_at", {c.lookAt.x, c.lookAt.y, c.lookAt.z}},
+              {"up", {c.up.x, c.up.y, c.up.z}},
+              {"fov", c.fovDeg},
+              {"roll", c.rollDeg},
+              {"model", toString(c.model)}};
+    j["dome_tilt"] = std::isnan(c.domeTiltDeg) ? json(nullptr) : json(c.domeTiltDeg);
+    return j;
+}
+
+Camera cameraFromJson(const json& j, const Camera& base, const std::string& where)
+{
+    if (!j.is_object()) throw Error(where + ": the camera must be an object");
+    Camera c = base;
+    c.eye = vec3(j, "eye", base.eye, where);
+    c.lookAt = vec3(j, "look_at", base.lookAt, where);
+    c.up = vec3(j, "up", base.up, where);
+    if (j.contains("fov")) c.fovDeg = number(j, "fov", where);
+    if (j.contains("roll")) c.rollDeg = number(j, "roll", where);
+    if (j.contains("model")) {
+        if (!j["model"].is_string()) throw Error(where + ": \"model\" must be a string");
+        const std::string m = j["model"].get<std::string>();
+        if (m != "perspective" && m != "fisheye" && m != "equirect") {
+            throw Error(where + ": \"model\" must be perspective, fisheye or equirect, not \"" +
+                        m.substr(0, 40) + "\"");
+        }
+        c.model = cameraModelFromString(m);
+    }
+    if (j.contains("dome_tilt")) {
+        c.domeTiltDeg = j["dome_tilt"].is_null() ? std::nan("") : number(j, "dome_tilt", where);
+    }
+    try {
+        validateCamera(c);
+    } catch (const Error& e) {
+        throw Error(where + ": " + e.what());
+    }
+    return c;
+}
+
+json pathJson(const CameraPath& path)
+{
+    return json::parse(cameraPathJson(path));
+}
+
+ClientMessage parseClientMessage(const std::string& text, const std::vector<std::string>& stars,
+                                 const Camera& base, const std::string& pathName)
+{
+    if (text.size() > MAX_CLIENT_MESSAGE) {
+        throw MalformedMessage(
+            fmt::format("a message of {} bytes, more than {}", text.size(), MAX_CLIENT_MESSAGE));
+    }
+    json j;
+    try {
+        j = detail::parseJson(text, "message");
+    } catch (const Error& e) {
+        throw MalformedMessage(e.what());
+    }
+    if (!j.is_object() || !j.contains("type") || !j["type"].is_string()) {
+        throw MalformedMessage("a message must be a JSON object with a \"type\"");
+    }
+    const std::string type = j["type"].get<std::string>();
+    ClientMessage m;
+    const std::string where = type;
+    if (type == "view") {
+        m.kind = ClientMessage::Kind::View;
+        ViewRequest& v = m.view;
+        const double id = number(j, "id", where);
+        if (id < 0 || id > 9e15 || id != std::floor(id)) {
+            throw Error(where + ": \"id\" must be a whole number >= 0");
+        }
+        v.id = static_cast<long long>(id);
+        v.camera = cameraFromJson(object(j, "camera", where), base, where + ": camera");
+        v.moving = flag(j, "moving", false, where);
+        if (j.contains("mode")) {
+            const json& mode = j["mode"];
+            if (mode != "rgb" && mode != "spectral") {
+                throw Error(where + ": \"mode\" must be \"rgb\" or \"spectral\"");
+            }
+            v.spectral = mode == "spectral";
+        }
+        if (j.contains("format")) {
+            const json& format = j["format"];
+            if (format != "jpeg" && format != "png") {
+                throw Error(where + ": \"format\" must be \"jpeg\" or \"png\"");
+            }
+            v.png = format == "png";
+        }
+        if (j.contains("tone")) {
+            const json& t = object(j, "tone", where);
+            const std::string tw = where + ": tone";
+            v.tone.automatic = flag(t, "auto", true, tw);
+            if (t.contains("exposure")) v.tone.exposure = number(t, "exposure", tw);
+            if (std::abs(v.tone.exposure) > 1000) {
+                throw Error(tw + ": \"exposure\" must be within +-1000 stops");
+            }
+            if (t.contains("gamma") && !t["gamma"].is_null()) {
+                const double g = number(t, "gamma", tw);
+                if (!(g > 0.0 && g <= 10.0)) throw Error(tw + ": \"gamma\" must be in (0, 10]");
+                v.tone.gamma = g;
+            }
+        }
+        if (j.contains("show")) {
+            const json& s = object(j, "show", where);
+            const std::string sw = where + ": show";
+            v.show.single = flag(s, "single", true, sw);
+            v.show.field = flag(s, "field", true, sw);
+            v.show.emission = flag(s, "emission", true, sw);
+            v.show.sprites = flag(s, "sprites", true, sw);
+            if (s.contains("stars")) {
+                const json& on = object(s, "stars", sw);
+                v.show.stars.assign(stars.size(), true);
+                for (std::size_t i = 0; i < stars.size(); ++i)
+                    v.show.stars[i] = flag(on, stars[i].c_str(), true, sw + ": stars");
+            }
+        }
+    } else if (type == "probe") {
+        m.kind = ClientMessage::Kind::Probe;
+        m.x = number(j, "x", where);
+        m.y = number(j, "y", where);
+    } else if (type == "scrub") {
+        m.kind = ClientMessage::Kind::Scrub;
+        m.time = number(j, "time", where);
+        if (j.contains("id")) { // the frame's id (the page's flow control)
+            const double id = number(j, "id", where);
+            if (id >= 0 && id <= 9e15) m.view.id = static_cast<long long>(id);
+        }
+        if (!j.contains("path")) throw Error(where + ": \"path\" is missing");
+        m.path = pathFromJson(j["path"], base, pathName);
+    } else if (type == "load_path") {
+        m.kind = ClientMessage::Kind::LoadPath;
+        if (!j.contains("text") || !j["text"].is_string()) {
+            throw Error(where + ": \"text\" must be a string");
+        }
+        m.text = j["text"].get<std::string>();
+        if (j.contains("name") && j["name"].is_string()) {
+            m.name = j["name"].get<std::string>().substr(0, 200);
+        }
+    } else if (type == "save_path") {
+        m.kind = ClientMessage::Kind::SavePath;
+        if (!j.contains("path")) throw Error(where + ": \"path\" is missing");
+        m.path = pathFromJson(j["path"], base, pathName);
+    } else {
+        throw MalformedMessage("unknown message type \"" + type.substr(0, 40) + "\"");
+    }
+    return m;
+}
+
+ToneCurve requestTone(const Image& image, const ToneRequest& request, const ToneParams& base)
+{
+    ToneParams p = base;
+    if (request.automatic) {
+        p.automatic = true;
+        if (request.gamma) {
+            p.fixedGamma = true;
+            p.gamma = *request.gamma;
+        }
+        ToneCurve curve = computeToneCurve(image, p);
+        curve.white *= std::exp2(-request.exposure);
+        return curve;
+    }
+    p.automatic = false;
+    p.exposure = request.exposure;
+    p.gamma = request.gamma.value_or(1.0);
+    return computeToneCurve(image, p);
+}
+
+} // namespace nebula

@@ -1,0 +1,68 @@
+// nebview on the command line: the URL as the first line of stdout, and every bad input
+// refused at start with a clear error (a port in use, an input without tau grids, a
+// --path-out that cannot be written, a path file that does not parse).
+#include "cli_fixture.h"
+
+#include <gtest/gtest.h>
+
+#include <fstream>
+#include <regex>
+
+using namespace nebula::clitest;
+
+TEST_F(Cli, NebviewPrintsItsUrlFirstAndServesThePage)
+{
+    makeLit();
+    // Started in the background; the URL is read from its first line of stdout.
+    const Result r =
+        run("(nebview -i lit.vdb --path-out p.json > url.txt & echo $! > pid.txt); "
+            "for i in $(seq 100); do [ -s url.txt ] && break; sleep 0.1; done; "
+            "curl -s -o page.html -w '%{http_code}' \"$(head -1 url.txt)\" > code.txt; "
+            "curl -s -o /dev/null -w '%{http_code}' \"$(head -1 url.txt | "
+            "sed 's/token=.*/token=x/')\" > denied.txt; kill $(cat pid.txt)");
+    EXPECT_EQ(r.code, 0) << r.err;
+    std::ifstream url(path("url.txt"));
+    std::string first;
+    std::getline(url, first);
+    EXPECT_TRUE(
+        std::regex_match(first, std::regex("http://127\\.0\\.0\\.1:[0-9]+/\\?token=[0-9a-f]{32}")))
+        << first;
+    std::ifstream code(path("code.txt")), denied(path("denied.txt"));
+    std::string c, d;
+    code >> c;
+    denied >> d;
+    EXPECT_EQ(c, "200");
+    EXPECT_EQ(d, "403");
+    EXPECT_FALSE(fs::exists(path("p.json"))); // nothing written until Save
+}
+
+TEST_F(Cli, NebviewRefusesBadInputsAtStart)
+{
+    makeLit();
+    // A port in use: named, exit 1.
+    const Result busy = run("python3 -c 'import socket,time,sys; s=socket.socket(); "
+                            "s.bind((\"127.0.0.1\",0)); s.listen(); "
+                            "open(\"port.txt\",\"w\").write(str(s.getsockname()[1])); "
+                            "time.sleep(30)' & sleep 1; "
+                            "nebview -i lit.vdb --port $(cat port.txt); e=$?; kill %1; "
+                            "rm port.txt; exit $e");
+    EXPECT_EQ(busy.code, 1) << busy.err;
+    EXPECT_NE(busy.err.find("in use"), std::string::npos) << busy.err;
+    EXPECT_NE(busy.err.find("127.0.0.1:"), std::string::npos) << busy.err;
+    // An input without tau grids: nebrender's message.
+    const Result view = run("nebview -i small.vdb");
+    const Result render = run("nebrender -i small.vdb -o x.exr");
+    EXPECT_EQ(view.code, render.code);
+    EXPECT_NE(view.code, 0);
+    const auto message = [](const std::string& err) { return err.substr(err.find("error: ")); };
+    EXPECT_EQ(message(view.err), message(render.err));
+    // --path-out that cannot be written: refused now, not at the first save.
+    expectFailure("nebview -i lit.vdb --path-out missing/dir/p.json", 1, "--path-out");
+    // A path file that does not parse.
+    std::ofstream(path("bad.json")) << "{\"fps\": 24, \"keyframes\": [";
+    expectFailure("nebview -i lit.vdb --camera-path bad.json", 1, "bad.json");
+    expectFailure("nebview -i lit.vdb --listen 127.0.0.1", 2, "--listen");
+    expectFailure("nebview -i lit.vdb --listen nowhere:80", 2, "not an IP address");
+    expectFailure("nebview -i lit.vdb --res 0x10", 2, "--res");
+    expectFailure("nebview -i lit.vdb --fast-step 0", 2, "--fast-step");
+}
