@@ -1,6 +1,8 @@
 // nebview's frame costs on a real input: for a camera orbiting the look-at point, each
 // stage's render, the composition, the tone and the JPEG (or PNG), median over the orbit.
-// Usage: nebview_frames INPUT.vdb [FRAMES] [WxH]   (bench/nebview.sh runs it)
+// Usage: nebview_frames INPUT.vdb [FRAMES] [WxH] [FAST_LOD] [FAST_STEP] [STAGES]
+// (bench/nebview.sh runs it; STAGES: "ipf" = interactive, preview, final)
+#include "nebula/core/error.h"
 #include "nebula/core/run.h"
 #include "nebula/io/grid_io.h"
 #include "nebula/serve/view_protocol.h"
@@ -10,11 +12,13 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <memory>
 #include <string>
+#include <thread>
 #include <vector>
 
 namespace {
@@ -42,17 +46,22 @@ int main(int argc, char** argv)
     const int frames = argc > 2 ? std::max(1, std::atoi(argv[2])) : 12;
     int w = 512, h = 512;
     if (argc > 3) std::sscanf(argv[3], "%dx%d", &w, &h);
+    const std::string stages = argc > 6 ? argv[6] : "ipf";
     const Run run;
     auto grids = std::make_shared<const GridSet>(readGrids(argv[1], run));
     ViewSettings settings;
     settings.render.camera.width = w;
     settings.render.camera.height = h;
+    if (argc > 4) settings.fastLod = std::atof(argv[4]);
+    if (argc > 5) settings.fastStep = std::atof(argv[5]);
     const auto t0 = std::chrono::steady_clock::now();
     const ViewSession session(grids, settings, grids->dust(run), run);
-    std::printf("input %s, %dx%d, scene %.0f ms\n", argv[1], w, h, msSince(t0));
+    std::printf("input %s, %dx%d, scene %.0f ms, fast lod %g, fast step %g\n", argv[1], w, h,
+                msSince(t0), settings.fastLod, settings.fastStep);
     const Camera start = settings.render.camera;
     const double radius = (start.eye - start.lookAt).length();
     for (const ViewStage stage : {ViewStage::Interactive, ViewStage::Preview, ViewStage::Final}) {
+        if (stages.find(toString(stage)[0]) == std::string::npos) continue;
         const int n = stage == ViewStage::Final ? std::min(frames, 3) : frames;
         std::vector<double> render, compose, tone, jpeg, bytes;
         long long samples = 0;
@@ -87,6 +96,29 @@ int main(int argc, char** argv)
                     toString(stage).c_str(), size[0], size[1], median(render), median(compose),
                     median(tone), median(jpeg), median(bytes) / 1024.0, total, 1e3 / total,
                     samples / n, n);
+    }
+    // How soon a newer camera stops a final frame in flight: cancelled 200 ms into it.
+    if (stages.find('c') != std::string::npos || argc <= 6) {
+        std::vector<double> stops;
+        for (int i = 0; i < 5; ++i) {
+            Run cancellable;
+            std::atomic<bool> cancel{false};
+            cancellable.setCancel(&cancel);
+            std::chrono::steady_clock::time_point set;
+            std::thread t([&] {
+                std::this_thread::sleep_for(std::chrono::milliseconds(200 + 37 * i));
+                set = std::chrono::steady_clock::now();
+                cancel = true;
+            });
+            try {
+                (void)session.render(start, ViewStage::Final, false, cancellable);
+            } catch (const Cancelled&) {
+            }
+            stops.push_back(msSince(set));
+            t.join();
+        }
+        std::printf("cancel: a final frame stops %.1f ms after the flag (median of 5, max %.1f)\n",
+                    median(stops), *std::max_element(stops.begin(), stops.end()));
     }
     return 0;
 }

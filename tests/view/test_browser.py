@@ -94,6 +94,7 @@ def start_nebview():
     if os.path.exists(path_out):
         os.remove(path_out)
     cmd = [NEBVIEW, "-i", INPUT_VDB, "--res", "512x512", "--path-out", path_out]
+    cmd += os.environ.get("NEBVIEW_ARGS", "").split()  # e.g. "--fast-step 1.5" (benchmarks)
     print("$ " + " ".join(cmd), flush=True)
     return subprocess.Popen(cmd, stdout=subprocess.PIPE, stdin=subprocess.DEVNULL, text=True)
 
@@ -235,6 +236,24 @@ def run_test(driver, url):
         timing(False, "no frame answered the drag while it lasted")
     print(f"fps while orbiting: {fps:.1f}", flush=True)
     timing(fps >= 10, f"fps while orbiting {fps:.1f} >= 10")
+
+    # 4b. Single inputs at rest (a user scrolling once): one wheel step each time the last
+    # view's preview (or final) frame is on screen, so a refinement is in flight to cancel.
+    steps = []
+    for i in range(6):
+        wait_for(driver, "const f = window.nebview.lastFrame; return !!f && "
+                 "f.id >= window.nebview.lastViewId && f.stage !== 'interactive';",
+                 "the preview of the last view", 60)
+        n = js(driver, "return window.nebview.latencies.length;")
+        js(driver, "document.getElementById('view').dispatchEvent(new WheelEvent('wheel', "
+           "{deltaY: arguments[0], bubbles: true, cancelable: true}));", 60 if i % 2 else -60)
+        steps.append(wait_for(driver, "const l = window.nebview.latencies; "
+                              "return l.length > arguments[0] ? l[arguments[0]] : null;",
+                              "the frame answering one wheel step", 30, n))
+    step_median = statistics.median(steps)
+    print(f"latency of single inputs at rest: median {step_median:.1f} ms "
+          f"(min {min(steps):.1f}, max {max(steps):.1f}, {len(steps)} wheel steps)", flush=True)
+    timing(step_median <= 100, f"latency of single inputs {step_median:.1f} ms <= 100 ms")
 
     # 5. The voxel probe at the image centre of the starting camera.
     view_id = js(driver, "return window.nebview.setCamera(arguments[0]);", hello["camera"])

@@ -63,8 +63,9 @@ inline Image frameImage(const RenderScene& scene, const RenderOptions& opts,
 /// Runs @p band(y0, y1, stats) for bands of rows [y0, y1) of an image @p height rows high,
 /// in parallel (bands of at least @p grain rows), with a progress bar labelled @p label
 /// (drawn only if @p run shows progress), and adds every band's statistics to @p stats (if
-/// not null). A band starts only while @p run is not cancelled (Run::setCancel()); once it is,
-/// the loop ends by throwing Cancelled and the image is to be dropped. Every pixel is computed by
+/// not null). If @p run can be cancelled (Run::setCancel()), @p band is called for one row at
+/// a time, each only while the run is not cancelled; once it is, the loop ends by throwing
+/// Cancelled within a row, and the image is to be dropped. Every pixel is computed by
 /// one band alone, so the image does not depend on how the rows are split or on the thread count;
 /// the statistics are integer sums.
 template <class Band>
@@ -76,9 +77,19 @@ void forEachRowBand(int height, int grain, const Run* run, const std::string& la
     RenderStats total;
     tbb::parallel_for(tbb::blocked_range<int>(0, height, grain),
                       [&](const tbb::blocked_range<int>& rows) {
-                          if (run) run->checkCancel();
                           RenderStats local;
-                          band(rows.begin(), rows.end(), local);
+                          if (run && run->cancellable()) {
+                              // Row by row, the flag checked before each (the partitioner
+                              // may hand a thread many rows at once).
+                              for (int y = rows.begin(); y < rows.end(); ++y) {
+                                  run->checkCancel();
+                                  RenderStats row;
+                                  band(y, y + 1, row);
+                                  local += row;
+                              }
+                          } else {
+                              band(rows.begin(), rows.end(), local);
+                          }
                           bar.add(std::uint64_t(rows.size()));
                           const std::lock_guard<std::mutex> lock(mutex);
                           total += local;

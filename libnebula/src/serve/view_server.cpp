@@ -103,7 +103,8 @@ bool sameTone(const ToneRequest& a, const ToneRequest& b)
 class WsSession;
 
 /// The render thread: for each client its newest view, the stages still to render and the
-/// best frame so far (to recompose when only the tone or the components change).
+/// best frame so far (to recompose when only the tone or the components change). Only the
+/// newest view is kept: no queue builds up.
 class Renderer
 {
 public:
@@ -154,11 +155,12 @@ private:
         int last = 2;             ///< the last stage to render for this view
         bool recompose = false;   ///< the best frame again with the new tone or components
         std::shared_ptr<const ViewFrame> best;
+        std::chrono::steady_clock::time_point arrived; ///< when the view came (for -v)
     };
 
     void loop();
     void send(const std::shared_ptr<WsSession>& client, const ViewRequest& view,
-              const ViewFrame& frame);
+              const ViewFrame& frame, std::chrono::steady_clock::time_point arrived);
 
     const ViewSession& mSession;
     Run mRun; ///< the render's, with the cancel flag
@@ -167,6 +169,7 @@ private:
     std::condition_variable mWake;
     std::map<const WsSession*, Slot> mSlots;
     const WsSession* mCurrent = nullptr;
+    ViewStage mCurrentStage = ViewStage::Interactive;
     std::atomic<bool> mCancel{false};
     bool mStopping = false;
     std::size_t mTurn = 0; ///< round robin over the clients
@@ -442,13 +445,17 @@ void Renderer::submit(const std::shared_ptr<WsSession>& client, const ViewReques
                            !sameTone(slot.view.tone, view.tone) || slot.view.png != view.png;
         const int done = sameCamera ? int(slot.best->stage) : -1;
         slot.view = view;
+        slot.arrived = std::chrono::steady_clock::now();
         ++slot.serial;
         slot.last = view.moving ? 0 : 2;
         slot.next = done + 1;
         if (sameCamera && slot.next > slot.last) slot.next = 3; // nothing more to render
         slot.recompose = sameCamera && (looks || slot.next > slot.last);
         if (!sameCamera) slot.best.reset();
-        if (mCurrent == client.get()) mCancel = true; // a newer view wins
+        // A newer view wins: a preview or final frame in flight is cancelled at once; an
+        // interactive one (a fraction of a second) is finished and sent, so that a camera
+        // moving faster than frames render still gets frames, each of the newest view.
+        if (mCurrent == client.get() && mCurrentStage != ViewStage::Interactive) mCancel = true;
     }
     mWake.notify_all();
 }
@@ -479,6 +486,7 @@ void Renderer::loop()
         }
         ++mTurn;
         const ViewRequest view = pick->view;
+        const auto arrived = pick->arrived;
         const std::uint64_t serial = pick->serial;
         const auto client = pick->client.lock();
         if (!client) {
@@ -489,12 +497,13 @@ void Renderer::loop()
             pick->recompose = false;
             const auto best = pick->best;
             lock.unlock();
-            send(client, view, *best);
+            send(client, view, *best, arrived);
             lock.lock();
             continue;
         }
         const auto stage = ViewStage(pick->next);
         mCurrent = key;
+        mCurrentStage = stage;
         mCancel = false;
         lock.unlock();
         std::shared_ptr<ViewFrame> frame;
@@ -526,13 +535,13 @@ void Renderer::loop()
             slot.next = int(stage) + 1;
         }
         lock.unlock();
-        send(client, view, *frame);
+        send(client, view, *frame, arrived);
         lock.lock();
     }
 }
 
 void Renderer::send(const std::shared_ptr<WsSession>& client, const ViewRequest& view,
-                    const ViewFrame& frame)
+                    const ViewFrame& frame, std::chrono::steady_clock::time_point arrived)
 {
     try {
         const Image img = mSession.compose(frame, view.show);
@@ -562,7 +571,17 @@ void Renderer::send(const std::shared_ptr<WsSession>& client, const ViewRequest&
             message->push_back(char((n >> (8 * i)) & 0xff));
         *message += h;
         *message += bytes;
+        const std::size_t size = message->size();
         WsSession::post(client, std::move(message));
+        if (mRun.verbosity().verbose > 0) {
+            mRun.info(fmt::format(
+                "view {} {} {}x{}: render {:.1f} ms, out {:.1f} ms after the view came, {} bytes",
+                view.id, toString(frame.stage), img.width, img.height, frame.seconds * 1e3,
+                std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() -
+                                                          arrived)
+                    .count(),
+                size));
+        }
     } catch (const std::exception& e) {
         mRun.warn(std::string("a frame could not be sent: ") + e.what());
     }

@@ -87,6 +87,12 @@ RenderOptions ViewSession::stageOptions(const Camera& camera, ViewStage stage, b
     const auto size = resolution(stage);
     opts.camera.width = size[0];
     opts.camera.height = size[1];
+    // The page switches models; each gets the image shape it needs from the stage's size.
+    if (camera.model == CameraModel::Equirect) {
+        opts.camera.height = std::max(1, opts.camera.width / 2);
+    } else if (camera.model == CameraModel::Fisheye) {
+        opts.camera.width = opts.camera.height = std::min(size[0], size[1]);
+    }
     if (stage != ViewStage::Final) {
         opts.step = mSettings.fastStep;
         opts.exactStarDepth = false;

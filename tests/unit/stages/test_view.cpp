@@ -184,3 +184,31 @@ TEST(ViewSession, CameraPathReadsBackAndWritesAtomically)
     EXPECT_TRUE(std::filesystem::exists(dir + "/p.json"));
     EXPECT_THROW(writeCameraPath(dir + "/missing/p.json", path), Error);
 }
+
+TEST(ViewSession, EveryCameraModelAndTheSpectralMode)
+{
+    const nebula::Run run;
+    const ViewSettings settings = cubeSettings(64, 48);
+    const ViewSession session(cube(), settings, cube()->dust(run), run);
+    Camera cam = settings.render.camera;
+    cam.model = CameraModel::Equirect;
+    const ViewFrame e = session.render(cam, ViewStage::Preview, false, run);
+    EXPECT_EQ(e.image.width, 64);
+    EXPECT_EQ(e.image.height, 32);
+    cam.model = CameraModel::Fisheye;
+    cam.fovDeg = 180;
+    cam.domeTiltDeg = 30;
+    const ViewFrame f = session.render(cam, ViewStage::Interactive, false, run);
+    EXPECT_EQ(f.image.width, 24);
+    EXPECT_EQ(f.image.height, 24);
+    EXPECT_FALSE(f.image.inView.empty()); // the dome's corners
+    // Spectral: the spectral scene is built on first use; the frame is shown whole.
+    const ViewFrame s = session.render(settings.render.camera, ViewStage::Interactive, true, run);
+    double sum = 0.0;
+    for (std::size_t i = 0; i < s.image.rgba.size(); ++i)
+        if (i % 4 != 3) sum += s.image.rgba[i];
+    EXPECT_GT(sum, 0.0);
+    ViewShow none;
+    none.single = none.sprites = false;
+    EXPECT_EQ(session.compose(s, none).rgba, s.image.rgba);
+}

@@ -42,6 +42,8 @@ public:
     /// Work done under this run stops early, throwing Cancelled, once @p flag is true (null:
     /// never). The flag outlives the work; whoever sets it catches Cancelled.
     void setCancel(const std::atomic<bool>* flag) { mCancel = flag; }
+    /// Whether a cancel flag is set (work then checks it often: at every row of a frame).
+    bool cancellable() const { return mCancel != nullptr; }
     /// Whether the work should stop now (see setCancel()).
     bool cancelled() const { return mCancel && mCancel->load(std::memory_order_relaxed); }
     /// Throws Cancelled if cancelled().

@@ -47,7 +47,7 @@ struct ViewSettings
     double fastStep = 1.0;
     /// Interactive frames: the level of detail (RenderOptions::lod), coarser than nebrender's
     /// 2 (a level-L voxel may span up to this many pixels).
-    double fastLod = 4.0;
+    double fastLod = 8.0;
     ToneParams tone; ///< the tone nebview starts with (--exposure, --gamma, --percentile)
 };
 
@@ -115,7 +115,8 @@ public:
     const GridSet& grids() const { return *mGrids; }
     /// The size of a frame of @p stage.
     std::array<int, 2> resolution(ViewStage stage) const;
-    /// The render options of a frame of @p stage for @p camera (its view; the stage's size).
+    /// The render options of a frame of @p stage for @p camera (its view; the stage's size,
+    /// shaped for the model: equirect W x W/2, fisheye the smaller side squared).
     RenderOptions stageOptions(const Camera& camera, ViewStage stage, bool spectral) const;
 
     /// Renders @p camera's view (model, view, fov; the size comes from @p stage). Throws
