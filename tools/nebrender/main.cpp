@@ -22,7 +22,6 @@ int main(int argc, char** argv)
     nebula::DustOptions dustOpts;
     std::string res, phaseFile;
     bool noStars = false, noPng = false;
-    double exposure = 0.0;
 
     CLI::App app{
         "nebrender - render a nebula: starlight scattered by dust, plus gas emission\n\n"
@@ -168,23 +167,7 @@ int main(int argc, char** argv)
                            "--fits and --sed give its band average, rendered at the band's three\n"
                            "quadrature wavelengths (with --spectral: from the spectral layers);\n"
                            "a field must be made with the same --filter");
-    app.add_option("--emission-grid", opts.emissionGrid, "Gas emission grid")
-        ->capture_default_str();
-    app.add_option("--emission-scale", opts.emissionScale,
-                   "Emission multiplier [L_sun pc^-3 sr^-1 per grid unit]")
-        ->capture_default_str()
-        ->check(nebula::cli::nonNegative());
-    nebula::cli::addVec3(app, "--emission-color", opts.emissionColor,
-                         "Emission colour, linear sRGB R,G,B (H-alpha with some H-beta)");
-    app.add_flag("--no-stars", noStars, "Do not draw the stars themselves");
-    app.add_option("--sprite-radius", opts.spriteRadius,
-                   "Star sprite radius [pixels], as far as its footprint fits in memory")
-        ->capture_default_str()
-        ->check(nebula::cli::positive());
-    app.add_option("--min-star-distance", opts.minStarDistance,
-                   "Distance below which 1/r^2 is clamped [voxels]")
-        ->capture_default_str()
-        ->check(nebula::cli::positive());
+    nebula::cli::addEmissionAndStars(app, opts, noStars);
     nebula::cli::addDust(app, dustOpts, /*withKappa=*/false);
     app.add_option("--phase", phaseFile,
                    "Effective phase-function table from nebphase: scattering uses Phi(t, mu) of\n"
@@ -300,19 +283,8 @@ int main(int argc, char** argv)
                          "With --count-pieces: also count the pieces left after merging\n"
                          "neighbours under this relative tolerance (Spectrum::merge)")
             ->check(nebula::cli::numberIn(0.0, 1.0)));
-    auto* exp = app.add_option("--exposure", exposure,
-                               "PNG: fixed exposure in stops (white = 2^-E); turns off the "
-                               "automatic tone curve")
-                    ->check(nebula::cli::numberIn(-1000.0, 1000.0));
-    auto* gammaOpt = app.add_option("--gamma", out.tone.gamma,
-                                    "PNG: gamma with --exposure; alone, a fixed gamma with the "
-                                    "automatic white point (default: fitted to the frame)")
-                         ->capture_default_str()
-                         ->check(nebula::cli::positive());
-    app.add_option("--percentile", out.tone.percentile,
-                   "PNG: automatic white point = this luminance percentile")
-        ->capture_default_str()
-        ->check(nebula::cli::numberIn(1.0, 100.0));
+    nebula::ToneOptions toneOpts;
+    nebula::cli::addTone(app, out.tone, toneOpts, "PNG: ");
 
     return nebula::cli::run(app, "nebrender", common, argc, argv, [&](nebula::Run& run) {
         nebula::cli::refuseSharedStream({{"-i", common.input}, {"--phase", phaseFile}}, "stdin");
@@ -389,12 +361,7 @@ int main(int argc, char** argv)
             integrator == "path" ? nebula::Integrator::Path : nebula::Integrator::Fast;
         opts.phaseUse = phaseUse == "replace" ? nebula::PhaseUse::Replace : nebula::PhaseUse::Gain;
         if (noPng) out.png = "none";
-        if (exp->count() > 0) {
-            out.tone.automatic = false;
-            out.tone.exposure = exposure;
-        } else if (gammaOpt->count() > 0) {
-            out.tone.fixedGamma = true;
-        }
+        toneOpts.apply(out.tone);
         if (!phaseFile.empty()) {
             opts.phaseTable = std::make_shared<const nebula::PhaseTable>(
                 nebula::readPhaseTable(nebula::readGrids(phaseFile, run, "--phase")));

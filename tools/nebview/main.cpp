@@ -23,7 +23,6 @@ int main(int argc, char** argv)
     std::string res = "512x512", interactiveRes, phaseFile, listen, pathFile;
     bool noStars = false;
     int port = 0;
-    double exposure = 0.0;
 
     CLI::App app{
         "nebview - explore a nebula live in a web page, and author camera paths there\n\n"
@@ -92,22 +91,7 @@ int main(int argc, char** argv)
         ->check(nebula::cli::numberIn(0.0, 1e6));
     nebula::cli::addVec3(app, "--wavelengths", opts.wavelengths,
                          "R,G,B channel wavelengths [nm] for the extinction curve");
-    app.add_option("--emission-grid", opts.emissionGrid, "Gas emission grid")
-        ->capture_default_str();
-    app.add_option("--emission-scale", opts.emissionScale,
-                   "Emission multiplier [L_sun pc^-3 sr^-1 per grid unit]")
-        ->capture_default_str()
-        ->check(nebula::cli::nonNegative());
-    nebula::cli::addVec3(app, "--emission-color", opts.emissionColor,
-                         "Emission colour, linear sRGB R,G,B");
-    app.add_flag("--no-stars", noStars, "Do not draw the stars themselves");
-    app.add_option("--sprite-radius", opts.spriteRadius, "Star sprite radius [pixels]")
-        ->capture_default_str()
-        ->check(nebula::cli::positive());
-    app.add_option("--min-star-distance", opts.minStarDistance,
-                   "Distance below which 1/r^2 is clamped [voxels]")
-        ->capture_default_str()
-        ->check(nebula::cli::positive());
+    nebula::cli::addEmissionAndStars(app, opts, noStars);
     nebula::cli::addDust(app, dustOpts, /*withKappa=*/false);
     app.add_option("--phase", phaseFile, "Effective phase-function table from nebphase");
     app.add_option("--levels", opts.levels, "Pyramid levels with --phase (nebrender's)")
@@ -117,17 +101,8 @@ int main(int argc, char** argv)
                  "Final frames too take the stars' optical depth from the tau grid");
     app.add_flag("--no-scatter-field", noScatterField,
                  "Ignore the input's scattered-light field (nebscatter)");
-    auto* exp = app.add_option("--exposure", exposure,
-                               "Starting exposure in stops (white = 2^-E): fixed tone")
-                    ->check(nebula::cli::numberIn(-1000.0, 1000.0));
-    auto* gammaOpt = app.add_option("--gamma", settings.tone.gamma,
-                                    "Starting gamma (with the automatic white point, or with "
-                                    "--exposure)")
-                         ->check(nebula::cli::positive());
-    app.add_option("--percentile", settings.tone.percentile,
-                   "Automatic white point = this luminance percentile")
-        ->capture_default_str()
-        ->check(nebula::cli::numberIn(1.0, 100.0));
+    nebula::ToneOptions toneOpts;
+    nebula::cli::addTone(app, settings.tone, toneOpts, "The page's starting tone: ");
 
     return nebula::cli::run(app, "nebview", common, argc, argv, [&](nebula::Run& run) {
         nebula::cli::refuseSharedStream({{"-i", common.input}, {"--phase", phaseFile}}, "stdin");
@@ -170,12 +145,7 @@ int main(int argc, char** argv)
         opts.drawStars = !noStars;
         opts.scatterField = !noScatterField;
         opts.exactStarDepth = !interpolatedTau;
-        if (exp->count() > 0) {
-            settings.tone.automatic = false;
-            settings.tone.exposure = exposure;
-        } else if (gammaOpt->count() > 0) {
-            settings.tone.fixedGamma = true;
-        }
+        toneOpts.apply(settings.tone);
         if (!phaseFile.empty()) {
             opts.phaseTable = std::make_shared<const nebula::PhaseTable>(
                 nebula::readPhaseTable(nebula::readGrids(phaseFile, run, "--phase")));

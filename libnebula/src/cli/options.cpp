@@ -130,6 +130,59 @@ std::vector<Star> loadStars(const StarOptions& opts)
     return stars;
 }
 
+void addEmissionAndStars(CLI::App& app, RenderOptions& opts, bool& noStars)
+{
+    app.add_option("--emission-grid", opts.emissionGrid, "Gas emission grid")
+        ->capture_default_str();
+    app.add_option("--emission-scale", opts.emissionScale,
+                   "Emission multiplier [L_sun pc^-3 sr^-1 per grid unit]")
+        ->capture_default_str()
+        ->check(nonNegative());
+    addVec3(app, "--emission-color", opts.emissionColor,
+            "Emission colour, linear sRGB R,G,B (H-alpha with some H-beta)");
+    app.add_flag("--no-stars", noStars, "Do not draw the stars themselves");
+    app.add_option("--sprite-radius", opts.spriteRadius,
+                   "Star sprite radius [pixels], as far as its footprint fits in memory")
+        ->capture_default_str()
+        ->check(positive());
+    app.add_option("--min-star-distance", opts.minStarDistance,
+                   "Distance below which 1/r^2 is clamped [voxels]")
+        ->capture_default_str()
+        ->check(positive());
+}
+
+void addTone(CLI::App& app, ToneParams& tone, ToneOptions& opts, const std::string& prefix)
+{
+    opts.exposureOption = app.add_option("--exposure", opts.exposure,
+                                         prefix + "fixed exposure in stops (white = 2^-E); turns "
+                                                  "off the automatic tone curve")
+                              ->check(numberIn(-1000.0, 1000.0));
+    opts.gammaOption = app.add_option("--gamma", tone.gamma,
+                                      prefix + "gamma with --exposure; alone, a fixed gamma with "
+                                               "the automatic white point (default: fitted to "
+                                               "the frame)")
+                           ->capture_default_str()
+                           ->check(positive());
+    app.add_option("--percentile", tone.percentile,
+                   prefix + "automatic white point = this luminance percentile")
+        ->capture_default_str()
+        ->check(numberIn(1.0, 100.0));
+}
+
+} // namespace cli
+
+void ToneOptions::apply(ToneParams& tone) const
+{
+    if (exposureOption && exposureOption->count() > 0) {
+        tone.automatic = false;
+        tone.exposure = exposure;
+    } else if (gammaOption && gammaOption->count() > 0) {
+        tone.fixedGamma = true;
+    }
+}
+
+namespace cli {
+
 void addFilter(CLI::App& app, FilterOptions& opts, const std::string& what)
 {
     std::string names;

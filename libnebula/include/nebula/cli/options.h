@@ -1,10 +1,13 @@
 #pragma once
 /// @file options.h
-/// Option groups shared by several tools: stars (--star, --stars) and dust parameters.
+/// Option groups shared by several tools: stars (--star, --stars), dust parameters, filters,
+/// and nebrender's and nebview's light (emission, star sprites) and tone.
 
+#include "nebula/io/image.h"
 #include "nebula/physics/dust.h"
 #include "nebula/physics/filters.h"
 #include "nebula/physics/stars.h"
+#include "nebula/render/options.h"
 
 #include <CLI/CLI.hpp>
 
@@ -42,6 +45,17 @@ struct DustOptions
     bool any() const { return kappa_V || albedo || g || R_V || phase || curve; }
 };
 
+/// The tone given on the command line (addTone()).
+struct ToneOptions
+{
+    double exposure = 0.0;
+    CLI::Option* exposureOption = nullptr;
+    CLI::Option* gammaOption = nullptr;
+    /// @p tone with --exposure (a fixed curve) or --gamma alone (a fixed gamma with the
+    /// automatic white point) applied.
+    void apply(ToneParams& tone) const;
+};
+
 namespace cli {
 
 void addStars(CLI::App& app, StarOptions& opts);
@@ -55,6 +69,13 @@ Star parseStarOption(const std::string& text);
 /// out --kappa-v.
 void addDust(CLI::App& app, DustOptions& opts, bool withKappa = true);
 
+/// The gas's emission and the stars as a render shows them (nebrender, nebview):
+/// --emission-grid, --emission-scale, --emission-color, --no-stars (into @p noStars: the
+/// caller sets opts.drawStars = !noStars), --sprite-radius, --min-star-distance.
+void addEmissionAndStars(CLI::App& app, RenderOptions& opts, bool& noStars);
+/// --exposure, --gamma and --percentile into @p tone and @p opts (ToneOptions::apply() after
+/// parsing); @p prefix starts each help text ("PNG: ", "Starting tone: ").
+void addTone(CLI::App& app, ToneParams& tone, ToneOptions& opts, const std::string& prefix);
 /// Adds --filter, --filter-file and --filter-unit (@p what says what the band does).
 void addFilter(CLI::App& app, FilterOptions& opts, const std::string& what);
 
