@@ -422,7 +422,16 @@ void WsSession::handle(const std::string& text)
             if (file.empty()) throw Error("save: nebview was started without --path-out");
             writeCameraPath(file, m.path);
             mServer.run.info("wrote " + file);
-            sendText(json({{"type", "saved"}, {"file", file}, {"keyframes", m.path.keys.size()}})
+            // How to render it: the frame count and rate the fly-through target needs.
+            const long frames = m.path.frameCount();
+            sendText(json({{"type", "saved"},
+                           {"file", file},
+                           {"keyframes", m.path.keys.size()},
+                           {"frames", frames},
+                           {"fps", m.path.fps},
+                           {"render", fmt::format("make -f Makefile.data flythrough FLY_PATH={} "
+                                                  "FLY_FRAMES={} FLY_FPS={:g}",
+                                                  file, frames, m.path.fps)}})
                          .dump());
         } catch (const Error& e) {
             sendText(

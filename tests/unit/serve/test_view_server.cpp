@@ -388,6 +388,8 @@ TEST(ViewServer, ProbeAndPaths)
     c.send({{"type", "save_path"}, {"path", path}});
     const json saved = c.until("saved");
     EXPECT_EQ(saved["keyframes"], 2);
+    EXPECT_EQ(saved["frames"], 49); // 2 s at 24 fps, both ends
+    EXPECT_TRUE(test::contains(saved["render"], "FLY_FRAMES=49 FLY_FPS=24")) << saved.dump();
     std::ifstream in(out);
     const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
     EXPECT_EQ(parseCameraPath(text, out, cam).keys.size(), 2u);
