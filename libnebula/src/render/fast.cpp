@@ -435,12 +435,8 @@ private:
     {
         const SparseVolume& f = mScene.fields;
         double far = 0.0;
-        for (int c = 0; c < 8; ++c) {
-            const Vec3 corner(f.lo()[0] + (c & 1) * (f.dims()[0] - 1),
-                              f.lo()[1] + (c >> 1 & 1) * (f.dims()[1] - 1),
-                              f.lo()[2] + (c >> 2) * (f.dims()[2] - 1));
-            far = std::max(far, (f.indexToWorld.apply(corner) - mCam.eye()).length());
-        }
+        for (int c = 0; c < 8; ++c)
+            far = std::max(far, (f.cornerWorld(c) - mCam.eye()).length());
         // The largest pixel: the centre and the corners of the image (perspective pixels
         // shrink away from the centre; fisheye and equirect ones vary less than 2x).
         const Camera& cam = opts.camera;

@@ -19,7 +19,6 @@
 #include <atomic>
 #include <chrono>
 #include <condition_variable>
-#include <cstring>
 #include <deque>
 #include <limits>
 #include <map>
@@ -78,6 +77,14 @@ void splitTarget(const std::string& target, std::string& path, std::string& toke
         if (kv.rfind("token=", 0) == 0) token = kv.substr(6);
         i = amp + 1;
     }
+}
+
+/// The "error" message answering request @p request ("" when it is not known).
+std::string errorText(const std::string& request, const std::string& message)
+{
+    json j = {{"type", "error"}, {"message", message}};
+    if (!request.empty()) j["request"] = request;
+    return j.dump();
 }
 
 bool sameView(const Camera& a, const Camera& b)
@@ -238,11 +245,7 @@ public:
     void sendFrame(std::shared_ptr<const std::string> frame)
     {
         if (mClosed) return;
-        if (mPendingFrame) {
-            mPendingFrame = std::move(frame);
-            return;
-        }
-        mPendingFrame = std::move(frame);
+        mPendingFrame = std::move(frame); // waits only while a write is under way
         write();
     }
 
@@ -292,7 +295,7 @@ private:
             close(websocket::close_code::bad_payload, e.what());
             return;
         } catch (const std::exception& e) {
-            sendText(json({{"type", "error"}, {"message", e.what()}}).dump());
+            sendText(errorText("", e.what()));
         }
         if (!mClosed) read();
     }
@@ -366,11 +369,7 @@ void WsSession::handle(const std::string& text)
         if (!mServer.renderer->lastView(this, last)) {
             throw Error("probe: no view yet (send a view first)");
         }
-        Camera c = last.camera;
-        const auto size = session.resolution(ViewStage::Final);
-        c.width = size[0];
-        c.height = size[1];
-        c = session.stageOptions(c, ViewStage::Final, false).camera;
+        const Camera c = session.stageOptions(last.camera, ViewStage::Final, false).camera;
         if (!(m.x >= 0 && m.x <= c.width && m.y >= 0 && m.y <= c.height)) {
             throw Error(fmt::format("probe: ({:g}, {:g}) is outside the {}x{} image", m.x, m.y,
                                     c.width, c.height));
@@ -411,8 +410,7 @@ void WsSession::handle(const std::string& text)
             const CameraPath path = parseCameraPath(m.text, name, base);
             sendText(json({{"type", "path"}, {"path", pathJson(path)}}).dump());
         } catch (const Error& e) {
-            sendText(
-                json({{"type", "error"}, {"request", "load_path"}, {"message", e.what()}}).dump());
+            sendText(errorText("load_path", e.what()));
         }
         break;
     }
@@ -434,8 +432,7 @@ void WsSession::handle(const std::string& text)
                                                   file, frames, m.path.fps)}})
                          .dump());
         } catch (const Error& e) {
-            sendText(
-                json({{"type", "error"}, {"request", "save_path"}, {"message", e.what()}}).dump());
+            sendText(errorText("save_path", e.what()));
         }
         break;
     }
@@ -532,9 +529,7 @@ void Renderer::loop()
         if (!failure.empty()) {
             if (slot.serial == serial) slot.next = 3;
             lock.unlock();
-            WsSession::postText(
-                client,
-                json({{"type", "error"}, {"request", "view"}, {"message", failure}}).dump());
+            WsSession::postText(client, errorText("view", failure));
             lock.lock();
             continue;
         }
@@ -739,9 +734,7 @@ ViewServer::ViewServer(const ViewSession& session, const ViewServerOptions& opti
             std::numeric_limits<double>::infinity());
     Vec3 hi = lo * -1.0;
     for (int c = 0; c < 8; ++c) {
-        const Vec3 p = f.indexToWorld.apply(Vec3(f.lo()[0] + ((c & 1) ? f.dims()[0] - 1 : 0),
-                                                 f.lo()[1] + ((c & 2) ? f.dims()[1] - 1 : 0),
-                                                 f.lo()[2] + ((c & 4) ? f.dims()[2] - 1 : 0)));
+        const Vec3 p = f.cornerWorld(c);
         lo = Vec3(std::min(lo.x, p.x), std::min(lo.y, p.y), std::min(lo.z, p.z));
         hi = Vec3(std::max(hi.x, p.x), std::max(hi.y, p.y), std::max(hi.z, p.z));
     }

@@ -6,6 +6,7 @@
 #include "nebula/render/fast.h"
 #include "nebula/render/sprites.h"
 #include "nebula/render/star_depth.h"
+#include "nebula/volume/block_walk.h"
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
@@ -13,7 +14,6 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <limits>
 
 namespace nebula {
 
@@ -189,25 +189,12 @@ ProbeResult ViewSession::probe(const Camera& camera, double px, double py) const
     Vec3 dir;
     if (!projection.direction(px, py, dir)) return result; // outside a fisheye's circle
     const SparseVolume& f = mScene.fields;
-    const Affine toIndex = f.indexToWorld.inverse();
     const Vec3 origin = projection.origin(px, py);
-    // The ray in index space: o + t d, t in pc along the world ray.
-    const Vec3 o = toIndex.apply(origin);
-    const Vec3 d = toIndex.applyLinear(dir);
-    double t0 = 0.0, t1 = std::numeric_limits<double>::infinity();
-    const double oa[3] = {o.x, o.y, o.z}, da[3] = {d.x, d.y, d.z};
-    for (int a = 0; a < 3; ++a) { // the lattice's box [lo, lo + dims - 1]
-        const double lo = f.lo()[std::size_t(a)], hi = lo + f.dims()[std::size_t(a)] - 1;
-        if (std::abs(da[a]) < 1e-300) {
-            if (oa[a] < lo || oa[a] > hi) return result;
-            continue;
-        }
-        double ta = (lo - oa[a]) / da[a], tb = (hi - oa[a]) / da[a];
-        if (ta > tb) std::swap(ta, tb);
-        t0 = std::max(t0, ta);
-        t1 = std::min(t1, tb);
-    }
-    if (!(t0 < t1)) return result;
+    // The ray clipped to the lattice's box, in index space: oI + t dI, t in pc.
+    const BlockRay ray(f, f.indexToWorld.inverse(), mScene.blocks, origin, dir);
+    if (!ray.hits()) return result;
+    const Vec3 &o = ray.oI, &d = ray.dI;
+    const double t0 = ray.t0, t1 = ray.t1;
     const double kappa = mScene.dust.kappa_V;
     const double step = 0.25 * voxelSize(f.indexToWorld); // [pc]
     const auto at = [&](double t) { return Vec3(o.x + t * d.x, o.y + t * d.y, o.z + t * d.z); };

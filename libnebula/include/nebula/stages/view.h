@@ -75,8 +75,6 @@ struct ViewFrame
     /// (each star's light scattered once), "transmittance", "field", "emission", "direct"
     /// (renderFrame()'s component layers). Spectral: renderSpectral()'s image, sprites drawn.
     Image image;
-    /// Fast integrator: the star sprites alone (beauty and "star.<name>" layers).
-    Image sprites;
     RenderStats stats;
     double seconds = 0.0; ///< the render's wall time
 };

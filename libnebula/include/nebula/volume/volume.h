@@ -250,6 +250,15 @@ public:
 
     Affine indexToWorld; ///< the source grid's affine map from index to world [pc]
 
+    /// The world position [pc] of the lattice's corner @p c (0-7): bit 0 the upper x end of
+    /// [lo, lo + dims - 1], bit 1 y, bit 2 z.
+    Vec3 cornerWorld(int c) const
+    {
+        return indexToWorld.apply(Vec3(mLo[0] + (c & 1) * (mDims[0] - 1),
+                                       mLo[1] + (c >> 1 & 1) * (mDims[1] - 1),
+                                       mLo[2] + (c >> 2) * (mDims[2] - 1)));
+    }
+
 private:
     std::size_t brickFloats() const { return BRICK_VOXELS * std::size_t(mChannels); }
     const float* brickData(std::uint32_t id) const
