@@ -110,15 +110,27 @@ void runPacket(const Transport& tr, const SourceSpec& src, const Sampler& sample
     std::uint64_t flights = 0;
     for (; flights < MAX_FLIGHTS; ++flights) {
         if (tallyOn) realSphericalHarmonics(d, tr.order(), Y);
-        const double tau = tr.walk(x, d, w, tallyOn, Y, &tally, pieces);
+        Tail tail;
+        tail.tau = tr.tailTau();
+        tail.stop = rng.uniformDouble() >= TAIL_KEEP;
+        const double tau = tr.walk(x, d, w, tallyOn, Y, &tally, pieces, tail);
+        // The tail's weight (1 / TAIL_KEEP where the flight went on past its start, 0 where
+        // it stopped there) in what the flight's light does: collides (interacts) or escapes.
+        const bool inTail = tail.boundary < INF, went = inTail && !tail.stop;
         double oneMinusT[MAX_CHANNELS];
         for (int c = 0; c < C; ++c) {
             oneMinusT[c] = -std::expm1(-r[std::size_t(c)] * tau);
+            double interacts = oneMinusT[c], escapes = inTail ? 0.0 : 1.0 - oneMinusT[c];
+            if (went) {
+                const double tb = std::exp(-r[std::size_t(c)] * tail.boundary);
+                interacts = (1.0 - tb) + (oneMinusT[c] - (1.0 - tb)) / TAIL_KEEP;
+                escapes = (1.0 - oneMinusT[c]) / TAIL_KEEP;
+            }
             if (tallyOn) {
-                esc[c] += w[c] * (1.0 - oneMinusT[c]);
-                abs_[c] += w[c] * oneMinusT[c] * (1.0 - dust.albedo);
+                esc[c] += w[c] * escapes;
+                abs_[c] += w[c] * interacts * (1.0 - dust.albedo);
             } else {
-                pow_[c] += w[c] * oneMinusT[c] * dust.albedo; // becomes collided light
+                pow_[c] += w[c] * interacts * dust.albedo; // becomes collided light
             }
         }
         if (pieces.empty() || !(tau > 0.0)) break;
@@ -137,8 +149,9 @@ void runPacket(const Transport& tr, const SourceSpec& src, const Sampler& sample
             pdf += fc[c] / oneMinusT[c] / double(C);
         }
         if (!(pdf > 0.0)) break;
+        const double tailWeight = went && target > tail.boundary ? 1.0 / TAIL_KEEP : 1.0;
         for (int c = 0; c < C; ++c)
-            w[c] *= dust.albedo * fc[c] / pdf;
+            w[c] *= dust.albedo * fc[c] / pdf * tailWeight;
         x = x + d * s;
         tallyOn = true;
         const double mu = samplePhaseCosine(dust.phase, dust.g, rng.uniformDouble());

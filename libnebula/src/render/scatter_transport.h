@@ -18,6 +18,7 @@
 #include <atomic>
 #include <cmath>
 #include <cstdint>
+#include <cstring>
 #include <limits>
 #include <optional>
 #include <string>
@@ -31,25 +32,55 @@ constexpr double TAU_CUTOFF = 17.0;
 /// Russian roulette below this channel weight (initial weights are about 1).
 constexpr double ROULETTE_WEIGHT = 0.25;
 constexpr std::uint64_t MAX_FLIGHTS = 1000000;
+/// Russian roulette on a flight's tail: past the point where even the least dimmed channel
+/// is below e^-TAIL_TAU, a flight goes on with probability TAIL_KEEP (its weights there
+/// divided by it) or stops. In thick dust most of a walk to TAU_CUTOFF is a tail carrying
+/// about e^-TAIL_TAU of the flight's light.
+constexpr double TAIL_TAU = 3.0;
+constexpr double TAIL_KEEP = 0.25;
+
+/// A flight's tail roulette (walk()): where the tail starts (V optical depth), whether the
+/// flight stops there; walk() sets where the tail started (the end of the piece that
+/// reached it; infinity if it did not).
+struct Tail
+{
+    double tau = INF;
+    bool stop = false;
+    double boundary = INF;
+};
 
 /// Fixed-point quantum 2^-e of the tallies (weight x length in voxels; weights): the
 /// finest for which @p packets packets cannot overflow an int64 sum (a bound of 64 flights
-/// per packet crossing a cell, weights up to 4, field cells of 2^level voxels). 2^-32 for
-/// 2 million packets at level 1: a tally of 10^-6 is rounded by 2e-4 of itself.
+/// per packet crossing a cell, weights up to 16, field cells of 2^level voxels) and one
+/// addition stays below 2^50 quanta. 2^-28 for 2 million packets at level 1: one addition
+/// of 10^-6 is rounded by at most 2e-3 of itself, errors that average out over additions.
 inline double fixedQuantum(std::uint64_t packets, int level)
 {
-    const double bound = double(packets) * 64.0 * 4.0 * 2.0 * std::ldexp(1.0, level);
-    const int e = std::min(40, int(std::floor(62.0 - std::log2(std::max(bound, 1.0)))));
+    // One addition: weight (up to 4, times 1 / TAIL_KEEP in a flight's tail) x length
+    // (2^level voxels, up to 2 across) x |Y_lm| (below 1), at most 2^50 quanta (roundFixed()).
+    const double one = 16.0 * 2.0 * std::ldexp(1.0, level);
+    const double bound = double(packets) * 64.0 * one;
+    const int e = std::min({40, int(std::floor(62.0 - std::log2(std::max(bound, 1.0)))),
+                            int(std::floor(50.0 - std::log2(one)))});
     return std::ldexp(1.0, -e);
 }
 
-/// Adds @p scaled (a value over the quantum) to @p p, rounded to the nearest integer, as an
-/// integer addition (atomic when @p atomic): the sum does not depend on the order.
+/// @p x rounded to the nearest integer (ties to even) for |x| < 2^51, without a branch or a
+/// library call: the integer is in the low bits of 1.5 * 2^52 + x.
+inline std::int64_t roundFixed(double x)
+{
+    const double y = x + 6755399441055744.0; // 1.5 * 2^52
+    std::int64_t bits;
+    std::memcpy(&bits, &y, sizeof bits);
+    return bits - std::int64_t(0x4338000000000000);
+}
+
+/// Adds @p scaled (a value over the quantum, |scaled| < 2^51) to @p p, rounded to the nearest
+/// integer (roundFixed()), as an integer addition (atomic when @p atomic): the sum does not
+/// depend on the order.
 inline void addFixed(std::int64_t* p, double scaled, bool atomic)
 {
-    // Rounded half away from zero, as llround, without its library call (a tenth of the
-    // walk's time at L = 4).
-    const auto q = std::int64_t(scaled + std::copysign(0.5, scaled));
+    const std::int64_t q = roundFixed(scaled);
     if (q == 0) return;
     if (atomic) {
         __atomic_fetch_add(p, q, __ATOMIC_RELAXED);
@@ -79,6 +110,55 @@ inline Channels rgbChannels(const RenderScene& scene)
         ch.starPower.emplace_back(c.begin(), c.end());
     return ch;
 }
+
+/// (1 - e^-x) / x for x > 0: its Taylor series where x is small (most pieces of a flight; a
+/// tenth of the walk's time went to expm1 and a division), expm1 above.
+inline double oneMinusExpOverX(double x)
+{
+    if (x < 0.0625) { // the series' first omitted term, x^8 / 9!, is below 2e-16
+        return 1.0 - x * (1.0 / 2 -
+                          x * (1.0 / 6 -
+                               x * (1.0 / 24 -
+                                    x * (1.0 / 120 -
+                                         x * (1.0 / 720 - x * (1.0 / 5040 - x * (1.0 / 40320)))))));
+    }
+    return -std::expm1(-x) / x;
+}
+
+/// The lattice cell a walk is in: whether it holds dust and, if it does, the density at its
+/// 8 corners, so a sample in it is a trilinear blend of 8 floats (what
+/// SparseVolume::sampleChannels() gives for channel 0, without finding the cell again).
+struct LatticeCell
+{
+    int lo[3] = {0, 0, 0};
+    bool dusty = false;
+    float n[8] = {};
+
+    void load(const SparseVolume& density, const VoxelBits& dustyCells, const int* ijk)
+    {
+        const std::size_t idx = density.index(ijk[0], ijk[1], ijk[2]);
+        dusty = dustyCells[idx];
+        if (!dusty) return;
+        for (int a = 0; a < 3; ++a)
+            lo[a] = ijk[a];
+        const float* q[8];
+        density.cellCorners(ijk[0], ijk[1], ijk[2], idx, q);
+        for (int c = 0; c < 8; ++c)
+            n[c] = q[c][0];
+    }
+    /// n_H at index point @p p in (or on the faces of) the cell.
+    float sample(const Vec3& p) const
+    {
+        const float u = float(p.x - lo[0]), v = float(p.y - lo[1]), w = float(p.z - lo[2]);
+        const float c00 = n[0] + u * (n[1] - n[0]);
+        const float c10 = n[2] + u * (n[3] - n[2]);
+        const float c01 = n[4] + u * (n[5] - n[4]);
+        const float c11 = n[6] + u * (n[7] - n[6]);
+        const float c0 = c00 + v * (c10 - c00);
+        const float c1 = c01 + v * (c11 - c01);
+        return c0 + w * (c1 - c0);
+    }
+};
 
 /// One piece of a flight (a half-voxel cell) with dust: where it starts (world distance),
 /// its length [pc], its constant V extinction [1/pc] and the V optical depth before it.
@@ -229,7 +309,55 @@ public:
             }
             mSlot[c] = b;
         }
+        buildLiveBlocks();
         if (ropts.exactStarDepth) mDepth.emplace(scene);
+    }
+
+    /// The walk's empty space: per block of SKIP_BLOCK^3 lattice cells, 1 if a flight has
+    /// anything to do in it (a lattice cell with dust, or a part of an active field cell);
+    /// walk() jumps over the others.
+    void buildLiveBlocks()
+    {
+        const SparseVolume& f = mScene.fields;
+        std::size_t n = 1;
+        for (int a = 0; a < 3; ++a) {
+            mSkipDims[a] = (f.dims()[a] - 1 + SKIP_BLOCK - 1) / SKIP_BLOCK;
+            n *= std::size_t(std::max(mSkipDims[a], 0));
+        }
+        mLive.assign(n, 0);
+        mDusty.forEachSet([&](std::size_t idx) {
+            const auto p = f.point(idx);
+            mLive[skipBlock(p[0], p[1], p[2])] = 1;
+        });
+        // An active field cell covers level-0 coordinates [S I - 1/2, S (I + 1) - 1/2] (S =
+        // 2^level, I absolute): the lattice cells from floor(S I - 1/2) to S (I + 1) - 1.
+        for (int K = 0; K < mFDims[2]; ++K)
+            for (int J = 0; J < mFDims[1]; ++J)
+                for (int I = 0; I < mFDims[0]; ++I) {
+                    if (!mActive[cellIndex(I, J, K)]) continue;
+                    const int X[3] = {I, J, K};
+                    int b0[3], b1[3];
+                    for (int a = 0; a < 3; ++a) {
+                        const int first = std::max(mLo[a], mScale * (X[a] + mFLo[a]) - 1);
+                        const int last = std::min(mHi[a] - 1, mScale * (X[a] + mFLo[a] + 1) - 1);
+                        b0[a] = (first - mLo[a]) / SKIP_BLOCK;
+                        b1[a] = last < first ? b0[a] - 1 : (last - mLo[a]) / SKIP_BLOCK;
+                    }
+                    for (int z = b0[2]; z <= b1[2]; ++z)
+                        for (int y = b0[1]; y <= b1[1]; ++y)
+                            for (int x = b0[0]; x <= b1[0]; ++x)
+                                mLive[(std::size_t(z) * mSkipDims[1] + std::size_t(y)) *
+                                          mSkipDims[0] +
+                                      std::size_t(x)] = 1;
+                }
+    }
+    /// The skip block of lattice cell (i, j, k) (its lower corner, absolute).
+    std::size_t skipBlock(int i, int j, int k) const
+    {
+        return (std::size_t((k - mLo[2]) / SKIP_BLOCK) * mSkipDims[1] +
+                std::size_t((j - mLo[1]) / SKIP_BLOCK)) *
+                   mSkipDims[0] +
+               std::size_t((i - mLo[0]) / SKIP_BLOCK);
     }
 
     /// Calls @p fn(linear index) for (x, y, z) and each of its 26 neighbours inside a box
@@ -334,6 +462,9 @@ public:
                      std::exp(-mCh.r[std::size_t(c)] * tau);
     }
     int moments() const { return mNm; }
+    /// The V optical depth where a flight's tail starts (TAIL_TAU in the least dimmed
+    /// channel).
+    double tailTau() const { return TAIL_TAU / mRMin; }
     int order() const { return mOrder; }
     const std::array<int, 3>& fieldLo() const { return mFLo; }
     const std::array<int, 3>& fieldDims() const { return mFDims; }
@@ -407,9 +538,10 @@ public:
     /// tallies (if @p tally) the expected track length times Y_lm(d) into @p out, and
     /// records the pieces with dust; returns the V optical depth walked.
     double walk(const Vec3& x, const Vec3& d, const double* w, bool tally, const double* Y,
-                const Tally* out, std::vector<Piece>& pieces) const
+                const Tally* out, std::vector<Piece>& pieces, Tail& tail) const
     {
         pieces.clear();
+        tail.boundary = INF;
         const Vec3 oI = mW2I.apply(x), dI = mW2I.applyLinear(d);
         double ta = 0.0, tb = INF;
         for (int a = 0; a < 3; ++a) {
@@ -427,34 +559,79 @@ public:
         // exact) and inside one field cell (boundaries at half-integers).
         int q[3], step[3], li[3], fi[3];
         double tNext[3], tDelta[3];
-        const Vec3 p0 = oI + dI * (0.5 * (ta + std::min(tb, ta + 1e-6))); // inside the box
         for (int a = 0; a < 3; ++a) {
-            q[a] = std::clamp(int(std::floor(2.0 * p0[a])), 2 * mLo[a], 2 * mHi[a] - 1);
-            if (dI[a] > 0.0) {
-                step[a] = 1;
-                tNext[a] = ((q[a] + 1) * 0.5 - oI[a]) / dI[a];
-                tDelta[a] = 0.5 / dI[a];
-            } else if (dI[a] < 0.0) {
-                step[a] = -1;
-                tNext[a] = (q[a] * 0.5 - oI[a]) / dI[a];
-                tDelta[a] = -0.5 / dI[a];
-            } else {
-                step[a] = 0;
-                tNext[a] = INF;
-                tDelta[a] = INF;
-            }
-            li[a] = floorDiv2(q[a]);
-            fi[a] = fieldIndex(q[a], a);
+            step[a] = dI[a] > 0.0 ? 1 : dI[a] < 0.0 ? -1 : 0;
+            tDelta[a] = step[a] ? 0.5 / std::abs(dI[a]) : INF;
         }
+        // The half-voxel cells from half-voxel cell q on: the crossings ahead, the lattice
+        // and field cells.
+        const auto enter = [&] {
+            for (int a = 0; a < 3; ++a) {
+                tNext[a] = step[a] > 0   ? ((q[a] + 1) * 0.5 - oI[a]) / dI[a]
+                           : step[a] < 0 ? (q[a] * 0.5 - oI[a]) / dI[a]
+                                         : INF;
+                li[a] = floorDiv2(q[a]);
+                fi[a] = fieldIndex(q[a], a);
+            }
+        };
+        const Vec3 p0 = oI + dI * (0.5 * (ta + std::min(tb, ta + 1e-6))); // inside the box
+        for (int a = 0; a < 3; ++a)
+            q[a] = std::clamp(int(std::floor(2.0 * p0[a])), 2 * mLo[a], 2 * mHi[a] - 1);
+        enter();
         double t = ta, tau = 0.0;
         float nPrev = mDensity.sample0(oI + dI * ta);
+        // The piece's lattice cell: whether it holds dust and, if so, its 8 corners' n_H
+        // (read once for the pieces in it, not per sample).
+        LatticeCell lc;
+        lc.load(mDensity, mDusty, li);
+        // Empty space: from a skip block with nothing to do, on to where the ray leaves it
+        // (its cells have no dust, so the density there is 0, and no tallies).
+        const auto skipEmpty = [&]() -> bool {
+            const std::size_t b = skipBlock(li[0], li[1], li[2]);
+            if (mLive[b]) return false;
+            double tExit = INF;
+            int axis = 0;
+            for (int a = 0; a < 3; ++a) {
+                if (!step[a]) continue;
+                const int blk = (li[a] - mLo[a]) / SKIP_BLOCK;
+                const int face = mLo[a] + SKIP_BLOCK * (blk + (step[a] > 0 ? 1 : 0));
+                const double tf = (face - oI[a]) / dI[a];
+                if (tf < tExit) {
+                    tExit = tf;
+                    axis = a;
+                }
+            }
+            if (!(tExit < tb)) {
+                t = tb;
+                return true;
+            }
+            const Vec3 p = oI + dI * tExit;
+            for (int a = 0; a < 3; ++a)
+                q[a] = std::clamp(int(std::floor(2.0 * p[a])), 2 * mLo[a], 2 * mHi[a] - 1);
+            const int blk = (li[axis] - mLo[axis]) / SKIP_BLOCK;
+            const int face = mLo[axis] + SKIP_BLOCK * (blk + (step[axis] > 0 ? 1 : 0));
+            q[axis] = step[axis] > 0 ? 2 * face : 2 * face - 1; // past the face, for certain
+            if (q[axis] < 2 * mLo[axis] || q[axis] > 2 * mHi[axis] - 1) {
+                t = tb;
+                return true;
+            }
+            t = std::max(t, tExit);
+            enter();
+            lc.load(mDensity, mDusty, li);
+            nPrev = 0.0f;
+            return true;
+        };
+        if (!lc.dusty) {
+            while (t < tb && skipEmpty()) {
+            }
+        }
         double att[MAX_CHANNELS], acc[MAX_CHANNELS];
         for (int ch = 0; ch < mC; ++ch) {
             att[ch] = w[ch]; // w_c e^-tau_c before the piece
             acc[ch] = 0.0;
         }
         long cell = -1, slot = -1; // the piece's field cell and its tally slot (-1: none)
-        const double kappa = mDust.kappa_V;
+        const double kappa = mDust.kappa_V, invVoxel = 1.0 / mVoxel;
         while (t < tb) {
             int a = 0;
             if (tNext[1] < tNext[a]) a = 1;
@@ -464,10 +641,9 @@ public:
             if (len > 0.0) {
                 // The piece's lattice cell and field cell follow its half-voxel cell q.
                 double dTau = 0.0;
-                if (mDusty[mDensity.index(li[0], li[1], li[2])]) {
-                    float nm, ne;
-                    mDensity.sampleChannels(oI + dI * (0.5 * (t + tn)), 0, 1, &nm);
-                    mDensity.sampleChannels(oI + dI * tn, 0, 1, &ne);
+                if (lc.dusty) {
+                    const float nm = lc.sample(oI + dI * (0.5 * (t + tn)));
+                    const float ne = lc.sample(oI + dI * tn);
                     dTau = kappa * len * (double(nPrev) + 4.0 * nm + ne) / 6.0;
                     nPrev = ne;
                 } else {
@@ -489,28 +665,38 @@ public:
                 if (dTau > 0.0) {
                     for (int ch = 0; ch < mC; ++ch) {
                         const double xc = mCh.r[std::size_t(ch)] * dTau;
-                        const double em1 = -std::expm1(-xc); // 1 - e^-x
-                        if (slot >= 0) {
-                            // integral of w e^-tau over the piece, in voxel lengths
-                            const double frac = xc > 1e-9 ? em1 / xc : 1.0 - 0.5 * xc;
-                            acc[ch] += att[ch] * frac * len / mVoxel;
-                        }
-                        att[ch] *= 1.0 - em1;
+                        const double frac = oneMinusExpOverX(xc); // (1 - e^-x) / x
+                        // integral of w e^-tau over the piece, in voxel lengths
+                        if (slot >= 0) acc[ch] += att[ch] * frac * len * invVoxel;
+                        att[ch] *= 1.0 - xc * frac;
                     }
                     pieces.push_back({t, len, dTau / len, tau});
                     tau += dTau;
+                    if (tau >= tail.tau && tail.boundary == INF) {
+                        tail.boundary = tau;
+                        if (tail.stop) break;
+                        for (int ch = 0; ch < mC; ++ch)
+                            att[ch] /= TAIL_KEEP;
+                    }
                     if (mRMin * tau > TAU_CUTOFF) break;
                 } else if (slot >= 0) {
                     for (int ch = 0; ch < mC; ++ch)
-                        acc[ch] += att[ch] * len / mVoxel;
+                        acc[ch] += att[ch] * len * invVoxel;
                 }
             }
             t = tn;
             tNext[a] += tDelta[a];
             q[a] += step[a];
             if (q[a] < 2 * mLo[a] || q[a] > 2 * mHi[a] - 1) break; // left the box
-            li[a] = floorDiv2(q[a]);
             fi[a] = fieldIndex(q[a], a);
+            if (const int l = floorDiv2(q[a]); l != li[a]) {
+                li[a] = l;
+                lc.load(mDensity, mDusty, li);
+                if (!lc.dusty) {
+                    while (t < tb && skipEmpty()) {
+                    }
+                }
+            }
         }
         if (tally) flush(slot, acc, Y, out);
         return tau;
@@ -559,9 +745,21 @@ private:
         std::int64_t* m = out->sum + std::size_t(slot) * std::size_t(mNm) * std::size_t(mC);
         for (int c = 0; c < mC; ++c)
             acc[c] *= out->invQ;
-        for (int k = 0; k < mNm; ++k)
-            for (int c = 0; c < mC; ++c)
-                addFixed(m + k * mC + c, acc[c] * Y[k], out->atomic);
+        if (out->atomic) {
+            for (int k = 0; k < mNm; ++k)
+                for (int c = 0; c < mC; ++c)
+                    addFixed(m + k * mC + c, acc[c] * Y[k], true);
+        } else if (mC == 3) { // R, G, B: the moments in a row, without a branch
+            for (int k = 0; k < mNm; ++k, m += 3) {
+                m[0] += roundFixed(acc[0] * Y[k]);
+                m[1] += roundFixed(acc[1] * Y[k]);
+                m[2] += roundFixed(acc[2] * Y[k]);
+            }
+        } else {
+            for (int k = 0; k < mNm; ++k)
+                for (int c = 0; c < mC; ++c)
+                    m[k * mC + c] += roundFixed(acc[c] * Y[k]);
+        }
         const double g = acc[noiseChannel()];
         addFixed(out->sq + slot, g * g * out->invQSq / (out->invQ * out->invQ), out->atomic);
         std::fill(acc, acc + mC, 0.0);
@@ -584,6 +782,9 @@ private:
     std::vector<std::uint8_t> mBlockRefined; ///< per block: refined; empty: not adaptive
     std::vector<double> mCellDust;           ///< per field cell: n_H summed over its voxels
     std::optional<StarDepth> mDepth;         ///< with RenderOptions::exactStarDepth
+    static constexpr int SKIP_BLOCK = 8;     ///< edge of the walk's skip blocks [cells]
+    std::array<int, 3> mSkipDims{};          ///< skip blocks along each axis
+    std::vector<std::uint8_t> mLive;         ///< per skip block: 1 if a flight works in it
 };
 
 /// Integer sums of a source's energy statistics (weights, fixed point).

@@ -657,8 +657,11 @@ double maxDeltaE(const Image& ref, const Image& test)
 // blocks refined) in a thin envelope (tallied by blocks of 2x2x2 cells), a star in the
 // envelope, and a dense wall whose shadow's sharp edge crosses the envelope's blocks. Same
 // flux within 1 %, and the same image within noise: the RMS difference of the adaptive and
-// a uniform image over 4x4-pixel blocks is below that of two uniform images of other seeds
-// (the adaptive field has less noise, so only a bias can make its difference the larger).
+// a uniform image over 4x4-pixel blocks, over two realisations, is below 1.5 times that of
+// two uniform images of other seeds. Without a bias the first is the smaller in expectation
+// (the adaptive field has less noise), but one realisation's ratio ranges over 0.6-1.4; a
+// bias such as the shadow's leak this test was written for (its shadow 14-29 % too bright)
+// puts it far above.
 TEST(ScatterField, AdaptiveCellsMatchUniformCellsWithinNoise)
 {
     const Vec3 centre(1.6, 1.6, 1.6);
@@ -685,7 +688,6 @@ TEST(ScatterField, AdaptiveCellsMatchUniformCellsWithinNoise)
         sc.scatter = sceneScatterField(field, o);
         return renderFrame(sc, o);
     };
-    const Image u1 = render(0.0, 1), u2 = render(0.0, 2), a = render(1.0, 3);
     const Image single = renderFrame(scene, o);
     const auto flux = [](const Image& img) {
         double f = 0.0;
@@ -693,36 +695,43 @@ TEST(ScatterField, AdaptiveCellsMatchUniformCellsWithinNoise)
             f += img.rgba[p * 4 + 1];
         return f;
     };
-    // The field's share of the light, the part that differs.
-    const double scattered = flux(u1) - flux(single);
-    ASSERT_GT(scattered, 0.2 * flux(u1));
-    EXPECT_NEAR(flux(a), flux(u1), 0.01 * flux(u1));
-    // 4x4-pixel blocks above 0.2 % of the brightest (the star makes its surroundings bright).
-    const auto blocks = [](const Image& img) {
-        std::vector<double> b(64, 0.0);
-        for (int y = 0; y < 32; ++y)
-            for (int x = 0; x < 32; ++x)
-                b[std::size_t(y / 4 * 8 + x / 4)] += img.rgba[(std::size_t(y) * 32 + x) * 4 + 1];
-        return b;
-    };
-    const auto bu1 = blocks(u1), bu2 = blocks(u2), ba = blocks(a);
-    const double brightest = *std::max_element(bu1.begin(), bu1.end());
     double uu = 0.0, au = 0.0;
     int n = 0;
-    for (std::size_t i = 0; i < bu1.size(); ++i) {
-        if (bu1[i] < 0.002 * brightest) continue;
-        uu += std::pow((bu2[i] - bu1[i]) / bu1[i], 2);
-        au += std::pow((ba[i] - bu1[i]) / bu1[i], 2);
-        ++n;
+    for (const std::uint64_t seed : {1, 11}) {
+        const Image u1 = render(0.0, seed), u2 = render(0.0, seed + 1), a = render(1.0, seed + 2);
+        // The field's share of the light, the part that differs.
+        const double scattered = flux(u1) - flux(single);
+        ASSERT_GT(scattered, 0.2 * flux(u1));
+        EXPECT_NEAR(flux(a), flux(u1), 0.01 * flux(u1));
+        // 4x4-pixel blocks above 0.2 % of the brightest (the star makes its surroundings bright).
+        const auto blocks = [](const Image& img) {
+            std::vector<double> b(64, 0.0);
+            for (int y = 0; y < 32; ++y)
+                for (int x = 0; x < 32; ++x)
+                    b[std::size_t(y / 4 * 8 + x / 4)] +=
+                        img.rgba[(std::size_t(y) * 32 + x) * 4 + 1];
+            return b;
+        };
+        const auto bu1 = blocks(u1), bu2 = blocks(u2), ba = blocks(a);
+        const double brightest = *std::max_element(bu1.begin(), bu1.end());
+        for (std::size_t i = 0; i < bu1.size(); ++i) {
+            if (bu1[i] < 0.002 * brightest) continue;
+            uu += std::pow((bu2[i] - bu1[i]) / bu1[i], 2);
+            au += std::pow((ba[i] - bu1[i]) / bu1[i], 2);
+            ++n;
+        }
+        std::printf("adaptive (seed %d): flux %+.2f %%\n", int(seed + 2),
+                    100 * (flux(a) / flux(u1) - 1));
     }
-    ASSERT_GT(n, 30);
+    ASSERT_GT(n, 60);
     uu = std::sqrt(uu / n);
     au = std::sqrt(au / n);
     EXPECT_GT(uu, 0.0);
-    EXPECT_LT(au, uu) << "adaptive against uniform " << au << ", uniform against uniform " << uu;
-    std::printf("adaptive: flux %+.2f %%; block RMS against uniform %.2f %%, uniform against "
-                "uniform %.2f %% (%d blocks)\n",
-                100 * (flux(a) / flux(u1) - 1), 100 * au, 100 * uu, n);
+    EXPECT_LT(au, 1.5 * uu) << "adaptive against uniform " << au << ", uniform against uniform "
+                            << uu;
+    std::printf("adaptive: block RMS against uniform %.2f %%, uniform against uniform %.2f %% "
+                "(%d blocks over two realisations)\n",
+                100 * au, 100 * uu, n);
 }
 
 // How many wavelengths the spectral field needs: on the thick cloud (CCM dust, a 12000 K

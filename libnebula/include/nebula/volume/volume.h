@@ -300,6 +300,13 @@ public:
     void clear(std::size_t i) { mWords[i >> 6] &= ~(std::uint64_t(1) << (i & 63)); }
     /// Bits 64 w .. 64 w + 63 at once (bit b of @p bits is bit 64 w + b).
     void setWord(std::size_t w, std::uint64_t bits) { mWords[w] = bits; }
+    /// Calls @p fn(index) for every bit set, in index order.
+    template <class Fn> void forEachSet(const Fn& fn) const
+    {
+        for (std::size_t w = 0; w < mWords.size(); ++w)
+            for (std::uint64_t b = mWords[w]; b; b &= b - 1)
+                fn(w * 64 + std::size_t(__builtin_ctzll(b)));
+    }
     /// The number of bits set.
     std::size_t count() const
     {
