@@ -110,8 +110,8 @@ void validateScatterOptions(const RenderScene& scene, const ScatterOptions& opts
     }
     if (opts.packets == 0 || opts.packets > MAX_PACKETS) {
         throw UsageError(fmt::format(
-            "--packets must be in [1, {:g}] per source, got {} (the default 1e6 takes 15-60 s "
-            "per star on 2 cores, so {:g} would take 4-17 hours and more would not finish)",
+            "--packets must be in [1, {:g}] per source, got {} (the default 1e6 takes 15-25 s "
+            "per star on 2 cores, so {:g} would take 4-7 hours and more would not finish)",
             double(MAX_PACKETS), opts.packets, double(MAX_PACKETS)));
     }
     const auto& d = scene.fields.dims();
