@@ -67,7 +67,8 @@ Star starAt(const Vec3& p, double luminosity = 1.0)
 TEST(ScatterField, EnergyBalanceInAUniformCube)
 {
     const int n = 33;
-    for (const double n0 : {800.0, 6400.0}) { // k_V = 1.2 / pc: tau_V = 3.8 across the cube
+    // n_H 800: k_V = 1.2 / pc, tau_V = 3.8 across the cube; 6400: tau_V 30.
+    for (const double n0 : {800.0, 6400.0}) {
         Star far = farStar(Vec3(-1, 0, 0));
         const Vec3 pos = Vec3(1.6, 1.6, 1.6) + Vec3(-1e5, 0, 0);
         far.position = {pos.x, pos.y, pos.z};
