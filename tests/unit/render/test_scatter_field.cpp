@@ -76,10 +76,12 @@ TEST(ScatterField, EnergyBalanceInAUniformCube)
         scene.dust.albedo = 0.7;
         RenderOptions ropts;
         ScatterOptions so;
-        so.packets = 200000;
+        so.packets = n0 > 1000.0 ? 100000 : 200000;
         so.fieldLevel = 1;
         so.order = 1;
         for (const double refineTau : {0.0, 1.0}) { // uniform cells, adaptive cells
+            // The thick cube refines every block: adaptive cells are uniform cells there.
+            if (n0 > 1000.0 && refineTau == 0.0) continue;
             SCOPED_TRACE("n_H " + std::to_string(n0) + ", refineTau " + std::to_string(refineTau));
             so.refineTau = refineTau;
             const ScatterField field = computeScatterField(scene, ropts, so, nullptr);
