@@ -212,7 +212,7 @@ inline Sampler buildSampler(const SparseVolume& eta)
     Sampler s;
     const auto& lo = eta.lo();
     const auto& d = eta.dims();
-    std::vector<std::uint64_t> bits((eta.voxelCount() + 63) / 64, 0);
+    VoxelBits cells(eta, false);
     eta.forEachStoredBrick([&](std::size_t first) {
         for (std::size_t v = first; v < first + SparseVolume::BRICK_VOXELS; ++v) {
             if (!(eta.voxel(v)[0] > 0.0f)) continue;
@@ -222,35 +222,31 @@ inline Sampler buildSampler(const SparseVolume& eta)
                 if (i < lo[0] || j < lo[1] || k < lo[2] || i >= lo[0] + d[0] - 1 ||
                     j >= lo[1] + d[1] - 1 || k >= lo[2] + d[2] - 1)
                     continue;
-                const std::size_t idx = eta.index(i, j, k);
-                bits[idx >> 6] |= std::uint64_t(1) << (idx & 63);
+                cells.set(eta.index(i, j, k));
             }
         }
     });
     double sum = 0.0;
     std::size_t brick = SIZE_MAX;
     const float* q[8];
-    for (std::size_t w = 0; w < bits.size(); ++w) {
-        for (std::uint64_t b = bits[w]; b; b &= b - 1) {
-            const std::size_t idx = w * 64 + std::size_t(__builtin_ctzll(b));
-            const auto p = eta.point(idx);
-            eta.cellCorners(p[0], p[1], p[2], idx, q);
-            double m = 0.0;
-            for (int c = 0; c < 8; ++c)
-                m += q[c][0];
-            if (!(m > 0.0)) continue;
-            const std::size_t br = idx / SparseVolume::BRICK_VOXELS;
-            if (br != brick) {
-                if (brick != SIZE_MAX) s.brickCdf.push_back(sum);
-                s.brickFirst.push_back(s.local.size());
-                s.brickSlot.push_back(br);
-                brick = br;
-            }
-            s.local.push_back(std::uint16_t(idx % SparseVolume::BRICK_VOXELS));
-            s.proxy.push_back(float(m / 8.0));
-            sum += double(s.proxy.back());
+    cells.forEachSet([&](std::size_t idx) {
+        const auto p = eta.point(idx);
+        eta.cellCorners(p[0], p[1], p[2], idx, q);
+        double m = 0.0;
+        for (int c = 0; c < 8; ++c)
+            m += q[c][0];
+        if (!(m > 0.0)) return;
+        const std::size_t br = idx / SparseVolume::BRICK_VOXELS;
+        if (br != brick) {
+            if (brick != SIZE_MAX) s.brickCdf.push_back(sum);
+            s.brickFirst.push_back(s.local.size());
+            s.brickSlot.push_back(br);
+            brick = br;
         }
-    }
+        s.local.push_back(std::uint16_t(idx % SparseVolume::BRICK_VOXELS));
+        s.proxy.push_back(float(m / 8.0));
+        sum += double(s.proxy.back());
+    });
     if (brick != SIZE_MAX) s.brickCdf.push_back(sum);
     s.brickFirst.push_back(s.local.size());
     s.total = sum;
@@ -579,23 +575,25 @@ public:
                 fi[a] = fieldIndex(q[a], a);
             }
         };
-        const Vec3 p0 = oI + dI * (0.5 * (ta + std::min(tb, ta + 1e-6))); // inside the box
-        for (int a = 0; a < 3; ++a)
-            q[a] = std::clamp(int(std::floor(2.0 * p0[a])), 2 * mLo[a], 2 * mHi[a] - 1);
+        // q: the half-voxel cell holding index point p (clamped into the box).
+        const auto cellAt = [&](const Vec3& p) {
+            for (int a = 0; a < 3; ++a)
+                q[a] = std::clamp(int(std::floor(2.0 * p[a])), 2 * mLo[a], 2 * mHi[a] - 1);
+        };
+        cellAt(oI + dI * (0.5 * (ta + std::min(tb, ta + 1e-6)))); // inside the box
         enter();
         double t = ta, tp = ta, tau = 0.0; // tp: where the current piece starts
         float nPrev = mDensity.sample0(oI + dI * ta);
         // The piece's lattice cell: whether it holds dust and, if so, its 8 corners' n_H
         // (read once for the pieces in it, not per sample).
         LatticeCell lc;
-        lc.load(mDensity, mDusty, li);
         // Empty space: from a skip block with nothing to do, on to where the ray leaves it
         // (its cells have no dust, so the density there is 0, and no tallies).
         const auto skipEmpty = [&]() -> bool {
             const std::size_t b = skipBlock(li[0], li[1], li[2]);
             if (mLive[b]) return false;
             double tExit = INF;
-            int axis = 0;
+            int axis = 0, exitFace = 0;
             for (int a = 0; a < 3; ++a) {
                 if (!step[a]) continue;
                 const int blk = (li[a] - mLo[a]) / SKIP_BLOCK;
@@ -604,18 +602,15 @@ public:
                 if (tf < tExit) {
                     tExit = tf;
                     axis = a;
+                    exitFace = face;
                 }
             }
             if (!(tExit < tb)) {
                 t = tb;
                 return true;
             }
-            const Vec3 p = oI + dI * tExit;
-            for (int a = 0; a < 3; ++a)
-                q[a] = std::clamp(int(std::floor(2.0 * p[a])), 2 * mLo[a], 2 * mHi[a] - 1);
-            const int blk = (li[axis] - mLo[axis]) / SKIP_BLOCK;
-            const int face = mLo[axis] + SKIP_BLOCK * (blk + (step[axis] > 0 ? 1 : 0));
-            q[axis] = step[axis] > 0 ? 2 * face : 2 * face - 1; // past the face, for certain
+            cellAt(oI + dI * tExit);
+            q[axis] = step[axis] > 0 ? 2 * exitFace : 2 * exitFace - 1; // past it, for certain
             if (q[axis] < 2 * mLo[axis] || q[axis] > 2 * mHi[axis] - 1) {
                 t = tb;
                 return true;
@@ -627,10 +622,14 @@ public:
             nPrev = 0.0f;
             return true;
         };
-        if (!lc.dusty) {
+        // Into lattice cell li: its corners, or past the empty blocks from it.
+        const auto loadCell = [&] {
+            lc.load(mDensity, mDusty, li);
+            if (lc.dusty) return;
             while (t < tb && skipEmpty()) {
             }
-        }
+        };
+        loadCell();
         double att[MAX_CHANNELS], acc[MAX_CHANNELS];
         for (int ch = 0; ch < mC; ++ch) {
             att[ch] = w[ch]; // w_c e^-tau_c before the piece
@@ -709,11 +708,7 @@ public:
             fi[a] = fieldIndex(q[a], a);
             if (const int l = floorDiv2(q[a]); l != li[a]) {
                 li[a] = l;
-                lc.load(mDensity, mDusty, li);
-                if (!lc.dusty) {
-                    while (t < tb && skipEmpty()) {
-                    }
-                }
+                loadCell();
             }
         }
         if (tally) flush(slot, acc, Y, out);
