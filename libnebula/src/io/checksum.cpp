@@ -90,25 +90,20 @@ template <typename GridT> std::string hashGrid(const GridT& grid)
     const TreeT& tree = grid.tree();
     h.addValue(tree.background());
 
-    // Tiles of the root and internal nodes: the active ones, and the inactive ones whose value
-    // is not the background (the other 32768 of an internal node are skipped quickly).
-    auto on = tree.cbeginValueOn();
-    on.setMaxDepth(TreeT::ValueOnCIter::LEAF_DEPTH - 1);
-    for (; on; ++on) {
-        const openvdb::Coord c = on.getCoord();
-        h.add(c.data(), sizeof(openvdb::Int32) * 3);
-        h.addValue(on.getDepth());
-        h.addValue(*on);
-    }
-    auto off = tree.cbeginValueOff();
-    off.setMaxDepth(TreeT::ValueOffCIter::LEAF_DEPTH - 1);
-    for (; off; ++off) {
-        if (*off == tree.background()) continue;
-        const openvdb::Coord c = off.getCoord();
-        h.add(c.data(), sizeof(openvdb::Int32) * 3);
-        h.addValue(off.getDepth() + 100);
-        h.addValue(*off);
-    }
+    // Tiles of the root and internal nodes: the active ones, then the inactive ones whose
+    // value is not the background, each in tree order (detail::forEachTile()).
+    detail::forEachTile(tree, true,
+                        [&](const openvdb::Coord& c, openvdb::Index depth, const ValueT& v) {
+                            h.add(c.data(), sizeof(openvdb::Int32) * 3);
+                            h.addValue(depth);
+                            h.addValue(v);
+                        });
+    detail::forEachTile(tree, false,
+                        [&](const openvdb::Coord& c, openvdb::Index depth, const ValueT& v) {
+                            h.add(c.data(), sizeof(openvdb::Int32) * 3);
+                            h.addValue(depth + 100);
+                            h.addValue(v);
+                        });
     // Leaves: origin, value mask, values.
     for (auto leaf = tree.cbeginLeaf(); leaf; ++leaf) {
         const openvdb::Coord o = leaf->origin();

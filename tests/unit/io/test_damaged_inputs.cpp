@@ -177,3 +177,87 @@ TEST(DamagedInputs, ChecksumChangesWithValuesStatesAndNames)
         EXPECT_NE(nebula::gridChecksum(*other), base);
     EXPECT_EQ(nebula::gridChecksum(*g->deepCopy()), base);
 }
+
+namespace {
+
+/// The tiles gridChecksum() hashes, in order, from OpenVDB's tree value iterators (the
+/// definition the checksum's own walk must follow, for files written before it).
+template <typename TreeT> std::vector<std::string> tilesByIterators(const TreeT& tree)
+{
+    std::vector<std::string> out;
+    auto on = tree.cbeginValueOn();
+    on.setMaxDepth(TreeT::ValueOnCIter::LEAF_DEPTH - 1);
+    for (; on; ++on)
+        out.push_back("on " + on.getCoord().asVec3i().str() + " " + std::to_string(on.getDepth()) +
+                      " " + std::to_string(double(*on)));
+    auto off = tree.cbeginValueOff();
+    off.setMaxDepth(TreeT::ValueOffCIter::LEAF_DEPTH - 1);
+    for (; off; ++off) {
+        if (*off == tree.background()) continue;
+        out.push_back("off " + off.getCoord().asVec3i().str() + " " +
+                      std::to_string(off.getDepth()) + " " + std::to_string(double(*off)));
+    }
+    return out;
+}
+
+/// A grid with active and inactive tiles at every level (root, both internal levels), some
+/// between others and leaves, in several root entries (negative origins too).
+template <typename GridT>
+typename GridT::Ptr tiledGrid(typename GridT::ValueType a, typename GridT::ValueType b)
+{
+    auto g = GridT::create(typename GridT::ValueType(0));
+    auto& t = g->tree();
+    t.addTile(3, openvdb::Coord(-4096, 0, 0), a, true);    // root tiles
+    t.addTile(3, openvdb::Coord(8192, 4096, 0), b, false); //
+    t.addTile(2, openvdb::Coord(128, 0, 0), a, true);      // upper internal tiles
+    t.addTile(2, openvdb::Coord(0, 128, 256), b, false);
+    t.addTile(1, openvdb::Coord(8, 0, 0), b, true); // lower internal tiles
+    t.addTile(1, openvdb::Coord(0, 16, 8), a, false);
+    t.addTile(1, openvdb::Coord(-4096 + 4096, -8, -8), a, true);
+    t.setValue(openvdb::Coord(1, 2, 3), a); // leaves among them
+    t.setValue(openvdb::Coord(200, 5, 5), b);
+    t.setValue(openvdb::Coord(-5000, -7, 9), a);
+    t.setValueOff(openvdb::Coord(0, 0, 0), b);
+    return g;
+}
+
+} // namespace
+
+// gridChecksum() walks the tree's tables itself (detail::forEachTile()) rather than with
+// OpenVDB's value iterators, which step through every voxel of every leaf: the hash of files
+// written before must stay the same, so the walk must give the same tiles in the same order.
+TEST(DamagedInputs, ChecksumWalksTilesInTheIteratorsOrder)
+{
+    openvdb::initialize();
+    const auto byWalk = [](const auto& tree) {
+        std::vector<std::string> out;
+        for (const bool active : {true, false})
+            nebula::detail::forEachTile(
+                tree, active, [&](const openvdb::Coord& c, openvdb::Index depth, const auto& v) {
+                    out.push_back(std::string(active ? "on " : "off ") + c.asVec3i().str() + " " +
+                                  std::to_string(depth) + " " + std::to_string(double(v)));
+                });
+        return out;
+    };
+    const auto f = tiledGrid<openvdb::FloatGrid>(1.5f, -2.0f);
+    const auto expected = tilesByIterators(f->tree());
+    EXPECT_GE(expected.size(), 8u); // the tiles added, and those the leaves' parents hold
+    EXPECT_EQ(byWalk(f->tree()), expected);
+    const auto i = tiledGrid<openvdb::Int32Grid>(7, 9);
+    EXPECT_EQ(byWalk(i->tree()), tilesByIterators(i->tree()));
+    const auto b = tiledGrid<openvdb::BoolGrid>(true, true);
+    EXPECT_EQ(byWalk(b->tree()), tilesByIterators(b->tree()));
+    auto m = openvdb::MaskGrid::create();
+    m->tree().addTile(2, openvdb::Coord(128, 0, 0), true, true);
+    m->tree().addTile(3, openvdb::Coord(-4096, 0, 0), true, true);
+    m->tree().setValueOn(openvdb::Coord(1, 2, 3));
+    EXPECT_EQ(byWalk(m->tree()), tilesByIterators(m->tree()));
+    // Each tile counts: one tile's value or state changes the checksum.
+    const std::string base = nebula::gridChecksum(*f);
+    auto v = f->deepCopy();
+    v->tree().addTile(1, openvdb::Coord(0, 16, 8), 1.25f, false);
+    EXPECT_NE(nebula::gridChecksum(*v), base);
+    auto s = f->deepCopy();
+    s->tree().addTile(3, openvdb::Coord(8192, 4096, 0), -2.0f, true);
+    EXPECT_NE(nebula::gridChecksum(*s), base);
+}

@@ -11,8 +11,10 @@
 
 #include <openvdb/openvdb.h>
 
+#include <algorithm>
 #include <optional>
 #include <string>
+#include <vector>
 
 namespace nebula {
 
@@ -31,5 +33,73 @@ std::string gridChecksum(const openvdb::GridBase& grid);
 /// A 64-bit hash of file-level metadata (every entry's name, type and value as text, except
 /// @p skip and the "file_*" statistics), as 16 hex digits.
 std::string metadataChecksum(const openvdb::MetaMap& meta, const std::string& skip);
+
+namespace detail {
+
+/// Calls @p fn(origin, depth, value) for the tiles of @p node and the internal nodes below it
+/// (depth: @p depth at @p node) that are active (@p active) or inactive and not @p background,
+/// in the order of OpenVDB's tree value iterators: each node's table in offset order, a
+/// child's tiles where the child is. The iterators themselves also step through every voxel
+/// of every leaf to skip it, which made hashing most of the cost of reading a file with many
+/// grids under the sanitizers.
+template <typename NodeT, typename Fn>
+void forEachInternalTile(const NodeT& node, bool active,
+                         const typename NodeT::ValueType& background, openvdb::Index depth,
+                         const Fn& fn)
+{
+    using ChildT = typename NodeT::ChildNodeType;
+    const auto& children = node.getChildMask();
+    const auto& values = node.getValueMask();
+    const auto* table = node.getTable();
+    for (openvdb::Index n = 0; n < NodeT::NUM_VALUES; ++n) {
+        if (children.isOn(n)) {
+            if constexpr (ChildT::LEVEL > 0) {
+                forEachInternalTile(*table[n].getChild(), active, background, depth + 1, fn);
+            }
+            continue;
+        }
+        if (values.isOn(n) != active) continue;
+        const auto& v = table[n].getValue();
+        if (!active && v == background) continue;
+        fn(node.offsetToGlobalCoord(n), depth, v);
+    }
+}
+
+/// detail::forEachInternalTile() from the root: its tiles and children in the order of its table
+/// (by origin).
+template <typename TreeT, typename Fn>
+void forEachTile(const TreeT& tree, bool active, const Fn& fn)
+{
+    using RootT = typename TreeT::RootNodeType;
+    using ChildT = typename RootT::ChildNodeType;
+    const RootT& root = tree.root();
+    struct Entry
+    {
+        openvdb::Coord origin;
+        const ChildT* child;
+        typename TreeT::ValueType value;
+    };
+    std::vector<Entry> entries;
+    for (auto c = root.cbeginChildOn(); c; ++c)
+        entries.push_back({c->origin(), &*c, tree.background()});
+    if (active) {
+        for (auto t = root.cbeginValueOn(); t; ++t)
+            entries.push_back({t.getCoord(), nullptr, *t});
+    } else {
+        for (auto t = root.cbeginValueOff(); t; ++t)
+            if (!(*t == tree.background())) entries.push_back({t.getCoord(), nullptr, *t});
+    }
+    std::sort(entries.begin(), entries.end(),
+              [](const Entry& a, const Entry& b) { return a.origin < b.origin; });
+    for (const Entry& e : entries) {
+        if (e.child) {
+            forEachInternalTile(*e.child, active, tree.background(), 1, fn);
+        } else {
+            fn(e.origin, 0, e.value);
+        }
+    }
+}
+
+} // namespace detail
 
 } // namespace nebula
