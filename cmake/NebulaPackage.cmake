@@ -50,18 +50,16 @@ install(FILES ${CMAKE_CURRENT_BINARY_DIR}/nebula.pc
         DESTINATION ${CMAKE_INSTALL_LIBDIR}/pkgconfig COMPONENT dev)
 install(FILES ${PROJECT_SOURCE_DIR}/README.md ${PROJECT_SOURCE_DIR}/CHANGELOG.md
         DESTINATION ${CMAKE_INSTALL_DOCDIR} COMPONENT tools)
-# Debian's changelog.gz of a native package, pointing at CHANGELOG.md (gzip -n, at build time).
-string(TIMESTAMP NEBULA_DEB_DATE "%a, %d %b %Y %H:%M:%S +0000" UTC)
-file(WRITE ${CMAKE_CURRENT_BINARY_DIR}/debian-changelog
-     "nebula (${NEBULA_VERSION}) unstable; urgency=low\n\n"
-     "  * Built from git describe ${NEBULA_VERSION}; the changes are in\n"
-     "    /usr/share/doc/nebula/CHANGELOG.md.\n\n"
-     " -- nebula developers <nebula@localhost>  ${NEBULA_DEB_DATE}\n")
+# Debian's changelog.gz of a native package, pointing at CHANGELOG.md, for the version the
+# build wrote into its version header (rewritten when git describe changes; gzip -n).
 add_custom_command(OUTPUT ${CMAKE_CURRENT_BINARY_DIR}/changelog.gz
+    COMMAND ${CMAKE_COMMAND} -DHEADER=${NEBULA_VERSION_HEADER} -DOUTPUT=debian-changelog
+            -P ${PROJECT_SOURCE_DIR}/cmake/NebulaBuildVersion.cmake
     COMMAND sh -c "gzip -9n < debian-changelog > changelog.gz"
-    DEPENDS ${CMAKE_CURRENT_BINARY_DIR}/debian-changelog
+    DEPENDS ${NEBULA_VERSION_HEADER} ${PROJECT_SOURCE_DIR}/cmake/NebulaBuildVersion.cmake
     WORKING_DIRECTORY ${CMAKE_CURRENT_BINARY_DIR} VERBATIM)
 add_custom_target(nebula_debian_changelog ALL DEPENDS ${CMAKE_CURRENT_BINARY_DIR}/changelog.gz)
+add_dependencies(nebula_debian_changelog nebula_version_header)
 install(FILES ${CMAKE_CURRENT_BINARY_DIR}/changelog.gz DESTINATION ${CMAKE_INSTALL_DOCDIR}
         COMPONENT tools)
 
@@ -70,7 +68,12 @@ install(FILES ${CMAKE_CURRENT_BINARY_DIR}/changelog.gz DESTINATION ${CMAKE_INSTA
 # libnebula needs (its headers include OpenVDB's, fmt's and nlohmann-json's).
 set(CPACK_GENERATOR DEB)
 set(CPACK_PACKAGE_NAME nebula)
-set(CPACK_PACKAGE_VERSION ${NEBULA_VERSION})
+set(CPACK_PACKAGE_VERSION ${NEBULA_VERSION}) # the configure step's; at packaging time, the
+# build's (NebulaBuildVersion.cmake), which the tools print
+file(WRITE ${CMAKE_CURRENT_BINARY_DIR}/NebulaCPackVersion.cmake
+     "set(NEBULA_VERSION_HEADER \"${NEBULA_VERSION_HEADER}\")\n"
+     "include(\"${PROJECT_SOURCE_DIR}/cmake/NebulaBuildVersion.cmake\")\n")
+set(CPACK_PROJECT_CONFIG_FILE ${CMAKE_CURRENT_BINARY_DIR}/NebulaCPackVersion.cmake)
 set(CPACK_PACKAGE_CONTACT "nebula developers <nebula@localhost>")
 set(CPACK_PACKAGE_DESCRIPTION_SUMMARY
     "physically based rendering of reflection and emission nebulae from OpenVDB grids")

@@ -3,7 +3,8 @@
 # lists the shared libraries the tools load as dependencies, its contents are the tools,
 # libnebula, the headers, the CMake and pkg-config packages, the man pages (gzipped) and bash
 # completion; apt-get accepts it (a dry run, as root); unpacked into a scratch root (dpkg -x)
-# the installed nebrender runs and prints the package's version.
+# the installed nebrender runs and prints the package's version, the one its changelog names
+# (also in a build directory configured several commits before).
 #   test_deb.sh BUILD_DIR WORK
 set -euo pipefail
 build=$1 work=$2
@@ -48,6 +49,11 @@ out=$("$work/root/usr/bin/nebrender" --version)
 echo "$out"
 [[ $out == "nebrender $version (OpenVDB "* ]] || {
     echo "FAIL: --version \"$out\" is not the package's version $version" >&2
+    exit 1
+}
+first=$(gzip -dc "$work/root/usr/share/doc/nebula/changelog.gz" | head -1)
+[[ $first == "nebula ($version) "* ]] || {
+    echo "FAIL: the changelog's \"$first\" is not for the package's version $version" >&2
     exit 1
 }
 [[ $(PKG_CONFIG_PATH=$work/root/usr/lib/pkgconfig pkg-config --variable=includedir nebula) -ef \
