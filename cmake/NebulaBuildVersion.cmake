@@ -1,16 +1,13 @@
 # Reads the version a build wrote into its version header (cmake/NebulaVersion.cmake; git
 # describe at that build, not at the configure step) into NEBULA_BUILD_VERSION. Used twice:
-#   cpack (CPACK_PROJECT_CONFIG_FILE, NEBULA_VERSION_HEADER set by the configured copy): the
+#   cpack (CPACK_PROJECT_CONFIG_FILE, HEADER set by the configured copy): the
 #     package's version is that of the tools it holds, also in a build directory configured
 #     several commits ago;
 #   cmake -DHEADER=... -DOUTPUT=... -P NebulaBuildVersion.cmake: writes Debian's changelog
 #     (OUTPUT) for that version.
-if(NOT NEBULA_VERSION_HEADER)
-    set(NEBULA_VERSION_HEADER "${HEADER}")
-endif()
-file(STRINGS "${NEBULA_VERSION_HEADER}" line REGEX "^#define NEBULA_VERSION_STRING \"")
+file(STRINGS "${HEADER}" line REGEX "^#define NEBULA_VERSION_STRING \"")
 if(NOT line MATCHES "\"([^\"]+)\"")
-    message(FATAL_ERROR "${NEBULA_VERSION_HEADER}: no NEBULA_VERSION_STRING (build first)")
+    message(FATAL_ERROR "${HEADER}: no NEBULA_VERSION_STRING (build first)")
 endif()
 set(NEBULA_BUILD_VERSION "${CMAKE_MATCH_1}")
 if(CPACK_GENERATOR)

@@ -71,7 +71,7 @@ set(CPACK_PACKAGE_NAME nebula)
 set(CPACK_PACKAGE_VERSION ${NEBULA_VERSION}) # the configure step's; at packaging time, the
 # build's (NebulaBuildVersion.cmake), which the tools print
 file(WRITE ${CMAKE_CURRENT_BINARY_DIR}/NebulaCPackVersion.cmake
-     "set(NEBULA_VERSION_HEADER \"${NEBULA_VERSION_HEADER}\")\n"
+     "set(HEADER \"${NEBULA_VERSION_HEADER}\")\n"
      "include(\"${PROJECT_SOURCE_DIR}/cmake/NebulaBuildVersion.cmake\")\n")
 set(CPACK_PROJECT_CONFIG_FILE ${CMAKE_CURRENT_BINARY_DIR}/NebulaCPackVersion.cmake)
 set(CPACK_PACKAGE_CONTACT "nebula developers <nebula@localhost>")

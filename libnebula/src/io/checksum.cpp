@@ -92,18 +92,13 @@ template <typename GridT> std::string hashGrid(const GridT& grid)
 
     // Tiles of the root and internal nodes: the active ones, then the inactive ones whose
     // value is not the background, each in tree order (detail::forEachTile()).
-    detail::forEachTile(tree, true,
-                        [&](const openvdb::Coord& c, openvdb::Index depth, const ValueT& v) {
-                            h.add(c.data(), sizeof(openvdb::Int32) * 3);
-                            h.addValue(depth);
-                            h.addValue(v);
-                        });
-    detail::forEachTile(tree, false,
-                        [&](const openvdb::Coord& c, openvdb::Index depth, const ValueT& v) {
-                            h.add(c.data(), sizeof(openvdb::Int32) * 3);
-                            h.addValue(depth + 100);
-                            h.addValue(v);
-                        });
+    for (const bool active : {true, false})
+        detail::forEachTile(tree, active,
+                            [&](const openvdb::Coord& c, openvdb::Index depth, const ValueT& v) {
+                                h.add(c.data(), sizeof(openvdb::Int32) * 3);
+                                h.addValue(active ? depth : depth + 100);
+                                h.addValue(v);
+                            });
     // Leaves: origin, value mask, values.
     for (auto leaf = tree.cbeginLeaf(); leaf; ++leaf) {
         const openvdb::Coord o = leaf->origin();

@@ -213,7 +213,7 @@ typename GridT::Ptr tiledGrid(typename GridT::ValueType a, typename GridT::Value
     t.addTile(2, openvdb::Coord(0, 128, 256), b, false);
     t.addTile(1, openvdb::Coord(8, 0, 0), b, true); // lower internal tiles
     t.addTile(1, openvdb::Coord(0, 16, 8), a, false);
-    t.addTile(1, openvdb::Coord(-4096 + 4096, -8, -8), a, true);
+    t.addTile(1, openvdb::Coord(0, -8, -8), a, true);
     t.setValue(openvdb::Coord(1, 2, 3), a); // leaves among them
     t.setValue(openvdb::Coord(200, 5, 5), b);
     t.setValue(openvdb::Coord(-5000, -7, 9), a);

@@ -11,10 +11,8 @@
 
 #include <openvdb/openvdb.h>
 
-#include <algorithm>
 #include <optional>
 #include <string>
-#include <vector>
 
 namespace nebula {
 
@@ -65,37 +63,17 @@ void forEachInternalTile(const NodeT& node, bool active,
     }
 }
 
-/// detail::forEachInternalTile() from the root: its tiles and children in the order of its table
-/// (by origin).
+/// detail::forEachInternalTile() from the root: its tiles and children in the order of its
+/// table (by origin).
 template <typename TreeT, typename Fn>
 void forEachTile(const TreeT& tree, bool active, const Fn& fn)
 {
-    using RootT = typename TreeT::RootNodeType;
-    using ChildT = typename RootT::ChildNodeType;
-    const RootT& root = tree.root();
-    struct Entry
-    {
-        openvdb::Coord origin;
-        const ChildT* child;
-        typename TreeT::ValueType value;
-    };
-    std::vector<Entry> entries;
-    for (auto c = root.cbeginChildOn(); c; ++c)
-        entries.push_back({c->origin(), &*c, tree.background()});
-    if (active) {
-        for (auto t = root.cbeginValueOn(); t; ++t)
-            entries.push_back({t.getCoord(), nullptr, *t});
-    } else {
-        for (auto t = root.cbeginValueOff(); t; ++t)
-            if (!(*t == tree.background())) entries.push_back({t.getCoord(), nullptr, *t});
-    }
-    std::sort(entries.begin(), entries.end(),
-              [](const Entry& a, const Entry& b) { return a.origin < b.origin; });
-    for (const Entry& e : entries) {
-        if (e.child) {
-            forEachInternalTile(*e.child, active, tree.background(), 1, fn);
-        } else {
-            fn(e.origin, 0, e.value);
+    for (auto it = tree.root().cbeginChildAll(); it; ++it) {
+        typename TreeT::ValueType v;
+        if (const auto* child = it.probeChild(v)) {
+            forEachInternalTile(*child, active, tree.background(), 1, fn);
+        } else if (it.isValueOn() == active && (active || !(v == tree.background()))) {
+            fn(it.getCoord(), 0, v);
         }
     }
 }
