@@ -113,9 +113,9 @@ TEST_F(Cli, IntegerOptionsRefuseNegativeAndOversizedValues)
         }
     }
     // --field-level also takes "auto" (its default).
-    for (const std::string value : {"-1", "99999999999999999999", "1e3", "0x10", "Auto"})
+    for (const std::string value : {"-2", "99999999999999999999", "1e3", "0x10", "Auto"})
         expectFailure("nebscatter -i a.vdb --field-level " + value + " -o b.vdb", 2,
-                      "--field-level: expected auto or an integer in [0, 16], got " + value);
+                      "--field-level: expected auto or an integer in [-1, 16], got " + value);
     // The largest seed is fine, and a leading zero is decimal (not octal as CLI11 reads it).
     const Result r = run("nebgen --res 8 --seed 18446744073709551615 -o a.vdb && "
                          "nebgen --res 8 --seed 010 -o b.vdb && nebgen --res 8 --seed 10 -o c.vdb");

@@ -93,6 +93,34 @@ TEST_F(NebScatter, FieldGridsMetadataAndRendering)
     EXPECT_NE(r.err.find("does not need"), std::string::npos) << r.err;
 }
 
+// Half-voxel cells (--field-level -1): grids on half the density's voxel, which nebrender
+// reads and says so; the same packets as full resolution, so the picture's flux is within
+// 1 % of it (only the interpolation differs), and brighter than single scattering.
+TEST_F(NebScatter, HalfVoxelCellsRender)
+{
+    makeField();
+    ASSERT_EQ(run("nebscatter -i lit.vdb --packets 20000 --field-level 0 -o s0.vdb").code, 0);
+    Result r = run("nebscatter -i lit.vdb --packets 20000 --field-level -1 -v -o h.vdb");
+    ASSERT_EQ(r.code, 0) << r.err;
+    EXPECT_NE(r.err.find("field level -1 (cells of 1/2^3 voxels)"), std::string::npos) << r.err;
+    const auto h = read(path("h.vdb"));
+    EXPECT_NEAR(h.floatGrid("scatter.stars.J.G", "")->voxelSize()[0],
+                0.5 * h.floatGrid("density", "")->voxelSize()[0], 1e-9);
+    EXPECT_EQ(nlohmann::json::parse(h.metaString(nebula::META_SCATTER)).at("level").get<int>(), -1);
+    r = run("nebrender -i h.vdb --res 24x24 --no-stars -v -o h.exr");
+    ASSERT_EQ(r.code, 0) << r.err;
+    EXPECT_NE(r.err.find("order 4, level -1 (cells of 1/2^3 voxels)"), std::string::npos) << r.err;
+    ASSERT_EQ(run("nebrender -i s0.vdb --res 24x24 --no-stars -o f0.exr").code, 0);
+    ASSERT_EQ(run("nebrender -i h.vdb --res 24x24 --no-stars --no-scatter-field -o n.exr").code, 0);
+    const auto fh = nebula::readExr(path("h.exr"), nullptr);
+    const auto f0 = nebula::readExr(path("f0.exr"), nullptr);
+    const auto n = nebula::readExr(path("n.exr"), nullptr);
+    for (int c = 0; c < 3; ++c) {
+        EXPECT_NEAR(total(fh, c), total(f0, c), 0.01 * total(f0, c)) << c;
+        EXPECT_GT(total(fh, c), 1.05 * total(n, c)) << c;
+    }
+}
+
 TEST_F(NebScatter, SameFieldWhateverTheThreadCount)
 {
     makeLit();
@@ -124,6 +152,18 @@ TEST_F(NebScatter, BadInputIsRefused)
     expectFailure("nebscatter -i lit.vdb --packets 0 -o x.vdb", 2, "--packets");
     expectFailure("nebscatter -i lit.vdb --order 5 -o x.vdb", 2, "--order");
     expectFailure("nebscatter -i lit.vdb --field-level 6 -o x.vdb", 2, "--field-level 6");
+    expectFailure("nebscatter -i lit.vdb --field-level=-2 -o x.vdb", 2,
+                  "--field-level: expected auto or an integer in [-1, 16], got -2");
+    // A field of a level this renderer does not know (finer than half a voxel).
+    {
+        auto g = read(path("s.vdb"));
+        auto meta = nlohmann::json::parse(g.metaString(nebula::META_SCATTER));
+        meta["level"] = -2;
+        g.meta.insertMeta(nebula::META_SCATTER, openvdb::StringMetadata(meta.dump()));
+        nebula::writeGrids(path("level.vdb"), g, "test", "test");
+    }
+    expectFailure("nebrender -i level.vdb --res 8x8 -o x.exr", 1,
+                  "has order 4 and level -2; expected 0..4 and -1..16");
     expectFailure("nebscatter -i lit.vdb --refine-tau 1000 -o x.vdb", 2, "--refine-tau");
     expectFailure("nebscatter -i lit.vdb --refine-tau -1 -o x.vdb", 2, "--refine-tau");
     // A field grid of the wrong type, or on another lattice.

@@ -64,20 +64,23 @@ int main(int argc, char** argv)
         ->capture_default_str()
         ->check(nebula::cli::integerIn(0, 4));
     std::string fieldLevel = "auto";
-    const CLI::Validator levelNumber = nebula::cli::integerIn(0, 16);
+    const CLI::Validator levelNumber =
+        nebula::cli::integerIn(nebula::MIN_FIELD_LEVEL, nebula::MAX_FIELD_LEVEL);
     app.add_option("--field-level", fieldLevel,
-                   "Field cells of 2^k x 2^k x 2^k voxels (0: full resolution), not larger\n"
-                   "than the grid; auto: about 64 cells across the grid, finer while cells\n"
-                   "of the densest dust are optically thick (tau_V > 1 across); -v says why")
+                   "Field cells of 2^k x 2^k x 2^k voxels (0: full resolution; -1: half a\n"
+                   "voxel, for optically thick voxels), not larger than the grid; auto: about\n"
+                   "64 cells across the grid, finer (down to -1) while cells of the densest\n"
+                   "dust are optically thick (tau_V > 1 across) and the tallies fit in 1 GiB;\n"
+                   "-v says why")
         ->capture_default_str()
         ->check(CLI::Validator(
             [levelNumber](std::string& s) {
                 if (s == "auto") return std::string();
                 std::string v = s;
                 const std::string e = levelNumber(v);
-                return e.empty() ? e : "expected auto or an integer in [0, 16], got " + s;
+                return e.empty() ? e : "expected auto or an integer in [-1, 16], got " + s;
             },
-            "auto|0..16"));
+            "auto|-1..16"));
     app.add_option("--refine-tau", f.refineTau,
                    "Adaptive cells: a block of 2x2x2 field cells is tallied as one (its cells\n"
                    "from the block's value and slopes: fewer, fuller tallies) unless its\n"

@@ -180,9 +180,11 @@ std::optional<ScatterFieldMeta> readScatterFieldMeta(const GridSet& grids, bool 
         throw Error(grids.source + ": " + metaKey +
                     " metadata is not nebscatter's: " + detail::jsonErrorText(e));
     }
-    if (meta.order < 0 || meta.order > SH_MAX_DEGREE || meta.level < 0 || meta.level > 16) {
+    if (meta.order < 0 || meta.order > SH_MAX_DEGREE || meta.level < MIN_FIELD_LEVEL ||
+        meta.level > MAX_FIELD_LEVEL) {
         throw Error(grids.source + ": " + metaKey + " has order " + std::to_string(meta.order) +
-                    " and level " + std::to_string(meta.level) + "; expected 0..4 and 0..16");
+                    " and level " + std::to_string(meta.level) + "; expected 0..4 and " +
+                    std::to_string(MIN_FIELD_LEVEL) + ".." + std::to_string(MAX_FIELD_LEVEL));
     }
     const auto& wl = meta.wavelengths;
     bool wlOk = spectral ? wl.size() >= 2 : wl.size() == 3;
@@ -236,7 +238,7 @@ SparseVolume readScatterMoments(const GridSet& grids, const ScatterFieldMeta& me
                     if (off > 1e-6 * norm) {
                         throw Error(what + ": grid \"" + name + "\" is not on field level " +
                                     std::to_string(meta.level) + "'s transform (cells of " +
-                                    std::to_string(1 << meta.level) + " voxels of \"" +
+                                    fieldCellVoxels(meta.level) + " voxels of \"" +
                                     meta.densityGrid + "\")" + rerun);
                     }
                     if (l == 0) jGrids.push_back(g);

@@ -35,7 +35,7 @@ using namespace detail; // scatter_transport.h: the Monte Carlo beneath computeF
 
 Affine fieldLevelMap(const Affine& level0, int level)
 {
-    const double s = double(1 << level), off = 0.5 * (s - 1.0);
+    const double s = std::ldexp(1.0, level), off = 0.5 * (s - 1.0);
     Affine a;
     for (std::size_t i = 0; i < 9; ++i)
         a.m[i] = level0.m[i] * s;
@@ -64,7 +64,7 @@ int coarsestFieldLevel(int extent)
 
 } // namespace
 
-FieldLevelChoice autoFieldLevel(const RenderScene& scene, int order, int channels)
+FieldLevelChoice autoFieldLevel(const RenderScene& scene, int order, int channels, double refineTau)
 {
     FieldLevelChoice c;
     const auto& d = scene.fields.dims();
@@ -83,15 +83,35 @@ FieldLevelChoice autoFieldLevel(const RenderScene& scene, int order, int channel
         std::nth_element(n.begin(), n.begin() + std::ptrdiff_t(k), n.end());
         n99 = n[k];
     }
-    c.voxelTau = scene.dust.kappa_V * n99 * voxelSize(scene.fields.indexToWorld);
+    const double voxel = voxelSize(scene.fields.indexToWorld);
+    c.voxelTau = scene.dust.kappa_V * n99 * voxel;
+    const double perCell = double(shCount(order)) * double(channels) * 8.0;
     const auto tallyBytes = [&](int k) {
+        if (k >= 0) { // every cell of the box: a bound
+            double cells = 1.0;
+            for (int a = 0; a < 3; ++a)
+                cells *= double(((d[a] - 2) >> k) + 2);
+            return cells * perCell;
+        }
+        // Half-voxel cells: adaptive ones tally a voxel (a block) whole unless it, or a
+        // voxel next to it, is thicker than refineTau across (at most 27 voxels refined per
+        // thick one); twice the slots for the active cells round the dust; and the lattice's
+        // per-cell bookkeeping (13 bytes a cell).
+        double thick = double(n.size());
+        if (refineTau > 0.0) {
+            const double nThick = refineTau / (scene.dust.kappa_V * voxel);
+            thick = double(
+                std::count_if(n.begin(), n.end(), [&](float v) { return double(v) > nThick; }));
+        }
+        const double refined = std::min(double(n.size()), 27.0 * thick);
+        const double slots = 2.0 * (8.0 * refined + (double(n.size()) - refined));
         double cells = 1.0;
         for (int a = 0; a < 3; ++a)
-            cells *= double(((d[a] - 2) >> k) + 2);
-        return cells * double(shCount(order)) * double(channels) * 8.0;
+            cells *= 2.0 * double(d[a]) + 1.0;
+        return slots * perCell + cells * 13.0;
     };
     c.level = c.gridLevel;
-    while (c.level > 0 && std::ldexp(c.voxelTau, c.level) > AUTO_FIELD_MAX_CELL_TAU &&
+    while (c.level > MIN_FIELD_LEVEL && std::ldexp(c.voxelTau, c.level) > AUTO_FIELD_MAX_CELL_TAU &&
            tallyBytes(c.level - 1) <= AUTO_FIELD_MAX_TALLY_BYTES)
         --c.level;
     while (c.level < coarsest && tallyBytes(c.level) > AUTO_FIELD_MAX_TALLY_BYTES)
@@ -116,12 +136,15 @@ void validateScatterOptions(const RenderScene& scene, const ScatterOptions& opts
     }
     const auto& d = scene.fields.dims();
     const int extent = gridExtent(scene);
-    if (opts.fieldLevel < 0 || (1 << std::min(opts.fieldLevel, 30)) > std::max(extent, 1)) {
+    if (opts.fieldLevel < MIN_FIELD_LEVEL || opts.fieldLevel > coarsestFieldLevel(extent)) {
         throw UsageError(fmt::format(
-            "--field-level {}: cells of {} voxels are larger than the grid ({}x{}x{} voxels); "
-            "use a level in 0..{}",
-            opts.fieldLevel, opts.fieldLevel < 31 ? std::to_string(1LL << opts.fieldLevel) : "2^k",
-            d[0] - 2, d[1] - 2, d[2] - 2, coarsestFieldLevel(extent)));
+            "--field-level {}: use a level in {}..{} (cells of {} to {} voxels; the grid is "
+            "{}x{}x{} voxels, and cells of {} voxels would be {})",
+            opts.fieldLevel, MIN_FIELD_LEVEL, coarsestFieldLevel(extent),
+            fieldCellVoxels(MIN_FIELD_LEVEL), fieldCellVoxels(coarsestFieldLevel(extent)), d[0] - 2,
+            d[1] - 2, d[2] - 2, fieldCellVoxels(opts.fieldLevel),
+            opts.fieldLevel < MIN_FIELD_LEVEL ? "finer than the walk's half-voxel lattice"
+                                              : "larger than the grid"));
     }
     if (!(opts.refineTau >= 0.0 && opts.refineTau <= MAX_REFINE_TAU)) {
         throw UsageError(fmt::format(

@@ -260,7 +260,7 @@ public:
     Transport(const RenderScene& scene, const RenderOptions& ropts, const ScatterOptions& opts,
               Channels channels)
         : mScene(scene), mDust(scene.dust), mCh(std::move(channels)), mC(int(mCh.size())),
-          mOrder(opts.order), mNm(shCount(opts.order)), mScale(1 << opts.fieldLevel),
+          mOrder(opts.order), mNm(shCount(opts.order)), mScale(std::ldexp(1.0, opts.fieldLevel)),
           mFieldShift(opts.fieldLevel + 1), mDensity(scene.fields),
           mDusty(scene.column.get(scene.fields).dusty())
     {
@@ -271,20 +271,28 @@ public:
         for (int a = 0; a < 3; ++a) {
             mLo[a] = f.lo()[a];
             mHi[a] = f.lo()[a] + f.dims()[a] - 1;
+            // One border cell on each side: the cells holding mLo and mHi from inside, and
+            // one more (for half-voxel cells, mHi is a cell face: the cell below it).
             mFLo[a] = floorDiv(mLo[a]) - 1;
-            mFDims[a] = floorDiv(mHi[a]) + 1 - mFLo[a] + 1;
+            mFDims[a] = int(std::ceil((mHi[a] + 0.5) / mScale)) - mFLo[a] + 1;
         }
         mRMin = *std::min_element(mCh.r.begin(), mCh.r.end());
         // Dust per field cell (n_H summed over its voxels), and the cells the renderer
         // reads: those holding dust and their 26 neighbours. Only stored bricks hold dust.
+        // Half-voxel cells: a voxel's dust is shared by the 8 cells round its centre, and
+        // the trilinear density reaches two cells further (the renderer reads the field
+        // wherever there is dust).
+        const double share = mScale < 1.0 ? 0.125 : 1.0;
         mCellDust.assign(fieldCells(), 0.0);
-        forEachDustVoxel([&](std::size_t cell, float n) { mCellDust[cell] += n; });
+        forEachDustVoxel([&](std::size_t cell, float n) { mCellDust[cell] += share * n; });
         mActive.assign(fieldCells(), 0);
+        const int reach = mScale < 1.0 ? 2 : 1;
         for (int K = 0; K < mFDims[2]; ++K)
             for (int J = 0; J < mFDims[1]; ++J)
                 for (int I = 0; I < mFDims[0]; ++I) {
                     if (!(mCellDust[cellIndex(I, J, K)] > 0.0)) continue;
-                    forEachNeighbour(mFDims, I, J, K, [&](std::size_t c) { mActive[c] = 1; });
+                    forEachNeighbour(
+                        mFDims, I, J, K, [&](std::size_t c) { mActive[c] = 1; }, reach);
                 }
         for (const auto& s : scene.stars)
             mStarPos.emplace_back(s.position[0], s.position[1], s.position[2]);
@@ -331,7 +339,8 @@ public:
             mLive[skipBlock(p[0], p[1], p[2])] = 1;
         });
         // An active field cell covers level-0 coordinates [S I - 1/2, S (I + 1) - 1/2] (S =
-        // 2^level, I absolute): the lattice cells from floor(S I - 1/2) to S (I + 1) - 1.
+        // 2^level, I absolute): the lattice cells from floor(S I - 1/2) to
+        // ceil(S (I + 1) - 1/2) - 1.
         for (int K = 0; K < mFDims[2]; ++K)
             for (int J = 0; J < mFDims[1]; ++J)
                 for (int I = 0; I < mFDims[0]; ++I) {
@@ -339,8 +348,10 @@ public:
                     const int X[3] = {I, J, K};
                     int b0[3], b1[3];
                     for (int a = 0; a < 3; ++a) {
-                        const int first = std::max(mLo[a], mScale * (X[a] + mFLo[a]) - 1);
-                        const int last = std::min(mHi[a] - 1, mScale * (X[a] + mFLo[a] + 1) - 1);
+                        const int first =
+                            std::max(mLo[a], int(std::floor(mScale * (X[a] + mFLo[a]) - 0.5)));
+                        const int last = std::min(
+                            mHi[a] - 1, int(std::ceil(mScale * (X[a] + mFLo[a] + 1) - 0.5)) - 1);
                         b0[a] = (first - mLo[a]) / SKIP_BLOCK;
                         b1[a] = last < first ? b0[a] - 1 : (last - mLo[a]) / SKIP_BLOCK;
                     }
@@ -361,33 +372,40 @@ public:
                std::size_t((i - mLo[0]) / SKIP_BLOCK);
     }
 
-    /// Calls @p fn(linear index) for (x, y, z) and each of its 26 neighbours inside a box
-    /// lattice of @p dims (x fastest).
+    /// Calls @p fn(linear index) for (x, y, z) and each of its neighbours up to @p reach
+    /// cells away along each axis (26 of them for 1) inside a box lattice of @p dims (x
+    /// fastest).
     template <class Fn>
-    static void forEachNeighbour(const std::array<int, 3>& dims, int x, int y, int z, const Fn& fn)
+    static void forEachNeighbour(const std::array<int, 3>& dims, int x, int y, int z, const Fn& fn,
+                                 int reach = 1)
     {
-        for (int c = 0; c < 27; ++c) {
-            const int a = x + c % 3 - 1, b = y + (c / 3) % 3 - 1, e = z + c / 9 - 1;
-            if (a >= 0 && b >= 0 && e >= 0 && a < dims[0] && b < dims[1] && e < dims[2])
-                fn((std::size_t(e) * std::size_t(dims[1]) + std::size_t(b)) * std::size_t(dims[0]) +
-                   std::size_t(a));
-        }
+        for (int e = std::max(z - reach, 0); e <= std::min(z + reach, dims[2] - 1); ++e)
+            for (int b = std::max(y - reach, 0); b <= std::min(y + reach, dims[1] - 1); ++b)
+                for (int a = std::max(x - reach, 0); a <= std::min(x + reach, dims[0] - 1); ++a)
+                    fn((std::size_t(e) * std::size_t(dims[1]) + std::size_t(b)) *
+                           std::size_t(dims[0]) +
+                       std::size_t(a));
     }
 
-    /// Calls @p fn(field cell, n) for every voxel of the lattice with dust (n > 0): only
-    /// stored bricks hold dust.
+    /// Calls @p fn(field cell, n) for every voxel of the lattice with dust (n > 0) and the
+    /// field cell holding its centre (half-voxel cells: each of the 8 cells round it, its
+    /// centre being their common corner): only stored bricks hold dust.
     template <class Fn> void forEachDustVoxel(const Fn& fn) const
     {
         const SparseVolume& f = mScene.fields;
+        const int below = mScale < 1.0 ? 1 : 0; // half-voxel cells: cells 2p and 2p + 1
         f.forEachStoredBrick([&](std::size_t first) {
             for (std::size_t v = first; v < first + SparseVolume::BRICK_VOXELS; ++v) {
                 const float n = f.voxel(v)[0];
                 if (!(n > 0.0f)) continue;
                 const auto p = f.point(v);
                 if (!f.contains(p[0], p[1], p[2])) continue;
-                fn(cellIndex(floorDiv(p[0]) - mFLo[0], floorDiv(p[1]) - mFLo[1],
-                             floorDiv(p[2]) - mFLo[2]),
-                   n);
+                const int I = floorDiv(p[0]) - mFLo[0], J = floorDiv(p[1]) - mFLo[1],
+                          K = floorDiv(p[2]) - mFLo[2];
+                for (int z = K - below; z <= K; ++z)
+                    for (int y = J - below; y <= J; ++y)
+                        for (int x = I - below; x <= I; ++x)
+                            fn(cellIndex(x, y, z), n);
             }
         });
     }
@@ -518,7 +536,7 @@ public:
     {
         double v = 1.0;
         for (int a = 0; a < 3; ++a) {
-            const double c0 = double(mScale) * I[a] - 0.5, c1 = c0 + mScale;
+            const double c0 = mScale * I[a] - 0.5, c1 = c0 + mScale;
             v *= std::max(0.0, std::min(c1, double(mHi[a])) - std::max(c0, double(mLo[a])));
         }
         return v;
@@ -777,7 +795,8 @@ private:
         std::fill(acc, acc + mC, 0.0);
     }
 
-    int mOrder, mNm, mScale;
+    int mOrder, mNm;
+    double mScale;                ///< a field cell's edge in voxels, 2^level
     int mFieldShift;              ///< log2(2 mScale)
     const SparseVolume& mDensity; ///< channel 0 of the scene's fields, in place
     Affine mW2I;

@@ -336,7 +336,7 @@ void readScatterField(const GridSet& grids, const RenderOptions& opts, const Dus
     out.description = fmt::format(
         "{}scattered-light field: order {}, level {} (cells of {}^3 "
         "voxels), sources {}{}",
-        spectral ? "spectral " : "", meta.order, meta.level, 1 << meta.level, names,
+        spectral ? "spectral " : "", meta.order, meta.level, fieldCellVoxels(meta.level), names,
         spectral ? fmt::format(", {} wavelengths {:g}-{:g} nm", C, wl.front(), wl.back())
                  : std::string());
 }

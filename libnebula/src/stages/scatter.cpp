@@ -31,7 +31,8 @@ ScatterField scatter(GridSet& grids, const ScatterStageOptions& opts, const Run&
     const bool spectral = opts.spectral > 0;
     ScatterOptions fopts = opts.field;
     if (fopts.fieldLevel == AUTO_FIELD_LEVEL) {
-        const FieldLevelChoice c = autoFieldLevel(scene, fopts.order, spectral ? opts.spectral : 3);
+        const FieldLevelChoice c =
+            autoFieldLevel(scene, fopts.order, spectral ? opts.spectral : 3, fopts.refineTau);
         fopts.fieldLevel = c.level;
         run.info(fmt::format(
             "field level {} chosen: about 64 cells across the grid gives level {}; a voxel "
@@ -44,14 +45,14 @@ ScatterField scatter(GridSet& grids, const ScatterStageOptions& opts, const Run&
     const std::vector<double> wavelengths =
         spectral ? spectralFieldWavelengths(opts.spectral) : std::vector<double>{};
     const auto d = scene.fields.dims();
-    run.info(fmt::format("density {}x{}x{} voxels, {} stars; field level {} (cells of {}^3 "
-                         "voxels), order L = {} ({} moments per channel), {} packets per source{}",
-                         d[0], d[1], d[2], scene.stars.size(), fopts.fieldLevel,
-                         1 << fopts.fieldLevel, fopts.order, shCount(fopts.order), fopts.packets,
-                         spectral ? fmt::format("; spectral: {} wavelengths, {:g}-{:g} nm",
-                                                wavelengths.size(), wavelengths.front(),
-                                                wavelengths.back())
-                                  : std::string()));
+    run.info(fmt::format(
+        "density {}x{}x{} voxels, {} stars; field level {} (cells of {}^3 "
+        "voxels), order L = {} ({} moments per channel), {} packets per source{}",
+        d[0], d[1], d[2], scene.stars.size(), fopts.fieldLevel, fieldCellVoxels(fopts.fieldLevel),
+        fopts.order, shCount(fopts.order), fopts.packets,
+        spectral ? fmt::format("; spectral: {} wavelengths, {:g}-{:g} nm", wavelengths.size(),
+                               wavelengths.front(), wavelengths.back())
+                 : std::string()));
 
     const auto t0 = std::chrono::steady_clock::now();
     ScatterField field = spectral

@@ -2,7 +2,7 @@
 /// @file scatter_field_vdb.h
 /// nebscatter's field as grids (DESIGN §5b), written and read here only: per source, per
 /// moment (l, m) of degree l <= order and per channel, one FloatGrid on the field level's
-/// transform (cells of 2^level voxels) named by scatterGridName() (R, G, B) or
+/// transform (cells of 2^level voxels, level >= -1) named by scatterGridName() (R, G, B) or
 /// spectralScatterGridName() (a spectral field), active on the cells the renderer reads;
 /// the l = 0 grids hold the mean intensity J, the others c_lm. What the field was made for
 /// (dust, stars, wavelengths, grids, level 0's transform) is ScatterFieldMeta, the JSON of
@@ -13,6 +13,7 @@
 #include "nebula/physics/stars.h"
 #include "nebula/volume/volume.h"
 
+#include <algorithm>
 #include <cstdint>
 #include <optional>
 #include <string>
@@ -30,11 +31,23 @@ struct ScatterSourceSummary
     double relativeError = 0.0;
 };
 
+/// The field levels (cells of 2^level voxels): level -1's cells are half a voxel across, the
+/// finest the walk's half-voxel lattice resolves (optically thick voxels, DESIGN §5b).
+inline constexpr int MIN_FIELD_LEVEL = -1;
+inline constexpr int MAX_FIELD_LEVEL = 16;
+
+/// A field level's cell edge in voxels, as text: "4", "1", "1/2".
+inline std::string fieldCellVoxels(int level)
+{
+    return level >= 0 ? std::to_string(1LL << std::min(level, 62))
+                      : "1/" + std::to_string(1LL << std::min(-level, 62));
+}
+
 /// What a field was made for, and how.
 struct ScatterFieldMeta
 {
     int order = 0; ///< highest spherical-harmonic degree, 0..SH_MAX_DEGREE
-    int level = 0; ///< field level: cells of 2^level voxels, 0..16
+    int level = 0; ///< field level: cells of 2^level voxels, MIN_FIELD_LEVEL..MAX_FIELD_LEVEL
     bool perStar = false;
     std::uint64_t packets = 0;
     std::uint64_t seed = 0;

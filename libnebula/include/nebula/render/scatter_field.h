@@ -21,10 +21,12 @@
 
 #include "nebula/core/ranks.h"
 #include "nebula/core/run.h"
+#include "nebula/io/scatter_field_vdb.h"
 #include "nebula/render/options.h"
 #include "nebula/render/scene.h"
 
 #include <array>
+#include <climits>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -39,8 +41,9 @@ inline constexpr std::uint64_t MAX_PACKETS = 1000000000;
 struct ScatterOptions
 {
     int order = 2; ///< L: real spherical harmonics of degree 0..L, (L + 1)^2 moments
-    /// Field cells of 2^k x 2^k x 2^k voxels (nebpyramid's level k layout); AUTO_FIELD_LEVEL:
-    /// autoFieldLevel()'s choice (the stage resolves it before computing).
+    /// Field cells of 2^k x 2^k x 2^k voxels (nebpyramid's level k layout), k >=
+    /// MIN_FIELD_LEVEL (-1: half-voxel cells); AUTO_FIELD_LEVEL: autoFieldLevel()'s choice
+    /// (the stage resolves it before computing).
     int fieldLevel = 1;
     /// Packets per source: all stars together (or each star with perStar), and the emission;
     /// at most MAX_PACKETS.
@@ -110,7 +113,7 @@ Affine fieldLevelMap(const Affine& level0, int level);
 inline constexpr double MAX_REFINE_TAU = 100.0;
 
 /// ScatterOptions::fieldLevel: chosen by autoFieldLevel().
-inline constexpr int AUTO_FIELD_LEVEL = -1;
+inline constexpr int AUTO_FIELD_LEVEL = INT_MIN;
 
 /// What autoFieldLevel() chose and why.
 struct FieldLevelChoice
@@ -131,9 +134,13 @@ inline constexpr double AUTO_FIELD_MAX_TALLY_BYTES = 1024.0 * 1024.0 * 1024.0;
 /// The field level for @p scene's density at order @p order with @p channels channels per
 /// moment: cells about 1/64 of the grid's longest side (45 to 90 across), finer while a
 /// cell of the densest 1 % of the dust is optically thicker than AUTO_FIELD_MAX_CELL_TAU
-/// (the collided light varies like e^-tau inside such cells) and the finer tallies take at
-/// most AUTO_FIELD_MAX_TALLY_BYTES, coarser while they take more.
-FieldLevelChoice autoFieldLevel(const RenderScene& scene, int order, int channels);
+/// (the collided light varies like e^-tau inside such cells), down to half-voxel cells
+/// (MIN_FIELD_LEVEL, for optically thick voxels), while the finer tallies take at most
+/// AUTO_FIELD_MAX_TALLY_BYTES (levels >= 0: every cell of the box, a bound; half-voxel
+/// cells: estimated for adaptive cells of --refine-tau @p refineTau, 0: uniform), coarser
+/// while they take more.
+FieldLevelChoice autoFieldLevel(const RenderScene& scene, int order, int channels,
+                                double refineTau = 0.0);
 
 /// Throws UsageError naming the option unless @p opts are usable on @p scene: order in
 /// 0..SH_MAX_DEGREE (--order), packets > 0 (--packets), a field level whose cells are not
