@@ -93,22 +93,25 @@ FieldLevelChoice autoFieldLevel(const RenderScene& scene, int order, int channel
                 cells *= double(((d[a] - 2) >> k) + 2);
             return cells * perCell;
         }
-        // Half-voxel cells: adaptive ones tally a voxel (a block) whole unless it, or a
-        // voxel next to it, is thicker than refineTau across (at most 27 voxels refined per
-        // thick one); twice the slots for the active cells round the dust; and the lattice's
-        // per-cell bookkeeping (13 bytes a cell).
+        // Half-voxel cells: adaptive ones tally a voxel (a block) whole unless it is
+        // thicker than refineTau across (or next to a star), and then each of its 8 cells;
+        // twice the slots for the active cells round the dust; and the lattice's per-cell
+        // bookkeeping (13 bytes a cell). The field itself holds every cell (4-byte moments,
+        // nearly every brick of a cloud is stored), in nebscatter and in nebrender: it must
+        // fit in the budget too, which keeps half-voxel cells to grids of about 74^3 at
+        // L = 4 (the larger of the two is returned).
         double thick = double(n.size());
         if (refineTau > 0.0) {
             const double nThick = refineTau / (scene.dust.kappa_V * voxel);
             thick = double(
                 std::count_if(n.begin(), n.end(), [&](float v) { return double(v) > nThick; }));
         }
-        const double refined = std::min(double(n.size()), 27.0 * thick);
+        const double refined = thick;
         const double slots = 2.0 * (8.0 * refined + (double(n.size()) - refined));
         double cells = 1.0;
         for (int a = 0; a < 3; ++a)
             cells *= 2.0 * double(d[a]) + 1.0;
-        return slots * perCell + cells * 13.0;
+        return std::max(slots * perCell + cells * 13.0, cells * perCell / 2.0);
     };
     c.level = c.gridLevel;
     while (c.level > MIN_FIELD_LEVEL && std::ldexp(c.voxelTau, c.level) > AUTO_FIELD_MAX_CELL_TAU &&

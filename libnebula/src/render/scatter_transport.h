@@ -434,9 +434,13 @@ public:
             mBlockRefined[b] = double(densest[b]) * across > refineTau;
         // A ring of refined blocks round the refined ones: an unrefined block's cells are
         // interpolated from blocks that are tallied whole too, never from the average of a
-        // thick block (whose lit face and shadowed back would mix).
+        // thick block (whose lit face and shadowed back would mix). Not for half-voxel
+        // cells: there a block is a voxel, tallied as full resolution would tally it (its
+        // cells keep its value on average whatever their neighbours), and the ring refined
+        // 2.5 times the cells for no gain (the thick scene's pixel noise 3.6 % against
+        // 3.3 % without it, its error against the reference the same).
         std::vector<std::uint8_t> ring = mBlockRefined;
-        for (int z = 0; z < mBDims[2]; ++z)
+        for (int z = 0; z < mBDims[2] && mScale >= 1.0; ++z)
             for (int y = 0; y < mBDims[1]; ++y)
                 for (int x = 0; x < mBDims[0]; ++x) {
                     if (!mBlockRefined[(std::size_t(z) * mBDims[1] + std::size_t(y)) * mBDims[0] +

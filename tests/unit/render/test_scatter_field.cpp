@@ -555,6 +555,9 @@ TEST(ScatterField, AutoFieldLevelFollowsGridSizeOpticalThicknessAndMemory)
         EXPECT_NEAR(h.cellTau, 0.5 * KAPPA * 20000.0 * H, 1e-9);
         EXPECT_LE(h.tallyBytes, AUTO_FIELD_MAX_TALLY_BYTES);
     }
+    // At 88^3 the half-voxel field itself (177^3 cells x 75 moments x 4 bytes = 1.5 GiB)
+    // does not fit: full resolution.
+    EXPECT_EQ(autoFieldLevel(box(90, 20000.0), 4, 3, 1.0).level, 0);
     // Many channels (a spectral field of 64 wavelengths at order 4): coarser than 64 cells.
     const FieldLevelChoice spectral = autoFieldLevel(thin128, 4, 64);
     EXPECT_EQ(spectral.level, 2);
