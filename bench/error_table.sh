@@ -127,7 +127,7 @@ for name in $SCENES; do
             precompute="$(wall "$name-$tag-scatter") s"
             # The defaults: name the level nebscatter chose (-v).
             [[ $label == "field default" || $label == "field uniform cells" ]] && label="$label (L=4, level $(grep -o \
-                'field level [0-9]* chosen' "$name-$tag-scatter.log" | awk '{ print $3 }'))"
+                'field level -\?[0-9]* chosen' "$name-$tag-scatter.log" | awk '{ print $3 }'))"
             rss="$(( $(maxrss "$name-$tag-scatter") / 1024 )) MiB"
         fi
         # shellcheck disable=SC2086
