@@ -106,8 +106,7 @@ FieldLevelChoice autoFieldLevel(const RenderScene& scene, int order, int channel
             thick = double(
                 std::count_if(n.begin(), n.end(), [&](float v) { return double(v) > nThick; }));
         }
-        const double refined = thick;
-        const double slots = 2.0 * (8.0 * refined + (double(n.size()) - refined));
+        const double slots = 2.0 * (8.0 * thick + (double(n.size()) - thick));
         double cells = 1.0;
         for (int a = 0; a < 3; ++a)
             cells *= 2.0 * double(d[a]) + 1.0;

@@ -39,8 +39,9 @@ inline constexpr int MAX_FIELD_LEVEL = 16;
 /// A field level's cell edge in voxels, as text: "4", "1", "1/2".
 inline std::string fieldCellVoxels(int level)
 {
-    return level >= 0 ? std::to_string(1LL << std::min(level, 62))
-                      : "1/" + std::to_string(1LL << std::min(-level, 62));
+    const long long k = level; // -level of INT_MIN would overflow an int
+    return k >= 0 ? std::to_string(1LL << std::min(k, 62LL))
+                  : "1/" + std::to_string(1LL << std::min(-k, 62LL));
 }
 
 /// What a field was made for, and how.
