@@ -66,21 +66,25 @@ int main(int argc, char** argv)
     std::string fieldLevel = "auto";
     const CLI::Validator levelNumber =
         nebula::cli::integerIn(nebula::MIN_FIELD_LEVEL, nebula::MAX_FIELD_LEVEL);
+    const std::string levelRange =
+        std::to_string(nebula::MIN_FIELD_LEVEL) + ", " + std::to_string(nebula::MAX_FIELD_LEVEL);
     app.add_option("--field-level", fieldLevel,
                    "Field cells of 2^k x 2^k x 2^k voxels (0: full resolution; -1: half a\n"
                    "voxel, for optically thick voxels), not larger than the grid; auto: about\n"
                    "64 cells across the grid, finer (down to -1) while cells of the densest\n"
-                   "dust are optically thick (tau_V > 1 across) and the tallies fit in 1 GiB;\n"
-                   "-v says why")
+                   "dust are optically thick (tau_V > 1 across) and the tallies (at -1 the\n"
+                   "field too) fit in 1 GiB; -v says why")
         ->capture_default_str()
         ->check(CLI::Validator(
-            [levelNumber](std::string& s) {
+            [levelNumber, levelRange](std::string& s) {
                 if (s == "auto") return std::string();
                 std::string v = s;
                 const std::string e = levelNumber(v);
-                return e.empty() ? e : "expected auto or an integer in [-1, 16], got " + s;
+                return e.empty() ? e
+                                 : "expected auto or an integer in [" + levelRange + "], got " + s;
             },
-            "auto|-1..16"));
+            "auto|" + std::to_string(nebula::MIN_FIELD_LEVEL) + ".." +
+                std::to_string(nebula::MAX_FIELD_LEVEL)));
     app.add_option("--refine-tau", f.refineTau,
                    "Adaptive cells: a block of 2x2x2 field cells is tallied as one (its cells\n"
                    "from the block's value and slopes: fewer, fuller tallies) unless its\n"

@@ -282,11 +282,11 @@ public:
         // Half-voxel cells: a voxel's dust is shared by the 8 cells round its centre, and
         // the trilinear density reaches two cells further (the renderer reads the field
         // wherever there is dust).
-        const double share = mScale < 1.0 ? 0.125 : 1.0;
+        const double share = halfVoxel() ? 0.125 : 1.0;
         mCellDust.assign(fieldCells(), 0.0);
         forEachDustVoxel([&](std::size_t cell, float n) { mCellDust[cell] += share * n; });
         mActive.assign(fieldCells(), 0);
-        const int reach = mScale < 1.0 ? 2 : 1;
+        const int reach = halfVoxel() ? 2 : 1;
         for (int K = 0; K < mFDims[2]; ++K)
             for (int J = 0; J < mFDims[1]; ++J)
                 for (int I = 0; I < mFDims[0]; ++I) {
@@ -393,7 +393,7 @@ public:
     template <class Fn> void forEachDustVoxel(const Fn& fn) const
     {
         const SparseVolume& f = mScene.fields;
-        const int below = mScale < 1.0 ? 1 : 0; // half-voxel cells: cells 2p and 2p + 1
+        const int below = halfVoxel() ? 1 : 0; // cells 2p and 2p + 1
         f.forEachStoredBrick([&](std::size_t first) {
             for (std::size_t v = first; v < first + SparseVolume::BRICK_VOXELS; ++v) {
                 const float n = f.voxel(v)[0];
@@ -439,16 +439,19 @@ public:
         // cells keep its value on average whatever their neighbours), and the ring refined
         // 2.5 times the cells for no gain (the thick scene's pixel noise 3.6 % against
         // 3.3 % without it, its error against the reference the same).
-        std::vector<std::uint8_t> ring = mBlockRefined;
-        for (int z = 0; z < mBDims[2] && mScale >= 1.0; ++z)
-            for (int y = 0; y < mBDims[1]; ++y)
-                for (int x = 0; x < mBDims[0]; ++x) {
-                    if (!mBlockRefined[(std::size_t(z) * mBDims[1] + std::size_t(y)) * mBDims[0] +
-                                       std::size_t(x)])
-                        continue;
-                    forEachNeighbour(mBDims, x, y, z, [&](std::size_t b) { ring[b] = 1; });
-                }
-        mBlockRefined = std::move(ring);
+        if (!halfVoxel()) {
+            std::vector<std::uint8_t> ring = mBlockRefined;
+            for (int z = 0; z < mBDims[2]; ++z)
+                for (int y = 0; y < mBDims[1]; ++y)
+                    for (int x = 0; x < mBDims[0]; ++x) {
+                        if (!mBlockRefined[(std::size_t(z) * mBDims[1] + std::size_t(y)) *
+                                               mBDims[0] +
+                                           std::size_t(x)])
+                            continue;
+                        forEachNeighbour(mBDims, x, y, z, [&](std::size_t b) { ring[b] = 1; });
+                    }
+            mBlockRefined = std::move(ring);
+        }
         for (const Vec3& star : mStarPos) {
             const Vec3 pI = mW2I.apply(star);
             int B[3];
@@ -469,6 +472,8 @@ public:
     }
 
     std::size_t fieldCells() const { return std::size_t(mFDims[0]) * mFDims[1] * mFDims[2]; }
+    /// Whether the field cells are half a voxel across (level -1, MIN_FIELD_LEVEL).
+    bool halfVoxel() const { return mScale < 1.0; }
     int channels() const { return mC; }
     /// The channel whose J's noise is reported: green, a spectral field's middle wavelength.
     int noiseChannel() const { return mC / 2; }

@@ -484,26 +484,22 @@ TEST(ScatterField, RefusesBadOptions)
     so.packets = 0;
     EXPECT_THROW(validateScatterOptions(scene, so), UsageError);
     so.packets = 10;
-    so.fieldLevel = 3; // cells of 8 voxels: the grid is 7 voxels across
-    try {
-        validateScatterOptions(scene, so);
-        ADD_FAILURE() << "level 3 accepted";
-    } catch (const UsageError& e) {
-        EXPECT_NE(std::string(e.what()).find("--field-level 3"), std::string::npos) << e.what();
-    }
+    // Field level @p level is refused with a message holding @p text.
+    const auto refused = [&](int level, const std::string& text) {
+        so.fieldLevel = level;
+        try {
+            validateScatterOptions(scene, so);
+            ADD_FAILURE() << "level " << level << " accepted";
+        } catch (const UsageError& e) {
+            EXPECT_NE(std::string(e.what()).find(text), std::string::npos) << e.what();
+        }
+    };
+    refused(3, "--field-level 3"); // cells of 8 voxels: the grid is 7 voxels across
     so.fieldLevel = 2;
     EXPECT_NO_THROW(validateScatterOptions(scene, so));
     so.fieldLevel = -1; // half-voxel cells
     EXPECT_NO_THROW(validateScatterOptions(scene, so));
-    so.fieldLevel = -2;
-    try {
-        validateScatterOptions(scene, so);
-        ADD_FAILURE() << "level -2 accepted";
-    } catch (const UsageError& e) {
-        EXPECT_NE(std::string(e.what()).find("--field-level -2: use a level in -1..2"),
-                  std::string::npos)
-            << e.what();
-    }
+    refused(-2, "--field-level -2: use a level in -1..2");
 }
 
 // The automatic field level: about 64 cells across the grid (45 to 90), finer where cells
