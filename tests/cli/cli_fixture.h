@@ -76,6 +76,15 @@ protected:
         return names;
     }
 
+    /// The bytes of file @p name in the test folder ("" if it cannot be read).
+    std::string fileBytes(const std::string& name) const
+    {
+        std::ifstream in(path(name), std::ios::binary);
+        std::stringstream s;
+        s << in.rdbuf();
+        return s.str();
+    }
+
     /// Small nebula + illumination used by many tests: small.vdb and lit.vdb.
     void makeLit()
     {

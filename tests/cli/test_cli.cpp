@@ -300,7 +300,8 @@ TEST_F(Cli, UnwritableOutputAndMissingTauGrid)
     expectFailure("nebrender -i lit.vdb -o missing/frame.exr", 1, "missing/frame.exr");
     expectFailure("nebrender -i small.vdb -o frame.exr", 1,
                   "no grid \"tau.alpha\" for star \"alpha\"; run nebillum");
-    expectFailure("nebrender -i lit.vdb -o frame.jpg", 2, "expected an .exr file name");
+    expectFailure("nebrender -i lit.vdb -o frame.jpg", 2,
+                  "the name ends in \".jpg\", but this output is EXR; name it *.exr");
     expectFailure("nebrender -i lit.vdb --res 0x10 -o frame.exr", 2, "--res");
     expectFailure("nebrender -i lit.vdb --eye 1,2 -o frame.exr", 2, "--eye");
     expectFailure("nebrender -i lit.vdb --albedo 1.5 -o frame.exr", 2, "albedo");

@@ -314,7 +314,7 @@ TEST_F(Hardening, NebtoneSequencesAreAllOrNothing)
     expectClean("nebtone -i 'e/f.####.exr' -o 'fresh.####.png'", 1, "f.0003.exr");
     // Output names end in .png.
     expectClean("nebtone -i 'good/f.####.exr' -o 'x.####.exr'", 2,
-                "nebtone writes PNG frames; the names must end in .png");
+                "the name says EXR, but this output is PNG; name it *.png");
     // --skip-existing rewrites a truncated or empty PNG, keeps a whole one.
     ASSERT_EQ(run("rm e/f.0003.exr && mkdir k && nebtone -i 'e/f.####.exr' -o 'k/f.####.png'").code,
               0);

@@ -25,6 +25,8 @@ int main(int argc, char** argv)
         "active, or I0,J0,K0,I1,J1,K1 (index coordinates, inclusive).",
         "nebexport"};
     nebula::cli::addCommon(app, common, nebula::cli::INPUT | nebula::cli::OUTPUT);
+    // -o's format is --format's or its name's: the cube writer checks the name.
+    nebula::cli::outputFile(app.get_option("--output"), std::nullopt);
     app.add_option("--grid", opts.grid, "The FloatGrid written")->capture_default_str();
     app.add_option("--format", format, "fits, npy or hdf5 (default: from -o's extension)")
         ->check(CLI::IsMember({"fits", "npy", "hdf5"}));
@@ -36,6 +38,11 @@ int main(int argc, char** argv)
         if (!format.empty()) opts.format = nebula::parseCubeFormat(format, "--format");
         opts.output = common.output;
         opts.validate();
+        // A --format the name does not say: refused before the grids are read.
+        if (opts.format) {
+            if (const auto file = nebula::cubeFileFormat(*opts.format))
+                nebula::checkOutputName(common.output, "-o", *file);
+        }
         const auto grids = nebula::readGrids(common.input, run);
         nebula::exportCube(grids, opts, run);
     });

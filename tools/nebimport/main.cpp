@@ -32,10 +32,11 @@ int main(int argc, char** argv)
         "below --threshold stay inactive (background 0). Next step: nebillum.",
         "nebimport"};
     nebula::cli::addCommon(app, common, nebula::cli::OUTPUT);
-    app.add_option("-i,--input", opts.input,
-                   "The cube: .fits/.fit/.fts, .h5/.hdf5, .npy, or a RADMC-3D folder or its "
-                   "amr_grid.inp")
-        ->required();
+    nebula::cli::inputFile(
+        app.add_option("-i,--input", opts.input,
+                       "The cube: .fits/.fit/.fts, .h5/.hdf5, .npy, or a RADMC-3D folder or its "
+                       "amr_grid.inp")
+            ->required());
     auto* grp = app.add_option_group("Cube");
     grp->add_option("--format", format, "fits, hdf5, npy or radmc (default: from the name)")
         ->check(CLI::IsMember({"fits", "hdf5", "npy", "radmc"}));
@@ -83,6 +84,10 @@ int main(int argc, char** argv)
 
     return nebula::cli::run(app, "nebimport", common, argc, argv, [&](nebula::Run& run) {
         nebula::refuseBinaryToTerminal(common.output, "-o");
+        std::vector<nebula::cli::ExtraFile> inputs;
+        for (const auto& [option, file] : nebula::importInputFiles(opts))
+            inputs.push_back({option, file, false, std::nullopt});
+        nebula::cli::checkFileOptions(app, common, inputs);
         if (!format.empty()) opts.select.format = nebula::parseCubeFormat(format, "--format");
         if (!voxelSize.empty()) opts.voxelSize = nebula::parseLength(voxelSize, "--voxel-size");
         if (originOpt->count() > 0) opts.origin = origin;

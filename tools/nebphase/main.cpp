@@ -304,10 +304,13 @@ int main(int argc, char** argv)
         "photon exactly.",
         "nebphase"};
     nebula::cli::addCommon(app, common, 0);
-    app.add_option("-i,--input", common.input,
-                   "VDB whose nebula:dust is the dust (file, or - for stdin); optional");
-    auto* output = app.add_option("-o,--output", common.output,
-                                  "Output phase table VDB, or - for stdout (table mode)");
+    nebula::cli::inputFile(
+        app.add_option("-i,--input", common.input,
+                       "VDB whose nebula:dust is the dust (file, or - for stdin); optional"));
+    auto* output = nebula::cli::outputFile(
+        app.add_option("-o,--output", common.output,
+                       "Output phase table VDB, or - for stdout (table mode)"),
+        nebula::FileFormat::Vdb);
     app.add_option("--seed", opts.table.seed,
                    "Random seed (same seed, same result whatever --threads)")
         ->capture_default_str()
@@ -345,7 +348,9 @@ int main(int argc, char** argv)
                             numberText(spec.errorTMax) + ")")
             ->capture_default_str()
             ->check(nebula::cli::positive()),
-        tbl->add_option("--json", opts.json, "Also write the table as JSON (file, or -)"),
+        nebula::cli::outputFile(
+            tbl->add_option("--json", opts.json, "Also write the table as JSON (file, or -)"),
+            nebula::FileFormat::Json),
     };
 
     auto* slb = app.add_option_group("Slab", "Slab mode (--slab)");

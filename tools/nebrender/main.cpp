@@ -53,19 +53,27 @@ int main(int argc, char** argv)
         "colour = CIE 1931 XYZ -> linear sRGB (may be negative out of gamut).",
         "nebrender"};
     nebula::cli::addCommon(app, common, nebula::cli::INPUT | nebula::cli::DENSITY_GRID);
-    app.add_option("-o,--output", out.exr, "Output EXR file")->required();
-    app.add_option("--png", out.png, "Output PNG (default: the EXR name with .png)");
-    app.add_option("--fits", out.fits.path,
-                   "Also a calibrated FITS image: surface brightness at each --wavelengths\n"
-                   "(monochromatic; stars as black bodies of bolometric luminosity; the EXR\n"
-                   "then holds spectral radiance per nm), components TOTAL, DIRECT, SCATTERED,\n"
-                   "SINGLE, FIELD as HDUs; --camera orthographic (or perspective with --sky).\n"
-                   "With --spectral: cubes of --spectral-layers bands (47 of 10 nm if not\n"
-                   "given) and EMISSION, the gas's lines calibrated (grid x --emission-scale =\n"
-                   "their emissivity, L_sun pc^-3 sr^-1)");
-    app.add_option("--sed", out.fits.sed,
-                   "Also the SED: flux density at the observer [Jy] per component at each\n"
-                   "wavelength, as CSV (also the table SED of --fits); calibrated like --fits");
+    using nebula::FileFormat;
+    nebula::cli::outputFile(app.add_option("-o,--output", out.exr, "Output EXR file")->required(),
+                            FileFormat::Exr);
+    nebula::cli::outputFile(
+        app.add_option("--png", out.png, "Output PNG (default: the EXR name with .png)"),
+        FileFormat::Png);
+    auto* fitsOpt = app.add_option(
+        "--fits", out.fits.path,
+        "Also a calibrated FITS image: surface brightness at each --wavelengths\n"
+        "(monochromatic; stars as black bodies of bolometric luminosity; the EXR\n"
+        "then holds spectral radiance per nm), components TOTAL, DIRECT, SCATTERED,\n"
+        "SINGLE, FIELD as HDUs; --camera orthographic (or perspective with --sky).\n"
+        "With --spectral: cubes of --spectral-layers bands (47 of 10 nm if not\n"
+        "given) and EMISSION, the gas's lines calibrated (grid x --emission-scale =\n"
+        "their emissivity, L_sun pc^-3 sr^-1)");
+    nebula::cli::outputFile(fitsOpt, FileFormat::Fits);
+    nebula::cli::outputFile(
+        app.add_option("--sed", out.fits.sed,
+                       "Also the SED: flux density at the observer [Jy] per component at each\n"
+                       "wavelength, as CSV (also the table SED of --fits); calibrated like --fits"),
+        FileFormat::Csv);
     app.add_option("--fits-unit", out.fits.unit, "FITS unit: MJy/sr or W/m2/sr/nm")
         ->capture_default_str();
     std::vector<double> sky;
@@ -132,10 +140,11 @@ int main(int argc, char** argv)
                    "distance)^2, star fluxes, arcsec pixels, fluxes in --sed (default: the\n"
                    "distance from --eye to --look-at)");
     std::string pathFile, frameText, framesText;
-    auto* pathOpt = app.add_option("--camera-path", pathFile,
-                                   "Keyframed camera path (JSON: fps, keyframes of time, eye,\n"
-                                   "look_at, up, fov, roll; see the README); renders its frames,\n"
-                                   "all of them unless --frame or --frames");
+    auto* pathOpt = nebula::cli::inputFile(
+        app.add_option("--camera-path", pathFile,
+                       "Keyframed camera path (JSON: fps, keyframes of time, eye,\n"
+                       "look_at, up, fov, roll; see the README); renders its frames,\n"
+                       "all of them unless --frame or --frames"));
     auto* frameOpt =
         app.add_option("--frame", frameText, "With --camera-path: render frame N (1 = time 0)");
     app.add_option("--frames", framesText,
@@ -169,10 +178,11 @@ int main(int argc, char** argv)
                            "a field must be made with the same --filter");
     nebula::cli::addEmissionAndStars(app, opts, noStars);
     nebula::cli::addDust(app, dustOpts, /*withKappa=*/false);
-    app.add_option("--phase", phaseFile,
-                   "Effective phase-function table from nebphase: scattering uses Phi(t, mu) of\n"
-                   "each voxel's optical thickness t (multiple scattering inside voxels) instead\n"
-                   "of the single-scattering a*p(mu)");
+    nebula::cli::inputFile(app.add_option(
+        "--phase", phaseFile,
+        "Effective phase-function table from nebphase: scattering uses Phi(t, mu) of\n"
+        "each voxel's optical thickness t (multiple scattering inside voxels) instead\n"
+        "of the single-scattering a*p(mu)"));
     std::string phaseUse = "gain";
     app.add_option("--phase-use", phaseUse,
                    "How --phase enters: gain = a p(mu) times the voxel's multiple-scattering\n"
@@ -361,6 +371,11 @@ int main(int argc, char** argv)
             integrator == "path" ? nebula::Integrator::Path : nebula::Integrator::Fast;
         opts.phaseUse = phaseUse == "replace" ? nebula::PhaseUse::Replace : nebula::PhaseUse::Gain;
         if (noPng) out.png = "none";
+        if (out.png.empty()) { // the PNG the EXR's name gives: checked as the outputs named
+            nebula::cli::checkFileOptions(
+                app, common,
+                {{"the PNG (-o's name with .png)", nebula::pngPath(out), true, FileFormat::Png}});
+        }
         toneOpts.apply(out.tone);
         if (!phaseFile.empty()) {
             opts.phaseTable = std::make_shared<const nebula::PhaseTable>(

@@ -25,12 +25,14 @@ int main(int argc, char** argv)
         "  nebtone -i 'frames/f.####.exr' --window all -o 'd/f.####.png'   # one curve",
         "nebtone"};
     nebula::cli::addCommon(app, common, 0);
-    app.add_option("-i,--input", opts.input,
-                   "EXR frames: a name with a frame pattern (#### or %04d)")
-        ->required();
-    app.add_option("-o,--output", opts.output,
-                   "PNG frames: a name with a frame pattern, ending in .png")
-        ->required();
+    nebula::cli::inputFile(app.add_option("-i,--input", opts.input,
+                                          "EXR frames: a name with a frame pattern (#### or %04d)")
+                               ->required());
+    nebula::cli::outputFile(
+        app.add_option("-o,--output", opts.output,
+                       "PNG frames: a name with a frame pattern, ending in .png")
+            ->required(),
+        nebula::FileFormat::Png);
     app.add_option("--frames", framesText,
                    "Frames A-B[:STEP] (default: every frame of the pattern that exists); at most\n"
                    "1e6 frames in one range");

@@ -55,10 +55,13 @@ int main(int argc, char** argv)
     auto* listenOpt = app.add_option("--listen", listen,
                                      "ADDR:PORT to listen on instead of 127.0.0.1 (other\n"
                                      "machines can then reach the viewer: a warning)");
-    app.add_option("--path-out", server.pathOut,
-                   "Where the page's Save writes the camera path (JSON; checked for\n"
-                   "writing at start)");
-    app.add_option("--camera-path", pathFile, "A camera path (JSON) to start with and edit");
+    nebula::cli::outputFile(
+        app.add_option("--path-out", server.pathOut,
+                       "Where the page's Save writes the camera path (*.json; checked at\n"
+                       "start: a regular file or a new name in a writable folder, not an input)"),
+        nebula::FileFormat::Json);
+    nebula::cli::inputFile(
+        app.add_option("--camera-path", pathFile, "A camera path (JSON) to start with and edit"));
     app.add_option("--res", res,
                    "Full resolution WxH of the preview and final frames (equirect: W x W/2;\n"
                    "fisheye: the smaller side squared)")
@@ -93,7 +96,8 @@ int main(int argc, char** argv)
                          "R,G,B channel wavelengths [nm] for the extinction curve");
     nebula::cli::addEmissionAndStars(app, opts, noStars);
     nebula::cli::addDust(app, dustOpts, /*withKappa=*/false);
-    app.add_option("--phase", phaseFile, "Effective phase-function table from nebphase");
+    nebula::cli::inputFile(
+        app.add_option("--phase", phaseFile, "Effective phase-function table from nebphase"));
     app.add_option("--levels", opts.levels, "Pyramid levels with --phase (nebrender's)")
         ->check(nebula::cli::integerIn(0, 16));
     bool noScatterField = false, interpolatedTau = false;
@@ -132,7 +136,7 @@ int main(int argc, char** argv)
             server.port = std::uint16_t(std::stoi(p));
         }
         // Refused now, not at the first save.
-        if (!server.pathOut.empty()) nebula::checkOutputWritable(server.pathOut, "--path-out");
+        if (!server.pathOut.empty()) nebula::checkOutputTarget(server.pathOut, "--path-out");
         nebula::validateCamera(opts.camera);
         if (!pathFile.empty()) {
             nebula::InputSpec spec;

@@ -13,6 +13,7 @@
 #include <openvdb/openvdb.h>
 #include <tbb/global_control.h>
 
+#include <algorithm>
 #include <cctype>
 #include <cerrno>
 #include <cmath>
@@ -28,6 +29,7 @@
 #include <optional>
 #include <set>
 #include <sstream>
+#include <stdexcept>
 #include <sys/mman.h>
 #include <sys/stat.h>
 #include <unistd.h>
@@ -45,10 +47,14 @@ std::string versionString(const std::string& tool)
 void addCommon(CLI::App& app, CommonOptions& opts, unsigned flags)
 {
     if (flags & INPUT) {
-        app.add_option("-i,--input", opts.input, "Input VDB file, or - for stdin")->required();
+        inputFile(
+            app.add_option("-i,--input", opts.input, "Input VDB file, or - for stdin")->required());
     }
     if (flags & OUTPUT) {
-        app.add_option("-o,--output", opts.output, "Output file, or - for stdout")->required();
+        // A VDB unless the tool marks it again (nebrender: EXR; nebexport: its --format).
+        outputFile(
+            app.add_option("-o,--output", opts.output, "Output file, or - for stdout")->required(),
+            FileFormat::Vdb);
     }
     if (flags & PASS_THROUGH) {
         opts.inPlace = true;
@@ -195,24 +201,72 @@ double parsePixelSize(const std::string& text, double distancePc)
 
 namespace {
 
+// The marks of file options: validators that check nothing, found by name (a validator with
+// no description adds nothing to --help).
+const char* const INPUT_MARK = "nebula-input";
+const std::string OUTPUT_MARK = "nebula-output:";
+const char* const ANY_FORMAT = "any";
+
+std::string outputMark(std::optional<FileFormat> format)
+{
+    return OUTPUT_MARK + (format ? std::to_string(int(*format)) : ANY_FORMAT);
+}
+
+/// The output mark of @p opt, or nullptr.
+CLI::Validator* findOutputMark(CLI::Option& opt)
+{
+    for (int f = -1; f <= int(FileFormat::Json); ++f) {
+        try {
+            return opt.get_validator(
+                outputMark(f < 0 ? std::nullopt : std::optional(FileFormat(f))));
+        } catch (const CLI::OptionNotFound&) {
+        }
+    }
+    return nullptr;
+}
+
+CLI::Validator markValidator(const std::string& name)
+{
+    return CLI::Validator([](std::string&) { return std::string(); }, "", name);
+}
+
 struct FileOption
 {
-    std::string option;
+    std::string option; ///< the option's name, or a derived output's label
     std::string path;
+    std::optional<FileFormat> format;
 };
 
-std::vector<FileOption> givenFileOptions(const CLI::App& app,
-                                         std::initializer_list<const char*> names)
+/// The values of the options of @p app (and its option groups) marked as inputs (@p outputs
+/// false) or outputs, "-" and "none" left out.
+void markedFiles(const CLI::App& app, bool outputs, std::vector<FileOption>& files)
 {
-    std::vector<FileOption> files;
-    for (const char* name : names) {
-        const CLI::Option* o = app.get_option_no_throw(name);
-        if (!o || o->count() == 0) continue;
-        for (const auto& result : o->results())
+    for (const CLI::Option* o : app.get_options()) {
+        auto* opt = const_cast<CLI::Option*>(o);
+        std::optional<FileFormat> format;
+        if (outputs) {
+            const CLI::Validator* mark = findOutputMark(*opt);
+            if (!mark) continue;
+            const std::string id = mark->get_name().substr(OUTPUT_MARK.size());
+            if (id != ANY_FORMAT) format = FileFormat(std::stoi(id));
+        } else {
+            try {
+                opt->get_validator(INPUT_MARK);
+            } catch (const CLI::OptionNotFound&) {
+                continue;
+            }
+        }
+        if (opt->count() == 0) continue;
+        // As the user most likely typed it: -o rather than --output.
+        const auto& shorts = opt->get_snames();
+        const std::string label = shorts.empty() ? opt->get_name() : "-" + shorts.front();
+        for (const auto& result : opt->results())
             if (!result.empty() && result != "-" && result != "none")
-                files.push_back({name, result});
+                files.push_back({label, result, format});
     }
-    return files;
+    for (const CLI::App* group :
+         app.get_subcommands([](const CLI::App* a) { return a->get_name().empty(); }))
+        markedFiles(*group, outputs, files);
 }
 
 /// The same file: the same existing inode, or (for names that do not exist yet) the same
@@ -231,11 +285,62 @@ bool sameFile(const std::string& a, const std::string& b)
 
 } // namespace
 
-void checkFileOptions(const CLI::App& app, const CommonOptions& opts)
+CLI::Option* inputFile(CLI::Option* option)
 {
-    const auto outputs = givenFileOptions(app, {"--output", "--png", "--json"});
-    const auto inputs =
-        givenFileOptions(app, {"--input", "--phase", "--stars", "--config", "--camera-path"});
+    try {
+        option->get_validator(INPUT_MARK);
+    } catch (const CLI::OptionNotFound&) {
+        option->check(markValidator(INPUT_MARK));
+    }
+    return option;
+}
+
+CLI::Option* outputFile(CLI::Option* option, std::optional<FileFormat> format)
+{
+    if (CLI::Validator* mark = findOutputMark(*option)) {
+        mark->name(outputMark(format));
+    } else {
+        option->check(markValidator(outputMark(format)));
+    }
+    return option;
+}
+
+std::vector<std::pair<std::string, std::string>> optionValues(const CLI::App& app,
+                                                              const std::vector<std::string>& skip)
+{
+    std::vector<std::pair<std::string, std::string>> values;
+    for (const CLI::Option* opt : app.get_options()) {
+        const std::string name = opt->get_name();
+        if (std::find(skip.begin(), skip.end(), name) != skip.end()) continue;
+        std::string text;
+        for (const auto& r : opt->results())
+            text += r + '\x1f';
+        values.emplace_back(name, text);
+    }
+    for (const CLI::App* group :
+         app.get_subcommands([](const CLI::App* a) { return a->get_name().empty(); })) {
+        const auto more = optionValues(*group, skip);
+        values.insert(values.end(), more.begin(), more.end());
+    }
+    return values;
+}
+
+void checkFileOptions(const CLI::App& app, const CommonOptions& opts,
+                      const std::vector<ExtraFile>& extra)
+{
+    std::vector<FileOption> outputs, inputs;
+    markedFiles(app, true, outputs);
+    markedFiles(app, false, inputs);
+    for (const auto& e : extra) {
+        if (e.path.empty() || e.path == "-") continue;
+        (e.output ? outputs : inputs)
+            .push_back({e.label, e.path, e.output ? e.format : std::nullopt});
+    }
+    if (const CLI::Option* config = app.get_option_no_throw("--config");
+        config && config->count() > 0) {
+        for (const auto& result : config->results())
+            if (!result.empty() && result != "-") inputs.push_back({"--config", result, {}});
+    }
     for (std::size_t i = 0; i < outputs.size(); ++i) {
         for (std::size_t j = i + 1; j < outputs.size(); ++j) {
             if (sameFile(outputs[i].path, outputs[j].path)) {
@@ -246,12 +351,14 @@ void checkFileOptions(const CLI::App& app, const CommonOptions& opts)
         }
         for (const auto& in : inputs) {
             if (!sameFile(outputs[i].path, in.path)) continue;
-            if (opts.inPlace && outputs[i].option == "--output" && in.option == "--input") continue;
+            if (opts.inPlace && outputs[i].option == "-o" && in.option == "-i") continue;
             throw UsageError(outputs[i].option + " " + outputs[i].path + " is the input " +
                              in.option + " " + in.path +
                              "; writing it would destroy the input: give the output another name");
         }
     }
+    for (const auto& out : outputs)
+        if (out.format) checkOutputName(out.path, out.option, *out.format);
 }
 
 namespace {
@@ -663,6 +770,21 @@ void useHugePageMalloc(const std::string& tool, int argc, char** argv)
 
 } // namespace
 
+namespace {
+
+/// ", reading -i X and writing -o Y" for an out-of-memory message: the files it was about.
+std::string memoryContext(const CommonOptions& opts)
+{
+    std::string s;
+    if (!opts.input.empty()) s += ", reading -i " + detail::printable(opts.input, 200);
+    if (!opts.output.empty())
+        s += (s.empty() ? ", writing -o " : " and writing -o ") +
+             detail::printable(opts.output, 200);
+    return s;
+}
+
+} // namespace
+
 int run(CLI::App& app, const std::string& tool, CommonOptions& opts, int argc, char** argv,
         const std::function<void(Run&)>& body)
 {
@@ -756,9 +878,13 @@ int run(CLI::App& app, const std::string& tool, CommonOptions& opts, int argc, c
         std::cerr << tool << ": error: " << e.what() << "\n";
         return 2;
     } catch (const std::bad_alloc&) {
-        std::cerr << tool
-                  << ": error: out of memory (an allocation failed); try a smaller size, "
-                     "resolution or number of levels, or fewer threads\n";
+        std::cerr << tool << ": error: out of memory (an allocation failed" << memoryContext(opts)
+                  << "); try a smaller size, resolution or number of levels, or fewer threads\n";
+        return 1;
+    } catch (const std::length_error&) { // a container asked for more than it can ever hold
+        std::cerr << tool << ": error: out of memory (a size beyond any machine's memory"
+                  << memoryContext(opts)
+                  << "); try a smaller size, resolution, box or number of levels\n";
         return 1;
     } catch (const std::exception& e) {
         std::cerr << tool << ": error: " << e.what() << "\n";

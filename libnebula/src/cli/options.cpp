@@ -63,10 +63,10 @@ void addStars(CLI::App& app, StarOptions& opts)
     app.add_option("--star", opts.star,
                    "A star NAME:X,Y,Z:LUMINOSITY:CLASS, position in pc, luminosity in L_sun, "
                    "a spectral class (B3V) or a temperature in K (repeatable)");
-    app.add_option("--stars", opts.starsFile,
-                   "JSON file: [{\"name\", \"position\":[x,y,z], \"luminosity\", "
-                   "\"temperature\" or \"class\"}]")
-        ->check(CLI::ExistingFile);
+    inputFile(app.add_option("--stars", opts.starsFile,
+                             "JSON file: [{\"name\", \"position\":[x,y,z], \"luminosity\", "
+                             "\"temperature\" or \"class\"}]")
+                  ->check(CLI::ExistingFile));
 }
 
 Star parseStarOption(const std::string& text)
@@ -190,10 +190,10 @@ void addFilter(CLI::App& app, FilterOptions& opts, const std::string& what)
         names += (names.empty() ? "" : " ") + n;
     auto* name =
         app.add_option("--filter", opts.name, "A standard passband (" + what + "): " + names);
-    app.add_option("--filter-file", opts.file,
-                   "A passband of your own: lines of wavelength and photon-counting response\n"
-                   "(see the README), strictly increasing in wavelength")
-        ->excludes(name);
+    inputFile(app.add_option("--filter-file", opts.file,
+                             "A passband of your own: lines of wavelength and photon-counting "
+                             "response\n(see the README), strictly increasing in wavelength")
+                  ->excludes(name));
     app.add_option("--filter-unit", opts.unit,
                    "--filter-file's wavelength unit when the file names none: nm, Angstrom, um")
         ->check(CLI::IsMember({"nm", "Angstrom", "A", "um", "micron"}))

@@ -254,6 +254,21 @@ void checkOutputWritable(const std::string& path, const std::string& what)
     }
 }
 
+void checkOutputTarget(const std::string& path, const std::string& what)
+{
+    struct stat st;
+    if (::lstat(path.c_str(), &st) == 0 && !S_ISREG(st.st_mode)) {
+        if (S_ISDIR(st.st_mode)) throw Error(path + ": cannot write " + what + ": it is a folder");
+        if (!gWriteThrough) {
+            throw UsageError(what + " " + path + ": output is " + kindOf(st.st_mode) +
+                             ", not a regular file; nebula replaces outputs atomically and "
+                             "refuses to replace it (give --write-through to write through it)");
+        }
+        return; // written through as it is, as AtomicFile does
+    }
+    checkOutputWritable(path, what);
+}
+
 std::string AtomicFile::tmpPrefix(const std::string& path)
 {
     return path + ".tmp." + std::to_string(long(::getpid())) + ".";

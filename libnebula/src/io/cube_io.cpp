@@ -4,6 +4,7 @@
 #include "cube_raw.h"
 
 #include "nebula/core/error.h"
+#include "nebula/core/file_format.h"
 #include "nebula/core/memory.h"
 #include "nebula/core/units.h"
 
@@ -272,9 +273,21 @@ std::unique_ptr<CubeSource> openCube(const std::string& path, const CubeSelect& 
     return nullptr;
 }
 
+std::optional<FileFormat> cubeFileFormat(CubeFormat format)
+{
+    switch (format) {
+    case CubeFormat::Fits: return FileFormat::Fits;
+    case CubeFormat::Hdf5: return FileFormat::Hdf5;
+    case CubeFormat::Npy: return FileFormat::Npy;
+    case CubeFormat::Radmc: return std::nullopt;
+    }
+    return std::nullopt;
+}
+
 void writeCube(CubeFormat format, const std::string& path, const CubeHeader& header,
                const std::string& dataset, const PlaneFunction& plane)
 {
+    if (const auto file = cubeFileFormat(format)) checkOutputName(path, "-o", *file);
     const double bytes =
         double(header.dims[0]) * double(header.dims[1]) * double(header.dims[2]) * 4.0;
     switch (format) {

@@ -1,6 +1,7 @@
 #include "nebula/io/fits_image.h"
 
 #include "nebula/core/error.h"
+#include "nebula/core/file_format.h"
 #include "nebula/io/fits.h"
 
 #include <ostream>
@@ -20,6 +21,7 @@ void writeFits(AtomicFile& file, std::size_t count,
                const std::vector<FitsTableHdu>& tables,
                const std::vector<FitsColumnsHdu>& columnTables)
 {
+    checkOutputName(file.path(), "output", FileFormat::Fits);
     if (count == 0) throw Error(file.path() + ": FITS: no image to write");
     FitsFile f = FitsFile::createMemory(file.path());
     for (std::size_t i = 0; i < count; ++i) {

@@ -2,6 +2,7 @@
 
 #include "nebula/core/atomic_file.h"
 #include "nebula/core/error.h"
+#include "nebula/core/file_format.h"
 #include "nebula/core/format.h"
 #include "nebula/core/input.h"
 #include "nebula/core/version.h"
@@ -557,6 +558,7 @@ void stamp(GridSet& grids, const std::string& tool, const std::string& command)
 void writeGrids(AtomicFile& file, GridSet grids, const std::string& tool,
                 const std::string& command)
 {
+    checkOutputName(file.path(), "output", FileFormat::Vdb);
     requireWritable(grids, file.path());
     stamp(grids, tool, command);
     try {

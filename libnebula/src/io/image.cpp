@@ -2,6 +2,7 @@
 
 #include "nebula/core/atomic_file.h"
 #include "nebula/core/error.h"
+#include "nebula/core/file_format.h"
 #include "nebula/physics/colour.h"
 
 #include <IexBaseExc.h>
@@ -206,6 +207,7 @@ void writeExr(AtomicFile& file, const Image& image,
               const std::map<std::string, std::string>& attributes)
 {
     const std::string& path = file.path();
+    checkOutputName(path, "output", FileFormat::Exr);
     validateImage(path, image, true);
 
     Imf::Header header(image.width, image.height);
@@ -618,6 +620,7 @@ void writePng(AtomicFile& file, const Image& image, const ToneCurve& curve,
               const std::map<std::string, std::string>& text, int bitDepth)
 {
     const std::string& path = file.path();
+    checkOutputName(path, "output", FileFormat::Png);
     validateImage(path, image, false);
     checkToneOutput(path, bitDepth, curve);
     std::vector<std::uint8_t> pixels = displayPixels(image, curve, bitDepth);

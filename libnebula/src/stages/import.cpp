@@ -467,6 +467,27 @@ std::pair<std::string, std::string> splitCubeSelector(const std::string& text)
     return {text.substr(0, colon), text.substr(colon + 1)};
 }
 
+std::vector<std::pair<std::string, std::string>> importInputFiles(const ImportOptions& opts)
+{
+    std::vector<std::pair<std::string, std::string>> files{{"-i", opts.input}};
+    const auto add = [&](const std::string& option, const std::string& text) {
+        if (!text.empty()) files.emplace_back(option, splitCubeSelector(text).first);
+    };
+    add("--temperature", opts.temperature);
+    add("--emission", opts.emission);
+    if (!pathExists(opts.velocity) && opts.velocity.find(',') != std::string::npos) {
+        std::size_t start = 0, comma;
+        while ((comma = opts.velocity.find(',', start)) != std::string::npos) {
+            add("--velocity", opts.velocity.substr(start, comma - start));
+            start = comma + 1;
+        }
+        add("--velocity", opts.velocity.substr(start));
+    } else {
+        add("--velocity", opts.velocity);
+    }
+    return files;
+}
+
 GridSet importCube(const ImportOptions& opts, const Run& run)
 {
     opts.validate();

@@ -30,7 +30,8 @@ bool endsWith(const std::string& s, const std::string& suffix)
            s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
 }
 
-/// The PNG path: RenderOutput::png, or the EXR's name with .png; "" for none.
+} // namespace
+
 std::string pngPath(const RenderOutput& out)
 {
     if (!endsWith(out.exr, ".exr")) {
@@ -41,6 +42,8 @@ std::string pngPath(const RenderOutput& out)
     if (png == "none") png.clear();
     return png;
 }
+
+namespace {
 
 /// Refuses combinations the integrators cannot honour, and warns about pyramid levels that
 /// no phase table will use.

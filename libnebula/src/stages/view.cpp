@@ -2,6 +2,7 @@
 
 #include "nebula/core/atomic_file.h"
 #include "nebula/core/error.h"
+#include "nebula/core/file_format.h"
 #include "nebula/core/units.h"
 #include "nebula/render/fast.h"
 #include "nebula/render/sprites.h"
@@ -259,6 +260,7 @@ std::string cameraPathJson(const CameraPath& path)
 
 void writeCameraPath(const std::string& file, const CameraPath& path)
 {
+    checkOutputName(file, "--path-out", FileFormat::Json);
     const std::string text = cameraPathJson(path);
     // What nebrender will read: the text must parse back to this path.
     const CameraPath back = parseCameraPath(text, file, Camera{});

@@ -4,6 +4,7 @@
 /// stdin/stdout, --only-new, --density-grid, --threads, -q, -v, --version, --config, and
 /// the run() wrapper that turns exceptions into exit codes (0 ok, 1 error, 2 usage).
 
+#include "nebula/core/file_format.h"
 #include "nebula/core/run.h"
 #include "nebula/volume/volume.h"
 
@@ -76,12 +77,44 @@ std::optional<std::string> hugePageTunables(const char* tunables, const std::str
 int run(CLI::App& app, const std::string& tool, CommonOptions& opts, int argc, char** argv,
         const std::function<void(Run&)>& body);
 
-/// The outputs of every tool (-o/--output, --png, --json) must be different files, and none
-/// may be one of its inputs (-i/--input, --phase, --stars, --config), except -i X -o X in a
-/// tool that passes its input grids through (@p opts.inPlace): the input is read completely
-/// before the output replaces it. Same file means the same name, or the same inode (a link,
-/// "./x" for "x"). Throws UsageError naming both options.
-void checkFileOptions(const CLI::App& app, const CommonOptions& opts);
+/// Marks @p option as naming input files (-i, --stars, --phase, --camera-path, --emission,
+/// --filter-file, ...): checkFileOptions() compares them with every output. Returns @p option.
+CLI::Option* inputFile(CLI::Option* option);
+
+/// Marks @p option as naming an output file of @p format (-o, --png, --fits, --sed, --json,
+/// --path-out, ...): checkFileOptions() compares it with every other output and every input,
+/// and checks its name's ending (checkOutputName(), core/file_format.h). nullopt: a format
+/// that depends on other options (nebexport's -o), whose writer checks the name. Replaces an
+/// earlier mark (addCommon() marks -o as a VDB output). Returns @p option.
+CLI::Option* outputFile(CLI::Option* option, std::optional<FileFormat> format);
+
+/// A file a tool derives from its options rather than one an option names whole: nebrender's
+/// PNG next to its EXR (an output), nebimport's FILE of --emission FILE:HDU (an input).
+struct ExtraFile
+{
+    std::string label; ///< how a message names it: "the PNG (-o's name with .png)"
+    std::string path;
+    bool output = false;
+    std::optional<FileFormat> format; ///< an output's format (its name is checked)
+};
+
+/// One check of every file a command names, before any work (run() calls it after parsing;
+/// a tool with ExtraFiles calls it again with them): the outputs (options marked with
+/// outputFile(), and @p extra outputs) must be different files, none may be an input
+/// (options marked with inputFile(), --config, and @p extra inputs), except -i X -o X in a tool
+/// that passes its input grids through (@p opts.inPlace: the input is read completely before the
+/// output replaces it), and each output's name must end as its format's names do. Same file means
+/// the same existing inode (a hard or symbolic link, "./x" for "x", a folder reached two ways) or,
+/// for names that do not exist yet, the same absolute, normalised name. Throws UsageError
+/// naming both options.
+void checkFileOptions(const CLI::App& app, const CommonOptions& opts,
+                      const std::vector<ExtraFile>& extra = {});
+
+/// Every option of @p app (and its option groups) but those named in @p skip, as (name, its
+/// values as given, or "" when not given), in the order they were defined: what ranks of one
+/// MPI job compare (cli/process_ranks.h).
+std::vector<std::pair<std::string, std::string>> optionValues(const CLI::App& app,
+                                                              const std::vector<std::string>& skip);
 
 /// The version line: "tool 0.1.0 (OpenVDB x.y.z)".
 std::string versionString(const std::string& tool);

@@ -75,6 +75,12 @@ void setWriteThrough(bool enabled);
 /// is not a folder; @p what names the output ("EXR", "phase table").
 void checkOutputWritable(const std::string& path, const std::string& what);
 
+/// What AtomicFile's constructor will refuse, checked before any work (an output written
+/// long after the start, such as nebview's --path-out): checkOutputWritable(), and a target
+/// that is a FIFO, a device, a socket or a symbolic link is a UsageError naming @p what
+/// unless setWriteThrough(true).
+void checkOutputTarget(const std::string& path, const std::string& what);
+
 /// Removes the temporaries "<path>.tmp.<pid>.XXXXXX" whose writer is gone: no process has that
 /// pid, or the process that has it started after the temporary was last written. Returns how
 /// many were removed. AtomicFile's constructor calls it.

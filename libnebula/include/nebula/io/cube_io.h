@@ -9,6 +9,7 @@
 /// file's order flag), an HDF5 dataset's [x, y, z] as h5py indexes it (dims in C order), and
 /// RADMC-3D's (ix, iy, iz). astropy's fits.getdata() therefore returns the transpose a.T.
 
+#include "nebula/core/file_format.h"
 #include "nebula/io/fits.h"
 
 #include <array>
@@ -32,6 +33,10 @@ std::string cubeFormatName(CubeFormat format);
 /// The format named @p name ("fits", "hdf5", "npy", "radmc"); throws UsageError naming
 /// @p option otherwise.
 CubeFormat parseCubeFormat(const std::string& name, const std::string& option);
+
+/// The file format a cube writer writes for @p format (core/file_format.h: its names), or
+/// nullopt for RADMC-3D, which nebula only reads.
+std::optional<FileFormat> cubeFileFormat(CubeFormat format);
 /// The format of @p path from its extension (.fits .fit .fts, with .gz; .h5 .hdf5 .he5; .npy;
 /// a folder, amr_grid.inp, dust_density.inp/.binp: RADMC-3D), or nullopt.
 std::optional<CubeFormat> cubeFormatOf(const std::string& path);

@@ -47,6 +47,11 @@ double parseLength(const std::string& text, const std::string& option);
 /// does not; otherwise {text, ""}.
 std::pair<std::string, std::string> splitCubeSelector(const std::string& text);
 
+/// The files @p opts names, as (option, file) pairs: -i, and the FILEs of --temperature,
+/// --emission and --velocity (each of FX,FY,FZ), selectors removed; for the output check
+/// (cli::checkFileOptions()).
+std::vector<std::pair<std::string, std::string>> importInputFiles(const ImportOptions& opts);
+
 /// The factor that turns an emissivity in @p unit ("Lsun/pc3/sr", "erg/s/cm3/sr") into
 /// L_sun pc^-3 sr^-1; nullopt for an unknown unit.
 std::optional<double> emissivityUnitFactor(const std::string& unit);

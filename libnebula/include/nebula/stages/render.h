@@ -35,6 +35,10 @@ struct RenderOutput
     FitsOutput fits;
 };
 
+/// The PNG path: RenderOutput::png, or the EXR's name with .png; "" for none. Throws
+/// UsageError unless the EXR's name ends in .exr.
+std::string pngPath(const RenderOutput& out);
+
 /// nebrender's entry point: builds the scene from @p grids (dust from nebula:dust with
 /// @p dustOverride applied) once, renders the frame (or each of out.frames along out.path),
 /// and writes each frame's EXR and PNG (and FITS) atomically, all or none.
