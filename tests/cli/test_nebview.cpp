@@ -16,7 +16,8 @@ TEST_F(Cli, NebviewPrintsItsUrlFirstAndServesThePage)
     // Started in the background; the URL is read from its first line of stdout.
     const Result r =
         run("(nebview -i lit.vdb --path-out p.json > url.txt & echo $! > pid.txt); "
-            "for i in $(seq 100); do [ -s url.txt ] && break; sleep 0.1; done; "
+            // Until the URL is there or nebview has gone: a condition, not a time.
+            "while [ ! -s url.txt ] && kill -0 $(cat pid.txt) 2>/dev/null; do sleep 0.05; done; "
             "curl -s -o page.html -w '%{http_code}' \"$(head -1 url.txt)\" > code.txt; "
             "curl -s -o /dev/null -w '%{http_code}' \"$(head -1 url.txt | "
             "sed 's/token=.*/token=x/')\" > denied.txt; kill $(cat pid.txt)");
@@ -40,10 +41,14 @@ TEST_F(Cli, NebviewRefusesBadInputsAtStart)
 {
     makeLit();
     // A port in use: named, exit 1.
-    const Result busy = run("python3 -c 'import socket,time,sys; s=socket.socket(); "
+    // The port file appears whole (renamed into place) once the port is taken; the test waits
+    // for it, however busy the machine, and gives up only if the holder has died.
+    const Result busy = run("python3 -c 'import os,socket,time,sys; s=socket.socket(); "
                             "s.bind((\"127.0.0.1\",0)); s.listen(); "
-                            "open(\"port.txt\",\"w\").write(str(s.getsockname()[1])); "
-                            "time.sleep(30)' & sleep 1; "
+                            "open(\"port.tmp\",\"w\").write(str(s.getsockname()[1])); "
+                            "os.rename(\"port.tmp\",\"port.txt\"); time.sleep(600)' & "
+                            "while [ ! -s port.txt ]; do kill -0 $! 2>/dev/null || exit 99; "
+                            "sleep 0.05; done; "
                             "nebview -i lit.vdb --port $(cat port.txt); e=$?; kill %1; "
                             "rm port.txt; exit $e");
     EXPECT_EQ(busy.code, 1) << busy.err;
@@ -58,6 +63,19 @@ TEST_F(Cli, NebviewRefusesBadInputsAtStart)
     EXPECT_EQ(message(view.err), message(render.err));
     // --path-out that cannot be written: refused now, not at the first save.
     expectFailure("nebview -i lit.vdb --path-out missing/dir/p.json", 1, "--path-out");
+    // --path-out is checked at start as every output is: not an input, not a FIFO, a device
+    // or a symbolic link (without --write-through), a .json name.
+    const std::string before = fileBytes("lit.vdb");
+    expectFailure("nebview -i lit.vdb --path-out lit.vdb", 2, "--path-out lit.vdb is the input");
+    EXPECT_EQ(fileBytes("lit.vdb"), before);
+    expectFailure("nebview -i lit.vdb --path-out /dev/null", 2, "a character device");
+    run("mkfifo fifo.json && ln -s lit.vdb link.json");
+    expectFailure("nebview -i lit.vdb --path-out fifo.json", 2, "a FIFO");
+    expectFailure("nebview -i lit.vdb --path-out link.json", 2,
+                  "--path-out link.json is the input");
+    run("ln -s elsewhere.json dangling.json");
+    expectFailure("nebview -i lit.vdb --path-out dangling.json", 2, "a symbolic link");
+    expectFailure("nebview -i lit.vdb --path-out path.txt", 2, "but this output is JSON");
     // A path file that does not parse.
     std::ofstream(path("bad.json")) << "{\"fps\": 24, \"keyframes\": [";
     expectFailure("nebview -i lit.vdb --camera-path bad.json", 1, "bad.json");

@@ -4,6 +4,7 @@
 
 #include <fmt/format.h>
 
+#include <cctype>
 #include <cmath>
 
 namespace nebula {
@@ -109,6 +110,52 @@ Camera cameraFromJson(const json& j, const Camera& base, const std::string& wher
 json pathJson(const CameraPath& path)
 {
     return json::parse(cameraPathJson(path));
+}
+
+bool hostAllowed(const std::string& host, const std::string& address, std::uint16_t port)
+{
+    if (host.empty() || host.size() > 255) return false;
+    // NAME, NAME:PORT, [V6], [V6]:PORT
+    std::string name = host, portText;
+    if (host.front() == '[') {
+        const auto close = host.find(']');
+        if (close == std::string::npos) return false;
+        name = host.substr(0, close + 1);
+        const std::string rest = host.substr(close + 1);
+        if (!rest.empty()) {
+            if (rest[0] != ':') return false;
+            portText = rest.substr(1);
+        }
+    } else if (const auto colon = host.rfind(':'); colon != std::string::npos) {
+        name = host.substr(0, colon);
+        portText = host.substr(colon + 1);
+    }
+    if (host.find(':') != std::string::npos && host.front() != '[' && portText.empty())
+        return false; // "NAME:"
+    if (!portText.empty()) {
+        if (portText.size() > 5 || portText.find_first_not_of("0123456789") != std::string::npos)
+            return false;
+        if (std::stoul(portText) != port) return false;
+    }
+    if (name.empty()) return false;
+    std::string lower;
+    for (const char c : name)
+        lower += char(std::tolower(static_cast<unsigned char>(c)));
+    const bool loopback = address == "127.0.0.1" || address == "::1" || address == "localhost";
+    if (!loopback) return true;
+    return lower == "127.0.0.1" || lower == "localhost" || lower == "[::1]";
+}
+
+bool originAllowed(const std::string& origin, const std::string& address, std::uint16_t port)
+{
+    if (origin.empty()) return true;
+    const std::string scheme = "http://";
+    if (origin.compare(0, scheme.size(), scheme) != 0) return false;
+    const std::string host = origin.substr(scheme.size());
+    // The port must be given: the page is served from it, never from port 80.
+    if (host.empty() || host.back() == ']' || host.find(':') == std::string::npos) return false;
+    if (host.find('/') != std::string::npos) return false;
+    return hostAllowed(host, address, port);
 }
 
 ClientMessage parseClientMessage(const std::string& text, const std::vector<std::string>& stars,

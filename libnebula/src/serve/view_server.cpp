@@ -629,7 +629,26 @@ private:
                                            "nebview printed)\n");
             return;
         }
+        // DNS rebinding: a page whose name resolves to this machine is not this server's.
+        const std::string host(req[http::field::host]);
+        const std::uint16_t port = mServer.acceptor.local_endpoint().port();
+        if (!hostAllowed(host, mServer.options.address, port)) {
+            reply(http::status::forbidden,
+                  "403: this viewer answers to the address nebview printed, not \"" +
+                      detail::printable(host, 80) + "\"\n");
+            return;
+        }
+        mHost = host;
         if (websocket::is_upgrade(req)) {
+            // Cross-site WebSocket hijacking: only the viewer's own page may connect.
+            const std::string origin(req[http::field::origin]);
+            if (!originAllowed(origin, mServer.options.address, port)) {
+                reply(http::status::forbidden,
+                      "403: WebSocket connections come from the viewer's own page only, not "
+                      "from \"" +
+                          detail::printable(origin, 80) + "\"\n");
+                return;
+            }
             if (path != "/ws") {
                 reply(http::status::not_found, "404\n");
                 return;
@@ -663,11 +682,19 @@ private:
         res->set(http::field::server, std::string("nebview ") + NEBULA_VERSION_STRING);
         res->set(http::field::content_type, type);
         res->set(http::field::cache_control, "no-store");
-        // The page runs only its own inline script and talks only to this server.
+        // The page runs only its own inline script and talks only to this server: its own
+        // host and port, by the name the browser used (hostAllowed() checked it).
+        const std::uint16_t port = mServer.acceptor.local_endpoint().port();
+        std::string self = mHost.empty() ? mServer.options.address : mHost;
+        if (self.find(':') != std::string::npos && self.front() != '[' &&
+            std::count(self.begin(), self.end(), ':') > 1)
+            self = "[" + self + "]"; // an IPv6 listening address
+        if (self.back() == ']' || self.find(':') == std::string::npos)
+            self += ":" + std::to_string(port);
         res->set("Content-Security-Policy",
                  "default-src 'none'; script-src 'unsafe-inline'; style-src 'unsafe-inline'; "
-                 "img-src blob: data:; connect-src 'self' ws: ; base-uri 'none'; "
-                 "form-action 'none'; frame-ancestors 'none'");
+                 "img-src blob: data:; connect-src ws://" +
+                     self + "; base-uri 'none'; form-action 'none'; frame-ancestors 'none'");
         res->set("X-Content-Type-Options", "nosniff");
         res->keep_alive(false);
         if (!head) res->body() = body;
@@ -683,6 +710,7 @@ private:
 
     beast::tcp_stream mStream;
     ViewServer::Impl& mServer;
+    std::string mHost; ///< the request's Host header, once hostAllowed() passed it
     beast::flat_buffer mBuffer;
     std::optional<http::request_parser<http::string_body>> mParser;
 };

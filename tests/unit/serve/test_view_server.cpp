@@ -216,6 +216,85 @@ TEST(ViewServer, EveryRequestNeedsTheTokenAndOnlyThePageIsServed)
     }
 }
 
+/// The status of a WebSocket upgrade with the right token, Host @p host and Origin @p origin
+/// ("": none), as a browser sends it.
+static unsigned upgradeStatus(std::uint16_t port, const std::string& token, const std::string& host,
+                              const std::string& origin)
+{
+    net::io_context ioc;
+    tcp::socket sock(ioc);
+    sock.connect({net::ip::address_v4::loopback(), port});
+    http::request<http::empty_body> req{http::verb::get, "/ws?token=" + token, 11};
+    req.set(http::field::host, host);
+    if (!origin.empty()) req.set(http::field::origin, origin);
+    req.set(http::field::connection, "Upgrade");
+    req.set(http::field::upgrade, "websocket");
+    req.set(http::field::sec_websocket_version, "13");
+    req.set(http::field::sec_websocket_key, "dGhlIHNhbXBsZSBub25jZQ==");
+    http::write(sock, req);
+    beast::flat_buffer b;
+    http::response<http::string_body> res;
+    http::read(sock, b, res);
+    return res.result_int();
+}
+
+// Cross-site WebSocket hijacking and DNS rebinding: another site's page, or a page under a
+// name that resolves to this machine, cannot talk to the viewer even with the token; the CSP
+// lets the page connect to its own host and port only.
+TEST(ViewServer, OnlyItsOwnPageMayConnect)
+{
+    Served s(test::cubeSettings(16, 16));
+    const std::uint16_t port = s.server->port();
+    const std::string t = s.server->token(), p = std::to_string(port);
+    EXPECT_EQ(upgradeStatus(port, t, "127.0.0.1:" + p, "http://127.0.0.1:" + p), 101u);
+    EXPECT_EQ(upgradeStatus(port, t, "localhost:" + p, "http://localhost:" + p), 101u);
+    EXPECT_EQ(upgradeStatus(port, t, "127.0.0.1:" + p, ""), 101u); // not a browser
+    for (const std::string& origin :
+         {"http://evil.example", "http://evil.example:" + p, "null", "https://127.0.0.1:" + p,
+          "http://127.0.0.1", "http://127.0.0.1:" + std::to_string(port + 1),
+          "http://127.0.0.1:" + p + "/x", "file://"}) {
+        EXPECT_EQ(upgradeStatus(port, t, "127.0.0.1:" + p, origin), 403u) << origin;
+    }
+    for (const std::string& host : {"evil.example:" + p, "evil.example",
+                                    "127.0.0.1:" + std::to_string(port + 1), "", "127.0.0.1:"}) {
+        EXPECT_EQ(upgradeStatus(port, t, host, "http://" + host), 403u) << host;
+    }
+    // The page's policy names the server's own address, not every ws: URL.
+    net::io_context ioc;
+    tcp::socket sock(ioc);
+    sock.connect({net::ip::address_v4::loopback(), port});
+    http::request<http::string_body> req{http::verb::get, "/?token=" + t, 11};
+    req.set(http::field::host, "127.0.0.1:" + p);
+    http::write(sock, req);
+    beast::flat_buffer b;
+    http::response<http::string_body> res;
+    http::read(sock, b, res);
+    const std::string csp(res["Content-Security-Policy"]);
+    EXPECT_TRUE(test::contains(csp, "connect-src ws://127.0.0.1:" + p + ";")) << csp;
+    EXPECT_FALSE(test::contains(csp, "ws: ")) << csp;
+}
+
+TEST(ViewProtocol, HostAndOriginAreTheServersOwn)
+{
+    EXPECT_TRUE(hostAllowed("127.0.0.1", "127.0.0.1", 8080));
+    EXPECT_TRUE(hostAllowed("127.0.0.1:8080", "127.0.0.1", 8080));
+    EXPECT_TRUE(hostAllowed("LocalHost:8080", "127.0.0.1", 8080));
+    EXPECT_TRUE(hostAllowed("[::1]:8080", "::1", 8080));
+    EXPECT_FALSE(hostAllowed("127.0.0.1:8081", "127.0.0.1", 8080));
+    EXPECT_FALSE(hostAllowed("rebind.example:8080", "127.0.0.1", 8080));
+    EXPECT_FALSE(hostAllowed("127.0.0.1:80x", "127.0.0.1", 8080));
+    EXPECT_FALSE(hostAllowed("[::1", "::1", 8080));
+    // --listen 0.0.0.0: other machines use this one's name; the port must still match.
+    EXPECT_TRUE(hostAllowed("nebula-host:8080", "0.0.0.0", 8080));
+    EXPECT_FALSE(hostAllowed("nebula-host:9090", "0.0.0.0", 8080));
+    EXPECT_TRUE(originAllowed("", "127.0.0.1", 8080));
+    EXPECT_TRUE(originAllowed("http://127.0.0.1:8080", "127.0.0.1", 8080));
+    EXPECT_FALSE(originAllowed("http://127.0.0.1", "127.0.0.1", 8080));
+    EXPECT_FALSE(originAllowed("http://127.0.0.1:8080/", "127.0.0.1", 8080));
+    EXPECT_FALSE(originAllowed("null", "127.0.0.1", 8080));
+    EXPECT_FALSE(originAllowed("http://[::1]", "::1", 8080));
+}
+
 TEST(ViewServer, RefinesToNebrendersImage)
 {
     const ViewSettings settings = test::cubeSettings(64, 48);

@@ -12,6 +12,7 @@
 #include <nlohmann/json.hpp>
 
 #include <cstddef>
+#include <cstdint>
 #include <optional>
 #include <string>
 #include <vector>
@@ -29,6 +30,19 @@ class MalformedMessage : public Error
 public:
     explicit MalformedMessage(const std::string& what) : Error(what) {}
 };
+
+/// Whether a request's Host header @p host ("NAME" or "NAME:PORT") names this server, which
+/// listens on @p address (an IP address) and @p port: the port, where given, is @p port;
+/// a server on a loopback address answers only to its own names (127.0.0.1, localhost,
+/// [::1]), so that a web page whose own name resolves to 127.0.0.1 (DNS rebinding) is refused;
+/// one listening on another address (--listen) answers to any name.
+bool hostAllowed(const std::string& host, const std::string& address, std::uint16_t port);
+
+/// Whether a WebSocket upgrade's Origin header @p origin is this server's own page:
+/// "http://NAME:PORT" with hostAllowed(NAME:PORT) and the port given. An empty @p origin (a
+/// client that is not a browser: browsers always send one) is allowed; "null" and any other
+/// site are not (cross-site WebSocket hijacking).
+bool originAllowed(const std::string& origin, const std::string& address, std::uint16_t port);
 
 /// The page's tone: the automatic curve (DESIGN §8) shifted by `exposure` stops, or a fixed
 /// white point 2^-exposure; gamma fitted (none) or fixed.
