@@ -12,6 +12,9 @@
 #   - only rank 0 writes: the 2-rank run's -v log has one "wrote" line;
 #   - more ranks than packets: exit code 2 naming --packets and the ranks, nothing written;
 #   - -i - (stdin reaches rank 0 only): exit code 2, nothing written;
+#   - ranks started with another --packets, --seed or input file (same name, other folder):
+#     refused before the work, naming what differs, nothing written; --threads and -v may
+#     differ;
 #   - a rank killed mid-run: the launcher fails, no output and no temporary is left.
 # Exit 0 when every check passed, 1 otherwise, 77 skipped.
 set -euo pipefail
@@ -77,6 +80,39 @@ rc=0
 [[ $rc -ne 0 ]] || check "-i - with 2 ranks: exit code 0"
 grep -q "stdin reaches rank 0 only" stdin.log || check "stdin.log does not explain -i -: $(head -c 300 stdin.log)"
 [[ ! -e stdin.vdb ]] || check "-i - with 2 ranks: stdin.vdb was written"
+
+# Ranks that would sum different computations (started with another --packets or --seed, or
+# reading another file under the same name): every rank stops before the work, naming what
+# differs, and nothing is written.
+differ() { # NAME WHAT-THE-MESSAGE-NAMES ARGS-OF-RANK-0 -- ARGS-OF-RANK-1
+    local name=$1 what=$2 rc=0
+    shift 2
+    local a=() b=()
+    while [[ $1 != -- ]]; do a+=("$1"); shift; done
+    shift
+    b=("$@")
+    "${MPIRUN[@]}" -np 1 "${a[@]}" : -np 1 "${b[@]}" >"$name.log" 2>&1 || rc=$?
+    [[ $rc -ne 0 ]] || check "$name: exit code 0"
+    grep -qF "MPI rank 1 of 2 differs from rank 0 in $what" "$name.log" ||
+        check "$name: the message does not name $what: $(grep -m1 error "$name.log" | head -c 300)"
+    [[ -z $(ls -A out) ]] || check "$name: left $(ls -A out)"
+}
+mkdir out
+differ packets "--packets" "$NEBSCATTER" -i lit.vdb -o out/f.vdb --packets 30000 -q -- \
+    "$NEBSCATTER" -i lit.vdb -o out/f.vdb --packets 20000 -q
+differ seed "--seed" "$NEBSCATTER" -i lit.vdb -o out/f.vdb --seed 1 -q -- \
+    "$NEBSCATTER" -i lit.vdb -o out/f.vdb --seed 2 -q
+# The same name, another file: each rank in its own folder (mpirun --wdir per rank).
+mkdir other
+"$NEBGEN" --res 24 --seed 4 -q -o other/n.vdb
+"$NEBILLUM" -i other/n.vdb -q -o other/lit.vdb
+differ input "the input -i lit.vdb (another file's grids)" --wdir "$WORK" "$NEBSCATTER" -i lit.vdb -o "$WORK/out/f.vdb" -q -- \
+    --wdir "$WORK/other" "$NEBSCATTER" -i lit.vdb -o "$WORK/out/f.vdb" -q
+# --threads and -v may differ: the same field as before.
+"${MPIRUN[@]}" -np 1 "$NEBSCATTER" -i lit.vdb -o mixed.vdb "${P[@]}" --threads 1 -q : \
+    -np 1 "$NEBSCATTER" -i lit.vdb -o mixed.vdb "${P[@]}" --threads 2 -v 2>mixed.log ||
+    check "ranks with different --threads and -v: $(head -c 300 mixed.log)"
+[[ $(checksums mixed.vdb) == "$ref" ]] || check "mixed.vdb: grid checksums differ from one process's"
 
 # A rank that dies: rank 1 is killed once it has run a second; the launcher must stop rank 0
 # before it writes, and leave no temporary.

@@ -3,7 +3,12 @@
 #include "nebula/cli/options.h"
 #include "nebula/cli/process_ranks.h"
 #include "nebula/core/error.h"
+#include "nebula/core/version.h"
+#include "nebula/io/grid_io.h"
 #include "nebula/stages/scatter.h"
+
+#include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include <cstdint>
 #include <memory>
@@ -141,6 +146,17 @@ int main(int argc, char** argv)
         f.fieldLevel = fieldLevel == "auto" ? nebula::AUTO_FIELD_LEVEL : std::stoi(fieldLevel);
         opts.exactStarDepth = !interpolatedTau;
         auto grids = nebula::readGrids(common.input, say);
+        if (ranks->size() > 1) { // every rank must compute the same field's share
+            std::vector<nebula::cli::RunPart> parts{{"the version", NEBULA_VERSION_STRING}};
+            for (auto& [name, value] : nebula::cli::optionValues(
+                     app, {"--threads", "--quiet", "--verbose", "--config", "--help", "--version"}))
+                parts.push_back({name, value});
+            parts.push_back({"the wavelengths (--wavelengths, --filter, --filter-file)",
+                             fmt::format("{}", fmt::join(opts.wavelengths, ","))});
+            parts.push_back({"the input -i " + common.input + " (another file's grids)",
+                             nebula::contentDigest(grids)});
+            nebula::cli::requireSameRun(*ranks, parts);
+        }
         opts.densityGrid = common.densityGrid;
         opts.onlyNew = common.onlyNew;
         nebula::scatter(grids, opts, say);

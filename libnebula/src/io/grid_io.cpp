@@ -354,6 +354,34 @@ bool vdbHead(std::string_view head, bool atEnd, const std::string& source)
                 "metadata");
 }
 
+} // namespace
+
+std::string contentDigest(const GridSet& grids)
+{
+    // verifyChecksums() has checked what nebula:checksums lists when the set was read.
+    nlohmann::json listed = nlohmann::json::object();
+    const std::string text = grids.metaString(META_CHECKSUMS);
+    if (!text.empty()) {
+        try {
+            const auto sums = nlohmann::json::parse(text);
+            if (sums.is_object() && sums.contains("grids") && sums["grids"].is_object())
+                listed = sums["grids"];
+        } catch (const std::exception&) {
+        }
+    }
+    std::string digest = "metadata " + metadataChecksum(grids.meta, META_CHECKSUMS) + "\n";
+    for (const auto& grid : grids.grids) {
+        const std::string name = grid->getName();
+        const auto it = listed.find(name);
+        const std::string sum =
+            it != listed.end() && it->is_string() ? it->get<std::string>() : gridChecksum(*grid);
+        digest += name + " " + sum + "\n";
+    }
+    return digest;
+}
+
+namespace {
+
 /// Verifies the grids and the file metadata against `nebula:checksums`, where the file has it.
 void verifyChecksums(const GridSet& set)
 {

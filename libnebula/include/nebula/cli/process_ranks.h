@@ -10,6 +10,7 @@
 
 #include <memory>
 #include <string>
+#include <vector>
 
 namespace nebula::cli {
 
@@ -21,6 +22,20 @@ namespace nebula::cli {
 /// gives several processes but they cannot be joined: a build without MPI, or MPI seeing one
 /// process of a multi-task srun step (srun without an MPI plugin: use mpirun, or srun --mpi=pmix).
 std::unique_ptr<Ranks> processRanks(const std::string& tool);
+
+/// One part of what every rank must agree on: an option's value, an input's contents.
+struct RunPart
+{
+    std::string what;  ///< for the message: "--packets", "the input -i lit.vdb"
+    std::string value; ///< its text (the option's values, the input's checksums)
+};
+
+/// Checks, before any work, that every rank of @p ranks runs the same computation: rank 0's
+/// digest of each of @p parts goes to every rank, and where any rank's differs (ranks started
+/// with another --packets, --seed or input file, or another version of the tool) every rank
+/// throws the same Error naming the first part that differs and the rank; finishRanks() then
+/// stops the job. Nothing is sent with one rank.
+void requireSameRun(const Ranks& ranks, const std::vector<RunPart>& parts);
 
 /// Ends @p ranks with the tool's exit code @p rc and returns it: MPI_Finalize when rc is 0;
 /// otherwise, with more than one rank, MPI_Abort(rc), which stops every rank (one rank's

@@ -8,6 +8,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <utility>
+#include <vector>
 
 namespace nebula {
 
@@ -37,6 +38,17 @@ public:
     {
         (void)data;
         (void)n;
+    }
+
+    /// Where the ranks' @p digests first differ from rank 0's (one digest per option and input,
+    /// so that every rank can check it runs the same computation): {the lowest index at which
+    /// some rank's digest (or count of digests) differs from rank 0's, the lowest such rank},
+    /// or {@p digests.size(), -1} when every rank agrees. Every rank gets the same answer and
+    /// must call it.
+    virtual std::pair<std::size_t, int>
+    firstDisagreement(const std::vector<std::uint64_t>& digests) const
+    {
+        return {digests.size(), -1};
     }
 
     /// This rank's share [first, last) of @p n items: contiguous, in rank order, sizes

@@ -20,6 +20,14 @@
 namespace nebula {
 
 /// The grids of one VDB file or stream, with its file-level metadata.
+struct GridSet;
+
+/// A digest of @p grids' contents, as text: the file metadata's checksum and every grid's
+/// name and checksum (gridChecksum(); where the file's verified nebula:checksums lists the
+/// grid, that value, not computed again). Two sets with the same digest hold the same grids
+/// and metadata (MPI ranks compare their inputs with it).
+std::string contentDigest(const GridSet& grids);
+
 struct GridSet
 {
     std::string source; ///< file name, or "<stdin>", for error messages

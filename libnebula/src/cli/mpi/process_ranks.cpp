@@ -7,8 +7,11 @@
 
 #include "nebula/core/error.h"
 
+#include <algorithm>
+#include <climits>
 #include <cstdlib>
 #include <string>
+#include <vector>
 
 #ifdef NEBULA_HAVE_MPI
 #include <mpi.h>
@@ -72,6 +75,34 @@ public:
         sum(data, n, MPI_UINT64_T);
     }
 
+    std::pair<std::size_t, int>
+    firstDisagreement(const std::vector<std::uint64_t>& digests) const override
+    {
+        if (mSize == 1) return {digests.size(), -1};
+        // Rank 0's count and digests to every rank; each finds its first difference; the
+        // smallest (index, rank) pair wins everywhere.
+        std::uint64_t count = digests.size();
+        MPI_Bcast(&count, 1, MPI_UINT64_T, 0, MPI_COMM_WORLD);
+        std::vector<std::uint64_t> root(static_cast<std::size_t>(count)); // tens of parts
+        if (mRank == 0) root = digests;
+        MPI_Bcast(root.data(), int(root.size()), MPI_UINT64_T, 0, MPI_COMM_WORLD);
+        std::size_t first = std::min(root.size(), digests.size());
+        for (std::size_t i = 0; i < first; ++i) {
+            if (root[i] != digests[i]) {
+                first = i;
+                break;
+            }
+        }
+        const bool same = first == digests.size() && root.size() == digests.size();
+        struct
+        {
+            int index, rank;
+        } mine{same ? INT_MAX : int(std::min<std::size_t>(first, INT_MAX - 1)), mRank}, lowest{};
+        MPI_Allreduce(&mine, &lowest, 1, MPI_2INT, MPI_MINLOC, MPI_COMM_WORLD);
+        if (lowest.index == INT_MAX) return {digests.size(), -1};
+        return {std::size_t(lowest.index), lowest.rank};
+    }
+
 private:
     template <typename T> void sum(T* data, std::size_t n, MPI_Datatype type) const
     {
@@ -122,6 +153,36 @@ std::unique_ptr<Ranks> processRanks(const std::string& tool)
     }
 #endif
     return std::make_unique<Ranks>();
+}
+
+namespace {
+
+/// FNV-1a, 64 bits: the same text gives the same digest on every rank.
+std::uint64_t textDigest(const std::string& text)
+{
+    std::uint64_t h = 14695981039346656037ull;
+    for (const unsigned char c : text) {
+        h ^= c;
+        h *= 1099511628211ull;
+    }
+    return h;
+}
+
+} // namespace
+
+void requireSameRun(const Ranks& ranks, const std::vector<RunPart>& parts)
+{
+    std::vector<std::uint64_t> digests;
+    digests.reserve(parts.size());
+    for (const auto& p : parts)
+        digests.push_back(textDigest(p.what + '\x1f' + p.value));
+    const auto [index, rank] = ranks.firstDisagreement(digests);
+    if (rank < 0) return;
+    const std::string what = index < parts.size() ? parts[index].what : "the options";
+    throw Error("MPI rank " + std::to_string(rank) + " of " + std::to_string(ranks.size()) +
+                " differs from rank 0 in " + what +
+                ": every rank must run the same command on the same input, or the summed "
+                "field would be wrong; nothing was computed");
 }
 
 int finishRanks(std::unique_ptr<Ranks>& ranks, int rc)
