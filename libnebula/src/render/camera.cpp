@@ -402,10 +402,19 @@ void validateCamera(const Camera& c)
         break;
     case CameraModel::Ods:
         if (c.width != c.height || c.height % 2 != 0) {
+            // The even square within the size asked for: no more pixels, so it fits wherever
+            // that size would have.
+            const int small = std::min(c.width, c.height);
+            const int side = std::max(2, small - small % 2);
             throw UsageError("--camera ods makes two 2:1 panoramas, the left eye's above the "
                              "right's: --res " +
                              res + " must be square with an even height, e.g. " +
-                             std::to_string(c.width) + "x" + std::to_string(c.width + c.width % 2));
+                             std::to_string(side) + "x" + std::to_string(side));
+        }
+        if (std::isnan(c.ipdPc)) {
+            throw UsageError("--camera ods needs --ipd, the inter-pupillary distance, a finite "
+                             "length > 0 [pc] (not given; about 1/30 of the distance to the "
+                             "nebula is comfortable)");
         }
         if (!(c.ipdPc > 0.0) || !std::isfinite(c.ipdPc) || c.ipdPc > MAX_CAMERA_COORDINATE) {
             throw UsageError("--camera ods needs --ipd, the inter-pupillary distance, a finite "
