@@ -281,7 +281,7 @@ except ImportError:
 else:
     yt.set_log_level(50)
     for name, want in (("shell.fits", [W, W, 1]), ("spec.fits", [W, W, 47])):
-        ds = yt.load(path(name))
+        ds = yt.load(path(name), nprocs=1)  # one grid (yt 4.1's split cube fails to read)
         grid = ds.covering_grid(0, ds.domain_left_edge, ds.domain_dimensions)
         hdus = [hdu for hdu in fits.open(path(name)) if hdu.is_image]
         same = []

@@ -171,7 +171,7 @@ int main(int argc, char** argv)
     app.add_option("--distance", opts.camera.distancePc,
                    "Orthographic: the observer's distance [pc]: pixel solid angles (pixel /\n"
                    "distance)^2, star fluxes, arcsec pixels, fluxes in --sed (default: the\n"
-                   "distance from --eye to --look-at)");
+                   "distance from --eye to --look-at); at least a pixel and 1e-6 pc");
     std::string pathFile, frameText, framesText;
     auto* pathOpt = app.add_option("--camera-path", pathFile,
                                    "Keyframed camera path (JSON: fps, keyframes of time, eye,\n"
@@ -202,7 +202,8 @@ int main(int argc, char** argv)
         ->check(nebula::cli::numberIn(0.0, 1e6));
     auto* wavelengthsOpt =
         nebula::cli::addVec3(app, "--wavelengths", opts.wavelengths,
-                             "R,G,B channel wavelengths [nm] for the extinction curve");
+                             "R,G,B channel wavelengths [nm] for the extinction curve (and\n"
+                             "--fits): in [0.001, 1e7), and 125-3333 with the CCM89 curve");
     nebula::FilterOptions filterOpts;
     nebula::cli::addFilter(app, filterOpts,
                            "--fits and --sed give its band average, rendered at the band's three\n"
