@@ -13,6 +13,10 @@
    positions and position angles, one 0.05 degree from the celestial pole.
 3. The header: BUNIT, EXTNAMEs, the WAVE axis' wavelengths, DISTANCE, the history; the
    W/m2/sr/nm unit consistent with MJy/sr.
+3a. The layouts: the default (one 2-D image per component and wavelength, EXTVER, WAVELEN)
+   opens HDU by HDU with a plain WCS(header) (and yt.load, if yt is installed); its world
+   coordinates (sky position, WAVELEN) equal those of --fits-layout tab's WAVE-TAB cubes read
+   with WCS(header, hdul), and its values and keywords are the cubes' bit for bit.
 3b. Spectral mode (--spectral --fits): the shell's cube of 10 nm band means against the closed
    forms averaged over each band; the components adding up; the SED. Calibrated gas emission:
    a glowing sphere imported with nebimport --emission (BUNIT erg/s/cm3/sr) gives the line
@@ -103,37 +107,41 @@ run("nebrender", "-i", path("lit.vdb"), "--camera", "orthographic", "--eye", "0,
     "--sky", "83.82,-5.39", "-o", path("shell.exr"), "--png", "none", "--fits",
     path("shell.fits"))
 hdul = fits.open(path("shell.fits"))
-names = [hdu.name for hdu in hdul]
-check(names == ["TOTAL", "DIRECT", "SCATTERED", "SINGLE", "FIELD", "WCS-TAB", "SED"], f"HDUs {names}")
+COMPONENTS = ["TOTAL", "DIRECT", "SCATTERED", "SINGLE", "FIELD"]
+ids = [(hdu.name, hdu.ver) for hdu in hdul]
+check(ids == [(n, k) for n in COMPONENTS for k in (1, 2, 3)] + [("SED", 1)],
+      f"HDUs (EXTNAME, EXTVER) {ids}")
 head = hdul[0].header
 dust = json.loads(head["DUST"])
-wcs = WCS(head, fobj=hdul)
-waves = wcs.pixel_to_world_values(0, 0, np.arange(3))[2] * 1e9
-check(np.allclose(waves, [435.8, 546.1, 700.0]), f"WAVE axis {waves} nm (ascending)")
+waves = np.array([hdul["TOTAL", k + 1].header["WAVELEN"] for k in range(3)])
+check(np.array_equal(waves, [435.8, 546.1, 700.0]) and
+      all(hdul[n, k + 1].header["WAVELEN"] == waves[k] for n in COMPONENTS for k in range(3)),
+      f"WAVELEN {waves} nm (ascending EXTVER)")
 check(head["BUNIT"] == "MJy/sr" and head["DISTANCE"] == D, "BUNIT MJy/sr, DISTANCE")
 history = "\n".join(str(x) for x in head["HISTORY"])
 check(all(t in history for t in ("nebimport", "nebillum", "nebrender")), "history of the inputs")
 # The pixel's solid angle from the WCS: |det CD| in deg^2.
-cd = wcs.wcs.cd[:2, :2]
+wcs = WCS(head)  # the plain call: no HDUList
+cd = wcs.wcs.cd
 omega = abs(np.linalg.det(cd)) * (math.pi / 180) ** 2
 check(abs(omega / (0.04 / D) ** 2 - 1) < 1e-9, f"pixel solid angle {omega:.6g} sr = (0.04 pc / D)^2")
 for plane, lam in enumerate(waves):
     k = dust["kappa_V"] * ccm89(lam, dust.get("R_V", 3.1)) * n0  # per pc
     expected = dust["albedo"] * k * (R2 - R1) * l_nu(L, T, lam) / (4 * math.pi * (D * PC) ** 2)
     expected /= 1e-26  # Jy
-    scattered = hdul["SCATTERED"].data[plane].astype(np.float64).sum() * omega * 1e6
+    scattered = hdul["SCATTERED", plane + 1].data.astype(np.float64).sum() * omega * 1e6
     check(abs(scattered / expected - 1) < 0.01,
           f"{lam:.1f} nm: scattered {scattered:.6g} Jy, single-scattering closed form "
           f"{expected:.6g} Jy ({100 * (scattered / expected - 1):+.3f} %)")
     tau = k * (R2 - R1)
     direct_expected = l_nu(L, T, lam) * math.exp(-tau) / (4 * math.pi * (D * PC) ** 2) / 1e-26
-    direct = hdul["DIRECT"].data[plane].astype(np.float64).sum() * omega * 1e6
+    direct = hdul["DIRECT", plane + 1].data.astype(np.float64).sum() * omega * 1e6
     check(abs(direct / direct_expected - 1) < 1e-3,
           f"{lam:.1f} nm: direct {direct:.6g} Jy, L_nu e^-tau / (4 pi D^2) {direct_expected:.6g}")
-    total = hdul["TOTAL"].data[plane].astype(np.float64)
-    parts = hdul["DIRECT"].data[plane] + hdul["SCATTERED"].data[plane]
+    total = hdul["TOTAL", plane + 1].data.astype(np.float64)
+    parts = hdul["DIRECT", plane + 1].data + hdul["SCATTERED", plane + 1].data
     check(np.allclose(total, parts, rtol=1e-5, atol=1e-6 * total.max()), f"{lam:.1f} nm: TOTAL = DIRECT + SCATTERED")
-    check(not hdul["FIELD"].data[plane].any(), f"{lam:.1f} nm: FIELD = 0 without a field")
+    check(not hdul["FIELD", plane + 1].data.any(), f"{lam:.1f} nm: FIELD = 0 without a field")
 # The same render in W/m2/sr/nm: I_nu = I_lambda lambda^2 / c.
 run("nebrender", "-i", path("lit.vdb"), "--camera", "orthographic", "--eye", "0,0,-10",
     "--distance", str(D), "--pixel-size", "0.04pc", "--res", f"{W}x{W}", "-o",
@@ -142,9 +150,82 @@ si = fits.open(path("si.fits"))
 check(si[0].header["BUNIT"] == "W/m2/sr/nm" and si[0].header["CTYPE1"] == "XOFFSET",
       "W/m2/sr/nm, linear WCS in pc without --sky")
 for plane, lam in enumerate(waves):
-    a = hdul[0].data[plane].astype(np.float64)
-    b = si[0].data[plane].astype(np.float64) * 1e9 * (lam * 1e-9) ** 2 / c / 1e-20
+    a = hdul["TOTAL", plane + 1].data.astype(np.float64)
+    b = si["TOTAL", plane + 1].data.astype(np.float64) * 1e9 * (lam * 1e-9) ** 2 / c / 1e-20
     check(np.allclose(a, b, rtol=1e-5, atol=1e-6 * a.max()), f"{lam:.1f} nm: MJy/sr = W/m2/sr/nm x lambda^2/c")
+
+# --- the layouts: planes (default) against --fits-layout tab --------------------------------
+# The same renders with --fits-layout tab: one cube per component on a WAVE-TAB axis, which
+# only WCS(header, hdul) reads. Every image HDU of the default opens with the plain
+# WCS(header); a pixel's world coordinates (sky or pc offsets, and WAVELEN) are the -TAB
+# cube's, and the values and the other keywords are the cubes' bit for bit.
+TAB_ONLY = {"NAXIS", "NAXIS3", "CTYPE3", "CUNIT3", "CRPIX3", "CRVAL3", "CD3_3", "CDELT3",
+            "PS3_0", "PS3_1",
+            "HISTORY",  # the command differs (--fits-layout tab)
+            # a primary HDU's or an extension's, and cfitsio's comments on the primary
+            "SIMPLE", "EXTEND", "XTENSION", "PCOUNT", "GCOUNT", "COMMENT"}
+
+
+def compare_layouts(planes_file, tab_file, label):
+    pl, tb = fits.open(planes_file), fits.open(tab_file)
+    tnames = [hdu.name for hdu in tb]
+    check(tnames == COMPONENTS + ["WCS-TAB", "SED"], f"{label}: tab layout HDUs {tnames}")
+    images = [hdu for hdu in pl if hdu.is_image]
+    check(len(images) == 15 and len(pl) == 16, f"{label}: 15 image HDUs and the SED")
+    bad_wcs, bad_world, bad_data, bad_keys = [], [], [], []
+    pixels = [(0.0, 0.0), (17.25, 90.5), (W - 1.0, W / 2 - 0.5)]
+    for hdu in images:
+        k = hdu.ver - 1
+        cube = tb[hdu.name]
+        wt = WCS(cube.header, fobj=tb)
+        try:
+            w = WCS(hdu.header)  # no HDUList
+        except Exception as e:  # what the -TAB cube raises without its HDUList
+            bad_wcs.append(f"{hdu.name},{hdu.ver}: {e}")
+            continue
+        if w.naxis != 2:
+            bad_wcs.append(f"{hdu.name},{hdu.ver}: {w.naxis} WCS axes")
+            continue
+        for px, py in pixels:
+            x, y = w.pixel_to_world_values(px, py)
+            xt, yt, lam = wt.pixel_to_world_values(px, py, k)
+            if not (x == xt and y == yt and hdu.header["WAVELEN"] * 1e-9 == lam):
+                bad_world.append(f"{hdu.name},{hdu.ver} ({px}, {py}): {x!r}, {y!r}, "
+                                 f"{hdu.header['WAVELEN']} nm against {xt!r}, {yt!r}, {lam!r} m")
+        if not (hdu.data.dtype == cube.data.dtype and np.array_equal(hdu.data, cube.data[k])):
+            bad_data.append(f"{hdu.name},{hdu.ver}")
+        want = {key: cube.header[key] for key in cube.header if key not in TAB_ONLY and key}
+        got = {key: hdu.header[key] for key in hdu.header
+               if key not in TAB_ONLY and key not in ("EXTVER", "WAVELEN") and key}
+        if {k: str(v) for k, v in want.items()} != {k: str(v) for k, v in got.items()}:
+            bad_keys.append(f"{hdu.name},{hdu.ver}: " + ", ".join(
+                sorted(set(want) ^ set(got)) or
+                [key for key in want if str(want[key]) != str(got[key])]))
+    check(not bad_wcs, f"{label}: every image HDU opens with a plain WCS(header), 2 axes {bad_wcs[:2]}")
+    check(not bad_world, f"{label}: world coordinates of 3 pixels (and WAVELEN) = the WAVE-TAB cube's {bad_world[:2]}")
+    check(not bad_data, f"{label}: every plane = the tab layout's bit for bit {bad_data[:3]}")
+    check(not bad_keys, f"{label}: the same keywords and values as the cubes {bad_keys[:2]}")
+    check(np.array_equal(pl["SED"].data, tb["SED"].data), f"{label}: the same SED table")
+    how = [str(x) for x in pl[0].header["COMMENT"] if "WAVELEN" in str(x)]
+    check(how and how == [str(x) for x in tb[0].header["COMMENT"] if "WAVELEN" in str(x)],
+          f"{label}: the same COMMENT on the method")
+    try:  # the -TAB cube itself needs its HDUList: what the default layout avoids
+        WCS(tb[0].header)
+        check(False, f"{label}: WCS(header) of a WAVE-TAB cube without its HDUList")
+    except Exception:
+        pass
+
+
+run("nebrender", "-i", path("lit.vdb"), "--camera", "orthographic", "--eye", "0,0,-10",
+    "--look-at", "0,0,0", "--distance", str(D), "--pixel-size", "0.04pc", "--res", f"{W}x{W}",
+    "--sky", "83.82,-5.39", "-o", path("shell-tab.exr"), "--png", "none", "--fits",
+    path("shell-tab.fits"), "--fits-layout", "tab")
+compare_layouts(path("shell.fits"), path("shell-tab.fits"), "--sky")
+run("nebrender", "-i", path("lit.vdb"), "--camera", "orthographic", "--eye", "0,0,-10",
+    "--distance", str(D), "--pixel-size", "0.04pc", "--res", f"{W}x{W}", "-o",
+    path("si-tab.exr"), "--png", "none", "--fits", path("si-tab.fits"), "--fits-unit",
+    "W/m2/sr/nm", "--fits-layout", "tab")
+compare_layouts(path("si.fits"), path("si-tab.fits"), "offsets in pc, W/m2/sr/nm")
 
 # --- spectral mode: an (x, y, lambda) cube of band means --------------------------------
 # The same shell rendered spectrally: 47 bands of 10 nm over 360-830 nm (the default with
@@ -186,6 +267,29 @@ check(rows[0].strip().endswith(",emission_Jy") and len(rows) == 48, "spectral SE
 sed_total = np.array([float(r.split(",")[1]) for r in rows[1:]])
 cube_total = tot.sum(axis=(1, 2)) * omega * 1e6
 check(np.allclose(sed_total, cube_total, rtol=1e-5), "spectral SED total = the cube's flux per plane")
+plain = [WCS(hdu.header) for hdu in sp if hdu.is_image]  # no HDUList
+check(len(plain) == 6 and all(np.array_equal(w.pixel_to_world_values(5, 7, np.arange(47))[2] * 1e9, centres)
+                              for w in plain),
+      "spectral: every cube opens with a plain WCS(header), the same band centres")
+
+# yt (if installed; Debian: python3-yt) opens both: each image HDU a field named after BTYPE
+# and numbered in HDU order, the values the HDUs'.
+try:
+    import yt
+except ImportError:
+    print("note: yt is not installed (Debian: python3-yt): the yt.load checks are skipped")
+else:
+    yt.set_log_level(50)
+    for name, want in (("shell.fits", [W, W, 1]), ("spec.fits", [W, W, 47])):
+        ds = yt.load(path(name), nprocs=1)  # one grid (yt 4.1's split cube fails to read)
+        grid = ds.covering_grid(0, ds.domain_left_edge, ds.domain_dimensions)
+        hdus = [hdu for hdu in fits.open(path(name)) if hdu.is_image]
+        same = []
+        for i, hdu in enumerate(hdus):
+            v = np.asarray(grid["fits", "phot.flux.density.sb" + (f"_{i}" if i else "")])
+            same.append(np.array_equal(v.T if v.shape[2] > 1 else v[:, :, 0].T, hdu.data.astype(v.dtype)))
+        check(list(ds.domain_dimensions) == want and len(ds.field_list) == len(hdus) and all(same),
+              f"yt.load {name}: {ds.domain_dimensions}, {len(ds.field_list)} fields = the {len(hdus)} image HDUs")
 
 # --- the spectral field, calibrated: against the RGB mode's at the same wavelengths ------
 # nebscatter --spectral's field is made with luminance-normalised stars and scaled per star to
@@ -328,9 +432,9 @@ for model, ra0, dec0, pa in cases:
     run("nebrender", "-i", path("stars.vdb"), *cam, "--sky", f"{ra0},{dec0}", "--position-angle",
         str(pa), "-o", path("wcs.exr"), "--png", "none", "--fits", out)
     hd = fits.open(out)
-    w = WCS(hd[0].header, fobj=hd)
-    scale = math.sqrt(abs(np.linalg.det(w.wcs.cd[:2, :2])))  # deg per pixel
-    direct = hd["DIRECT"].data[1].astype(np.float64)
+    w = WCS(hd["DIRECT", 2].header)  # the plain call, on the 546.1 nm plane
+    scale = math.sqrt(abs(np.linalg.det(w.wcs.cd)))  # deg per pixel
+    direct = hd["DIRECT", 2].data.astype(np.float64)
     for name, p in stars:
         v = np.subtract(p, look) if model == "orthographic" else np.subtract(p, eye)
         if model == "orthographic":
@@ -347,7 +451,7 @@ for model, ra0, dec0, pa in cases:
         win = direct[y0 - 6:y0 + 7, x0 - 6:x0 + 7]
         yy, xx = np.mgrid[y0 - 6:y0 + 7, x0 - 6:x0 + 7]
         cx, cy = (win * xx).sum() / win.sum(), (win * yy).sum() / win.sum()
-        ra, dec = w.pixel_to_world_values(cx, cy, 0)[:2]
+        ra, dec = w.pixel_to_world_values(cx, cy)
         want = sky_of(xi, eta, ra0, dec0, pa)
         off = separation(float(ra), float(dec), *want) / scale
         check(off < 0.05, f"{model} sky {ra0},{dec0} PA {pa}: star {name} at pixel "
@@ -451,17 +555,49 @@ r = run("nebrender", "-i", path("phot.vdb"), "--camera", "orthographic", "--eye"
 check("monotonic" in r.stderr and not [n for n in os.listdir(work) if n.startswith("bad")],
       f"a filter file not monotonic in wavelength is refused: {r.stderr.strip()[:100]}")
 
+# A filter file that names its unit twice: the second line would silently win.
+with open(path("twice.dat"), "w") as f:
+    f.write("unit, nm\n# and again\nunit, um\n0.5 0\n0.6 1\n0.7 0\n")
+r = run("nebrender", "-i", path("phot.vdb"), "--camera", "orthographic", "--eye", "0,0,-10",
+        "-o", path("bad.exr"), "--png", "none", "--sed", path("bad.csv"), "--filter-file",
+        path("twice.dat"), expect=1)
+check("twice.dat" in r.stderr and ":3:" in r.stderr and "line 1" in r.stderr
+      and not [n for n in os.listdir(work) if n.startswith("bad")],
+      f"a filter file with two unit lines is refused, naming the file and lines: {r.stderr.strip()[:120]}")
+
 # --- refusals: exit 2, the option named, nothing written -----------------------------------
+# A filter file beyond the extinction curve (CCM89: 125-3333 nm): the file is to blame, not
+# --wavelengths, which the user never gave.
+with open(path("ir.dat"), "w") as f:
+    f.write("unit um\n3.4 0\n3.5 1\n3.7 1\n3.8 0\n")
 base = ["-i", path("lit.vdb"), "-o", path("bad.exr"), "--png", "none", "--fits", path("bad.fits")]
-for extra, needle in [(["--camera", "orthographic", "--distance", "0"], "--distance"),
-                      (["--camera", "fisheye", "--res", "64x64"], "--fits"),
-                      (["--camera", "perspective"], "--sky"),
-                      (["--camera", "orthographic", "--sky", "400,0"], "--sky"),
-                      (["--camera", "orthographic", "--pixel-size", "2arcsec"], "--distance"),
-                      (["--camera", "orthographic", "--fits-unit", "Jy"], "--fits-unit")]:
-    r = run("nebrender", *base, *extra, expect=2)
+for extra, needles, code in [
+        (["--camera", "orthographic", "--distance", "0"], ["--distance"], 2),
+        (["--camera", "fisheye", "--res", "64x64"], ["--fits"], 2),
+        (["--camera", "perspective"], ["--sky"], 2),
+        (["--camera", "orthographic", "--sky", "400,0"], ["--sky"], 2),
+        (["--camera", "orthographic", "--pixel-size", "2arcsec"], ["--distance"], 2),
+        (["--camera", "orthographic", "--fits-unit", "Jy"], ["--fits-unit"], 2),
+        (["--camera", "orthographic", "--fits-layout", "cube"], ["--fits-layout"], 2),
+        (["--camera", "orthographic", "--fits-layout", "tab", "--spectral"], ["--fits-layout", "--spectral"], 2),
+        (["--camera", "orthographic", "--fits-layout", "tab", "--filter", "V"], ["--fits-layout", "--filter"], 2),
+        (["--camera", "orthographic", "--wavelengths", "0,546.1,435.8"], ["--wavelengths", "0 nm"], 2),
+        (["--camera", "orthographic", "--wavelengths", "700,-1,435.8"], ["--wavelengths", "-1 nm"], 2),
+        (["--camera", "orthographic", "--wavelengths", "700,546.1,50"], ["--wavelengths", "50 nm", "125-3333"], 2),
+        (["--camera", "orthographic", "--filter-file", path("ir.dat")], ["--filter-file", "ir.dat", "125-3333"], 2),
+        (["--camera", "orthographic", "--distance", "1e-300"], ["--distance"], 2),
+        (["--camera", "orthographic", "--distance", "1e-300", "--pixel-size", "1e-302"], ["--distance"], 2)]:
+    r = run("nebrender", *base, *extra, expect=code)
     left = [n for n in os.listdir(work) if n.startswith("bad")]
-    check(needle in r.stderr and not left, f"refused {' '.join(extra)}: {r.stderr.strip()[:90]}")
+    msg = r.stderr.strip().splitlines()[0] if r.stderr.strip() else ""
+    blamed = "--wavelengths" in msg and "--wavelengths" not in extra
+    check(all(n in msg for n in needles) and not blamed and "planck" not in msg and not left,
+          f"refused {' '.join(os.path.basename(e) for e in extra)}: {msg[:140]}")
+# --fits-layout tab needs --fits.
+r = run("nebrender", "-i", path("lit.vdb"), "-o", path("bad.exr"), "--png", "none", "--camera",
+        "orthographic", "--sed", path("bad.csv"), "--fits-layout", "tab", expect=2)
+check("--fits-layout" in r.stderr and not [n for n in os.listdir(work) if n.startswith("bad")],
+      f"refused --fits-layout tab without --fits: {r.stderr.strip()[:100]}")
 
 if failures:
     print(f"{len(failures)} check(s) failed")

@@ -2,6 +2,7 @@
 #include "nebula/cli/cli.h"
 #include "nebula/cli/options.h"
 #include "nebula/core/error.h"
+#include "nebula/core/format.h"
 #include "nebula/core/frames.h"
 #include "nebula/core/input.h"
 #include "nebula/io/phase_table_vdb.h"
@@ -9,10 +10,41 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
+#include <cmath>
 #include <cstdint>
 #include <cstdio>
 #include <fstream>
 #include <sstream>
+
+namespace {
+
+/// The nearest an orthographic observer may be [pc]: 0.2 au. Nearer, a star's flux
+/// L / (4 pi D^2) is no telescope's (and D^2 underflows long before D does).
+constexpr double MIN_OBSERVER_DISTANCE_PC = 1e-6;
+
+/// Throws UsageError naming --distance unless the orthographic observer is at least a pixel
+/// away (a pixel spans at most a radian: its solid angle (pixel / D)^2 at most a steradian)
+/// and MIN_OBSERVER_DISTANCE_PC: --distance 1e-300 overflowed the stars' sprites, and the
+/// error blamed their luminosity.
+void checkObserverDistance(const nebula::Camera& camera)
+{
+    if (camera.model != nebula::CameraModel::Orthographic) return;
+    const double d = camera.observerDistance(), p = camera.orthographicPixel();
+    if (d >= std::max(p, MIN_OBSERVER_DISTANCE_PC)) return;
+    const std::string what = std::isnan(camera.distancePc)
+                                 ? "the observer's distance (--distance; default |--look-at - "
+                                   "--eye|)"
+                                 : "--distance";
+    throw nebula::UsageError(fmt::format(
+        "{} {} pc is too near: the orthographic observer must be at least a pixel ({} pc: a "
+        "pixel spans at most a radian) and {} pc away, for the pixels' solid angles and the "
+        "stars' fluxes L / (4 pi D^2)",
+        what, nebula::detail::numberText(d), nebula::detail::numberText(p),
+        nebula::detail::numberText(MIN_OBSERVER_DISTANCE_PC)));
+}
+
+} // namespace
 
 int main(int argc, char** argv)
 {
@@ -59,22 +91,32 @@ int main(int argc, char** argv)
     nebula::cli::outputFile(
         app.add_option("--png", out.png, "Output PNG (default: the EXR name with .png)"),
         FileFormat::Png);
-    auto* fitsOpt = app.add_option(
-        "--fits", out.fits.path,
-        "Also a calibrated FITS image: surface brightness at each --wavelengths\n"
-        "(monochromatic; stars as black bodies of bolometric luminosity; the EXR\n"
-        "then holds spectral radiance per nm), components TOTAL, DIRECT, SCATTERED,\n"
-        "SINGLE, FIELD as HDUs; --camera orthographic (or perspective with --sky).\n"
-        "With --spectral: cubes of --spectral-layers bands (47 of 10 nm if not\n"
-        "given) and EMISSION, the gas's lines calibrated (grid x --emission-scale =\n"
-        "their emissivity, L_sun pc^-3 sr^-1)");
-    nebula::cli::outputFile(fitsOpt, FileFormat::Fits);
+    nebula::cli::outputFile(
+        app.add_option(
+            "--fits", out.fits.path,
+            "Also a calibrated FITS image: surface brightness at each --wavelengths\n"
+            "(monochromatic; stars as black bodies of bolometric luminosity; the EXR\n"
+            "then holds spectral radiance per nm), components TOTAL, DIRECT, SCATTERED,\n"
+            "SINGLE, FIELD as HDUs (see --fits-layout); --camera orthographic (or\n"
+            "perspective with --sky). With --spectral: cubes of --spectral-layers bands\n"
+            "(47 of 10 nm if not given) on a linear WAVE axis, and EMISSION, the gas's\n"
+            "lines calibrated (grid x --emission-scale = their emissivity, L_sun pc^-3\n"
+            "sr^-1)"),
+        FileFormat::Fits);
     nebula::cli::outputFile(
         app.add_option("--sed", out.fits.sed,
                        "Also the SED: flux density at the observer [Jy] per component at each\n"
                        "wavelength, as CSV (also the table SED of --fits); calibrated like --fits"),
         FileFormat::Csv);
     app.add_option("--fits-unit", out.fits.unit, "FITS unit: MJy/sr or W/m2/sr/nm")
+        ->capture_default_str();
+    std::string fitsLayout = "planes";
+    app.add_option("--fits-layout", fitsLayout,
+                   "FITS in RGB mode: planes = one 2-D image per component and wavelength\n"
+                   "(EXTNAME the component, EXTVER 1..3 in ascending wavelength, WAVELEN [nm]),\n"
+                   "each opens with a plain astropy WCS(header); tab = one cube per component\n"
+                   "on a WAVE-TAB axis (Greisen et al. 2006), which needs WCS(header, hdul)")
+        ->check(CLI::IsMember({"planes", "tab"}))
         ->capture_default_str();
     std::vector<double> sky;
     auto* skyOpt = app.add_option("--sky", sky,
@@ -138,7 +180,7 @@ int main(int argc, char** argv)
     app.add_option("--distance", opts.camera.distancePc,
                    "Orthographic: the observer's distance [pc]: pixel solid angles (pixel /\n"
                    "distance)^2, star fluxes, arcsec pixels, fluxes in --sed (default: the\n"
-                   "distance from --eye to --look-at)");
+                   "distance from --eye to --look-at); at least a pixel and 1e-6 pc");
     std::string pathFile, frameText, framesText;
     auto* pathOpt = nebula::cli::inputFile(
         app.add_option("--camera-path", pathFile,
@@ -170,7 +212,8 @@ int main(int argc, char** argv)
         ->check(nebula::cli::numberIn(0.0, 1e6));
     auto* wavelengthsOpt =
         nebula::cli::addVec3(app, "--wavelengths", opts.wavelengths,
-                             "R,G,B channel wavelengths [nm] for the extinction curve");
+                             "R,G,B channel wavelengths [nm] for the extinction curve (and\n"
+                             "--fits): in [0.001, 1e7), and 125-3333 with the CCM89 curve");
     nebula::FilterOptions filterOpts;
     nebula::cli::addFilter(app, filterOpts,
                            "--fits and --sed give its band average, rendered at the band's three\n"
@@ -316,6 +359,7 @@ int main(int argc, char** argv)
                 nebula::cli::parsePixelSize(pixelSizeText, opts.camera.distancePc);
         }
         nebula::validateCamera(opts.camera);
+        checkObserverDistance(opts.camera);
         if (pathOpt->count() > 0) {
             nebula::InputSpec spec;
             spec.option = "--camera-path";
@@ -355,6 +399,8 @@ int main(int argc, char** argv)
             out.fits.ra = sky.at(0);
             out.fits.dec = sky.at(1);
         }
+        out.fits.layout =
+            fitsLayout == "tab" ? nebula::FitsLayout::Tab : nebula::FitsLayout::Planes;
         if (const auto band = nebula::cli::loadFilter(filterOpts)) {
             if (!nebula::calibrated(out.fits)) {
                 throw nebula::UsageError("--filter and --filter-file need --fits or --sed");
@@ -384,6 +430,14 @@ int main(int argc, char** argv)
         }
         const auto grids = nebula::readGrids(common.input, run);
         const auto dust = dustOpts.apply(grids.dust(run));
+        // The channels' wavelengths, blaming the option that set them.
+        nebula::checkChannelWavelengths(
+            opts.wavelengths, dust,
+            !filterOpts.file.empty()
+                ? "--filter-file " + filterOpts.file + " (the band's quadrature wavelengths)"
+            : !filterOpts.name.empty()
+                ? "--filter " + filterOpts.name + " (the band's quadrature wavelengths)"
+                : std::string("--wavelengths"));
         opts.densityGrid = common.densityGrid;
         nebula::renderToFiles(grids, opts, dust, out, run);
     });

@@ -82,15 +82,31 @@ struct FilterHeader
 {
     FilterWavelengthUnit unit;
     bool energy = false;
+    int unitLine = 0, responseLine = 0; ///< the lines that set them (0: none yet)
 };
 
-/// Reads a header line's key and value into @p header; throws for anything else.
+/// Throws if a header line for @p key came before (at line @p seen): a second one would
+/// silently win over the first.
+void refuseRepeat(int& seen, int lineNumber, const std::string& key, const std::string& where)
+{
+    if (seen != 0) {
+        throw Error(where + ": a second \"" + key + "\" line (line " + std::to_string(seen) +
+                    " gave it already; a filter file names its " + key + " once)");
+    }
+    seen = lineNumber;
+}
+
+/// Reads a header line's key and value into @p header; throws for anything else and for a
+/// key given twice.
 void parseHeaderLine(const std::vector<std::string_view>& fields, FilterHeader& header,
-                     const std::string& where, std::string_view line)
+                     const std::string& where, int lineNumber, std::string_view line)
 {
     std::string key = fields.empty() ? std::string() : lowercase(fields[0]);
     if (!key.empty() && key.back() == ':') key.pop_back();
     const std::string value = fields.size() == 2 ? lowercase(fields[1]) : std::string();
+    if (key == "unit" && fields.size() == 2) refuseRepeat(header.unitLine, lineNumber, key, where);
+    if (key == "response" && fields.size() == 2)
+        refuseRepeat(header.responseLine, lineNumber, key, where);
     if (key == "unit" && fields.size() == 2) {
         if (value == "nm") {
             header.unit = FilterWavelengthUnit::Nanometre;
@@ -290,7 +306,7 @@ Filter parseFilterFile(std::string_view text, const std::string& source, FilterW
             if (!filter.lambda_nm.empty() || (!fields.empty() && parseNumber(fields[0], lambda)))
                 throw Error(where + ": expected two numbers (wavelength, response), got \"" +
                             printable(std::string(line)) + "\"");
-            parseHeaderLine(fields, header, where, line);
+            parseHeaderLine(fields, header, where, lineNumber, line);
             continue;
         }
         const double lambda_nm = lambda * nmPerUnit(header.unit);

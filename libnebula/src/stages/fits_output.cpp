@@ -52,6 +52,16 @@ void checkFitsOutput(const FitsOutput& fits, const RenderOptions& opts, bool man
                              detail::numberText(fits.positionAngle));
         }
     }
+    if (fits.layout == FitsLayout::Tab) {
+        const char* why = fits.path.empty()       ? "needs --fits"
+                          : opts.spectral.enabled ? "is for RGB mode: --spectral cubes have a "
+                                                    "linear WAVE axis of evenly spaced bands"
+                          : fits.filter ? "has no wavelength axis to tabulate: --filter and "
+                                          "--filter-file write one band-averaged image per "
+                                          "component"
+                                        : nullptr;
+        if (why) throw UsageError(std::string("--fits-layout tab ") + why);
+    }
     if (opts.spectral.enabled) {
         // The band average integrates the spectrum under the filter: all but a negligible
         // part of the band (its weight, 1e-3 at the most: 0.001 mag) must be rendered.
@@ -72,6 +82,25 @@ void checkFitsOutput(const FitsOutput& fits, const RenderOptions& opts, bool man
     const auto& w = opts.wavelengths;
     if (w[0] == w[1] || w[1] == w[2] || w[0] == w[2]) {
         throw UsageError(option + " needs three different --wavelengths (its wavelength axis)");
+    }
+}
+
+void checkChannelWavelengths(const std::array<double, 3>& lambda_nm, const DustParams& dust,
+                             const std::string& source)
+{
+    for (const double lambda : lambda_nm) {
+        if (!(lambda >= MIN_FILTER_LAMBDA_NM && lambda < MAX_FILTER_LAMBDA_NM)) {
+            throw UsageError(fmt::format("{}: wavelength {} nm is outside [{}, {}) nm", source,
+                                         detail::numberText(lambda),
+                                         detail::numberText(MIN_FILTER_LAMBDA_NM),
+                                         detail::numberText(MAX_FILTER_LAMBDA_NM)));
+        }
+        try {
+            extinctionRatio(dust, lambda);
+        } catch (const Error& e) { // the curve's range: CCM89's 125-3333 nm
+            throw UsageError(source + ": " + e.what() +
+                             " (--extinction-curve grey takes any wavelength)");
+        }
     }
 }
 
@@ -348,6 +377,12 @@ void writeCalibratedFits(AtomicFile& file, const Image& img, const RenderOptions
         "light scattered once (exact from the tau grids)",
         "light scattered more than once (nebscatter's field)",
         "the gas's emission: its lines and black bodies"};
+    // RGB mode's planes: one image per component and wavelength (a plain WCS(header) opens
+    // each); otherwise one image (a filter) or cube per component.
+    const bool perPlane =
+        !fits.filter && !components.spectral() && fits.layout == FitsLayout::Planes;
+    const std::size_t hdusPerPart = perPlane ? bands.size() : 1;
+    const std::size_t planesPerHdu = perPlane || fits.filter ? 1 : bands.size();
     // The cards of the third axis (RGB: WAVE-TAB; spectral: linear) or of the band (a filter).
     std::vector<FitsCard> axisCards;
     if (fits.filter) {
@@ -376,7 +411,7 @@ void writeCalibratedFits(AtomicFile& file, const Image& img, const RenderOptions
             {"CRVAL3", bands.front().lambda_nm * 1e-9, "the first band's centre [m]"},
             {fits.sky ? "CD3_3" : "CDELT3", components.bandWidth() * 1e-9, "band width [m]"},
             {"BANDWID", components.bandWidth(), "each plane: the band's mean [nm]"}};
-    } else {
+    } else if (!perPlane) {
         axisCards = {{"CTYPE3", std::string("WAVE-TAB"), "wavelength, from table WCS-TAB"},
                      {"CUNIT3", std::string("m"), ""},
                      {"CRPIX3", 1.0, ""},
@@ -386,23 +421,33 @@ void writeCalibratedFits(AtomicFile& file, const Image& img, const RenderOptions
                      {"PS3_1", std::string("COORDS"), "its column"}};
     }
     const auto wcs = imageWcsCards(opts.camera, fits);
-    // One component's cube at a time: only it is held besides the file's bytes.
+    // One HDU at a time: only it is held besides the file's bytes. HDU i is component
+    // i / hdusPerPart, its planes from (i % hdusPerPart) * planesPerHdu on.
     const auto hdu = [&](std::size_t i) {
-        const int part = int(i);
+        const int part = int(i / hdusPerPart);
+        const std::size_t first = (i % hdusPerPart) * planesPerHdu;
         FitsImageHdu h;
         h.name = PART_NAMES[part];
         h.axes = {long(W), long(H)};
-        if (!fits.filter) h.axes.push_back(long(bands.size()));
-        h.data.resize(plane * bands.size());
-        for (std::size_t b = 0; b < bands.size(); ++b)
+        if (planesPerHdu > 1) h.axes.push_back(long(planesPerHdu));
+        h.data.resize(plane * planesPerHdu);
+        for (std::size_t b = 0; b < planesPerHdu; ++b)
             for (std::size_t row = 0; row < H; ++row) { // FITS rows go up from the bottom
                 const std::size_t src = (H - 1 - row) * W;
                 for (std::size_t x = 0; x < W; ++x)
                     h.data[b * plane + row * W + x] =
-                        float(planeValue(components, bands[b], part, src + x));
+                        float(planeValue(components, bands[first + b], part, src + x));
             }
-        h.cards = wcs;
+        if (perPlane) {
+            h.cards.push_back({"EXTVER", static_cast<long long>(first + 1),
+                               "the component's planes, in ascending wavelength"});
+        }
+        h.cards.insert(h.cards.end(), wcs.begin(), wcs.end());
         h.cards.insert(h.cards.end(), axisCards.begin(), axisCards.end());
+        if (perPlane) {
+            h.cards.push_back(
+                {"WAVELEN", bands[first].lambda_nm, "wavelength [nm] (monochromatic)"});
+        }
         h.cards.push_back(
             {"BUNIT", fits.unit,
              fits.filter ? "band-averaged surface brightness" : "surface brightness"});
@@ -412,7 +457,7 @@ void writeCalibratedFits(AtomicFile& file, const Image& img, const RenderOptions
         return h;
     };
     std::vector<FitsTableHdu> tables;
-    if (!fits.filter && !components.spectral()) {
+    if (!fits.filter && !components.spectral() && !perPlane) {
         FitsTableHdu table;
         table.name = "WCS-TAB";
         table.column = "COORDS";
@@ -422,7 +467,7 @@ void writeCalibratedFits(AtomicFile& file, const Image& img, const RenderOptions
             table.values.push_back(b.lambda_nm * 1e-9);
         tables.push_back(std::move(table));
     }
-    writeFits(file, std::size_t(components.parts()), hdu, tables,
+    writeFits(file, std::size_t(components.parts()) * hdusPerPart, hdu, tables,
               {sedTable(sed, components.spectral())});
 }
 

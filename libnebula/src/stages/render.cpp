@@ -256,8 +256,8 @@ std::vector<FitsCard> fitsCards(const GridSet& grids, const RenderOptions& opts,
                           : (out.fits.filter ? "Band averages: monochromatic images at the "
                                                "quadrature wavelengths QNODEi, weighted by "
                                                "QWGHTi."
-                                             : "Monochromatic images at the WAVE axis' "
-                                               "wavelengths.");
+                                             : "Monochromatic images at their wavelengths "
+                                               "(WAVELEN, or the WAVE-TAB axis).");
     how += " Each star a black body of its bolometric luminosity";
     how += spectral ? "; the emission grid times EMSCALE is the lines' emissivity [L_sun pc^-3 "
                       "sr^-1] (DESIGN section 13)."

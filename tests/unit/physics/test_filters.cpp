@@ -336,6 +336,11 @@ TEST(FilterFile, RefusesBadInputsNamingFileAndLine)
         {"-5 0\n510 1\n", "band.dat:1: wavelength -5 nm is outside"},
         {"500 0\n1e7 1\n", "band.dat:2: wavelength 1e+07 nm is outside"},
         {"unit um\n1 0\n1e4 1\n", "band.dat:3: wavelength 1e+07 nm is outside"},
+        // A header line given twice would silently win over the first.
+        {"unit nm\nunit um\n500 0\n510 1\n", "band.dat:2: a second \"unit\" line (line 1 "},
+        {"unit: A\n# same\nUNIT, A\n500 0\n510 1\n", "band.dat:3: a second \"unit\" line (line 1 "},
+        {"response photon\nunit nm\nresponse energy\n500 0\n510 1\n",
+         "band.dat:3: a second \"response\" line (line 1 "},
     };
     for (const auto& c : cases) {
         const std::string what = parseError(c.text);

@@ -48,7 +48,8 @@ inline constexpr int MAX_BAND_NODES = 16;
 /// "response, R" (R = photon (default) or energy: an energy-response curve R_E, converted to
 /// the photon-counting T = R_E / lambda and scaled to a peak of 1); a colon may replace the
 /// comma. @p unit is the wavelength unit when the file names none (a tool's --filter-unit).
-/// Throws Error naming @p source and the line for: a line that is not two numbers, a
+/// Throws Error naming @p source and the line for: a header line given twice, a line that
+/// is not two numbers, a
 /// non-finite or negative response, a wavelength outside [0.001, 1e7) nm, wavelengths not
 /// strictly increasing ("not monotonic in wavelength"), fewer than 2 points, a response that
 /// is 0 everywhere, more than MAX_FILTER_LINES lines or MAX_FILTER_BYTES bytes. The Filter's

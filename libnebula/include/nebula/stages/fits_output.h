@@ -4,21 +4,35 @@
 /// (RenderOptions::monochromatic, with its component layers): in RGB mode its channels are
 /// monochromatic images at their wavelengths, in spectral mode its spectral layers are
 /// bands' mean spectral radiance. This turns them into surface brightness in an astronomer's
-/// unit, one HDU per component (total, direct, scattered, single, field, and the gas's
-/// emission in spectral mode), each a cube (x, y, wavelength) with a celestial TAN (or
-/// linear) WCS and a wavelength axis, and the observer's keywords.
+/// unit per component (total, direct, scattered, single, field, and the gas's emission in
+/// spectral mode) with a celestial TAN (or linear) WCS and the observer's keywords: in RGB
+/// mode one image per component and wavelength (or, --fits-layout tab, a cube per component
+/// with a WAVE-TAB axis), in spectral mode a cube per component with a linear WAVE axis.
 
 #include "nebula/core/atomic_file.h"
 #include "nebula/io/fits_image.h"
 #include "nebula/io/image.h"
+#include "nebula/physics/dust.h"
 #include "nebula/physics/filters.h"
 #include "nebula/render/options.h"
 
+#include <array>
 #include <optional>
 #include <string>
 #include <vector>
 
 namespace nebula {
+
+/// How --fits writes RGB mode's wavelengths, which are not evenly spaced (--fits-layout).
+enum class FitsLayout {
+    /// One 2-D image HDU per component and wavelength: EXTNAME the component, EXTVER 1..N in
+    /// ascending wavelength, WAVELEN the wavelength [nm]. Every HDU opens with a plain
+    /// astropy WCS(header) (the default).
+    Planes,
+    /// One cube per component with a WAVE-TAB axis and its table WCS-TAB (Greisen et al.
+    /// 2006): a reader needs the whole file, WCS(header, hdul).
+    Tab
+};
 
 /// What --fits writes.
 struct FitsOutput
@@ -36,6 +50,7 @@ struct FitsOutput
     /// A passband (--filter): the channels are its three quadrature nodes, and each
     /// component is one band-averaged image (DESIGN §13.1), the SED one row at the pivot.
     std::optional<Filter> filter;
+    FitsLayout layout = FitsLayout::Planes; ///< --fits-layout (RGB mode without a filter)
 };
 
 /// Whether a calibrated output (--fits or --sed) is asked for.
@@ -47,8 +62,16 @@ inline bool calibrated(const FitsOutput& fits)
 /// Throws UsageError naming the option unless --fits and --sed suit the render: a
 /// perspective or orthographic camera (a perspective FITS needs --sky), one frame,
 /// --fits-unit known, --sky within [0, 360) x [-90, 90], distinct wavelengths (RGB mode), a
-/// filter inside 360-830 nm (spectral mode).
+/// filter inside 360-830 nm (spectral mode), --fits-layout tab only for --fits of RGB mode
+/// without a filter (the only cube with unevenly spaced wavelengths).
 void checkFitsOutput(const FitsOutput& fits, const RenderOptions& opts, bool manyFrames);
+
+/// Throws UsageError naming @p source (the option that set them: "--wavelengths", or the
+/// filter whose quadrature nodes they are) unless the channels' wavelengths @p lambda_nm lie
+/// in [MIN_FILTER_LAMBDA_NM, MAX_FILTER_LAMBDA_NM) (Planck's law of a calibrated render
+/// stays finite there) and inside @p dust's extinction curve (CCM89: 125-3333 nm).
+void checkChannelWavelengths(const std::array<double, 3>& lambda_nm, const DustParams& dust,
+                             const std::string& source);
 
 /// The factor that turns spectral radiance [L_sun pc^-2 sr^-1 nm^-1] at @p lambda_nm into
 /// @p unit ("MJy/sr" or "W/m2/sr/nm").
@@ -92,11 +115,12 @@ void writeSedCsv(AtomicFile& file, const std::vector<SedRow>& sed, bool emission
                  const std::vector<std::string>& comments);
 
 /// The HDUs of @p img (as imageSed()): TOTAL (primary), DIRECT, SCATTERED (single + field),
-/// SINGLE, FIELD and in spectral mode EMISSION, each W x H x N planes in ascending
-/// wavelength (through fits.filter: one band-averaged W x H image), rows bottom first
-/// (FITS), with @p cards (observer, history) and the WCS; the wavelength axis: RGB mode
-/// WAVE-TAB with the table WCS-TAB, spectral mode a linear WAVE axis of band centres; and
-/// the table SED, @p sed (imageSed() of the same image).
+/// SINGLE, FIELD and in spectral mode EMISSION, rows bottom first (FITS), with @p cards
+/// (observer, history) and the WCS, then the table SED, @p sed (imageSed() of the same
+/// image). Each component: through fits.filter one band-averaged W x H image; spectral mode
+/// a W x H x N cube on a linear WAVE axis of band centres; RGB mode (fits.layout) N images
+/// W x H in ascending wavelength (EXTVER 1..N, WAVELEN), or one W x H x N cube on a WAVE-TAB
+/// axis with the table WCS-TAB after the images.
 void writeCalibratedFits(AtomicFile& file, const Image& img, const RenderOptions& opts,
                          const FitsOutput& fits, const std::vector<SedRow>& sed,
                          const std::vector<FitsCard>& cards);
