@@ -238,18 +238,18 @@ void exportCube(const GridSet& grids, const ExportOptions& opts, const Run& run)
         refuse(fmt::format("is {:.3g} voxels, more than the 2^36 (4096^3) a cube may have",
                            cost.voxels));
     }
-    // Bounded before the first byte and the first large allocation: the file's size against
-    // the free space of the file system that will hold it (the temporary and the old file
-    // are both there until the rename), and what the writer holds in memory against the
-    // machine's memory.
+    // Bounded before the first large allocation and the first byte: what the writer holds in
+    // memory against the machine's memory (FITS and HDF5 fill it before the disk), then the
+    // file's size against the free space of the file system that will hold it (the
+    // temporary and the old file are both there until the rename).
+    if (const std::uint64_t memory = physicalMemory();
+        memory && cost.memoryBytes > double(memory)) {
+        refuse(fmt::format("needs {} of memory; this machine has {} ({})",
+                           bytesText(cost.memoryBytes), bytesText(double(memory)), cost.memoryUse));
+    }
     if (const auto free = freeDiskSpace(opts.output); free && cost.fileBytes > double(*free)) {
         refuse(fmt::format("needs {} on disk; the file system that holds it has {} free",
                            bytesText(cost.fileBytes), bytesText(double(*free))));
-    }
-    if (const std::uint64_t memory = physicalMemory();
-        memory && cost.memoryBytes > double(memory)) {
-        refuse(fmt::format("needs {} of memory ({}); this machine has {}",
-                           bytesText(cost.memoryBytes), cost.memoryUse, bytesText(double(memory))));
     }
     // Every value the cube holds is finite: the active ones (as every tool reads them) and
     // the background and inactive ones inside the box, which the cube holds too.

@@ -58,7 +58,13 @@ TEST_F(Export, BoxesAndUnits)
     o.bbox = "1,2,3";
     EXPECT_TRUE(contains(errorMessage([&] { o.validate(); }), "--bbox"));
     o.bbox = "1,1,1,0,1,1";
-    EXPECT_TRUE(contains(errorMessage([&] { o.validate(); }), "exceeds"));
+    EXPECT_TRUE(contains(errorMessage([&] { o.validate(); }),
+                         "--bbox 1,1,1,0,1,1: the minimum must be <= the maximum on each axis, "
+                         "and on x it is 1 > 0"));
+    // exportBox() refuses it too (nebstats' path).
+    EXPECT_TRUE(contains(
+        errorMessage([] { nebula::exportBox(*openvdb::FloatGrid::create(), "0,0,5,1,1,4"); }),
+        "on z it is 5 > 4"));
 
     EXPECT_EQ(nebula::cubeUnit(*grid("density")), "cm-3");
     EXPECT_EQ(nebula::cubeUnit(*grid("density.L2")), "cm-3");
