@@ -225,10 +225,13 @@ void exportCube(const GridSet& grids, const ExportOptions& opts, const Run& run)
     const CubeCost cost = cubeCost(*format, h.dims, headerBytes);
     // Where the size comes from: --bbox (a usage error), else the grid itself.
     const bool given = opts.bbox != "auto" && opts.bbox != "active";
-    const std::string what = fmt::format(
-        "-o {}: the {} x {} x {} cube of grid \"{}\" ({}, --bbox {}: {},{},{} to {},{},{})",
-        opts.output, h.dims[0], h.dims[1], h.dims[2], opts.grid, grids.source, opts.bbox, box[0][0],
-        box[0][1], box[0][2], box[1][0], box[1][1], box[1][2]);
+    const std::string boxText =
+        given ? opts.bbox
+              : fmt::format("{}: {},{},{} to {},{},{}", opts.bbox, box[0][0], box[0][1], box[0][2],
+                            box[1][0], box[1][1], box[1][2]);
+    const std::string what =
+        fmt::format("-o {}: the {} x {} x {} cube of grid \"{}\" ({}, --bbox {})", opts.output,
+                    h.dims[0], h.dims[1], h.dims[2], opts.grid, grids.source, boxText);
     const auto refuse = [&](const std::string& why) {
         const std::string hint = given ? "" : "; --bbox I0,J0,K0,I1,J1,K1 exports a part";
         if (given) throw UsageError(what + " " + why + hint);
