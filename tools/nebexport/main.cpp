@@ -22,7 +22,10 @@ int main(int argc, char** argv)
         "BUNIT (density: cm-3, tau: none, temperature: K) and HISTORY; HDF5 the attributes\n"
         "voxel_size_pc, origin_pc (voxel (0, 0, 0)'s centre) and units. The box: --bbox auto\n"
         "(the cube the grid was imported from, else the active voxels' bounding box),\n"
-        "active, or I0,J0,K0,I1,J1,K1 (index coordinates, inclusive).",
+        "active, or I0,J0,K0,I1,J1,K1 (index coordinates, inclusive; min <= max).\n"
+        "Refused before the first byte: a cube larger than the output's free disk space or\n"
+        "than the memory its writer holds (FITS and HDF5 are built in memory), and a NaN or\n"
+        "infinite value in it.",
         "nebexport"};
     nebula::cli::addCommon(app, common, nebula::cli::INPUT | nebula::cli::OUTPUT);
     // -o's format is --format's or its name's: the cube writer checks the name.

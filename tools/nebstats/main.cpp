@@ -40,7 +40,8 @@ int main(int argc, char** argv)
         "  contours: the perimeter-area dimension D (P ~ A^(D/2)) of the closed contours of N\n"
         "            at --levels levels from the 20th to the 90th percentile (observed\n"
         "            1.3-1.4, Falgarone et al. 1991).\n"
-        "Map axes: along z the map is (x, y), along y (x, z), along x (y, z).",
+        "Map axes: along z the map is (x, y), along y (x, z), along x (y, z). Maps of at\n"
+        "most 8192 pixels a side; active tiles are summed whole, not voxel by voxel.",
         "nebstats"};
     nebula::cli::addCommon(app, common, nebula::cli::INPUT);
     app.add_option("--grid", opts.grid, "The FloatGrid projected")->capture_default_str();

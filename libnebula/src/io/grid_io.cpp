@@ -1,4 +1,5 @@
 #include "nebula/io/grid_io.h"
+#include "nebula/io/grid_values.h"
 
 #include "nebula/core/atomic_file.h"
 #include "nebula/core/error.h"
@@ -240,12 +241,79 @@ std::size_t requireFiniteNonNegative(const openvdb::FloatGrid& grid, const std::
                 << (std::isnan(v)   ? "a NaN"
                     : std::isinf(v) ? "an infinite"
                                     : "a negative")
-                << " value " << v << " at voxel (" << c.x() << ", " << c.y() << ", " << c.z()
-                << "); expected finite values >= 0";
+                << " value " << valueText(v) << " at voxel (" << c.x() << ", " << c.y() << ", "
+                << c.z() << "); expected finite values >= 0";
             throw Error(msg.str());
         }
     }
     return n;
+}
+
+std::string valueText(double v)
+{
+    if (std::isnan(v)) return "nan";
+    if (std::isinf(v)) return v > 0.0 ? "inf" : "-inf";
+    return detail::numberText(v);
+}
+
+std::size_t requireFinite(const openvdb::FloatGrid& grid, const std::string& source,
+                          const openvdb::CoordBBox* box)
+{
+    const std::string where = source + ": grid \"" + grid.getName() + "\" has ";
+    const auto refuse = [&](float v, const char* what, const openvdb::Coord& c) {
+        throw Error(where + what + " value " + valueText(v) + " at voxel (" +
+                    std::to_string(c.x()) + ", " + std::to_string(c.y()) + ", " +
+                    std::to_string(c.z()) + "); expected finite values");
+    };
+    const auto finite = [](float v) { return std::isfinite(v); };
+    // Only where a value is not finite does a serial walk run, to name the first one in the
+    // tree's order.
+    std::size_t count = 0;
+    if (!everyActiveValue(grid.tree(), finite, &count)) {
+        for (auto it = grid.cbeginValueOn(); it; ++it) {
+            if (!std::isfinite(*it)) refuse(*it, "the", it.getCoord());
+        }
+    }
+    if (!box) return count;
+    if (!std::isfinite(grid.background())) {
+        throw Error(where + "the background value " + valueText(grid.background()) +
+                    " (its inactive voxels' value); expected a finite value");
+    }
+    // The inactive values inside the box: leaf voxels (in parallel, then serially to name
+    // the first), then the tiles.
+    std::atomic<bool> bad{false};
+    openvdb::tree::LeafManager<const openvdb::FloatTree> leaves(grid.tree());
+    const auto badOff = [&](const openvdb::FloatTree::LeafNodeType& leaf,
+                            openvdb::Coord* at) -> bool {
+        if (!box->hasOverlap(leaf.getNodeBoundingBox())) return false;
+        const float* values = leaf.buffer().data();
+        for (auto it = leaf.getValueMask().beginOff(); it; ++it) {
+            const openvdb::Coord c = leaf.offsetToGlobalCoord(it.pos());
+            if (!std::isfinite(values[it.pos()]) && box->isInside(c)) {
+                if (at) *at = c;
+                return true;
+            }
+        }
+        return false;
+    };
+    leaves.foreach ([&](const openvdb::FloatTree::LeafNodeType& leaf, std::size_t) {
+        if (badOff(leaf, nullptr)) bad = true;
+    });
+    if (bad) {
+        for (auto leaf = grid.tree().cbeginLeaf(); leaf; ++leaf) {
+            openvdb::Coord c;
+            if (badOff(*leaf, &c)) refuse(leaf->getValue(c), "the inactive", c);
+        }
+    }
+    auto tile = grid.tree().cbeginValueOff();
+    tile.setMaxDepth(openvdb::FloatTree::ValueOffCIter::LEAF_DEPTH - 1); // tiles only
+    for (; tile; ++tile) {
+        if (std::isfinite(*tile)) continue;
+        openvdb::CoordBBox bb;
+        tile.getBoundingBox(bb);
+        if (box->hasOverlap(bb)) refuse(*tile, "the inactive", bb.min());
+    }
+    return count;
 }
 
 nlohmann::json GridSet::history() const

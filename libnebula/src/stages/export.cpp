@@ -1,7 +1,10 @@
 #include "nebula/stages/export.h"
 
+#include "nebula/core/disk_space.h"
 #include "nebula/core/error.h"
+#include "nebula/core/memory.h"
 #include "nebula/io/grid_names.h"
+#include "nebula/io/grid_values.h"
 
 #include <fmt/format.h>
 #include <tbb/parallel_for.h>
@@ -77,20 +80,53 @@ nlohmann::json keptWcs(const nlohmann::json& record, const std::array<double, 3>
 
 } // namespace
 
-void ExportOptions::validate() const
+CubeCost cubeCost(CubeFormat format, const std::array<std::int64_t, 3>& dims, double headerBytes)
 {
-    if (bbox != "auto" && bbox != "active") {
-        const auto v = sixIntegers(bbox);
-        if (!v) {
-            throw UsageError("--bbox: expected auto, active or I0,J0,K0,I1,J1,K1, got \"" + bbox +
-                             "\"");
-        }
-        for (int a = 0; a < 3; ++a) {
-            if ((*v)[std::size_t(a)] > (*v)[std::size_t(a + 3)]) {
-                throw UsageError("--bbox " + bbox + ": the minimum exceeds the maximum");
-            }
+    CubeCost c;
+    c.voxels = double(dims[0]) * double(dims[1]) * double(dims[2]);
+    const double data = 4.0 * c.voxels;
+    c.fileBytes = data + headerBytes;
+    switch (format) {
+    case CubeFormat::Fits:
+        // The file in memory (cfitsio's), and one z plane.
+        c.memoryBytes = c.fileBytes + 4.0 * double(dims[0]) * double(dims[1]);
+        c.memoryUse = "the FITS file is built in memory";
+        break;
+    case CubeFormat::Hdf5:
+        // The file in memory (HDF5's core driver), its copy handed to the writer, one x plane.
+        c.memoryBytes = 2.0 * c.fileBytes + 4.0 * double(dims[1]) * double(dims[2]);
+        c.memoryUse = "the HDF5 file is built in memory and copied out";
+        break;
+    default:
+        // Streamed: one z plane at a time.
+        c.memoryBytes = 4.0 * double(dims[0]) * double(dims[1]);
+        c.memoryUse = "one z plane of the .npy stream";
+        break;
+    }
+    return c;
+}
+
+void validateBbox(const std::string& text)
+{
+    if (text == "auto" || text == "active") return;
+    const auto v = sixIntegers(text);
+    if (!v) {
+        throw UsageError("--bbox: expected auto, active or I0,J0,K0,I1,J1,K1, got \"" + text +
+                         "\"");
+    }
+    static const char* const AXIS[3] = {"x", "y", "z"};
+    for (std::size_t a = 0; a < 3; ++a) {
+        if ((*v)[a] > (*v)[a + 3]) {
+            throw UsageError(fmt::format("--bbox {}: the minimum must be <= the maximum on each "
+                                         "axis, and on {} it is {} > {}",
+                                         text, AXIS[a], (*v)[a], (*v)[a + 3]));
         }
     }
+}
+
+void ExportOptions::validate() const
+{
+    validateBbox(bbox);
     if (grid.empty()) throw UsageError("--grid: empty name");
 }
 
@@ -121,8 +157,8 @@ std::array<std::array<int, 3>, 2> exportBox(const openvdb::FloatGrid& grid, cons
         return {std::array<int, 3>{box.min().x(), box.min().y(), box.min().z()},
                 std::array<int, 3>{box.max().x(), box.max().y(), box.max().z()}};
     }
+    validateBbox(text);
     const auto v = sixIntegers(text);
-    if (!v) throw UsageError("--bbox: expected auto, active or I0,J0,K0,I1,J1,K1");
     return {std::array<int, 3>{(*v)[0], (*v)[1], (*v)[2]},
             std::array<int, 3>{(*v)[3], (*v)[4], (*v)[5]}};
 }
@@ -159,16 +195,8 @@ void exportCube(const GridSet& grids, const ExportOptions& opts, const Run& run)
     const auto grid = grids.floatGrid(opts.grid, "--grid");
     const auto box = exportBox(*grid, opts.bbox);
     CubeHeader h;
-    double voxels = 1.0;
-    for (std::size_t a = 0; a < 3; ++a) {
+    for (std::size_t a = 0; a < 3; ++a)
         h.dims[a] = std::int64_t(box[1][a]) - box[0][a] + 1;
-        voxels *= double(h.dims[a]);
-    }
-    if (voxels > double(MAX_CUBE_VOXELS)) {
-        throw UsageError(fmt::format("--bbox {}: a {} x {} x {} cube is {:.3g} voxels, more than "
-                                     "the 2^36 (4096^3) a cube may have",
-                                     opts.bbox, h.dims[0], h.dims[1], h.dims[2], voxels));
-    }
 
     // Axis-aligned transforms only: a dense cube's axes are the grid's.
     const openvdb::math::Mat4d m = grid->transform().baseMap()->getAffineMap()->getMat4();
@@ -191,6 +219,46 @@ void exportCube(const GridSet& grids, const ExportOptions& opts, const Run& run)
     for (const auto& stage : grids.historyWith(run.tool(), run.command())) {
         h.history.push_back(stage.value("tool", "?") + ": " + stage.value("command", ""));
     }
+    double headerBytes = CUBE_HEADER_BYTES;
+    for (const auto& line : h.history) // FITS: 80-byte cards of up to 70 characters
+        headerBytes += 80.0 * double(line.size() / 70 + 1);
+    const CubeCost cost = cubeCost(*format, h.dims, headerBytes);
+    // Where the size comes from: --bbox (a usage error), else the grid itself.
+    const bool given = opts.bbox != "auto" && opts.bbox != "active";
+    const std::string boxText =
+        given ? opts.bbox
+              : fmt::format("{}: {},{},{} to {},{},{}", opts.bbox, box[0][0], box[0][1], box[0][2],
+                            box[1][0], box[1][1], box[1][2]);
+    const std::string what =
+        fmt::format("-o {}: the {} x {} x {} cube of grid \"{}\" ({}, --bbox {})", opts.output,
+                    h.dims[0], h.dims[1], h.dims[2], opts.grid, grids.source, boxText);
+    const auto refuse = [&](const std::string& why) {
+        const std::string hint = given ? "" : "; --bbox I0,J0,K0,I1,J1,K1 exports a part";
+        if (given) throw UsageError(what + " " + why + hint);
+        throw Error(what + " " + why + hint);
+    };
+    if (cost.voxels > double(MAX_CUBE_VOXELS)) {
+        refuse(fmt::format("is {:.3g} voxels, more than the 2^36 (4096^3) a cube may have",
+                           cost.voxels));
+    }
+    // Bounded before the first large allocation and the first byte: what the writer holds in
+    // memory against the machine's memory (FITS and HDF5 fill it before the disk), then the
+    // file's size against the free space of the file system that will hold it (the
+    // temporary and the old file are both there until the rename).
+    if (const std::uint64_t memory = physicalMemory();
+        memory && cost.memoryBytes > double(memory)) {
+        refuse(fmt::format("needs {} of memory; this machine has {} ({})",
+                           bytesText(cost.memoryBytes), bytesText(double(memory)), cost.memoryUse));
+    }
+    if (const auto free = freeDiskSpace(opts.output); free && cost.fileBytes > double(*free)) {
+        refuse(fmt::format("needs {} on disk; the file system that holds it has {} free",
+                           bytesText(cost.fileBytes), bytesText(double(*free))));
+    }
+    // Every value the cube holds is finite: the active ones (as every tool reads them) and
+    // the background and inactive ones inside the box, which the cube holds too.
+    const openvdb::CoordBBox vbox(openvdb::Coord(box[0][0], box[0][1], box[0][2]),
+                                  openvdb::Coord(box[1][0], box[1][1], box[1][2]));
+    requireFinite(*grid, grids.source, &vbox);
     run.info(fmt::format("{}: grid {} as a {} x {} x {} cube from index ({}, {}, {}), unit \"{}\"",
                          opts.output, opts.grid, h.dims[0], h.dims[1], h.dims[2], box[0][0],
                          box[0][1], box[0][2], h.unit));

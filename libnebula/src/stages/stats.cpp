@@ -2,13 +2,16 @@
 
 #include "nebula/core/error.h"
 #include "nebula/core/format.h"
+#include "nebula/core/memory.h"
 #include "nebula/core/units.h"
+#include "nebula/io/grid_values.h"
 #include "nebula/stages/export.h"
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
 #include <cmath>
+#include <map>
 
 namespace nebula {
 
@@ -17,6 +20,7 @@ using detail::numberText;
 void StatsOptions::validate() const
 {
     if (axis < 0 || axis > 2) throw UsageError("--axis must be x, y or z");
+    validateBbox(bbox);
     if (kMin != 0.0 || kMax != 0.0) {
         if (!(kMin > 0.0 && kMax > kMin && std::isfinite(kMax))) {
             throw UsageError("--k-range must be KMIN,KMAX with 0 < KMIN < KMAX [cycles per map "
@@ -81,24 +85,79 @@ CloudStats cloudStatistics(const GridSet& grids, const StatsOptions& opts)
     const auto [ua, va] = mapAxes(opts.axis);
     const auto& lo = st.box[0];
     const auto& hi = st.box[1];
-    st.map.nu = hi[std::size_t(ua)] - lo[std::size_t(ua)] + 1;
-    st.map.nv = hi[std::size_t(va)] - lo[std::size_t(va)] + 1;
-    st.map.values.assign(std::size_t(st.map.nu) * std::size_t(st.map.nv), 0.0);
+    const std::int64_t nu = std::int64_t(hi[std::size_t(ua)]) - lo[std::size_t(ua)] + 1;
+    const std::int64_t nv = std::int64_t(hi[std::size_t(va)]) - lo[std::size_t(va)] + 1;
+    // The work and the memory follow the map, not the box's depth: refused before any of it
+    // where the map is larger than nebstats measures (the power spectrum takes the square of
+    // its longer edge) or than the machine holds.
+    const bool given = opts.bbox != "auto" && opts.bbox != "active";
+    const std::string where = fmt::format(
+        "{}: grid \"{}\": the column map along {} over the box {},{},{} to {},{},{}", grids.source,
+        opts.grid, axisName(opts.axis), lo[0], lo[1], lo[2], hi[0], hi[1], hi[2]);
+    const auto refuse = [&](const std::string& why) {
+        if (given) throw UsageError("--bbox " + opts.bbox + ": " + where + " " + why);
+        throw Error(where + " " + why + "; give --bbox I0,J0,K0,I1,J1,K1 to measure a part");
+    };
+    if (std::max(nu, nv) > MAX_MAP_EDGE) {
+        refuse(fmt::format("is {} x {} pixels, more than the {} a side nebstats measures", nu, nv,
+                           MAX_MAP_EDGE));
+    }
+    const double edge2 = double(std::max(nu, nv)) * double(std::max(nu, nv));
+    const double memory = MAP_BYTES_PER_PIXEL * edge2;
+    if (const std::uint64_t have = physicalMemory(); have && memory > double(have)) {
+        refuse(fmt::format("is {} x {} pixels; measuring it needs {} of memory, this machine has "
+                           "{}",
+                           nu, nv, bytesText(memory), bytesText(double(have))));
+    }
+    // A NaN or infinite voxel would make every figure NaN: refused, named, as every tool does.
+    requireFinite(*grid, grids.source);
+
+    st.map.nu = int(nu);
+    st.map.nv = int(nv);
+    st.map.values.assign(std::size_t(nu) * std::size_t(nv), 0.0);
+    const auto pixel = [&](int u, int v) -> double& {
+        return st.map.values[std::size_t(v - lo[std::size_t(va)]) * std::size_t(nu) +
+                             std::size_t(u - lo[std::size_t(ua)])];
+    };
+    // Voxels one by one; tiles (8^3 to 4096^3 voxels of one value) analytically: a tile adds
+    // value x its depth in the box to each pixel of its face, so the tiles of one size
+    // stacked along the axis are summed first, and each face is spread over its pixels once.
+    // The work is the active voxels plus the map's pixels (once per tile size), however
+    // large the tiles.
+    struct Face
+    {
+        openvdb::CoordBBox bb; ///< the face's clipped extent (along the axis: any)
+        double column = 0.0;   ///< the tiles' sum of value x depth x length
+    };
+    std::map<std::array<int, 3>, Face> faces; // (tile edge, u, v of its origin)
+    const openvdb::CoordBBox box(openvdb::Coord(lo[0], lo[1], lo[2]),
+                                 openvdb::Coord(hi[0], hi[1], hi[2]));
     for (auto it = grid->cbeginValueOn(); it; ++it) {
+        const double v = *it;
+        if (it.isVoxelValue()) {
+            const openvdb::Coord c = it.getCoord();
+            if (!box.isInside(c)) continue;
+            pixel(c[ua], c[va]) += v * length;
+            st.volume.add(v);
+            continue;
+        }
         openvdb::CoordBBox bb;
         it.getBoundingBox(bb);
-        for (int k = std::max(bb.min().z(), lo[2]); k <= std::min(bb.max().z(), hi[2]); ++k) {
-            for (int j = std::max(bb.min().y(), lo[1]); j <= std::min(bb.max().y(), hi[1]); ++j) {
-                for (int i = std::max(bb.min().x(), lo[0]); i <= std::min(bb.max().x(), hi[0]);
-                     ++i) {
-                    const double v = *it;
-                    const int c[3] = {i, j, k};
-                    st.map
-                        .values[std::size_t(c[va] - lo[std::size_t(va)]) * std::size_t(st.map.nu) +
-                                std::size_t(c[ua] - lo[std::size_t(ua)])] += v * length;
-                    st.volume.add(v);
-                }
-            }
+        const openvdb::Coord tileMin = bb.min();
+        const int tileEdge = bb.dim()[0];
+        bb.intersect(box);
+        if (bb.empty()) continue;
+        const double depth = double(bb.dim()[opts.axis]);
+        const double area = double(bb.dim()[ua]) * double(bb.dim()[va]);
+        Face& f = faces[{tileEdge, tileMin[ua], tileMin[va]}];
+        f.bb = bb;
+        f.column += v * depth * length;
+        st.volume.add(v, std::size_t(area * depth));
+    }
+    for (const auto& [key, f] : faces) {
+        for (int j = f.bb.min()[va]; j <= f.bb.max()[va]; ++j) {
+            for (int i = f.bb.min()[ua]; i <= f.bb.max()[ua]; ++i)
+                pixel(i, j) += f.column;
         }
     }
     std::size_t pixels = 0;

@@ -4,6 +4,7 @@
 /// typed access with errors naming the source, grid and option, and the metadata accessors.
 
 #include "nebula/io/grid_io.h"
+#include "nebula/io/grid_values.h"
 
 #include "nebula/core/error.h"
 #include "nebula/core/version.h"
@@ -520,6 +521,55 @@ TEST(GridChecks, RequireFiniteNonNegative)
         EXPECT_TRUE(contains(msg, mention)) << msg;
         EXPECT_TRUE(contains(msg, "(4, 5, 6)")) << msg;
     }
+}
+
+// requireFinite(): NaN and infinities named as they are; negative values pass; with a box,
+// the background and the inactive values inside it (what a dense cube holds) too.
+TEST(GridChecks, RequireFinite)
+{
+    auto g = floatGrid("density", 1.0f);
+    g->tree().setValue(openvdb::Coord(100, 0, 0), -3.0f); // negative: fine
+    EXPECT_EQ(nebula::requireFinite(*g, "d.vdb"), std::size_t(21));
+    const float inf = std::numeric_limits<float>::infinity();
+    const std::pair<float, const char*> bad[] = {
+        {std::numeric_limits<float>::quiet_NaN(), "the value nan at voxel (4, 5, 6)"},
+        {-std::numeric_limits<float>::quiet_NaN(), "the value nan at voxel (4, 5, 6)"},
+        {inf, "the value inf at voxel (4, 5, 6)"},
+        {-inf, "the value -inf at voxel (4, 5, 6)"},
+    };
+    for (const auto& [value, mention] : bad) {
+        auto c = g->deepCopy();
+        c->tree().setValue(openvdb::Coord(4, 5, 6), value);
+        const std::string msg = errorMessage([&] { nebula::requireFinite(*c, "d.vdb"); });
+        EXPECT_EQ(msg.rfind("d.vdb: grid \"density\" has ", 0), 0u) << msg;
+        EXPECT_TRUE(contains(msg, mention)) << msg;
+        EXPECT_FALSE(contains(msg, "-nan")) << msg;
+    }
+    // An active tile: named at its first voxel.
+    auto t = g->deepCopy();
+    t->tree().addTile(1, openvdb::Coord(64, 64, 64), inf, true);
+    EXPECT_TRUE(contains(errorMessage([&] { nebula::requireFinite(*t, "d.vdb"); }),
+                         "the value inf at voxel (64, 64, 64)"));
+    // Inactive values count only inside a box given.
+    auto off = g->deepCopy();
+    off->tree().setValueOff(openvdb::Coord(1, -4, 3), -inf);
+    EXPECT_EQ(nebula::requireFinite(*off, "d.vdb"), std::size_t(21));
+    const openvdb::CoordBBox inside(openvdb::Coord(0, -10, 0), openvdb::Coord(8, 8, 8));
+    const openvdb::CoordBBox outside(openvdb::Coord(2, -10, 0), openvdb::Coord(8, 8, 8));
+    EXPECT_TRUE(contains(errorMessage([&] { nebula::requireFinite(*off, "d.vdb", &inside); }),
+                         "the inactive value -inf at voxel (1, -4, 3)"));
+    EXPECT_EQ(nebula::requireFinite(*off, "d.vdb", &outside), std::size_t(21));
+    auto tile = g->deepCopy();
+    tile->tree().addTile(1, openvdb::Coord(0, -16, 0), inf, false); // 8^3, y -16 to -9
+    EXPECT_TRUE(contains(errorMessage([&] { nebula::requireFinite(*tile, "d.vdb", &inside); }),
+                         "the inactive value inf at voxel (0, -16, 0)"));
+    auto bg = openvdb::FloatGrid::create(inf);
+    bg->setName("density");
+    bg->tree().setValueOn(openvdb::Coord(0), 1.0f);
+    EXPECT_EQ(nebula::requireFinite(*bg, "d.vdb"), std::size_t(1));
+    EXPECT_TRUE(contains(errorMessage([&] { nebula::requireFinite(*bg, "d.vdb", &inside); }),
+                         "the background value inf"));
+    EXPECT_EQ(nebula::valueText(2.5), "2.5");
 }
 
 namespace {

@@ -153,4 +153,16 @@ TEST(CloudStatistics, LogMomentsOfKnownValues)
     a.merge(b);
     EXPECT_NEAR(a.sigma(), m.sigma(), 1e-12);
     EXPECT_NEAR(a.mean(), m.mean(), 1e-12);
+    // add(x, n): n voxels of one value at once (a tile), as n add(x).
+    nebula::LogMoments once, each;
+    once.add(std::exp(1.0));
+    each.add(std::exp(1.0));
+    once.add(std::exp(-1.0), 1000);
+    once.add(-2.0, 5);
+    once.add(3.0, 0);
+    for (int i = 0; i < 1000; ++i)
+        each.add(std::exp(-1.0));
+    EXPECT_EQ(once.count(), 1001u);
+    EXPECT_NEAR(once.mean(), each.mean(), 1e-12);
+    EXPECT_NEAR(once.sigma(), each.sigma(), 1e-12);
 }

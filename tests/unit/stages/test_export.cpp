@@ -12,6 +12,8 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
+
 using nebula::test::contains;
 using nebula::test::errorMessage;
 
@@ -58,7 +60,30 @@ TEST_F(Export, BoxesAndUnits)
     o.bbox = "1,2,3";
     EXPECT_TRUE(contains(errorMessage([&] { o.validate(); }), "--bbox"));
     o.bbox = "1,1,1,0,1,1";
-    EXPECT_TRUE(contains(errorMessage([&] { o.validate(); }), "exceeds"));
+    EXPECT_TRUE(contains(errorMessage([&] { o.validate(); }),
+                         "--bbox 1,1,1,0,1,1: the minimum must be <= the maximum on each axis, "
+                         "and on x it is 1 > 0"));
+    // exportBox() refuses it too (nebstats' path).
+    EXPECT_TRUE(contains(
+        errorMessage([] { nebula::exportBox(*openvdb::FloatGrid::create(), "0,0,5,1,1,4"); }),
+        "on z it is 5 > 4"));
+
+    // What a cube costs: the file (4 bytes a voxel and the header); the memory its writer
+    // holds (FITS the file and a z plane, HDF5 the file twice and an x plane, .npy a z plane).
+    const std::array<std::int64_t, 3> dims{100, 200, 300};
+    const double data = 4.0 * 100 * 200 * 300, header = 1000.0;
+    const auto fits = nebula::cubeCost(nebula::CubeFormat::Fits, dims, header);
+    EXPECT_EQ(fits.voxels, 100.0 * 200 * 300);
+    EXPECT_EQ(fits.fileBytes, data + header);
+    EXPECT_EQ(fits.memoryBytes, data + header + 4.0 * 100 * 200);
+    const auto h5 = nebula::cubeCost(nebula::CubeFormat::Hdf5, dims, header);
+    EXPECT_EQ(h5.memoryBytes, 2.0 * (data + header) + 4.0 * 200 * 300);
+    const auto npy = nebula::cubeCost(nebula::CubeFormat::Npy, dims, header);
+    EXPECT_EQ(npy.fileBytes, data + header);
+    EXPECT_EQ(npy.memoryBytes, 4.0 * 100 * 200);
+    // No wrap-around: 2^31 on a side is a finite double, far above any limit.
+    const auto huge = nebula::cubeCost(nebula::CubeFormat::Npy, {1LL << 31, 1LL << 31, 1LL << 31});
+    EXPECT_EQ(huge.voxels, std::ldexp(1.0, 93));
 
     EXPECT_EQ(nebula::cubeUnit(*grid("density")), "cm-3");
     EXPECT_EQ(nebula::cubeUnit(*grid("density.L2")), "cm-3");

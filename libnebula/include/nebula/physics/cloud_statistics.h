@@ -115,6 +115,15 @@ public:
         mMean += d / double(mCount);
         mM2 += d * (y - mMean);
     }
+    /// add(x) @p n times at once (an active tile's voxels).
+    void add(double x, std::size_t n)
+    {
+        if (!(x > 0.0) || n == 0) return;
+        LogMoments same;
+        same.mCount = n;
+        same.mMean = std::log(x);
+        merge(same);
+    }
     void merge(const LogMoments& o)
     {
         if (o.mCount == 0) return;

@@ -8,9 +8,19 @@
 #include "nebula/physics/cloud_statistics.h"
 
 #include <array>
+#include <cstdint>
 #include <string>
 
 namespace nebula {
+
+/// The longest edge of a column map nebstats measures [pixels]: its power spectrum is an
+/// n x n FFT, its contours n x n labels, so that 8192 bounds the work (an 8192 x 8192 map of
+/// four tiles: 46 s on a busy 2-core VM) and the memory (1.8 GB), whatever the file says.
+inline constexpr std::int64_t MAX_MAP_EDGE = 8192;
+/// The memory measuring a map takes per pixel of the square of its longer edge [bytes], with
+/// room: the map, the FFT's input and output, the contours' masks, labels and sorted columns
+/// (24 bytes), measured 28 with the rest of the process at 8192 x 8192.
+inline constexpr double MAP_BYTES_PER_PIXEL = 32.0;
 
 struct StatsOptions
 {
@@ -48,7 +58,11 @@ struct CloudStats
 
 /// The statistics of grid opts.grid of @p grids: its voxels summed along the axis over the box
 /// times the voxel edge (N_H [cm^-2] for `density`, whose voxels are n_H [cm^-3]), and the
-/// fits. Throws UsageError naming --grid, --bbox or --k-range.
+/// fits. The work follows the active voxels and the map, not the box's volume: an active tile
+/// adds its value times its depth to each pixel of its face. Throws UsageError naming --grid,
+/// --bbox (an inverted box; a map too large) or --k-range; Error naming the file and grid for
+/// a map from the file's own box larger than MAX_MAP_EDGE or the machine's memory, and for a
+/// NaN or infinite active value (requireFinite()).
 CloudStats cloudStatistics(const GridSet& grids, const StatsOptions& opts);
 
 /// The report nebstats prints: one line per figure, each with its method's parameters.
