@@ -64,8 +64,12 @@ os.mkfifo("fifo.bin")
 cases = []  # (what, file, extra args, expected exit, [message parts], time limit [s])
 
 
-def refused(what, name, parts, extra=(), code=1, limit=30):
-    cases.append((what, name, list(extra), code, parts, limit))
+# The unit and voxel size given, so that nothing else stops the run before the feature tested.
+GIVEN = ["--unit", "cm-3", "--voxel-size", "1pc"]
+
+
+def refused(what, name, parts, extra=(), code=1, limit=30, given=GIVEN):
+    cases.append((what, name, [*extra, *given], code, parts, limit))
 
 
 # External raw-data storage: an absolute path and one relative to the working folder.
@@ -123,7 +127,7 @@ refused("unwritten 4096^3 chunked", "unwritten-chunked.h5",
 # A filter libhdf5 lacks (h5py's own LZF; nebimport's libhdf5 has no plugin for it).
 write("lzf.h5", compression="lzf", chunks=(5, 6, 7))
 refused("LZF", "lzf.h5", ["lzf.h5: dataset /density is", "filter 32000 (lzf)",
-                          "save it with gzip or without compression"])
+                          "save it with gzip or without compression"], given=[])
 
 # Gzip bombs: a chunk of 64^3 floats (1 MiB) holding 64 MiB of zeros in 65 KB, and a chunk of
 # 4x4x4 floats (256 bytes) stored in more bytes than it holds.
@@ -133,7 +137,7 @@ with h5py.File("bomb.h5", "w") as f:
     d.id.write_direct_chunk((0, 0, 0), zlib.compress(bytes(64 << 20), 9))
     d.attrs.update(good_attrs)
 refused("gzip bomb", "bomb.h5",
-        ["bomb.h5: dataset /density: a chunk inflates to more than its 1048576 bytes"])
+        ["bomb.h5: dataset /density: a chunk inflates to more than its 1048576 bytes"], given=[])
 with h5py.File("bomb-small.h5", "w") as f:
     d = f.create_dataset("density", shape=(4, 4, 4), dtype="<f4", chunks=(4, 4, 4),
                          compression="gzip")
@@ -141,7 +145,7 @@ with h5py.File("bomb-small.h5", "w") as f:
     d.attrs.update(good_attrs)
 refused("a chunk stored in more bytes than it holds", "bomb-small.h5",
         ["bomb-small.h5: dataset /density: damaged: a chunk is stored in",
-         "more than its 256 bytes of values"])
+         "more than its 256 bytes of values"], given=[])
 
 # Chunks far larger than the cube (allowed by HDF5 for a resizable dataset): 1 GB each.
 with h5py.File("bigchunk.h5", "w") as f:
@@ -150,7 +154,19 @@ with h5py.File("bigchunk.h5", "w") as f:
     d.attrs.update(good_attrs)
 refused("chunks of 1 GB for a 2x2x2 cube", "bigchunk.h5",
         ["bigchunk.h5: dataset /density: its chunks of 1024 x 1024 x 256",
-         "save it with smaller chunks"])
+         "save it with smaller chunks"], given=[])
+
+# A flipped bit in a chunk with a checksum (gzip + fletcher32).
+write("flipped.h5", chunks=(5, 6, 7), compression="gzip", fletcher32=True)
+with h5py.File("flipped.h5", "r") as f:
+    info = f["density"].id.get_chunk_info(0)
+with open("flipped.h5", "r+b") as f:
+    f.seek(info.byte_offset + info.size // 2)
+    byte = f.read(1)
+    f.seek(info.byte_offset + info.size // 2)
+    f.write(bytes([byte[0] ^ 0x10]))
+refused("a flipped bit under fletcher32", "flipped.h5",
+        ["flipped.h5: dataset /density: damaged: a chunk does not match its checksum"], given=[])
 
 # Attributes.
 for what, value, shown in [("negative", -0.1, "-0.1"), ("non-cubic", [0.1, 0.2, 0.1],
@@ -161,12 +177,12 @@ for what, value, shown in [("negative", -0.1, "-0.1"), ("non-cubic", [0.1, 0.2, 
     write(name, attrs={"units": "cm-3", "voxel_size_pc": value})
     refused(f"voxel_size_pc {what}", name,
             [f"{name}: dataset /density: attribute voxel_size_pc is {shown}",
-             "expected one finite positive number [pc] or three equal ones"])
+             "expected one finite positive number [pc] or three equal ones"], given=[])
 write("origin-nan.h5", attrs={"units": "cm-3", "voxel_size_pc": 0.5,
                               "origin_pc": [0.0, float("nan"), 1.0]})
 refused("origin_pc NaN", "origin-nan.h5",
         ["origin-nan.h5: dataset /density: attribute origin_pc is [0, nan, 1]",
-         "3 finite numbers"])
+         "3 finite numbers"], given=[])
 
 
 def run_case(index, case):
@@ -224,6 +240,7 @@ with h5py.File("gzip.h5", "w") as f:
                          compression="gzip", shuffle=True, fletcher32=True, fillvalue=0.5)
     d[:4] = cube[:4]
     d.attrs.update(good_attrs)
+write("shuffle.h5", chunks=(3, 6, 4), shuffle=True)
 partly = cube.copy()
 partly[4:] = 0.5
 with h5py.File("int16.h5", "w") as f:
@@ -241,15 +258,16 @@ with concurrent.futures.ThreadPoolExecutor(max_workers=4) as pool:
                         cube * 1e-24 / (1.00782503223 * 1.66053906660e-24)),
             pool.submit(imports, "gzip, shuffle, fletcher32, a chunk not written", "gzip.h5",
                         [], partly),
-            pool.submit(imports, "big-endian int16 in chunks", "int16.h5", [], cube * 4)]
+            pool.submit(imports, "big-endian int16 in chunks", "int16.h5", [], cube * 4),
+            pool.submit(imports, "shuffle without compression", "shuffle.h5", [], cube)]
     for job in jobs:
         job.result()
 
 # Time: the unwritten 4096^3 datasets against a refusal that opens nothing, one at a time.
 base = min(nebimport(["-i", "missing.h5", "-o", "out.vdb"], WORK)[2] for _ in range(3))
 for name in ("unwritten.h5", "unwritten-chunked.h5"):
-    got, err, seconds = min((nebimport(["-i", name, "-o", "out.vdb"], WORK) for _ in range(3)),
-                            key=lambda r: r[2])
+    got, err, seconds = min((nebimport(["-i", name, *GIVEN, "-o", "out.vdb"], WORK, timeout=20)
+                             for _ in range(3)), key=lambda r: r[2])
     check(got == 1 and seconds < base + 0.5,
           f"{name}: refused in {seconds:.2f} s, a missing file in {base:.2f} s (at most 0.5 s "
           "more)")

@@ -431,6 +431,9 @@ public:
 private:
     void loadRow(const std::vector<std::int64_t>& key);
     void decode(std::size_t stored, std::uint32_t skipped, unsigned char* out);
+    /// Inflates mA's first @p n bytes into @p out, exactly the chunk's size, unshuffling
+    /// elements of @p shuffle bytes (1: none) on the way. Throws if it inflates to more.
+    void inflateInto(std::size_t n, unsigned char* out, std::size_t shuffle);
 
     Hid mFile, mSet, mType;
     std::vector<std::int64_t> mShape, mChunk;
@@ -443,13 +446,110 @@ private:
     std::vector<unsigned char> mA, mB; ///< a chunk's stored bytes and the decoding's steps
 };
 
+/// Undoes the shuffle filter as bytes stream in: byte p of a shuffled block of @p count
+/// elements of @p size bytes is byte p / count of element p % count (bytes past the last
+/// whole element stay where they are).
+class Unshuffler
+{
+public:
+    Unshuffler(std::size_t size, std::size_t bytes)
+        : mSize(size > 1 ? size : 1), mCount(bytes / mSize)
+    {}
+    void put(const unsigned char* in, std::size_t n, unsigned char* out)
+    {
+        for (std::size_t j = 0; j < n; ++j) {
+            if (mByte < mSize && mCount > 0) { // element mElement's byte mByte
+                out[mElement * mSize + mByte] = in[j];
+                if (++mElement == mCount) {
+                    mElement = 0;
+                    ++mByte;
+                }
+            } else { // past the last whole element
+                out[mCount * mSize + mElement++] = in[j];
+            }
+        }
+    }
+
+private:
+    std::size_t mSize, mCount, mByte = 0, mElement = 0;
+};
+
+void Hdf5ChunkedArray::inflateInto(std::size_t n, unsigned char* out, std::size_t shuffle)
+{
+    if (n > UINT_MAX) throw Error(mWhere + ": damaged: a chunk is too large");
+    z_stream z{};
+    if (inflateInit(&z) != Z_OK) throw Error(mWhere + ": cannot start inflating");
+    z.next_in = mA.data();
+    z.avail_in = uInt(n);
+    std::size_t got = 0;
+    int status = Z_OK;
+    if (shuffle <= 1) {
+        // Straight into the chunk: a stream longer than the chunk stops at its end.
+        z.next_out = out;
+        z.avail_out = uInt(mChunkBytes);
+        status = inflate(&z, Z_FINISH);
+        got = z.total_out;
+    } else {
+        // Through a window, unshuffled into the chunk as the bytes come.
+        Unshuffler unshuffle(shuffle, mChunkBytes);
+        std::vector<unsigned char> window(std::min<std::size_t>(mChunkBytes + 1, 1 << 18));
+        while (status == Z_OK && got <= mChunkBytes) {
+            z.next_out = window.data();
+            z.avail_out = uInt(window.size());
+            status = inflate(&z, Z_NO_FLUSH);
+            const std::size_t produced = window.size() - z.avail_out;
+            if (got + produced <= mChunkBytes) unshuffle.put(window.data(), produced, out);
+            got += produced;
+            if (status == Z_OK && produced == 0) status = Z_BUF_ERROR; // input ran out
+        }
+    }
+    inflateEnd(&z);
+    if (got > mChunkBytes || (got == mChunkBytes && status != Z_STREAM_END)) {
+        throw Error(mWhere + fmt::format(": a chunk inflates to more than its {} bytes (a "
+                                         "decompression bomb, or damaged)",
+                                         mChunkBytes));
+    }
+    if (status != Z_STREAM_END) {
+        throw Error(mWhere + ": damaged: a gzip-compressed chunk does not inflate");
+    }
+    if (got != mChunkBytes) {
+        throw Error(mWhere + fmt::format(": damaged: a chunk inflates to {} bytes, expected {}",
+                                         got, mChunkBytes));
+    }
+}
+
 void Hdf5ChunkedArray::decode(std::size_t stored, std::uint32_t skipped, unsigned char* out)
 {
     const auto damaged = [&](const std::string& why) { throw Error(mWhere + ": damaged: " + why); };
-    std::size_t n = stored;
+    // The filters to undo, last applied first.
+    std::vector<const Filter*> steps;
     for (std::size_t i = mFilters.size(); i-- > 0;) {
-        if (i < 32 && (skipped >> i) & 1u) continue;
-        const Filter& f = mFilters[i];
+        if (i >= 32 || !((skipped >> i) & 1u)) steps.push_back(&mFilters[i]);
+    }
+    const auto shuffleSize = [&](const Filter& f) {
+        return f.params.empty() ? mTypeSize : std::size_t(f.params[0]);
+    };
+    std::size_t n = stored;
+    for (std::size_t i = 0;; ++i) {
+        // The usual tails (gzip, then shuffle) go straight into the chunk: no copy of it.
+        const std::size_t left = steps.size() - i;
+        const auto is = [&](std::size_t j, H5Z_filter_t id) { return steps[i + j]->id == id; };
+        if (left == 0 || (left == 1 && is(0, H5Z_FILTER_SHUFFLE))) {
+            if (n != mChunkBytes) {
+                damaged(fmt::format("a chunk holds {} bytes, expected {}", n, mChunkBytes));
+            }
+            if (left == 0) {
+                std::memcpy(out, mA.data(), n);
+            } else {
+                Unshuffler(shuffleSize(*steps[i]), n).put(mA.data(), n, out);
+            }
+            return;
+        }
+        if (is(0, H5Z_FILTER_DEFLATE) && (left == 1 || (left == 2 && is(1, H5Z_FILTER_SHUFFLE)))) {
+            inflateInto(n, out, left == 2 ? shuffleSize(*steps[i + 1]) : 1);
+            return;
+        }
+        const Filter& f = *steps[i];
         if (f.id == H5Z_FILTER_FLETCHER32) {
             if (n < 4) damaged("a chunk is too short for its checksum");
             n -= 4;
@@ -461,42 +561,17 @@ void Hdf5ChunkedArray::decode(std::size_t stored, std::uint32_t skipped, unsigne
             const std::uint32_t swapped = ((sum & 0x00ff00ffu) << 8) | ((sum >> 8) & 0x00ff00ffu);
             if (want != sum && want != swapped) damaged("a chunk does not match its checksum");
         } else if (f.id == H5Z_FILTER_DEFLATE) {
+            // Another order of filters (rare): through a buffer of the chunk's size.
             mB.resize(mChunkBytes);
-            z_stream z{};
-            if (inflateInit(&z) != Z_OK) throw Error(mWhere + ": cannot start inflating");
-            z.next_in = mA.data();
-            if (n > UINT_MAX) damaged("a chunk is too large");
-            z.avail_in = uInt(n);
-            z.next_out = mB.data();
-            z.avail_out = uInt(mChunkBytes);
-            const int status = inflate(&z, Z_FINISH);
-            const std::size_t got = z.total_out;
-            inflateEnd(&z);
-            if (status == Z_BUF_ERROR && got == mChunkBytes) {
-                throw Error(mWhere + fmt::format(": a chunk inflates to more than its {} bytes "
-                                                 "(a decompression bomb, or damaged)",
-                                                 mChunkBytes));
-            }
-            if (status != Z_STREAM_END) damaged("a gzip-compressed chunk does not inflate");
+            inflateInto(n, mB.data(), 1);
             mA.swap(mB);
-            n = got;
+            n = mChunkBytes;
         } else if (f.id == H5Z_FILTER_SHUFFLE) {
-            const std::size_t size = f.params.empty() ? mTypeSize : f.params[0];
-            mB.resize(std::max(mB.size(), n));
-            if (size > 1 && n >= size) {
-                const std::size_t count = n / size;
-                for (std::size_t b = 0; b < size; ++b)
-                    for (std::size_t e = 0; e < count; ++e)
-                        mB[e * size + b] = mA[b * count + e];
-                std::memcpy(mB.data() + count * size, mA.data() + count * size, n % size);
-                mA.swap(mB);
-            }
+            mB.resize(n);
+            Unshuffler(shuffleSize(f), n).put(mA.data(), n, mB.data());
+            mA.swap(mB);
         }
     }
-    if (n != mChunkBytes) {
-        damaged(fmt::format("a chunk holds {} bytes, expected {}", n, mChunkBytes));
-    }
-    std::memcpy(out, mA.data(), n);
 }
 
 void Hdf5ChunkedArray::loadRow(const std::vector<std::int64_t>& key)
@@ -535,7 +610,7 @@ void Hdf5ChunkedArray::loadRow(const std::vector<std::int64_t>& key)
                                              "than its {} bytes of values",
                                              stored, mChunkBytes));
         }
-        mA.resize(std::max<std::size_t>(mA.size(), std::max<std::size_t>(stored, mChunkBytes)));
+        mA.resize(std::size_t(stored));
         std::uint32_t skipped = 0;
         if (H5Dread_chunk(mSet.get(), H5P_DEFAULT, offset.data(), &skipped, mA.data()) < 0) {
             H5Eclear2(H5E_DEFAULT);
@@ -544,6 +619,9 @@ void Hdf5ChunkedArray::loadRow(const std::vector<std::int64_t>& key)
         decode(std::size_t(stored), skipped, out);
     }
     mKey = key;
+    // Large chunks' stored bytes are not kept beside the row (the tree grows next).
+    if (mA.capacity() > (std::size_t(16) << 20)) std::vector<unsigned char>().swap(mA);
+    if (mB.capacity() > (std::size_t(16) << 20)) std::vector<unsigned char>().swap(mB);
 }
 
 void Hdf5ChunkedArray::readBlock(const std::vector<std::int64_t>& fixed, double* out)
