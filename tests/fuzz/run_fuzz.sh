@@ -1,12 +1,13 @@
 #!/usr/bin/env bash
 # Runs the libFuzzer targets for a bounded time from the committed seed corpus, and fails on
 # any finding.
-# Usage: run_fuzz.sh FUZZ_BUILD_DIR [SECONDS]   (default 60: the ten targets run side by
+# Usage: run_fuzz.sh FUZZ_BUILD_DIR [SECONDS]   (default 60: the eleven targets run side by
 # side for SECONDS of wall time each, which keeps both cores of a CI machine busy)
 # Targets: the VDB structure checker and the grid reader (corpus/grid), the star and dust
 # parsers (corpus/metadata), every JSON consumer (corpus/json, with deep and wide documents),
 # config files (corpus/config), nebimport's cube formats: .npy headers (corpus/npy),
-# RADMC-3D's grid and density headers (corpus/radmc) and FITS files (corpus/fits), filter
+# RADMC-3D's grid and density headers (corpus/radmc), FITS files (corpus/fits) and HDF5
+# files (corpus/hdf5, written by tests/fuzz/make_hdf5_corpus.py), filter
 # files (corpus/filter), and nebview's WebSocket messages (corpus/view).
 # The corpus grows in a scratch copy (FUZZ_BUILD_DIR/corpus); a finding is saved as
 # FUZZ_BUILD_DIR/findings/crash-* (or leak-*, oom-*, timeout-*). Keep it as a regression
@@ -45,12 +46,14 @@ run_target fuzz_npy_header "$src/corpus/npy" "$seconds" 4096 & pids+=($!)
 run_target fuzz_radmc "$src/corpus/radmc" "$seconds" 4096 & pids+=($!)
 # FITS comes in 2880-byte blocks: a header and a little data fit in 16 KiB.
 run_target fuzz_fits "$src/corpus/fits" "$seconds" 16384 & pids+=($!)
+# HDF5: a superblock, a few object headers, B-tree nodes and a little data fit in 16 KiB.
+run_target fuzz_hdf5 "$src/corpus/hdf5" "$seconds" 16384 & pids+=($!)
 run_target fuzz_filter_file "$src/corpus/filter" "$seconds" 4096 & pids+=($!)
 run_target fuzz_view_message "$src/corpus/view" "$seconds" 4096 & pids+=($!)
 for pid in "${pids[@]}"; do wait "$pid" || status=1; done
 total=0
 for target in fuzz_vdb_check fuzz_grid_reader fuzz_metadata fuzz_json fuzz_config fuzz_npy_header \
-    fuzz_radmc fuzz_fits fuzz_filter_file fuzz_view_message; do
+    fuzz_radmc fuzz_fits fuzz_hdf5 fuzz_filter_file fuzz_view_message; do
     echo "== $target (${seconds} s)"
     grep -E "stat::number_of_executed_units|stat::average_exec_per_sec|stat::peak_rss_mb" \
         "$build/$target.log" | sed "s/^/  /"

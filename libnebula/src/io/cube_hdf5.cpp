@@ -65,13 +65,25 @@ void quietErrors()
     H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr); // errors become exceptions, not stderr text
 }
 
-/// A string attribute @p name of @p obj (fixed or variable length), or nullopt.
+/// @p text as it may appear in a message: printable ASCII only, at most 80 characters (names
+/// inside a file are the file's, not ours).
+std::string printable(std::string_view text)
+{
+    std::string s;
+    for (char c : text.substr(0, 80))
+        s += (c >= ' ' && c <= '~') ? c : '?';
+    return text.size() > 80 ? s + "..." : s;
+}
+
+/// A string attribute @p name of @p obj (fixed or variable length), or nullopt; printable
+/// ASCII (it is shown in messages).
 std::optional<std::string> stringAttribute(hid_t obj, const char* name, const std::string& where)
 {
     if (H5Aexists(obj, name) <= 0) return std::nullopt;
     Hid attr(H5Aopen(obj, name, H5P_DEFAULT), H5Aclose);
     Hid type(H5Aget_type(attr.get()), H5Tclose);
-    if (!attr.ok() || !type.ok()) fail(where, std::string("cannot read attribute ") + name);
+    if (!attr.ok() || !type.ok())
+        fail(where, std::string("cannot read attribute ") + name + " (damaged?)");
     if (H5Tget_class(type.get()) != H5T_STRING) {
         throw Error(where + ": attribute \"" + name + "\" is not a string");
     }
@@ -85,10 +97,10 @@ std::optional<std::string> stringAttribute(hid_t obj, const char* name, const st
         H5Tset_cset(mem.get(), H5Tget_cset(type.get()));
         char* text = nullptr;
         if (H5Aread(attr.get(), mem.get(), &text) < 0)
-            fail(where, std::string("attribute ") + name);
+            fail(where, std::string("cannot read attribute ") + name + " (damaged?)");
         std::string s = text ? text : "";
         H5free_memory(text);
-        return s;
+        return printable(s);
     }
     const std::size_t size = H5Tget_size(type.get());
     if (size < 1 || size > 4096) throw Error(where + ": attribute \"" + name + "\" is too long");
@@ -99,11 +111,13 @@ std::optional<std::string> stringAttribute(hid_t obj, const char* name, const st
     H5Tset_size(mem.get(), size + 1);
     H5Tset_strpad(mem.get(), H5T_STR_NULLTERM);
     H5Tset_cset(mem.get(), H5Tget_cset(type.get()));
-    if (H5Aread(attr.get(), mem.get(), s.data()) < 0) fail(where, std::string("attribute ") + name);
+    if (H5Aread(attr.get(), mem.get(), s.data()) < 0) {
+        fail(where, std::string("cannot read attribute ") + name + " (damaged?)");
+    }
     s.resize(std::strlen(s.c_str()));
     while (!s.empty() && s.back() == ' ')
         s.pop_back();
-    return s;
+    return printable(s);
 }
 
 /// A numeric attribute of @p count (1 or 3) values, or nullopt.
@@ -114,7 +128,9 @@ std::optional<std::vector<double>> numberAttribute(hid_t obj, const char* name,
     Hid attr(H5Aopen(obj, name, H5P_DEFAULT), H5Aclose);
     Hid type(H5Aget_type(attr.get()), H5Tclose);
     Hid space(H5Aget_space(attr.get()), H5Sclose);
-    if (!attr.ok() || !type.ok() || !space.ok()) fail(where, std::string("attribute ") + name);
+    if (!attr.ok() || !type.ok() || !space.ok()) {
+        fail(where, std::string("cannot read attribute ") + name + " (damaged?)");
+    }
     const auto cls = H5Tget_class(type.get());
     if (cls != H5T_FLOAT && cls != H5T_INTEGER) {
         throw Error(where + ": attribute \"" + name + "\" is not a number");
@@ -124,18 +140,10 @@ std::optional<std::vector<double>> numberAttribute(hid_t obj, const char* name,
         throw Error(where + ": attribute \"" + name + "\" has " + std::to_string(n) +
                     " values, expected 1 or 3");
     std::vector<double> v(static_cast<std::size_t>(n));
-    if (H5Aread(attr.get(), H5T_NATIVE_DOUBLE, v.data()) < 0) fail(where, name);
+    if (H5Aread(attr.get(), H5T_NATIVE_DOUBLE, v.data()) < 0) {
+        fail(where, std::string("cannot read attribute ") + name + " as numbers (damaged?)");
+    }
     return v;
-}
-
-/// @p text as it may appear in a message: printable ASCII only, at most 80 characters (names
-/// inside a file are the file's, not ours).
-std::string printable(std::string_view text)
-{
-    std::string s;
-    for (char c : text.substr(0, 80))
-        s += (c >= ' ' && c <= '~') ? c : '?';
-    return text.size() > 80 ? s + "..." : s;
 }
 
 /// Link access that never opens another file: an external link's traversal fails (the links
@@ -1005,7 +1013,9 @@ void writeHdf5Cube(const std::string& path, const CubeHeader& h, const std::stri
         Hid s(H5Screate_simple(1, &n, nullptr), H5Sclose);
         Hid a(H5Acreate2(set.get(), name, H5T_IEEE_F64LE, s.get(), H5P_DEFAULT, H5P_DEFAULT),
               H5Aclose);
-        if (!a.ok() || H5Awrite(a.get(), H5T_NATIVE_DOUBLE, v) < 0) fail(where, name);
+        if (!a.ok() || H5Awrite(a.get(), H5T_NATIVE_DOUBLE, v) < 0) {
+            fail(where, std::string("cannot write attribute ") + name);
+        }
     };
     const auto putString = [&](const char* name, const std::string& value) {
         Hid t(H5Tcopy(H5T_C_S1), H5Tclose);
@@ -1014,7 +1024,9 @@ void writeHdf5Cube(const std::string& path, const CubeHeader& h, const std::stri
         Hid s(H5Screate(H5S_SCALAR), H5Sclose);
         Hid a(H5Acreate2(set.get(), name, t.get(), s.get(), H5P_DEFAULT, H5P_DEFAULT), H5Aclose);
         const char* text = value.c_str();
-        if (!a.ok() || H5Awrite(a.get(), t.get(), &text) < 0) fail(where, name);
+        if (!a.ok() || H5Awrite(a.get(), t.get(), &text) < 0) {
+            fail(where, std::string("cannot write attribute ") + name);
+        }
     };
     const bool cubic = h.spacing[0] == h.spacing[1] && h.spacing[1] == h.spacing[2];
     putNumbers("voxel_size_pc", h.spacing.data(), cubic ? 1 : 3);
