@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <memory>
 #include <string>
+#include <string_view>
 #include <vector>
 
 namespace nebula::detail {
@@ -38,6 +39,10 @@ void checkCubeShape(const std::vector<std::int64_t>& shape, int component, const
 
 std::unique_ptr<CubeSource> openFitsCube(const std::string& path, const CubeSelect& select);
 std::unique_ptr<CubeSource> openHdf5Cube(const std::string& path, const CubeSelect& select);
+/// openHdf5Cube() of an HDF5 file held in memory (@p bytes; @p name for messages): the same
+/// checks and reader, over HDF5's core driver.
+std::unique_ptr<CubeSource> openHdf5CubeImage(std::string_view bytes, const std::string& name,
+                                              const CubeSelect& select);
 std::unique_ptr<CubeSource> openNpyCube(const std::string& path, const CubeSelect& select);
 std::unique_ptr<CubeSource> openRadmcCube(const std::string& path, const CubeSelect& select);
 

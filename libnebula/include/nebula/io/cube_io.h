@@ -113,6 +113,12 @@ std::unique_ptr<CubeSource> openCube(const std::string& path, const CubeSelect& 
 
 // The parsers, for tests and fuzzers.
 
+/// openCube() of an HDF5 file held in memory (@p bytes; @p name for messages): the same
+/// choice of dataset, the same checks (links, external storage, virtual datasets, filters,
+/// unwritten data, chunk sizes, attributes) and the same reader as for a file.
+std::unique_ptr<CubeSource> openHdf5Memory(std::string_view bytes, const std::string& name,
+                                           const CubeSelect& select);
+
 /// A parsed .npy header.
 struct NpyHeader
 {
