@@ -249,14 +249,15 @@ TEST(ViewServer, OnlyItsOwnPageMayConnect)
     EXPECT_EQ(upgradeStatus(port, t, "127.0.0.1:" + p, "http://127.0.0.1:" + p), 101u);
     EXPECT_EQ(upgradeStatus(port, t, "localhost:" + p, "http://localhost:" + p), 101u);
     EXPECT_EQ(upgradeStatus(port, t, "127.0.0.1:" + p, ""), 101u); // not a browser
-    for (const std::string& origin :
-         {"http://evil.example", "http://evil.example:" + p, "null", "https://127.0.0.1:" + p,
-          "http://127.0.0.1", "http://127.0.0.1:" + std::to_string(port + 1),
-          "http://127.0.0.1:" + p + "/x", "file://"}) {
+    for (const std::string& origin : std::vector<std::string>{
+             "http://evil.example", "http://evil.example:" + p, "null", "https://127.0.0.1:" + p,
+             "http://127.0.0.1", "http://127.0.0.1:" + std::to_string(port + 1),
+             "http://127.0.0.1:" + p + "/x", "file://"}) {
         EXPECT_EQ(upgradeStatus(port, t, "127.0.0.1:" + p, origin), 403u) << origin;
     }
-    for (const std::string& host : {"evil.example:" + p, "evil.example",
-                                    "127.0.0.1:" + std::to_string(port + 1), "", "127.0.0.1:"}) {
+    for (const std::string& host :
+         std::vector<std::string>{"evil.example:" + p, "evil.example",
+                                  "127.0.0.1:" + std::to_string(port + 1), "", "127.0.0.1:"}) {
         EXPECT_EQ(upgradeStatus(port, t, host, "http://" + host), 403u) << host;
     }
     // The page's policy names the server's own address, not every ws: URL.
