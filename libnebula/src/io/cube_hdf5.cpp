@@ -15,11 +15,16 @@
 #include <cerrno>
 #include <climits>
 #include <cmath>
+#include <csignal>
+#include <cstdlib>
 #include <cstring>
+#include <fcntl.h>
 #include <functional>
 #include <iostream>
 #include <string_view>
 #include <sys/stat.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
 namespace nebula::detail {
 
@@ -970,11 +975,69 @@ std::unique_ptr<CubeSource> openDataset(Hid file, const std::string& name, const
     return arrayCube(std::move(array), std::move(info), select.component);
 }
 
+/// How long libhdf5 may take over a file's structure in probeStructure() [s]: a structure
+/// walk takes milliseconds; this only ends a library that loops. NEBULA_HDF5_PROBE_SECONDS
+/// (1 to 3600) sets another bound (the tests' looping file).
+int probeSeconds()
+{
+    const char* v = std::getenv("NEBULA_HDF5_PROBE_SECONDS");
+    const int n = v ? std::atoi(v) : 0;
+    return n >= 1 && n <= 3600 ? n : 120;
+}
+
+/// libhdf5 1.10 crashes or loops on some damaged metadata before any of its calls returns an
+/// error (tests/fuzz/libhdf5). So the structure walk that opening a cube makes (links,
+/// dataset, type, layout, filters, attributes) runs first in a child process: where the
+/// library crashes or loops there, the file is refused with a message instead of taking the
+/// tool down. A file the walk refuses cleanly is refused again here, with its own message.
+void probeStructure(const std::string& path, const CubeSelect& select)
+{
+    std::cout.flush();
+    std::cerr.flush();
+    const pid_t pid = ::fork();
+    if (pid < 0) return; // no process to spare: the walk runs here as it did before
+    if (pid == 0) {
+        const int null = ::open("/dev/null", O_WRONLY);
+        if (null >= 0) ::dup2(null, STDERR_FILENO); // a sanitizer's report, not the user's
+        int code = 0;
+        try {
+            quietErrors();
+            openDataset(openFile(path, std::nullopt), path, select);
+        } catch (...) {
+            code = 3;
+        }
+        ::_exit(code);
+    }
+    int status = 0;
+    const int seconds = probeSeconds();
+    for (int waited = 0;; ++waited) {
+        const pid_t done = ::waitpid(pid, &status, WNOHANG);
+        if (done == pid) break;
+        if (done < 0 && errno != EINTR) return;
+        if (waited >= seconds * 100) {
+            ::kill(pid, SIGKILL);
+            ::waitpid(pid, &status, 0);
+            throw Error(path +
+                        ": the HDF5 library did not finish reading the file's structure in " +
+                        std::to_string(seconds) +
+                        " s (it loops on some damaged files): the file is damaged or hostile; "
+                        "nothing was read from it");
+        }
+        ::usleep(10000);
+    }
+    if (WIFEXITED(status) && (WEXITSTATUS(status) == 0 || WEXITSTATUS(status) == 3)) return;
+    throw Error(path + ": the HDF5 library failed while reading the file's structure (" +
+                (WIFSIGNALED(status) ? "signal " + std::to_string(WTERMSIG(status))
+                                     : "exit " + std::to_string(WEXITSTATUS(status))) +
+                "): the file is damaged or hostile; nothing was read from it");
+}
+
 } // namespace
 
 std::unique_ptr<CubeSource> openHdf5Cube(const std::string& path, const CubeSelect& select)
 {
     quietErrors();
+    probeStructure(path, select);
     return openDataset(openFile(path, std::nullopt), path, select);
 }
 
