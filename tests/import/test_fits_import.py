@@ -131,12 +131,18 @@ case("CDELT 1e-9 pc", "cdelt_tiny", fits_bytes(
     [c.replace("= 0.1", "= 1E-9") for c in WCS]), ["CDELT1..3", "voxels of 1e-09 pc", "expected"])
 case("CRVAL1 = 1e200 pc", "crval_far", fits_bytes(
     with_cards("CRVAL1  = 1E200", drop=("CRVAL1",))), ["CRPIXn, CRVALn", "1e+200", "at most"])
+case("CRPIX1 = -1e15", "crpix_far", fits_bytes(
+    with_cards("CRPIX1  = -1E15", drop=("CRPIX1",))),
+     ["CRPIXn, CRVALn", "reaches x = 1000000000", "at most 1e+11 pc", "1e+12 voxels of 0.1 pc"])
 case("steps 0.1, 0.2, 0.1", "not_cubic", fits_bytes(
     with_cards("CDELT2  = 0.2", drop=("CDELT2",))), ["CDELT1..3", "not cubes"])
 np.save("cube.npy", np.ones((4, 4, 4), "<f4"))
 npy = open("cube.npy", "rb").read()
 case("--voxel-size 1e300pc", "npy_huge", npy, ["--voxel-size", "1e+300 pc", "expected"], code=2,
      extra=("--unit", "cm-3", "--voxel-size", "1e300pc"), suffix=".npy")
+case("--origin 1e13 with voxels of 1e-4 pc", "npy_imprecise", npy, ["--origin", "at most"],
+     code=2, extra=("--unit", "cm-3", "--voxel-size", "1e-4pc", "--origin", "1e13,0,0"),
+     suffix=".npy")
 case("--voxel-size 1e-9pc", "npy_tiny", npy, ["--voxel-size", "1e-09 pc", "expected"], code=2,
      extra=("--unit", "cm-3", "--voxel-size", "1e-9pc"), suffix=".npy")
 

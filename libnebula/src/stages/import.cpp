@@ -241,8 +241,8 @@ void snapSteps(Placement& p, const Run& run)
 }
 
 /// Refuses a voxel size or origin the other tools would refuse when they read the grid: each
-/// step finite and MIN_VOXEL_SIZE_PC to MAX_VOXEL_SIZE_PC, each corner's world coordinates
-/// finite and at most MAX_WORLD_COORDINATE_PC in magnitude.
+/// step MIN_VOXEL_SIZE_PC to MAX_VOXEL_SIZE_PC, each corner's world coordinates at most
+/// MAX_WORLD_COORDINATE_PC and MAX_WORLD_COORDINATE_VOXELS voxels in magnitude.
 void checkPlacement(const Placement& p, const std::array<std::int64_t, 3>& dims)
 {
     for (std::size_t a = 0; a < 3; ++a) {
@@ -252,21 +252,28 @@ void checkPlacement(const Placement& p, const std::array<std::int64_t, 3>& dims)
                      p.stepSource + ": voxels of " + detail::numberText(s) + " pc; expected " +
                          detail::numberText(MIN_VOXEL_SIZE_PC) + " to " +
                          detail::numberText(MAX_VOXEL_SIZE_PC) + " pc (" +
-                         (s < MIN_VOXEL_SIZE_PC ? "smaller cannot be an OpenVDB transform"
-                                                : "larger than any cloud nebula models") +
+                         (s < MIN_VOXEL_SIZE_PC
+                              ? "smaller cannot be an OpenVDB transform"
+                              : "larger, a voxel's volume overflows in the tools that read it") +
                          "; the units are pc)");
         }
     }
+    // Every corner within reach of a camera, and at a voxel's precision.
+    const double voxel = std::abs(p.spacing[0]);
+    const double limit = std::min(MAX_WORLD_COORDINATE_PC, MAX_WORLD_COORDINATE_VOXELS * voxel);
     for (std::size_t a = 0; a < 3; ++a) {
         const double far = p.origin[a] + double(dims[a] - 1) * p.spacing[a];
         for (const double x : {p.origin[a], far}) {
-            if (!(std::abs(x) <= MAX_WORLD_COORDINATE_PC)) {
+            if (!(std::abs(x) <= limit)) {
                 p.refuse(p.originOption,
-                         p.originSource + fmt::format(": the cube's {} extent reaches {} "
-                                                      "= {} pc; expected world coordinates "
-                                                      "of at most {} pc in magnitude",
-                                                      "xyz"[a], "xyz"[a], detail::numberText(x),
-                                                      detail::numberText(MAX_WORLD_COORDINATE_PC)));
+                         p.originSource +
+                             fmt::format(": the cube reaches {} = {} pc; expected world "
+                                         "coordinates of at most {} pc in magnitude ({} voxels "
+                                         "of {} pc, and at most {} pc)",
+                                         "xyz"[a], detail::numberText(x), detail::numberText(limit),
+                                         detail::numberText(MAX_WORLD_COORDINATE_VOXELS),
+                                         detail::numberText(voxel),
+                                         detail::numberText(MAX_WORLD_COORDINATE_PC)));
             }
         }
     }
