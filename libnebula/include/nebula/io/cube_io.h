@@ -47,7 +47,7 @@ struct CubeGeometry
     nlohmann::json wcs;
     /// What in the file gave the steps and the origin, for messages ("CDELT1..3",
     /// "CRPIXn, CRVALn", "attribute voxel_size_pc").
-    std::string stepSource = "the voxel size", originSource = "the origin";
+    std::string stepSource = "the steps", originSource = "the origin";
 };
 
 /// Relative difference within which a file's three steps are taken as one voxel size (and
