@@ -1,7 +1,9 @@
 // libFuzzer target: FITS files in memory (io/fits.h, cfitsio) and nebula's reading of them:
-// every HDU's type, shape, BUNIT and WCS (readFitsGeometry()), and the data of small images
-// whose header says they lie inside the bytes. Anything but a clean nebula::Error is a
-// finding.
+// gzipped bytes inflated within their declared size (openMemory() on the gzip magic; seed
+// cube-wcs.gz), the header diagnosis behind a failed open, every HDU's type, shape, BUNIT,
+// BSCALE/BZERO and WCS (readFitsGeometry(): CROTAn, PC/CD, NaN and string values; seed
+// cube-scaling-rotation), and the data of small images whose header says they lie inside the
+// bytes. Anything but a clean nebula::Error is a finding.
 #include "nebula/core/error.h"
 #include "nebula/io/cube_io.h"
 #include "nebula/io/fits.h"
@@ -23,6 +25,12 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
             if (!f.isImage()) continue;
             const auto shape = f.imageShape();
             (void)f.keyString("BUNIT");
+            for (const char* key : {"BSCALE", "BZERO"}) {
+                try {
+                    (void)f.keyNumber(key);
+                } catch (const nebula::Error&) {
+                }
+            }
             if (shape.size() == 3) {
                 try {
                     (void)nebula::readFitsGeometry(f);

@@ -6,8 +6,9 @@
 # Targets: the VDB structure checker and the grid reader (corpus/grid), the star and dust
 # parsers (corpus/metadata), every JSON consumer (corpus/json, with deep and wide documents),
 # config files (corpus/config), nebimport's cube formats: .npy headers (corpus/npy),
-# RADMC-3D's grid and density headers (corpus/radmc), FITS files (corpus/fits) and HDF5
-# files (corpus/hdf5, written by tests/fuzz/make_hdf5_corpus.py), filter
+# RADMC-3D's grid and density headers (corpus/radmc), FITS files, plain and gzipped
+# (corpus/fits: the gzip branch inflates within the declared size), HDF5 files (corpus/hdf5,
+# written by tests/fuzz/make_hdf5_corpus.py), filter
 # files (corpus/filter), and nebview's WebSocket messages (corpus/view).
 # The corpus grows in a scratch copy (FUZZ_BUILD_DIR/corpus); a finding is saved as
 # FUZZ_BUILD_DIR/findings/crash-* (or leak-*, oom-*, timeout-*). Keep it as a regression

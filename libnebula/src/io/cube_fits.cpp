@@ -3,6 +3,7 @@
 #include "cube_raw.h"
 
 #include "nebula/core/error.h"
+#include "nebula/core/format.h"
 
 #include <fmt/format.h>
 
@@ -26,33 +27,105 @@ bool startsWith(const std::string& s, const char* head)
 
 } // namespace
 
-std::optional<CubeGeometry> readFitsGeometry(const FitsFile& f)
+namespace {
+
+/// A geometry keyword's value: nullopt if absent; a finite number, else Error naming it.
+std::optional<double> finiteKey(const FitsFile& f, const std::string& where, const std::string& key)
 {
-    const std::string where = f.name() + ": " + f.hduLabel();
-    // A rotation or shear (CDi_j, PCi_j off the diagonal) has no place in an axis-aligned grid.
+    const auto v = f.keyNumber(key);
+    if (v && !std::isfinite(*v)) {
+        throw Error(where + ": " + key + " = " + fmt::format("{}", *v) +
+                    ": expected a finite number");
+    }
+    return v;
+}
+
+/// Refuses a rotation or shear: CDi_j or PCi_j off the diagonal, or CROTAn, not 0 (an
+/// axis-aligned grid has none). Returns whether the file uses CDi_j.
+bool refuseRotation(const FitsFile& f, const std::string& where)
+{
+    const std::string fix =
+        "; only axis-aligned cubes can be imported (give --voxel-size to ignore the WCS)";
     bool anyCd = false;
     for (int i = 0; i < 3; ++i) {
         for (int j = 0; j < 3; ++j) {
-            const auto cd = f.keyDouble("CD" + ax(i) + "_" + ax(j));
-            const auto pc = f.keyDouble("PC" + ax(i) + "_" + ax(j));
-            if (cd) anyCd = true;
-            if (i != j && ((cd && *cd != 0.0) || (pc && *pc != 0.0))) {
-                throw Error(where + ": the WCS rotates or shears the axes (" + (cd ? "CD" : "PC") +
-                            ax(i) + "_" + ax(j) +
-                            " is not 0); only axis-aligned cubes can be imported (give "
-                            "--voxel-size to ignore the WCS)");
+            for (const char* kind : {"CD", "PC"}) {
+                const std::string key = kind + ax(i) + "_" + ax(j);
+                const auto v = finiteKey(f, where, key);
+                if (v && kind[0] == 'C') anyCd = true;
+                if (v && i != j && *v != 0.0) {
+                    throw Error(where + ": the WCS rotates or shears the axes (" + key + " = " +
+                                fmt::format("{}", *v) + ", not 0)" + fix);
+                }
             }
         }
+        const std::string crota = "CROTA" + ax(i);
+        const auto rot = finiteKey(f, where, crota);
+        if (rot && *rot != 0.0) {
+            throw Error(where + ": the WCS rotates the axes (" + crota + " = " +
+                        fmt::format("{}", *rot) + " degrees, not 0)" + fix);
+        }
     }
+    return anyCd;
+}
+
+/// Refuses a CTYPEn that is not a length: a sky coordinate or a spectral axis.
+void refuseNonSpatialAxis(const std::string& where, int i, const std::string& ctype)
+{
+    const std::string shown = detail::printable(ctype, 40);
+    for (const char* sky : {"RA", "DEC", "GLON", "GLAT", "ELON", "ELAT"}) {
+        if (startsWith(ctype, sky) &&
+            (ctype.size() == std::string(sky).size() || ctype[std::string(sky).size()] == '-')) {
+            throw Error(where + ": CTYPE" + ax(i) + " = '" + shown +
+                        "' is a sky coordinate: an image of the sky, not a cube in space "
+                        "(give --voxel-size to import it as one)");
+        }
+    }
+    for (const char* spec : {"FREQ", "VRAD", "VOPT", "VELO", "WAVE", "ZOPT", "VELO-LSR"}) {
+        if (startsWith(ctype, spec)) {
+            throw Error(where + ": CTYPE" + ax(i) + " = '" + shown +
+                        "' is a spectral axis (a position-position-velocity cube?), not a "
+                        "length (give --voxel-size to import it as one)");
+        }
+    }
+}
+
+/// pc per unit of CUNITn (axis @p i), or Error: missing, an angle, unknown.
+double axisUnitPc(const FitsFile& f, const std::string& where, int i)
+{
+    const auto cunit = f.keyString("CUNIT" + ax(i));
+    if (!cunit || cunit->empty()) {
+        throw Error(where + ": CUNIT" + ax(i) +
+                    " is missing: the voxel size's unit is unknown (give --voxel-size, or "
+                    "CUNITn = 'pc', 'au', 'cm', 'm', 'km' or 'kpc')");
+    }
+    const auto pcPer = lengthUnitPc(*cunit);
+    if (!pcPer) {
+        const std::string l = *cunit;
+        const bool angle = l == "deg" || l == "arcmin" || l == "arcsec" || l == "rad" || l == "mas";
+        throw Error(where + ": CUNIT" + ax(i) + " = '" + detail::printable(*cunit, 40) + "' " +
+                    (angle ? "is an angle, not a length" : "is not a length nebula knows") +
+                    " (expected pc, au, cm, m, km or kpc; or give --voxel-size)");
+    }
+    return *pcPer;
+}
+
+} // namespace
+
+std::optional<CubeGeometry> readFitsGeometry(const FitsFile& f)
+{
+    const std::string where = f.name() + ": " + f.hduLabel();
+    const bool anyCd = refuseRotation(f, where);
     CubeGeometry g;
     g.wcs = nlohmann::json::object();
     int withStep = 0;
     bool anyRef = false;
     std::array<double, 3> step{}, crpix{}, crval{}, factor{};
     for (int i = 0; i < 3; ++i) {
-        const auto cdelt = f.keyDouble("CDELT" + ax(i));
-        const auto cd = f.keyDouble("CD" + ax(i) + "_" + ax(i));
-        const auto pc = f.keyDouble("PC" + ax(i) + "_" + ax(i));
+        const std::string stepKey = anyCd ? "CD" + ax(i) + "_" + ax(i) : "CDELT" + ax(i);
+        const auto cdelt = finiteKey(f, where, "CDELT" + ax(i));
+        const auto cd = finiteKey(f, where, "CD" + ax(i) + "_" + ax(i));
+        const auto pc = finiteKey(f, where, "PC" + ax(i) + "_" + ax(i));
         std::optional<double> s;
         if (anyCd) {
             s = cd;
@@ -63,64 +136,46 @@ std::optional<CubeGeometry> readFitsGeometry(const FitsFile& f)
         ++withStep;
         step[std::size_t(i)] = *s;
         if (!std::isfinite(*s) || *s == 0.0) {
-            throw Error(where + ": " + (anyCd ? "CD" + ax(i) + "_" + ax(i) : "CDELT" + ax(i)) +
-                        " = " + fmt::format("{}", *s) +
-                        ": the voxel size must be finite and not 0");
+            throw Error(where + ": " + stepKey +
+                        (pc && !anyCd ? " x PC" + ax(i) + "_" + ax(i) : "") + " = " +
+                        fmt::format("{}", *s) + ": the voxel size must be finite and not 0");
         }
         const std::string ctype = f.keyString("CTYPE" + ax(i)).value_or("");
-        for (const char* sky : {"RA", "DEC", "GLON", "GLAT", "ELON", "ELAT"}) {
-            if (startsWith(ctype, sky) && (ctype.size() == std::string(sky).size() ||
-                                           ctype[std::string(sky).size()] == '-')) {
-                throw Error(where + ": CTYPE" + ax(i) + " = '" + ctype +
-                            "' is a sky coordinate: an image of the sky, not a cube in space "
-                            "(give --voxel-size to import it as one)");
-            }
-        }
-        for (const char* spec : {"FREQ", "VRAD", "VOPT", "VELO", "WAVE", "ZOPT", "VELO-LSR"}) {
-            if (startsWith(ctype, spec)) {
-                throw Error(where + ": CTYPE" + ax(i) + " = '" + ctype +
-                            "' is a spectral axis (a position-position-velocity cube?), not a "
-                            "length (give --voxel-size to import it as one)");
-            }
-        }
-        const auto cunit = f.keyString("CUNIT" + ax(i));
-        if (!cunit || cunit->empty()) {
-            throw Error(where + ": CUNIT" + ax(i) +
-                        " is missing: the voxel size's unit is unknown (give --voxel-size, or "
-                        "CUNITn = 'pc', 'au', 'cm', 'm', 'km' or 'kpc')");
-        }
-        const auto pcPer = lengthUnitPc(*cunit);
-        if (!pcPer) {
-            const std::string l = *cunit;
-            const bool angle =
-                l == "deg" || l == "arcmin" || l == "arcsec" || l == "rad" || l == "mas";
-            throw Error(where + ": CUNIT" + ax(i) + " = '" + *cunit + "' " +
-                        (angle ? "is an angle, not a length" : "is not a length nebula knows") +
-                        " (expected pc, au, cm, m, km or kpc; or give --voxel-size)");
-        }
-        factor[std::size_t(i)] = *pcPer;
-        const auto rp = f.keyDouble("CRPIX" + ax(i));
-        const auto rv = f.keyDouble("CRVAL" + ax(i));
+        refuseNonSpatialAxis(where, i, ctype);
+        factor[std::size_t(i)] = axisUnitPc(f, where, i);
+        const auto rp = finiteKey(f, where, "CRPIX" + ax(i));
+        const auto rv = finiteKey(f, where, "CRVAL" + ax(i));
         anyRef = anyRef || rp || rv;
         crpix[std::size_t(i)] = rp.value_or(0.0);
         crval[std::size_t(i)] = rv.value_or(0.0);
         g.wcs["ctype"][std::size_t(i)] = ctype;
-        g.wcs["cunit"][std::size_t(i)] = *cunit;
+        g.wcs["cunit"][std::size_t(i)] = *f.keyString("CUNIT" + ax(i));
     }
     if (withStep == 0) return std::nullopt;
     if (withStep != 3) {
         throw Error(where + ": the WCS gives a step (CDELTn) on " + std::to_string(withStep) +
                     " of the 3 axes; give all three, or --voxel-size");
     }
+    g.stepSource = anyCd ? "CD1_1, CD2_2, CD3_3" : "CDELT1..3";
+    g.originSource = "CRPIXn, CRVALn";
     std::array<double, 3> pc{};
     for (std::size_t i = 0; i < 3; ++i)
         pc[i] = step[i] * factor[i];
+    for (std::size_t i = 0; i < 3; ++i) {
+        if (!std::isfinite(pc[i])) { // 1e308 kpc
+            throw Error(where + ": " + g.stepSource +
+                        fmt::format(" give steps of {}, {}, {} pc", pc[0], pc[1], pc[2]) +
+                        ": expected finite voxel sizes");
+        }
+    }
+    // Steps equal within CUBIC_STEP_TOLERANCE are one voxel size (importCube() snaps them).
     for (std::size_t i = 1; i < 3; ++i) {
-        if (std::abs(std::abs(pc[i]) - std::abs(pc[0])) > 1e-6 * std::abs(pc[0])) {
-            throw Error(where + fmt::format(": the voxels are not cubes: the steps are {}, {}, {} "
-                                            "pc along the axes; nebula needs equal steps (give "
+        if (std::abs(std::abs(pc[i]) - std::abs(pc[0])) > CUBIC_STEP_TOLERANCE * std::abs(pc[0])) {
+            throw Error(where + fmt::format(": the voxels are not cubes: {} give steps of {}, {}, "
+                                            "{} pc along the axes; nebula needs equal steps (give "
                                             "--voxel-size to override)",
-                                            std::abs(pc[0]), std::abs(pc[1]), std::abs(pc[2])));
+                                            g.stepSource, std::abs(pc[0]), std::abs(pc[1]),
+                                            std::abs(pc[2])));
         }
     }
     g.spacing = pc;
@@ -181,6 +236,24 @@ std::string shapeText(const std::vector<std::int64_t>& shape)
     return std::to_string(shape.size()) + "-D image " + s;
 }
 
+/// Refuses a BSCALE or BZERO that is not a finite number (a string such as 'NaN', which cfitsio
+/// would take as 1) and a BSCALE of 0 (every value would be BZERO).
+void checkScaling(const FitsFile& f, const std::string& where)
+{
+    for (const char* key : {"BSCALE", "BZERO"}) {
+        const auto v = f.keyNumber(key);
+        if (!v) continue;
+        if (!std::isfinite(*v)) {
+            throw Error(where + ": " + key + " = " + fmt::format("{}", *v) +
+                        ": expected a finite number");
+        }
+        if (*v == 0.0 && key[1] == 'S') {
+            throw Error(where + ": BSCALE = 0: every value would be BZERO; expected a finite "
+                                "number other than 0");
+        }
+    }
+}
+
 /// Moves @p f to the HDU @p select names, or to the first image HDU with 3 or more axes.
 void chooseHdu(FitsFile& f, const CubeSelect& select)
 {
@@ -207,6 +280,9 @@ void chooseHdu(FitsFile& f, const CubeSelect& select)
         if (shape.size() >= 3) return;
         seen += (seen.empty() ? "" : "; ") + f.hduLabel() + ": " + shapeText(shape);
     }
+    // An HDU cfitsio stopped counting at, damaged, is the likelier cause than no cube at all.
+    const std::string damaged = f.unreadHduFault();
+    if (!damaged.empty()) throw Error(f.name() + ": cannot read it: " + damaged);
     f.moveTo(0);
     const auto shape = f.imageShape();
     if (n == 1 && !shape.empty()) return; // a 2-D primary: checkCubeShape() names it
@@ -218,7 +294,9 @@ void chooseHdu(FitsFile& f, const CubeSelect& select)
 std::unique_ptr<CubeSource> openFitsCube(const std::string& path, const CubeSelect& select)
 {
     FitsFile f = FitsFile::open(path, path);
+    f.checkHeaderText(); // the primary's, then the cube's
     chooseHdu(f, select);
+    if (f.hdu() != 0) f.checkHeaderText();
     CubeInfo info;
     info.name = path + ": " + f.hduLabel();
     const auto shape = f.imageShape();
@@ -231,13 +309,13 @@ std::unique_ptr<CubeSource> openFitsCube(const std::string& path, const CubeSele
     const auto [start, end] = f.dataSpan();
     (void)end;
     const double need = double(start) + count * double(std::abs(bitpix) / 8);
-    const auto size = f.fileSize();
-    const bool gz = path.size() > 3 && path.compare(path.size() - 3, 3, ".gz") == 0;
-    if (!gz && need > double(size)) {
+    const auto size = f.fileSize(); // a gzipped file's: its inflated size
+    if (need > double(size)) {
         throw Error(info.name + fmt::format(": truncated: the header says {} bytes of data from "
                                             "byte {}, the file has {} bytes",
                                             count * double(std::abs(bitpix) / 8), start, size));
     }
+    checkScaling(f, info.name);
     info.unit = f.keyString("BUNIT").value_or("");
     if (shape.size() == 3) {
         try {

@@ -1,17 +1,22 @@
 #include "nebula/io/fits.h"
 
+#include "fits_header.h"
+
 #include "nebula/core/atomic_file.h"
 #include "nebula/core/error.h"
+#include "nebula/core/format.h"
 
 #include <fitsio.h>
 #include <fmt/format.h>
 
 #include <algorithm>
 
+#include <cctype>
 #include <cerrno>
 #include <cmath>
 #include <cstdlib>
 #include <cstring>
+#include <fcntl.h>
 #include <iostream>
 #include <limits>
 #include <malloc.h>
@@ -43,23 +48,87 @@ struct FitsFile::Impl
 
 namespace {
 
-/// cfitsio's message for @p status and the messages it stacked, one line.
-std::string fitsMessage(int status)
+/// What cfitsio's status @p status means, in nebula's words: the common codes from a table,
+/// any other from cfitsio's own short text (never its message stack, which names its internal
+/// routines and quotes raw header bytes), routine names taken out and bytes made printable.
+std::string statusText(int status)
 {
+    switch (status) {
+    case FILE_NOT_OPENED: return "the file cannot be opened";
+    case END_OF_FILE: return "the file ends before the header or data it declares (truncated?)";
+    case READ_ERROR: return "a read failed (the file truncated or unreadable?)";
+    case MEMORY_ALLOCATION: return "out of memory";
+    case KEY_NO_EXIST: return "the keyword is missing";
+    case VALUE_UNDEFINED: return "the keyword has no value";
+    case NO_QUOTE: return "a string value has no closing quote";
+    case BAD_KEYCHAR: return "a card holds a character that FITS does not allow";
+    case BAD_ORDER: return "the required keywords are out of order";
+    case NOT_POS_INT: return "a value that must be a positive integer is not";
+    case NO_END: return "the header has no END card";
+    case BAD_BITPIX:
+    case NO_BITPIX: return "BITPIX is missing or not 8, 16, 32, 64, -32 or -64";
+    case BAD_NAXIS:
+    case NO_NAXIS: return "NAXIS is missing or not an integer 0 to 999";
+    case BAD_NAXES:
+    case NO_NAXES: return "an NAXISn keyword is missing or not an integer >= 0";
+    case NEG_AXIS: return "an axis length is below 1";
+    case BAD_PCOUNT:
+    case NO_PCOUNT: return "PCOUNT is missing or not an integer >= 0";
+    case BAD_GCOUNT:
+    case NO_GCOUNT: return "GCOUNT is missing or not an integer >= 0";
+    case BAD_TFIELDS:
+    case NO_TFIELDS: return "TFIELDS is missing or not an integer 0 to 999";
+    case NEG_WIDTH: return "a table's row width (NAXIS1) is negative";
+    case NEG_ROWS: return "a table's row count (NAXIS2) is negative";
+    case NO_TBCOL:
+    case BAD_TBCOL: return "a table column's position (TBCOLn) is missing or out of range";
+    case NO_TFORM:
+    case BAD_TFORM:
+    case BAD_TFORM_DTYPE: return "a table column's format (TFORMn) is missing or not valid";
+    case BAD_TDIM: return "a table column's TDIMn is not valid";
+    case BAD_ROW_WIDTH: return "a table's column widths do not add up to its NAXIS1";
+    case BAD_SIMPLE: return "SIMPLE is not T (not a standard FITS file)";
+    case NO_SIMPLE: return "it does not start with SIMPLE (not a FITS file?)";
+    case NO_XTENSION: return "an extension does not start with XTENSION";
+    case NOT_IMAGE: return "the HDU is not an image";
+    case UNKNOWN_EXT: return "an extension of a type FITS does not define";
+    case UNKNOWN_REC: return "a record that is neither a header nor data (not a FITS file?)";
+    case END_JUNK: return "the END card is not blank after END";
+    case BAD_HEADER_FILL: return "the header's last record is not blank after its END card";
+    case BAD_DATA_FILL: return "the data's last record is not padded with zeros";
+    case BAD_HDU_NUM: return "no such HDU";
+    case BAD_INTKEY:
+    case BAD_C2I: return "the value is not an integer";
+    case BAD_LOGICALKEY: return "the value is not T or F";
+    case BAD_FLOATKEY:
+    case BAD_DOUBLEKEY:
+    case BAD_C2F:
+    case BAD_C2D: return "the value is not a number";
+    case NUM_OVERFLOW: return "a value is beyond the range of its type";
+    case ZERO_SCALE: return "BSCALE is 0";
+    case BAD_DIMEN: return "the number of axes is not valid";
+    case BAD_HEAP_PTR: return "a table's heap address is not valid";
+    default: break;
+    }
     char text[FLEN_STATUS] = {0};
     fits_get_errstatus(status, text);
-    std::string msg = text;
-    char line[FLEN_ERRMSG];
-    std::string detail;
-    while (fits_read_errmsg(line)) {
-        std::string l = line;
-        while (!l.empty() && (l.back() == ' ' || l.back() == '\n'))
-            l.pop_back();
-        if (!l.empty() && detail.find(l) == std::string::npos) {
-            detail += (detail.empty() ? "" : "; ") + l;
+    std::string t = text;
+    // cfitsio's routines are ff plus letters: none of them reaches a user.
+    std::string clean;
+    for (std::size_t i = 0; i < t.size();) {
+        const bool wordStart = i == 0 || !std::isalnum(static_cast<unsigned char>(t[i - 1]));
+        if (wordStart && t.compare(i, 2, "ff") == 0) {
+            std::size_t j = i + 2;
+            while (j < t.size() && std::islower(static_cast<unsigned char>(t[j])))
+                ++j;
+            if (j - i >= 5) {
+                i = j;
+                continue;
+            }
         }
+        clean += t[i++];
     }
-    return detail.empty() ? msg : msg + " (" + detail + ")";
+    return detail::printable(clean, 80) + " (FITS status " + std::to_string(status) + ")";
 }
 
 /// realloc() for cfitsio's memory files that zeroes every byte it adds: cfitsio reads parts of
@@ -89,13 +158,67 @@ void FitsFile::check(int status, const std::string& what) const
         fits_get_hdu_num(mImpl->fptr, &num);
         if (num > 0) where += ": " + hduLabel();
     }
-    const std::string msg = fitsMessage(status);
     fits_clear_errmsg();
-    throw Error(where + ": " + what + ": " + msg);
+    throw Error(where + ": " + what + ": " + statusText(status));
+}
+
+void FitsFile::checkHeaderText() const
+{
+    LONGLONG head = 0, data = 0, stop = 0;
+    int status = 0;
+    fits_get_hduaddrll(mImpl->fptr, &head, &data, &stop, &status);
+    check(status, "cannot locate the header");
+    const std::size_t length =
+        std::size_t(std::min<LONGLONG>(data - head, LONGLONG(detail::MAX_FITS_HEADER_BYTES)));
+    const std::string fault = detail::headerFault(bytesAt(head, length), hdu() == 0);
+    if (!fault.empty()) throw Error(mName + ": " + hduLabel() + ": " + fault);
+}
+
+std::string FitsFile::unreadHduFault()
+{
+    const int n = hduCount();
+    moveTo(n - 1);
+    const std::int64_t end = dataSpan().second;
+    const std::string next = bytesAt(end, detail::MAX_FITS_HEADER_BYTES);
+    if (next.compare(0, 8, "XTENSION") != 0) return ""; // no HDU there: trailing bytes
+    const std::string fault = detail::headerFault(next, false);
+    return fault.empty() ? "" : "HDU " + std::to_string(n) + ": " + fault;
+}
+
+std::string FitsFile::bytesAt(std::int64_t offset, std::size_t count) const
+{
+    if (mImpl->path.empty()) {
+        const auto size = std::int64_t(mImpl->fileSize);
+        if (offset < 0 || offset >= size) return {};
+        return mImpl->bytes.substr(std::size_t(offset), count);
+    }
+    std::string out(count, '\0');
+    const int fd = ::open(mImpl->path.c_str(), O_RDONLY | O_CLOEXEC);
+    if (fd < 0) return {};
+    const ssize_t n = ::pread(fd, out.data(), count, off_t(offset));
+    ::close(fd);
+    out.resize(n > 0 ? std::size_t(n) : 0);
+    return out;
+}
+
+void FitsFile::checkHeader(int status, std::int64_t headerStart, int index,
+                           const std::string& what) const
+{
+    if (status == 0) return;
+    fits_clear_errmsg();
+    // The header's own first fault names the card; cfitsio's code alone does not.
+    const std::string fault =
+        detail::headerFault(bytesAt(headerStart, detail::MAX_FITS_HEADER_BYTES), index == 0);
+    throw Error(mName + ": " + what + ": HDU " + std::to_string(index) + ": " +
+                (fault.empty() ? statusText(status) : fault));
 }
 
 FitsFile FitsFile::open(const std::string& path, const std::string& name)
 {
+    // A gzipped file is inflated here, bounded by what its headers declare (cfitsio would
+    // inflate all of it into memory first, whatever its size). Opening it here also names a
+    // missing or unreadable file in the system's words.
+    if (detail::isGzipFile(path, name)) return openOwned(detail::inflateFitsGzip(path, name), name);
     FitsFile f;
     f.mName = name;
     f.mImpl = std::make_unique<Impl>();
@@ -105,21 +228,27 @@ FitsFile FitsFile::open(const std::string& path, const std::string& name)
     fits_open_diskfile(&f.mImpl->fptr, path.c_str(), READONLY, &status);
     if (status) {
         f.mImpl->fptr = nullptr;
-        f.check(status, "cannot open it as a FITS file");
+        f.checkHeader(status, 0, 0, "cannot open it as a FITS file");
     }
     return f;
 }
 
 FitsFile FitsFile::openMemory(std::string_view bytes, const std::string& name)
 {
+    if (detail::isGzip(bytes)) return openOwned(detail::inflateFitsGzip(bytes, name), name);
+    return openOwned(std::string(bytes), name);
+}
+
+FitsFile FitsFile::openOwned(std::string bytes, const std::string& name)
+{
     FitsFile f;
     f.mName = name;
     f.mImpl = std::make_unique<Impl>();
-    // cfitsio's memory driver reads whole 2880-byte records: pad the copy with zeros so that
+    // cfitsio's memory driver reads whole 2880-byte records: pad the bytes with zeros so that
     // it never reads past a file whose length is not a multiple of 2880 (a truncated one).
-    f.mImpl->bytes.assign(bytes.data(), bytes.size());
     f.mImpl->fileSize = bytes.size();
-    f.mImpl->bytes.resize((bytes.size() + 2879) / 2880 * 2880 + 2880, '\0');
+    f.mImpl->bytes = std::move(bytes);
+    f.mImpl->bytes.resize((f.mImpl->fileSize + 2879) / 2880 * 2880 + 2880, '\0');
     f.mImpl->bytesPtr = f.mImpl->bytes.data();
     f.mImpl->bytesSize = f.mImpl->bytes.size();
     int status = 0;
@@ -127,7 +256,7 @@ FitsFile FitsFile::openMemory(std::string_view bytes, const std::string& name)
                       &f.mImpl->bytesSize, 0, nullptr, &status);
     if (status) {
         f.mImpl->fptr = nullptr;
-        f.check(status, "cannot open it as a FITS file");
+        f.checkHeader(status, 0, 0, "cannot open it as a FITS file");
     }
     return f;
 }
@@ -165,8 +294,11 @@ void FitsFile::moveTo(int index)
         throw Error(mName + ": no HDU " + std::to_string(index) + " (the file has " +
                     std::to_string(n) + ", numbered from 0)");
     }
+    // The next HDU's header starts where this one's data end (for naming a damaged card).
+    const std::int64_t next = index == hdu() + 1 ? dataSpan().second : -1;
     int status = 0, type = 0;
     fits_movabs_hdu(mImpl->fptr, index + 1, &type, &status);
+    if (status && next >= 0) checkHeader(status, next, index, "cannot read it");
     check(status, "cannot read HDU " + std::to_string(index));
 }
 
@@ -195,7 +327,7 @@ std::string FitsFile::hduLabel() const
     char value[FLEN_VALUE] = {0};
     int status = 0;
     fits_read_key(mImpl->fptr, TSTRING, "EXTNAME", value, nullptr, &status);
-    if (status == 0 && value[0]) label += " (" + std::string(value) + ")";
+    if (status == 0 && value[0]) label += " (" + detail::printable(value, 40) + ")";
     fits_clear_errmsg();
     return label;
 }
@@ -284,6 +416,31 @@ std::optional<double> FitsFile::keyDouble(const std::string& key) const
     double value = 0.0;
     if (!readKey(*this, mImpl->fptr, key, TDOUBLE, &value)) return std::nullopt;
     return value;
+}
+
+std::optional<double> FitsFile::keyNumber(const std::string& key) const
+{
+    char value[FLEN_VALUE] = {0};
+    int status = 0;
+    fits_read_keyword(mImpl->fptr, key.c_str(), value, nullptr, &status);
+    if (status == KEY_NO_EXIST) {
+        fits_clear_errmsg();
+        return std::nullopt;
+    }
+    check(status, "keyword " + key);
+    std::string_view text(value);
+    while (!text.empty() && text.back() == ' ')
+        text.remove_suffix(1);
+    while (!text.empty() && text.front() == ' ')
+        text.remove_prefix(1);
+    double number = 0.0;
+    if (!detail::parseFitsNumber(text, number)) {
+        throw Error(
+            mName + ": " + hduLabel() + ": " + key + " = " +
+            (text.empty() ? std::string("(no value)") : detail::printable(std::string(text), 40)) +
+            " is not a number");
+    }
+    return number;
 }
 
 std::optional<std::int64_t> FitsFile::keyInt(const std::string& key) const

@@ -659,6 +659,32 @@ void writeGrids(AtomicFile& file, GridSet grids, const std::string& tool,
     stamp(grids, tool, command);
     try {
         CheckedArchive().writeTo(file.stream(), grids.grids, grids.meta);
+    } catch (const openvdb::ArithmeticError&) {
+        // OpenVDB's text ("Non-zero scale values required") names no grid: find the grid
+        // whose transform cannot be written and say why in nebula's words.
+        struct Discard : std::streambuf
+        {
+            int overflow(int c) override { return c; }
+            std::streamsize xsputn(const char*, std::streamsize n) override { return n; }
+        };
+        for (const auto& g : grids.grids) {
+            try {
+                Discard discard;
+                std::ostream probe(&discard);
+                openvdb::io::Stream(probe).write(openvdb::GridCPtrVec{g});
+            } catch (const openvdb::ArithmeticError&) {
+                const auto vs = g->transform().voxelSize();
+                const auto o = g->transform().indexToWorld(openvdb::Vec3d(0, 0, 0));
+                throw Error(file.path() + ": cannot write grid \"" +
+                            detail::printable(g->getName(), 60) + "\": its transform (voxels " +
+                            detail::numberText(vs[0]) + " x " + detail::numberText(vs[1]) + " x " +
+                            detail::numberText(vs[2]) + " at (" + detail::numberText(o[0]) + ", " +
+                            detail::numberText(o[1]) + ", " + detail::numberText(o[2]) +
+                            ")) has a voxel size of 0 or one lost next to its coordinates");
+            }
+        }
+        throw Error(file.path() + ": cannot write VDB file: a grid's transform or values "
+                                  "overflow (an arithmetic error while writing)");
     } catch (const std::exception& e) {
         if (file.stream()) {
             throw Error(file.path() + ": cannot write VDB file (" + detail::printable(e.what()) +

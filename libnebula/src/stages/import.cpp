@@ -3,6 +3,7 @@
 #include "nebula/core/error.h"
 #include "nebula/core/format.h"
 #include "nebula/core/memory.h"
+#include "nebula/io/grid_io.h"
 #include "nebula/io/grid_names.h"
 #include "nebula/physics/lines.h"
 
@@ -177,7 +178,7 @@ DensityUnit densityUnit(const ImportOptions& opts, const CubeInfo& info)
     if (!info.unit.empty()) {
         fileUnit = parseDensityUnit(info.unit);
         if (!fileUnit) {
-            throw Error(info.name + ": unknown density unit \"" + info.unit +
+            throw Error(info.name + ": unknown density unit \"" + detail::printable(info.unit, 40) +
                         "\" (expected cm-3, g/cm3, g/cm3-dust or Msun/pc3)");
         }
     }
@@ -188,9 +189,10 @@ DensityUnit densityUnit(const ImportOptions& opts, const CubeInfo& info)
                              "\" (expected cm-3, g/cm3, g/cm3-dust or Msun/pc3)");
         }
         if (fileUnit && *fileUnit != *given) {
-            throw Error(info.name + ": the file says its unit is \"" + info.unit + "\" (" +
-                        densityUnitName(*fileUnit) + "), but --unit says " +
-                        densityUnitName(*given) + "; drop --unit or fix the file");
+            throw Error(info.name + ": the file says its unit is \"" +
+                        detail::printable(info.unit, 40) + "\" (" + densityUnitName(*fileUnit) +
+                        "), but --unit says " + densityUnitName(*given) +
+                        "; drop --unit or fix the file");
         }
         return *given;
     }
@@ -201,14 +203,93 @@ DensityUnit densityUnit(const ImportOptions& opts, const CubeInfo& info)
     return *fileUnit;
 }
 
-/// The index -> world transform [pc] and the geometry's record for nebula:cube.
-openvdb::math::Transform::Ptr cubeTransform(const ImportOptions& opts, const CubeInfo& info,
-                                            const Run& run, nlohmann::json& record)
+/// The voxel size and origin [pc] of the cube and what gave them, for messages.
+struct Placement
 {
     std::array<double, 3> spacing{}, origin{};
+    std::string stepSource, originSource;
+    bool stepOption = false, originOption = false; ///< given by --voxel-size, --origin
+
+    /// An Error about the file's geometry, a UsageError about an option's.
+    [[noreturn]] void refuse(bool option, const std::string& message) const
+    {
+        if (option) throw UsageError(message);
+        throw Error(message);
+    }
+};
+
+/// Snaps steps equal within CUBIC_STEP_TOLERANCE to the first one (-v says so): nebstats and
+/// the path tracer want exactly cubic voxels. Steps further apart are refused.
+void snapSteps(Placement& p, const Run& run)
+{
+    const double first = std::abs(p.spacing[0]);
+    double worst = 0.0;
+    for (std::size_t a = 1; a < 3; ++a)
+        worst = std::max(worst, std::abs(std::abs(p.spacing[a]) - first) / first);
+    if (worst == 0.0) return;
+    if (!(worst <= CUBIC_STEP_TOLERANCE)) {
+        throw Error(p.stepSource + fmt::format(": the voxels are not cubes ({} x {} x {} pc); "
+                                               "nebula needs equal steps (give --voxel-size to "
+                                               "override)",
+                                               std::abs(p.spacing[0]), std::abs(p.spacing[1]),
+                                               std::abs(p.spacing[2])));
+    }
+    for (std::size_t a = 1; a < 3; ++a)
+        p.spacing[a] = std::copysign(first, p.spacing[a]);
+    run.info(fmt::format("{} differ by {:.2g} relative; voxels taken as cubes of {} pc",
+                         p.stepSource, worst, first));
+}
+
+/// Refuses a voxel size or origin the other tools would refuse when they read the grid: each
+/// step MIN_VOXEL_SIZE_PC to MAX_VOXEL_SIZE_PC, each corner's world coordinates at most
+/// MAX_WORLD_COORDINATE_PC and MAX_WORLD_COORDINATE_VOXELS voxels in magnitude.
+void checkPlacement(const Placement& p, const std::array<std::int64_t, 3>& dims)
+{
+    for (std::size_t a = 0; a < 3; ++a) {
+        const double s = std::abs(p.spacing[a]);
+        if (!(s >= MIN_VOXEL_SIZE_PC && s <= MAX_VOXEL_SIZE_PC)) {
+            p.refuse(p.stepOption,
+                     p.stepSource + ": voxels of " + detail::numberText(s) + " pc; expected " +
+                         detail::numberText(MIN_VOXEL_SIZE_PC) + " to " +
+                         detail::numberText(MAX_VOXEL_SIZE_PC) + " pc (" +
+                         (s < MIN_VOXEL_SIZE_PC
+                              ? "smaller cannot be an OpenVDB transform"
+                              : "larger, a voxel's volume overflows in the tools that read it") +
+                         "; the units are pc)");
+        }
+    }
+    // Every corner within reach of a camera, and at a voxel's precision.
+    const double voxel = std::abs(p.spacing[0]);
+    const double limit = std::min(MAX_WORLD_COORDINATE_PC, MAX_WORLD_COORDINATE_VOXELS * voxel);
+    for (std::size_t a = 0; a < 3; ++a) {
+        const double far = p.origin[a] + double(dims[a] - 1) * p.spacing[a];
+        for (const double x : {p.origin[a], far}) {
+            if (!(std::abs(x) <= limit)) {
+                p.refuse(p.originOption,
+                         p.originSource +
+                             fmt::format(": the cube reaches {} = {} pc; expected world "
+                                         "coordinates of at most {} pc in magnitude ({} voxels "
+                                         "of {} pc, and at most {} pc)",
+                                         "xyz"[a], detail::numberText(x), detail::numberText(limit),
+                                         detail::numberText(MAX_WORLD_COORDINATE_VOXELS),
+                                         detail::numberText(voxel),
+                                         detail::numberText(MAX_WORLD_COORDINATE_PC)));
+            }
+        }
+    }
+}
+
+/// The cube's voxel size and origin [pc]: --voxel-size, --origin, the file's, else centred on
+/// the world origin; checked and snapped (every source's geometry passes here).
+Placement cubePlacement(const ImportOptions& opts, const CubeInfo& info, const Run& run,
+                        nlohmann::json& record)
+{
+    Placement p;
     bool fileOrigin = false;
     if (opts.voxelSize) {
-        spacing.fill(*opts.voxelSize);
+        p.spacing.fill(*opts.voxelSize);
+        p.stepSource = "--voxel-size";
+        p.stepOption = true;
         if (info.geometry) {
             run.warn(fmt::format("--voxel-size {} pc replaces the file's {} pc", *opts.voxelSize,
                                  std::abs(info.geometry->spacing[0])));
@@ -216,9 +297,11 @@ openvdb::math::Transform::Ptr cubeTransform(const ImportOptions& opts, const Cub
     } else if (!info.geometryError.empty()) {
         throw Error(info.geometryError);
     } else if (info.geometry) {
-        spacing = info.geometry->spacing;
+        p.spacing = info.geometry->spacing;
+        p.stepSource = info.name + ": " + info.geometry->stepSource;
         if (info.geometry->origin) {
-            origin = *info.geometry->origin;
+            p.origin = *info.geometry->origin;
+            p.originSource = info.name + ": " + info.geometry->originSource;
             fileOrigin = true;
         }
         if (!info.geometry->wcs.is_null()) record["wcs"] = info.geometry->wcs;
@@ -226,37 +309,67 @@ openvdb::math::Transform::Ptr cubeTransform(const ImportOptions& opts, const Cub
         throw UsageError(info.name + ": the file gives no voxel size; give --voxel-size (e.g. "
                                      "0.01pc, 200au)");
     }
+    for (std::size_t a = 0; a < 3; ++a) {
+        if (!std::isfinite(p.spacing[a]) || p.spacing[a] == 0.0) {
+            throw Error(p.stepSource + ": a step of " + detail::numberText(p.spacing[a]) +
+                        " pc; expected a finite voxel size > 0");
+        }
+    }
+    snapSteps(p, run);
     if (opts.origin) {
-        origin = *opts.origin;
+        p.origin = *opts.origin;
+        p.originSource = "--origin";
+        p.originOption = true;
         fileOrigin = true;
         record.erase("wcs");
     }
     if (!fileOrigin) {
         // Centred on the world origin, as nebgen's cubes are.
         for (std::size_t a = 0; a < 3; ++a)
-            origin[a] = -0.5 * double(info.dims[a] - 1) * spacing[a];
+            p.origin[a] = -0.5 * double(info.dims[a] - 1) * p.spacing[a];
+        p.originSource = p.stepSource;
+        p.originOption = p.stepOption;
     }
-    // OpenVDB refuses a transform whose determinant is within 1e-15 of 0 (voxels below about
-    // 1e-5 pc, 2 au): say so, in the user's terms.
-    if (!(std::abs(spacing[0] * spacing[1] * spacing[2]) > 1e-15)) {
-        throw Error(info.name + fmt::format(": voxels of {} pc are too small for an OpenVDB "
-                                            "transform (at least about 1e-5 pc, 2 au); give a "
-                                            "larger --voxel-size (the units are pc)",
-                                            std::abs(spacing[0])));
+    if (record.contains("wcs")) {
+        // The WCS's steps as snapped, in each axis's unit, so that nebexport writes them back.
+        for (std::size_t a = 0; a < 3; ++a) {
+            const double was = record["wcs"]["cdelt"][a].get<double>();
+            const double pc = std::abs(info.geometry->spacing[a]);
+            record["wcs"]["cdelt"][a] = was * (std::abs(p.spacing[a]) / pc);
+        }
     }
-    openvdb::math::Mat4d m = openvdb::math::Mat4d::identity();
-    for (int a = 0; a < 3; ++a) {
-        m[a][a] = spacing[std::size_t(a)];
-        m[3][a] = origin[std::size_t(a)];
-    }
+    checkPlacement(p, info.dims);
+    return p;
+}
+
+/// The index -> world transform [pc] and the geometry's record for nebula:cube.
+openvdb::math::Transform::Ptr cubeTransform(const ImportOptions& opts, const CubeInfo& info,
+                                            const Run& run, nlohmann::json& record)
+{
+    const Placement p = cubePlacement(opts, info, run, record);
+    const auto& spacing = p.spacing;
+    const auto& origin = p.origin;
     record["voxel_size_pc"] = spacing;
     record["origin_pc"] = origin;
-    if (spacing[0] > 0 && spacing[0] == spacing[1] && spacing[1] == spacing[2]) {
-        auto xform = openvdb::math::Transform::createLinearTransform(spacing[0]);
-        xform->postTranslate(openvdb::Vec3d(origin[0], origin[1], origin[2]));
-        return xform;
+    try {
+        if (spacing[0] > 0 && spacing[0] == spacing[1] && spacing[1] == spacing[2]) {
+            auto xform = openvdb::math::Transform::createLinearTransform(spacing[0]);
+            xform->postTranslate(openvdb::Vec3d(origin[0], origin[1], origin[2]));
+            return xform;
+        }
+        openvdb::math::Mat4d m = openvdb::math::Mat4d::identity();
+        for (int a = 0; a < 3; ++a) {
+            m[a][a] = spacing[std::size_t(a)];
+            m[3][a] = origin[std::size_t(a)];
+        }
+        return openvdb::math::Transform::createLinearTransform(m);
+    } catch (const openvdb::Exception&) {
+        // checkPlacement() keeps OpenVDB's limits: this is a guard, in nebula's words.
+        throw Error(p.stepSource + fmt::format(": voxels of {} x {} x {} pc at ({}, {}, {}) pc "
+                                               "make no invertible transform",
+                                               spacing[0], spacing[1], spacing[2], origin[0],
+                                               origin[1], origin[2]));
     }
-    return openvdb::math::Transform::createLinearTransform(m);
 }
 
 /// Opens FILE[:SELECTOR] as a cube the shape of @p dims (component @p component of a 4-D one).
@@ -288,7 +401,8 @@ openvdb::FloatGrid::Ptr readTemperature(const ImportOptions& opts,
     auto cube = openSide(opts.temperature, "--temperature", -1, dims);
     const std::string& unit = cube->info().unit;
     if (!unit.empty() && unit != "K" && unit != "k") {
-        throw Error("--temperature: " + cube->info().name + ": unit \"" + unit + "\", expected K");
+        throw Error("--temperature: " + cube->info().name + ": unit \"" +
+                    detail::printable(unit, 40) + "\", expected K");
     }
     auto grid = openvdb::FloatGrid::create(0.0f);
     grid->tree().topologyUnion(density.tree());
@@ -320,8 +434,9 @@ openvdb::FloatGrid::Ptr readEmission(const ImportOptions& opts,
     }
     if (!opts.emissionUnit.empty() && !fileUnit.empty() && emissivityUnitFactor(fileUnit) &&
         *emissivityUnitFactor(fileUnit) != *factor) {
-        throw Error("--emission: " + cube->info().name + " says its unit is \"" + fileUnit +
-                    "\", but --emission-unit says \"" + opts.emissionUnit + "\"");
+        throw Error("--emission: " + cube->info().name + " says its unit is \"" +
+                    detail::printable(fileUnit, 40) + "\", but --emission-unit says \"" +
+                    detail::printable(opts.emissionUnit, 40) + "\"");
     }
     auto grid = readSparse(*cube, *factor, 0.0, "emission", run);
     grid->setName("emission");
@@ -366,8 +481,8 @@ openvdb::Vec3fGrid::Ptr readVelocity(const ImportOptions& opts, const openvdb::F
         } else if (unit == "cm/s" || unit == "cm s-1") {
             factor = 1e-5;
         } else if (!unit.empty() && unit != "km/s" && unit != "km s-1") {
-            throw Error("--velocity: " + cube->info().name + ": unit \"" + unit +
-                        "\", expected km/s, m/s or cm/s");
+            throw Error("--velocity: " + cube->info().name + ": unit \"" +
+                        detail::printable(unit, 40) + "\", expected km/s, m/s or cm/s");
         }
         fillOnTopology(*grid, *cube, true, std::string("velocity ") + "xyz"[c], run,
                        [c, factor](auto& it, float v) {

@@ -476,6 +476,16 @@ TEST_F(CubeIo, FitsWcsThatIsNotACubeIsRefused)
     EXPECT_TRUE(contains(geometryError({}, {{"CDELT1", 1}, {"CDELT2", 1}, {"CDELT3", 1}}),
                          "CUNIT1 is missing"));
     EXPECT_TRUE(geometryError({}, {}).empty()); // no WCS: --voxel-size then
+    // A rotation by CROTAn, a value that is a string: refused, naming the keyword.
+    EXPECT_TRUE(
+        contains(geometryError(pc, {{"CDELT1", 1}, {"CDELT2", 1}, {"CDELT3", 1}, {"CROTA2", 30}}),
+                 "CROTA2 = 30 degrees"));
+    auto withCrpix = pc;
+    withCrpix.push_back({"CRPIX1", "NaN"});
+    EXPECT_TRUE(contains(geometryError(withCrpix, {{"CDELT1", 1}, {"CDELT2", 1}, {"CDELT3", 1}}),
+                         "CRPIX1 = 'NaN"));
+    // Steps equal within CUBIC_STEP_TOLERANCE are not refused here (nebimport snaps them).
+    EXPECT_TRUE(geometryError(pc, {{"CDELT1", 1}, {"CDELT2", 1 + 1e-9}, {"CDELT3", 1}}).empty());
 }
 
 TEST_F(CubeIo, FitsDamageIsRefused)
@@ -490,6 +500,9 @@ TEST_F(CubeIo, FitsDamageIsRefused)
     EXPECT_TRUE(
         contains(errorMessage([&] { nebula::openCube(path("damaged.fits"), CubeSelect{}); }),
                  "damaged.fits: cannot open it as a FITS file"));
+    write("bscale.fits", fitsCube({{"BSCALE", "NaN"}}, {}));
+    EXPECT_TRUE(contains(errorMessage([&] { nebula::openCube(path("bscale.fits"), CubeSelect{}); }),
+                         "bscale.fits: HDU 0: BSCALE = 'NaN"));
     CubeSelect sel;
     sel.hdu = "NOPE";
     write("good.fits", good);

@@ -166,6 +166,21 @@ TEST_F(GridIoTest, WriteIntoAMissingFolderThrowsAndLeavesNothing)
     EXPECT_FALSE(fs::exists(dir / "missing"));
 }
 
+TEST_F(GridIoTest, AnUnwritableTransformIsNamedInOwnWords)
+{
+    // Voxels of 1e-4 at 1e13: OpenVDB's writer throws "ArithmeticError: Non-zero scale values
+    // required"; the message names the grid and the transform instead, and no file is left.
+    GridSet s = sampleSet();
+    auto xform = openvdb::math::Transform::createLinearTransform(1e-4);
+    xform->postTranslate(openvdb::Vec3d(1e13, 0, 0));
+    s.grids[0]->setTransform(xform);
+    const std::string file = path("far.vdb");
+    const std::string msg = errorMessage([&] { nebula::writeGrids(file, s, "nebimport", "c"); });
+    EXPECT_TRUE(contains(msg, file + ": cannot write grid \"density\": its transform")) << msg;
+    EXPECT_FALSE(contains(msg, "ArithmeticError")) << msg;
+    EXPECT_FALSE(fs::exists(file));
+}
+
 // ---- history ----------------------------------------------------------------------------------
 
 TEST_F(GridIoTest, WriteGridsAppendsToTheHistory)

@@ -50,7 +50,14 @@ struct CubeGeometry
     /// The FITS WCS as read (CUNIT, CTYPE, CDELT, CRPIX, CRVAL), kept so that nebexport can
     /// write it back unchanged; null for other formats.
     nlohmann::json wcs;
+    /// What in the file gave the steps and the origin, for messages ("CDELT1..3",
+    /// "CRPIXn, CRVALn", "attribute voxel_size_pc").
+    std::string stepSource = "the steps", originSource = "the origin";
 };
+
+/// Relative difference within which a file's three steps are taken as one voxel size (and
+/// snapped to one value by nebimport); beyond it the voxels are not cubes and are refused.
+inline constexpr double CUBIC_STEP_TOLERANCE = 1e-6;
 
 /// What a CubeSource holds: the voxel counts, how its planes run, its unit and geometry.
 struct CubeInfo
@@ -166,8 +173,10 @@ struct RadmcDataHeader
 RadmcDataHeader parseRadmcDataHeader(std::string_view bytes, bool binary, const std::string& name);
 
 /// The FITS WCS of the current HDU of a 3-D image as a CubeGeometry (nullopt: no CDELTn/CDn_n).
-/// Throws Error naming the file: unequal |CDELT|, a rotation (CDi_j or PCi_j off the
-/// diagonal), an unknown or angular CUNIT, a zero step.
+/// Throws Error naming the file and the keyword: |steps| that differ by more than
+/// CUBIC_STEP_TOLERANCE (within it they are returned as read), a rotation (CDi_j or PCi_j off
+/// the diagonal, a CROTAn not 0), an unknown or angular CUNIT, a zero step, a CDELTn, CDi_j,
+/// PCi_j, CROTAn, CRPIXn or CRVALn that is not a finite number (a string, NaN, 1e999).
 std::optional<CubeGeometry> readFitsGeometry(const FitsFile& file);
 
 /// A length unit's size in pc: "pc", "kpc", "au" (AU), "cm", "m", "km"; nullopt otherwise.

@@ -19,10 +19,13 @@ namespace nebula {
 class FitsFile
 {
 public:
-    /// Opens @p path read-only at its primary HDU; @p name names it in messages. Throws Error
-    /// (missing, not FITS, damaged header).
+    /// Opens @p path read-only at its primary HDU; @p name names it in messages. A gzipped
+    /// file is inflated first, into memory, and refused as soon as it inflates to more than its
+    /// headers declare (plus a small margin). Throws Error (missing, not FITS, a damaged header,
+    /// naming the card at fault).
     static FitsFile open(const std::string& path, const std::string& name);
-    /// Opens a copy of @p bytes (a whole FITS file) read-only (fuzzers, tests).
+    /// Opens a copy of @p bytes (a whole FITS file, or one gzipped, inflated as open() does)
+    /// read-only (fuzzers, tests).
     static FitsFile openMemory(std::string_view bytes, const std::string& name);
     /// Creates an empty FITS file in memory; add HDUs with createImage(), then take the bytes
     /// with finishBytes() or write them with writeFile().
@@ -63,6 +66,11 @@ public:
     std::optional<std::string> keyString(const std::string& key) const;
     std::optional<double> keyDouble(const std::string& key) const;
     std::optional<std::int64_t> keyInt(const std::string& key) const;
+    /// A numeric keyword's value as written ([+-]digits[.digits][E|D[+-]digits], so +-inf
+    /// beyond double's range), or nullopt if the header lacks it; throws Error naming the
+    /// keyword if its value is anything else (a string such as 'NaN', a logical, blank), which
+    /// cfitsio would convert or take as a default.
+    std::optional<double> keyNumber(const std::string& key) const;
 
     /// Writes (or updates) a keyword with its comment in the current header; a string longer
     /// than a card holds continues over several (the CONTINUE convention).
@@ -105,11 +113,30 @@ public:
     /// finishBytes() written to @p path ("-" = stdout) through AtomicFile (committed).
     void writeFile(const std::string& path);
 
-    /// Throws Error "<file>: <HDU>: <what>: <cfitsio's message>" if @p status is not 0.
+    /// Throws Error naming the card if the current HDU's header breaks the FITS rules that
+    /// cfitsio lets pass: a byte that is not printable ASCII, SIMPLE = F, a keyword with a
+    /// character other than letters, digits, - and _, a string with no closing quote, an END
+    /// card or last record that is not blank after END.
+    void checkHeaderText() const;
+    /// What is wrong with an HDU after the last one cfitsio can read ("HDU 2: card 2 (BITPIX):
+    /// ..."), "" if none follows (trailing bytes that do not start an HDU are not one).
+    /// Leaves the last readable HDU current.
+    std::string unreadHduFault();
+
+    /// Throws Error "<file>: <HDU>: <what>: <what the status means>" if @p status is not 0:
+    /// the status in nebula's words, never cfitsio's message stack (its routine names, raw
+    /// header bytes).
     void check(int status, const std::string& what) const;
 
 private:
     FitsFile() = default;
+    static FitsFile openOwned(std::string bytes, const std::string& name);
+    /// check() for a header that failed to parse: the message names its first card at fault
+    /// (the header of HDU @p index starts at byte @p headerStart), else the status.
+    void checkHeader(int status, std::int64_t headerStart, int index,
+                     const std::string& what) const;
+    /// Up to @p count bytes of the file from @p offset ("" if there are none).
+    std::string bytesAt(std::int64_t offset, std::size_t count) const;
     struct Impl;
     std::unique_ptr<Impl> mImpl;
     std::string mName;

@@ -120,6 +120,21 @@ std::string gridTypeName(const openvdb::GridBase& grid);
 /// Throws Error unless @p grid's transform is affine (linear map, any scale/rotation/mirror).
 void requireAffine(const openvdb::GridBase& grid, const std::string& source);
 
+/// The smallest voxel edge a grid may have [pc]: OpenVDB refuses a transform whose determinant
+/// (the voxel's volume) is within 1e-15 of 0.
+inline constexpr double MIN_VOXEL_SIZE_PC = 1e-5;
+/// The largest voxel edge a grid may have [pc]: the voxel's volume must be a finite double,
+/// or requireVoxelSize() refuses the grid in every tool that reads it (about 5.6e102 pc).
+inline constexpr double MAX_VOXEL_SIZE_PC = 1e100;
+/// The largest magnitude of a world coordinate of a grid's corners [pc]: the bound on camera
+/// and star coordinates (MAX_CAMERA_COORDINATE, MAX_STAR_COORDINATE), so that a camera can
+/// reach every grid nebimport writes.
+inline constexpr double MAX_WORLD_COORDINATE_PC = 1e150;
+/// The largest magnitude of a world coordinate of a grid's corners, in voxels: beyond it,
+/// neighbouring voxels' world positions differ by less than 1e-4 voxel in double precision (and
+/// from about 1e16, not at all: OpenVDB then cannot write the transform).
+inline constexpr double MAX_WORLD_COORDINATE_VOXELS = 1e12;
+
 /// Throws Error naming @p source and the grid unless @p grid's transform has a finite voxel
 /// size > 0 along every axis and is invertible (its voxel axes span a volume). A file can
 /// hold a zero or NaN scale that OpenVDB reads without complaint (GridSet::floatGrid() checks).
