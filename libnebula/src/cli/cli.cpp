@@ -269,8 +269,23 @@ void markedFiles(const CLI::App& app, bool outputs, std::vector<FileOption>& fil
         markedFiles(*group, outputs, files);
 }
 
-/// The same file: the same existing inode, or (for names that do not exist yet) the same
-/// absolute, normalised name.
+/// The absolute, normalised name of @p path, a dangling symbolic link followed to the name it
+/// points to (a file that does not exist yet).
+std::filesystem::path resolvedName(const std::string& path, std::error_code& ec)
+{
+    namespace fs = std::filesystem;
+    fs::path p = fs::absolute(path, ec);
+    std::error_code missing; // a name that does not exist is no link
+    for (int hops = 0; !ec && hops < 40 && fs::is_symlink(fs::symlink_status(p, missing));
+         ++hops) {
+        const fs::path target = fs::read_symlink(p, ec);
+        p = target.is_absolute() ? target : p.parent_path() / target;
+    }
+    return ec ? p : fs::weakly_canonical(p, ec);
+}
+
+/// The same file: the same existing inode, or (for names that do not exist yet, and dangling
+/// links to them) the same absolute, normalised name.
 bool sameFile(const std::string& a, const std::string& b)
 {
     struct stat sa, sb;
@@ -278,8 +293,8 @@ bool sameFile(const std::string& a, const std::string& b)
     if (ea && eb) return sa.st_dev == sb.st_dev && sa.st_ino == sb.st_ino;
     if (ea != eb) return false;
     std::error_code ec1, ec2;
-    const auto na = std::filesystem::weakly_canonical(std::filesystem::absolute(a), ec1);
-    const auto nb = std::filesystem::weakly_canonical(std::filesystem::absolute(b), ec2);
+    const auto na = resolvedName(a, ec1);
+    const auto nb = resolvedName(b, ec2);
     return !ec1 && !ec2 && na == nb;
 }
 

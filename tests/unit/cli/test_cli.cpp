@@ -126,7 +126,7 @@ TEST(CliRun, SuccessIsZeroAndTheBodySeesTheRun)
 
 TEST(CliRun, DefaultsAndQuiet)
 {
-    const Outcome o = runTool(ALL, {"-i", "a", "-o", "b", "-q"});
+    const Outcome o = runTool(ALL, {"-i", "a", "-o", "b.vdb", "-q"});
     EXPECT_EQ(o.code, 0) << o.err;
     EXPECT_EQ(o.opts.densityGrid, "density");
     EXPECT_EQ(o.opts.threads, 0);
@@ -152,12 +152,12 @@ TEST(CliRun, UsageErrorsAreTwo)
         EXPECT_EQ(o.err.rfind("nebtest: error: ", 0), 0u) << what << ": " << o.err;
         EXPECT_TRUE(contains(o.err, "nebtest --help")) << what << ": " << o.err;
     };
-    check(runTool(ALL, {"-i", "a", "-o", "b", "--no-such-option"}), "unknown option");
-    check(runTool(ALL, {"-o", "b"}), "missing required -i");
+    check(runTool(ALL, {"-i", "a", "-o", "b.vdb", "--no-such-option"}), "unknown option");
+    check(runTool(ALL, {"-o", "b.vdb"}), "missing required -i");
     check(runTool(ALL, {"-i", "a"}), "missing required -o");
-    check(runTool(ALL, {"-i", "a", "-o", "b", "--threads", "-1"}), "negative --threads");
-    check(runTool(ALL, {"-i", "a", "-o", "b", "--threads", "many"}), "non-numeric --threads");
-    check(runTool(ALL, {"-i", "a", "-o", "b", "stray"}), "positional argument");
+    check(runTool(ALL, {"-i", "a", "-o", "b.vdb", "--threads", "-1"}), "negative --threads");
+    check(runTool(ALL, {"-i", "a", "-o", "b.vdb", "--threads", "many"}), "non-numeric --threads");
+    check(runTool(ALL, {"-i", "a", "-o", "b.vdb", "stray"}), "positional argument");
     // Options a tool did not ask for do not exist.
     check(runTool(0, {"-i", "a"}), "-i without INPUT");
     check(runTool(nebula::cli::INPUT, {"-i", "a", "--density-grid", "d"}),
@@ -165,7 +165,7 @@ TEST(CliRun, UsageErrorsAreTwo)
     check(runTool(nebula::cli::INPUT, {"-i", "a", "--only-new"}),
           "--only-new without PASS_THROUGH");
     // The message names the offending option.
-    const Outcome o = runTool(ALL, {"-i", "a", "-o", "b", "--frobnicate"});
+    const Outcome o = runTool(ALL, {"-i", "a", "-o", "b.vdb", "--frobnicate"});
     EXPECT_TRUE(contains(o.err, "--frobnicate")) << o.err;
 }
 
@@ -175,7 +175,7 @@ TEST(CliRun, FlagValuesCli11CannotCountAreUsageErrors)
     // "abc" and past 19 digits, from the command line or a config file (found by fuzz_config).
     for (const std::string bad : {"--verbose=88888888888888888888888", "--verbose=abc",
                                   "--quiet=1234567890", "--write-through=888\xb9"}) {
-        const Outcome o = runTool(ALL, {"-i", "a", "-o", "b", bad});
+        const Outcome o = runTool(ALL, {"-i", "a", "-o", "b.vdb", bad});
         EXPECT_EQ(o.code, 2) << bad << ": " << o.err;
         EXPECT_FALSE(o.bodyRan) << bad;
         EXPECT_TRUE(contains(o.err, "expected true, false or a count of at most 9 digits"))
@@ -183,7 +183,7 @@ TEST(CliRun, FlagValuesCli11CannotCountAreUsageErrors)
     }
     for (const std::string good :
          {"--verbose=2", "-vv", "--quiet=true", "--write-through=off", "--verbose=123456789"}) {
-        const Outcome o = runTool(ALL, {"-i", "a", "-o", "b", good});
+        const Outcome o = runTool(ALL, {"-i", "a", "-o", "b.vdb", good});
         EXPECT_EQ(o.code, 0) << good << ": " << o.err;
         EXPECT_TRUE(o.bodyRan) << good;
     }
@@ -192,20 +192,20 @@ TEST(CliRun, FlagValuesCli11CannotCountAreUsageErrors)
 TEST(CliRun, ErrorsThrownByTheBody)
 {
     // nebula::Error: 1, "tool: error: message".
-    Outcome o = runTool(ALL, {"-i", "a", "-o", "b"},
+    Outcome o = runTool(ALL, {"-i", "a", "-o", "b.vdb"},
                         [](nebula::Run&) { throw nebula::Error("cloud.vdb: no grid \"x\""); });
     EXPECT_TRUE(o.bodyRan);
     EXPECT_EQ(o.code, 1);
     EXPECT_EQ(o.err, "nebtest: error: cloud.vdb: no grid \"x\"\n");
 
     // nebula::UsageError: 2.
-    o = runTool(ALL, {"-i", "a", "-o", "b"},
+    o = runTool(ALL, {"-i", "a", "-o", "b.vdb"},
                 [](nebula::Run&) { throw nebula::UsageError("--res must be in [2, 2048]"); });
     EXPECT_EQ(o.code, 2);
     EXPECT_EQ(o.err, "nebtest: error: --res must be in [2, 2048]\n");
 
     // Any other exception: 1.
-    o = runTool(ALL, {"-i", "a", "-o", "b"},
+    o = runTool(ALL, {"-i", "a", "-o", "b.vdb"},
                 [](nebula::Run&) { throw std::runtime_error("out of luck"); });
     EXPECT_EQ(o.code, 1);
     EXPECT_EQ(o.err, "nebtest: error: out of luck\n");
@@ -238,13 +238,13 @@ TEST(CliRun, ConfigFile)
     std::ofstream(good) << "threads = 3\ndensity-grid = \"n_H\"\n";
     std::ofstream(bad) << "threads = 3\nthreadz = 4\n";
 
-    Outcome o = runTool(ALL, {"-i", "a", "-o", "b", "--config", good});
+    Outcome o = runTool(ALL, {"-i", "a", "-o", "b.vdb", "--config", good});
     EXPECT_EQ(o.code, 0) << o.err;
     EXPECT_EQ(o.opts.threads, 3);
     EXPECT_EQ(o.opts.densityGrid, "n_H");
 
     // A misspelt key is an error, as a misspelt option is, and says where it came from.
-    o = runTool(ALL, {"-i", "a", "-o", "b", "--config", bad});
+    o = runTool(ALL, {"-i", "a", "-o", "b.vdb", "--config", bad});
     EXPECT_EQ(o.code, 2) << o.err;
     EXPECT_FALSE(o.bodyRan);
     EXPECT_EQ(o.err.rfind("nebtest: error: --config: ", 0), 0u) << o.err;
