@@ -79,6 +79,28 @@ Reply get(std::uint16_t port, const std::string& target, http::verb verb = http:
     return {int(res.result_int()), res.body()};
 }
 
+/// The status of a WebSocket upgrade of @p target with Host @p host and Origin @p origin
+/// ("": none), as a browser sends it.
+unsigned upgradeStatus(std::uint16_t port, const std::string& target, const std::string& host,
+                       const std::string& origin)
+{
+    net::io_context ioc;
+    tcp::socket sock(ioc);
+    sock.connect({net::ip::address_v4::loopback(), port});
+    http::request<http::empty_body> req{http::verb::get, target, 11};
+    req.set(http::field::host, host);
+    if (!origin.empty()) req.set(http::field::origin, origin);
+    req.set(http::field::connection, "Upgrade");
+    req.set(http::field::upgrade, "websocket");
+    req.set(http::field::sec_websocket_version, "13");
+    req.set(http::field::sec_websocket_key, "dGhlIHNhbXBsZSBub25jZQ==");
+    http::write(sock, req);
+    beast::flat_buffer b;
+    http::response<http::string_body> res;
+    http::read(sock, b, res);
+    return res.result_int();
+}
+
 struct Frame
 {
     json header;
@@ -199,43 +221,8 @@ TEST(ViewServer, EveryRequestNeedsTheTokenAndOnlyThePageIsServed)
     }
     for (const std::string& target :
          std::vector<std::string>{"/ws?token=nope", "/ws", "/ws?token=" + t + "x"}) {
-        net::io_context ioc; // the upgrade request as a browser sends it
-        tcp::socket sock(ioc);
-        sock.connect({net::ip::address_v4::loopback(), port});
-        http::request<http::empty_body> req{http::verb::get, target, 11};
-        req.set(http::field::host, "127.0.0.1");
-        req.set(http::field::connection, "Upgrade");
-        req.set(http::field::upgrade, "websocket");
-        req.set(http::field::sec_websocket_version, "13");
-        req.set(http::field::sec_websocket_key, "dGhlIHNhbXBsZSBub25jZQ==");
-        http::write(sock, req);
-        beast::flat_buffer b;
-        http::response<http::string_body> res;
-        http::read(sock, b, res);
-        EXPECT_EQ(res.result_int(), 403u) << target;
+        EXPECT_EQ(upgradeStatus(port, target, "127.0.0.1", ""), 403u) << target;
     }
-}
-
-/// The status of a WebSocket upgrade with the right token, Host @p host and Origin @p origin
-/// ("": none), as a browser sends it.
-static unsigned upgradeStatus(std::uint16_t port, const std::string& token, const std::string& host,
-                              const std::string& origin)
-{
-    net::io_context ioc;
-    tcp::socket sock(ioc);
-    sock.connect({net::ip::address_v4::loopback(), port});
-    http::request<http::empty_body> req{http::verb::get, "/ws?token=" + token, 11};
-    req.set(http::field::host, host);
-    if (!origin.empty()) req.set(http::field::origin, origin);
-    req.set(http::field::connection, "Upgrade");
-    req.set(http::field::upgrade, "websocket");
-    req.set(http::field::sec_websocket_version, "13");
-    req.set(http::field::sec_websocket_key, "dGhlIHNhbXBsZSBub25jZQ==");
-    http::write(sock, req);
-    beast::flat_buffer b;
-    http::response<http::string_body> res;
-    http::read(sock, b, res);
-    return res.result_int();
 }
 
 // Cross-site WebSocket hijacking and DNS rebinding: another site's page, or a page under a
@@ -246,19 +233,21 @@ TEST(ViewServer, OnlyItsOwnPageMayConnect)
     Served s(test::cubeSettings(16, 16));
     const std::uint16_t port = s.server->port();
     const std::string t = s.server->token(), p = std::to_string(port);
-    EXPECT_EQ(upgradeStatus(port, t, "127.0.0.1:" + p, "http://127.0.0.1:" + p), 101u);
-    EXPECT_EQ(upgradeStatus(port, t, "localhost:" + p, "http://localhost:" + p), 101u);
-    EXPECT_EQ(upgradeStatus(port, t, "127.0.0.1:" + p, ""), 101u); // not a browser
+    EXPECT_EQ(upgradeStatus(port, "/ws?token=" + t, "127.0.0.1:" + p, "http://127.0.0.1:" + p),
+              101u);
+    EXPECT_EQ(upgradeStatus(port, "/ws?token=" + t, "localhost:" + p, "http://localhost:" + p),
+              101u);
+    EXPECT_EQ(upgradeStatus(port, "/ws?token=" + t, "127.0.0.1:" + p, ""), 101u); // not a browser
     for (const std::string& origin : std::vector<std::string>{
              "http://evil.example", "http://evil.example:" + p, "null", "https://127.0.0.1:" + p,
              "http://127.0.0.1", "http://127.0.0.1:" + std::to_string(port + 1),
              "http://127.0.0.1:" + p + "/x", "file://"}) {
-        EXPECT_EQ(upgradeStatus(port, t, "127.0.0.1:" + p, origin), 403u) << origin;
+        EXPECT_EQ(upgradeStatus(port, "/ws?token=" + t, "127.0.0.1:" + p, origin), 403u) << origin;
     }
     for (const std::string& host :
          std::vector<std::string>{"evil.example:" + p, "evil.example",
                                   "127.0.0.1:" + std::to_string(port + 1), "", "127.0.0.1:"}) {
-        EXPECT_EQ(upgradeStatus(port, t, host, "http://" + host), 403u) << host;
+        EXPECT_EQ(upgradeStatus(port, "/ws?token=" + t, host, "http://" + host), 403u) << host;
     }
     // The page's policy names the server's own address, not every ws: URL.
     net::io_context ioc;
