@@ -82,7 +82,9 @@ CloudStats cloudStatistics(const GridSet& grids, const StatsOptions& opts)
     st.columnUnit = density ? "cm^-2" : units + " pc";
     const double length = density ? st.voxelPc * PC_CM : st.voxelPc;
 
-    const auto [ua, va] = mapAxes(opts.axis);
+    // Plain variables, not a structured binding: lambdas below capture them (C++17).
+    const std::array<int, 2> axes = mapAxes(opts.axis);
+    const int ua = axes[0], va = axes[1];
     const auto& lo = st.box[0];
     const auto& hi = st.box[1];
     const std::int64_t nu = std::int64_t(hi[std::size_t(ua)]) - lo[std::size_t(ua)] + 1;
