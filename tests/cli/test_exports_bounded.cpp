@@ -30,8 +30,6 @@ const std::vector<std::string> INTERNALS = {
     "std::vector", "bad_alloc", "max_size", "what()",         "terminate",
     "nebula::",    "Assertion", "-nan",     "ArithmeticError"};
 
-constexpr double GIB = double(std::uint64_t(1) << 30);
-
 std::string readText(const std::string& p)
 {
     std::ifstream in(p, std::ios::binary);
