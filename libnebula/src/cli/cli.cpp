@@ -276,8 +276,7 @@ std::filesystem::path resolvedName(const std::string& path, std::error_code& ec)
     namespace fs = std::filesystem;
     fs::path p = fs::absolute(path, ec);
     std::error_code missing; // a name that does not exist is no link
-    for (int hops = 0; !ec && hops < 40 && fs::is_symlink(fs::symlink_status(p, missing));
-         ++hops) {
+    for (int hops = 0; !ec && hops < 40 && fs::is_symlink(fs::symlink_status(p, missing)); ++hops) {
         const fs::path target = fs::read_symlink(p, ec);
         p = target.is_absolute() ? target : p.parent_path() / target;
     }
