@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # Renders the README's examples with two builds of nebula and checks that every grid and image
 # is the same, bit for bit (apart from file UUIDs, nebula:version and nebula:history): the check
 # that a refactoring changed no result.

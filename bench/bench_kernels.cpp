@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 /// @file bench_kernels.cpp
 /// Google Benchmark of the hot paths (STYLE "Determinism and speed"): noise and fBm
 /// (nebgen), the exact column integrator (nebillum), the 4-channel trilinear lookup and the

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 /// @file bench_montecarlo.cpp
 /// Google Benchmark of the Monte Carlo core (montecarlo.h) on one thread: interactions
 /// ("events") per second for the MCML estimator in a slab and for the next-event estimator

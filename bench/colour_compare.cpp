@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 /// @file colour_compare.cpp
 /// CIEDE2000 colour difference between a reference EXR and test EXRs of the same view.
 ///

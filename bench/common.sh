@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 # shellcheck shell=bash
 # Shared by the bench/*.sh scripts (source it after setting SCRIPT, the name for messages):
 # checks, a temporary working folder, and commands timed with /usr/bin/time -v.

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # Compile time of every libnebula translation unit, one at a time (so the figures do not
 # depend on how many run in parallel), slowest first.
 #

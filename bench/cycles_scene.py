@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """Blender Cycles version of a nebrender scene, and image statistics, for
 bench/cycles_vs_path.sh.
 

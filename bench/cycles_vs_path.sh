@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # nebrender's reference path tracer (--integrator path) against Blender Cycles on the same
 # scene: is nebrender at least as fast as Cycles to the same noise level?
 #

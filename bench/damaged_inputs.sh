@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # Damaged inputs through a real tool, with counts by outcome and the peak RSS
 # (docs/failures.md; the fixed-seed unit tests DamagedInputs.* cover the same in process).
 # Makes a small lit nebula, then runs `nebillum -i in.vdb -o out.vdb` on

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # Time and peak memory of a planetarium dome master: the tilted fisheye of docs/cameras.md
 # from inside the example nebula, at each size asked, with and without the level of detail.
 #

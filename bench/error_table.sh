@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # The error of the fast methods against the reference path tracer (DESIGN §5, 5b, 6).
 #
 #   bench/error_table.sh                 # prints a markdown table; figures to examples/

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 /// @file exr_compare.cpp
 /// Compares two nebrender EXRs of the same view: a reference and a test image.
 ///

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # What nebrender --fits (and --sed) adds to a render: the same orthographic view of a lit
 # nebula with a per-star field rendered with and without the calibrated outputs, alternating,
 # RUNS times each, wall time and peak RSS from /usr/bin/time -v. The --fits render is

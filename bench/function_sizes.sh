@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # The longest functions of libnebula, by clang-tidy's readability-function-size check (lines
 # of the body, comments and blank lines included), longest first.
 #

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # nebimport's speed and peak memory on a 512^3 float32 FITS cube (a sparse-ish cloud: a few
 # Gaussian clumps with noise, values below 5 cm^-3 clipped to 0), made on
 # the fly with numpy + astropy in a temporary folder that is deleted afterwards.

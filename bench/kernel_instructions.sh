@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # Instructions each nebrender integrator spends on its pixels, counted by callgrind (the same
 # count for the same binary and inputs, however busy the machine): the instructions of a
 # render minus those of a 1x1 render of the same scene (reading, scene building, writing).

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # nebscatter over MPI ranks against one process on this machine: the same cores as
 # 1 rank x 2 threads and as 2 ranks x 1 thread (mpirun -np 2 --bind-to none), RUNS times each,
 # alternating, wall time and peak memory per process (/usr/bin/time -v around the tool; for

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # nebgen's time and peak memory per preset at one resolution (default 512^3), with
 # /usr/bin/time -v, the grids written to a temporary folder that is deleted afterwards.
 # Target (docs/presets.md): nebgen --preset reflection --res 512 in at most 30 s on 2 cores.

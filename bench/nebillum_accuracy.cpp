@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // nebillum's production optical depth against the independent reference, on the example
 // nebula:   nebillum_accuracy [RES] [SAMPLES]
 // Generates the example nebula at RES^3 (default 256), times the production path

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # nebview's figures on an input (default the example, out/scattered.vdb):
 #  1. the server side (bench/nebview_frames, built with the benchmarks): each stage's render,
 #     composition, tone and JPEG for a camera orbiting 3 degrees a frame, median of 12

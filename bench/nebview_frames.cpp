@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // nebview's frame costs on a real input: for a camera orbiting the look-at point, each
 // stage's render, the composition, the tone and the JPEG (or PNG), median over the orbit.
 // Usage: nebview_frames INPUT.vdb [FRAMES] [WxH] [FAST_LOD] [FAST_STEP] [STAGES]

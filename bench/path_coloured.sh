@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # The reference path tracer on coloured (CCM) dust, two builds side by side: how much faster
 # is one build than the other to the same noise?
 #

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # Peak memory (maximum resident set size) and time of each stage of the example pipeline
 #     nebgen --res RES -o n.vdb && nebillum -i n.vdb -o lit.vdb && nebrender -i lit.vdb ...
 # at 256^3 (the README's nebula, its two stars), each stage a separate process reading and

@@ -1,4 +1,5 @@
 #!/usr/bin/env python3
+# SPDX-License-Identifier: Apache-2.0
 """The statistics table of docs/presets.md from examples/presets/<preset>-<res>.json
 (nebstats --json), printed as Markdown: each figure beside the observed range, met or not."""
 import json

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // nebpyramid's two tau methods compared on the example nebula:   pyramid_tau [RES] [LEVELS]
 // Generates the example nebula at RES^3 (default 128) and its level-0 tau.<star> (nebillum),
 // builds levels 1 .. LEVELS (default 3) of the density, then tau.<star>.L<k> both ways:

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # nebrender against OpenVDB's own vdb_render on the same view of the same density grid
 # (the speed target: nebrender at least 50x faster than vdb_render on the default
 # nebula at 128^3, one star, 512x512; both measured here, side by side, in one run).

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 /// @file same_output.cpp
 /// Whether two nebula outputs hold the same data, bit for bit: the check behind
 /// bench/before_after.sh (a refactoring must not change a single value).

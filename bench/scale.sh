@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # Time and peak memory of every stage of the example pipeline, at each resolution asked:
 #     nebgen --res RES -> nebillum -> nebscatter -> nebrender IMAGE
 # plus the fixed cost of one frame (a 32x18 render of scattered.vdb: reading the file and

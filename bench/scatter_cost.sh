@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # nebscatter's cost per star against its image noise, on 128^3 scenes that are hard for it
 # (bench/error_table.sh's nebula shape, one star inside, no gas emission):
 #   moderate  --density 16000   (tau_V 3-4 through the centre)

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # Spectral rendering benchmarks (DESIGN §7):
 #  1. RGB vs spectral render time on the README's example nebula (nebgen --spectral, 128^3,
 #     512^2): CPU time of each nebrender process.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 /// @file spectral_field_wavelengths.cpp
 /// How many wavelengths nebscatter --spectral needs: the spectral render with a field of N
 /// wavelengths against one of 41 (every 10 nm over 380-780 nm), for the N whose wavelengths

@@ -1,4 +1,5 @@
 #!/usr/bin/env python3
+# SPDX-License-Identifier: Apache-2.0
 """Tile 8-bit RGBA PNGs of equal size side by side into one PNG (standard library only).
 
     python3 bench/tile_png.py out.png a.png b.png c.png ...

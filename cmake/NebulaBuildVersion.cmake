@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 # Reads the version a build wrote into its version header (cmake/NebulaVersion.cmake; git
 # describe at that build, not at the configure step) into NEBULA_BUILD_VERSION. Used twice:
 #   cpack (CPACK_PROJECT_CONFIG_FILE, HEADER set by the configured copy): the

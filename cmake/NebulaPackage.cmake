@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 # Installation and packages (README "Install"):
 #   cmake --install build --prefix ~/.local     the tools, their man pages and bash completion,
 #                                               libnebula, its headers, the CMake

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 # The version of this source tree: `git describe --tags --match v[0-9]*` when it is a git
 # checkout with a version tag (v0.1.0 -> 0.1.0; 3 commits later, 0.1.0+3.g1a2b3c4; with
 # uncommitted changes, +dirty), else FALLBACK (project(VERSION)). Run as a script at build time

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # make -f Makefile.data install PREFIX=...: cmake --install into a staging folder first, then
 # copy into PREFIX, so that a prefix that cannot be written is refused before anything is
 # installed (nothing half-installed is left).

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # Regenerates the figures of docs/tools/nebphase.md, the effective phase function:
 #   examples/phase.svg          Phi(t, theta) of the default dust for a few voxel thicknesses t
 #   examples/phase-single.png   a thick nebula, single scattering (a p(mu))

@@ -1,4 +1,5 @@
 #!/usr/bin/env python3
+# SPDX-License-Identifier: Apache-2.0
 """Plot nebphase's effective phase function Phi(t, theta) as an SVG (standard library only).
 
     nebphase -o phase.vdb --json phase.json

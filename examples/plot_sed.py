@@ -1,4 +1,5 @@
 #!/usr/bin/env python3
+# SPDX-License-Identifier: Apache-2.0
 """Plots nebrender --sed CSV files (one or more renders, e.g. at several --wavelengths) as the
 SED of each component: flux density at the observer [Jy] against wavelength [nm].
 

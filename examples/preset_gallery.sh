@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # Regenerates the gallery of docs/presets.md: for each nebgen preset, the render (single
 # scattering plus nebscatter's field; gas emission where the preset has gas) as
 # examples/presets/<preset>.png, and its statistics (nebstats --json) at 128^3 and 256^3 as

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # Regenerates the figures of docs/spectral.md (nebrender --spectral):
 #   examples/spectral.png   the example nebula with spectral grids: RGB mode | spectral mode
 #   examples/doppler.png    a rotating [O III] + H-beta shell: at rest | velocities x500

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # How many times slower than an idle 2-core machine this one runs now: an integer from 1 to
 # 8, printed on stdout. Makefile.data's test target passes it to ctest as
 # NEBULA_TEST_TIME_SCALE, and the long tests' time-outs are multiplied by it

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # Runs a Python test of the tools (tests/import, tests/fits) with the first python3 that has
 # its modules: the one on PATH, else Debian's /usr/bin/python3 (a virtual environment or pyenv
 # may come first on PATH without them). Skipped (exit 77, with a message naming the Debian

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """Export a Blender camera's animation as a nebula camera path (nebrender --camera-path).
 
 Runs INSIDE Blender (tested with Debian 12's Blender 3.4.1):

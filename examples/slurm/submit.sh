@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # Queues a camera-path fly-through on Slurm: a job array that renders the frames
 # (render_frames.sbatch, CHUNK frames per task), then a job that tones them into PNGs
 # (tone.sbatch, nebtone over the whole sequence, and a movie if ffmpeg is there) which starts

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """Check what Blender sees in a .vdb file against OpenVDB's own numbers.
 
 Runs INSIDE Blender (tested with Debian 12's Blender 3.4.1):

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # Opens nebgen's (also --spectral) and nebillum's output in headless Blender and checks the grid
 # names, voxel size, transform, active-voxel bounding box and value range that
 # Blender sees against `vdb_print -l -m` (OpenVDB's own numbers).

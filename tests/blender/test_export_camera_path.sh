@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # Tests examples/blender/export_camera_path.py in headless Blender.
 #
 #   test_export_camera_path.sh WORK_DIR

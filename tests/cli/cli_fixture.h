@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // The end-to-end test fixture shared by the CLI test files: a fresh folder per test, the
 // built tools on PATH, and helpers to run them and to check failures (exit code,

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // What an adversarial user tries: negative and oversized integers, nan and inf, absurd
 // sizes, steps and distances, two "-" inputs, broken transforms and config files, empty or
 // overflowing star lists, partial dust metadata. Each is refused with a usage error (exit 2)

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // End-to-end tests: run the built tools on tiny generated grids and check grid values,
 // metadata, images, exit codes, messages, and that failures leave no output.
 #include "cli_fixture.h"

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Exports and statistics bounded and finite (issue 43): nebexport checks the output's size
 // against the free disk and the memory its writer holds before the first byte; nebstats'
 // work follows the active voxels and the map, not the box (a 4096^3 tile in a file of a few

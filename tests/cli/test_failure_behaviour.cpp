@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // README "Failure behaviour", end to end: a full disk (a small tmpfs the test mounts), outputs
 // that are not regular files or that name an input, temporaries of killed writers, truncated
 // files and streams, and stars far from the cloud.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Hardening at the mechanisms (README "Failure behaviour"): bounded, early reading of every
 // input (VDB, JSON, config; files, pipes, /dev/stdin, endless devices); bounded JSON; unique
 // names; finite physics; work bounds checked before any work; nebtone's all-or-nothing

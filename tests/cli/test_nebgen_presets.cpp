@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // nebgen --preset and nebstats end to end: the presets' options, their errors (exit 2 with
 // the range), and nebstats' report, JSON and errors.
 #include "cli_fixture.h"

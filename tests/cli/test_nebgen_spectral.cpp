@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // End-to-end tests of nebgen's spectral grids (--spectral): temperature, velocity, the
 // emission grids' line metadata, [O III] and shells, their options and their errors.
 #include "cli_fixture.h"

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // End-to-end tests of nebphase (DESIGN §4): the phase table as grids and JSON, its thin
 // limit, determinism, the dust it is made for, slab runs, and bad input.
 #include "cli_fixture.h"

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // End-to-end tests of nebpyramid (DESIGN §5): the level grids in files and pipes, mass
 // conservation, metadata, pass-through and --only-new, determinism, and bad input.
 #include "cli_fixture.h"

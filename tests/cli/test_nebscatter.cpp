@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // End-to-end tests of nebscatter (DESIGN §5b): the field grids and metadata, nebrender using
 // them, determinism whatever the thread count, and every bad input of the issue: no tau
 // grids, no stars, --packets 0, an order outside 0..4, a field level coarser than the grid,

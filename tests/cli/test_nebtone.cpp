@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // nebtone end to end: a static camera's sequence gets one curve (identical PNGs), a moving
 // one a smooth curve; 16-bit PNGs; the EXRs record nebula:luminance (nebtone takes the
 // statistics from the pixels; tests/cli/test_hardening.cpp: a damaged one is only a warning).

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // nebview on the command line: the URL as the first line of stdout, and every bad input
 // refused at start with a clear error (a port in use, an input without tau grids, a
 // --path-out that cannot be written, a path file that does not parse).

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The one output check (docs/failures.md, "Outputs that are inputs, or another format"):
 // every tool compares every output it will write (each option marked an output, and the
 // outputs it derives, such as nebrender's PNG) with every other output and every input (each

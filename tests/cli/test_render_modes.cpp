@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // End-to-end tests of nebrender's other modes: the reference path tracer (--integrator path)
 // and global scattering from pyramid levels (--levels), with their bad inputs.
 #include "cli_fixture.h"

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // End-to-end tests of nebrender --spectral: the pipeline from nebgen --spectral, its outputs,
 // and its bad inputs (DESIGN §7).
 #include "cli_fixture.h"

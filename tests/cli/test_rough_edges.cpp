@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // What a new user meets first: the history of a pipeline in its outputs, config files,
 // -v in every tool, spectral classes the tables do not cover, pyramid levels without a phase
 // table, and JSON attributes built from awkward file names.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // A program of one's own on an installed libnebula (find_package(nebula) or pkg-config): it
 // renders a lit nebula with nebrender's defaults and compares the image with nebrender's EXR.
 #include <nebula/io/grid_io.h>

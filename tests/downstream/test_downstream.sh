@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # Installs the build into a scratch prefix (cmake --install), builds tests/downstream against
 # it twice (find_package(nebula CONFIG), and pkg-config nebula), and checks that the program
 # renders a small lit nebula as nebrender does (the same pixels to 1e-6 of the peak). Also:

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """nebrender --fits (DESIGN §13) against closed forms and astropy.
 
 1. Absolute calibration: an optically thin uniform shell (n_H = 0.1 cm^-3 between 0.8 and

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // libFuzzer target: config files (--config, TOML in CLI11's dialect) on arbitrary text, the way
 // cli::run() takes them: checkConfigText() line by line, then, for text it accepts, CLI11
 // parses the same text from a memory file into a tool's options (numbers with ranges, a vector,

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // libFuzzer target: filter files (physics/filters.h parseFilterFile()) on arbitrary text, and
 // what a tool does next with a filter it read: the pivot wavelength, a band average and the
 // 3-node band quadrature. The first byte chooses the default wavelength unit. Anything but a

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // libFuzzer target: FITS files in memory (io/fits.h, cfitsio) and nebula's reading of them:
 // gzipped bytes inflated within their declared size (openMemory() on the gzip magic; seed
 // cube-wcs.gz), the header diagnosis behind a failed open, every HDU's type, shape, BUNIT,

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // libFuzzer target: the grid reader (io/grid_io.h readGridsFromMemory: the structural check,
 // OpenVDB's parse, the checksums) on arbitrary bytes. Anything but a clean nebula::Error is a
 // finding: a crash, a sanitizer report, another exception, a leak, or a timeout.

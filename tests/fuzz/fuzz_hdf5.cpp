@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // libFuzzer target: HDF5 files in memory, through nebimport's HDF5 reader (openHdf5Memory():
 // the same code as for a file, over HDF5's core driver): the choice of dataset, the links on
 // its path, external storage, virtual datasets, filters, unwritten data, chunk sizes, the

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // libFuzzer target: every JSON consumer on arbitrary text, each through its own entry point
 // (so through the bounded parser, detail::parseJson/checkJsonBounds): the first byte chooses
 // the consumer. Anything but a clean nebula::Error is a finding; so is a crash on a deep or

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // libFuzzer target: the metadata parsers (stars JSON, dust JSON) on arbitrary text. The
 // first byte chooses the parser. Anything but a clean nebula::Error is a finding.
 #include "nebula/core/error.h"

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // libFuzzer target: the .npy header parser (io/cube_io.h, parseNpyHeader()) on arbitrary bytes,
 // and for headers it accepts, the header writer for the same shape parsed again. Anything but a
 // clean nebula::Error is a finding.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // libFuzzer target: RADMC-3D's parsers (io/cube_io.h) on arbitrary bytes: amr_grid.inp text
 // (parseRadmcGrid()) and the headers of dust_density.binp and dust_density.inp
 // (parseRadmcDataHeader()). The first byte chooses the parser. Anything but a clean

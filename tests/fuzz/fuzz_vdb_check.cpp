@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // libFuzzer target: the structural check alone (io/vdb_check.h checkVdbStructure), the guard
 // that stands between damaged bytes and OpenVDB. It does no OpenVDB work, so it runs orders of
 // magnitude faster than fuzz_grid_reader and explores the format's lengths and counts deeply.

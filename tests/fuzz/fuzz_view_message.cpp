@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // libFuzzer target: nebview's messages from the network (serve/view_protocol.h), every one of
 // which passes parseClientMessage() before the server acts on it. A clean MalformedMessage
 // (the connection is closed) or Error (answered) is the only acceptable failure; whatever

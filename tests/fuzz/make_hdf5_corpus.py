@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """Writes fuzz_hdf5's seed corpus (tests/fuzz/corpus/hdf5): tiny HDF5 files, each a few KB,
 one per way nebimport meets a dataset. Run it again (python3 make_hdf5_corpus.py) after
 changing it; the files are committed.

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # Runs the libFuzzer targets for a bounded time from the committed seed corpus, and fails on
 # any finding.
 # Usage: run_fuzz.sh FUZZ_BUILD_DIR [SECONDS]   (default 60: the eleven targets run side by

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """nebimport's FITS input hardened (issue 43): geometry keywords, voxel size and origin ranges,
 nearly equal steps, gzip bombs, and damaged headers in nebula's own words.
 

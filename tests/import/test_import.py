@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """nebimport and nebexport end to end, against astropy, h5py and numpy (DESIGN section 10).
 
 Cubes written by the other programs (FITS with BUNIT and a WCS, HDF5 with a units attribute,

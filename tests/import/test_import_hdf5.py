@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """nebimport's HDF5 reader against hostile and odd files written by h5py (DESIGN section 10).
 
 No file may make nebimport read a file the user did not name: external raw-data storage,

@@ -1,4 +1,5 @@
 #!/usr/bin/env python3
+# SPDX-License-Identifier: Apache-2.0
 """Lists every include in libnebula that runs up a layer (docs/ARCHITECTURE.md).
 
 Usage: tests/layers/check_layers.py [REPO_ROOT]

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # Makefile.data redoes a step when a variable it uses changes, and only then: the example
 # pipeline is run with stub tools that log their calls, then run again (nothing to do), then
 # with another RES (everything from nebgen on), then another SCATTER_FLAGS (nebscatter and

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # The generated man pages and bash completion (cli/manual.h) of every tool:
 # - `MANWIDTH=80 man --warnings -l PAGE` renders each page without a warning;
 # - each page lists every option that `TOOL --help` lists;

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # nebscatter over MPI ranks (docs/tools/nebscatter.md, "nebscatter over MPI"), with OpenMPI's
 # mpirun on this machine (--oversubscribe: more ranks than cores is fine for a test).
 #

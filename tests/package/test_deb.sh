@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # The Debian package (cmake/NebulaPackage.cmake) built by CPack from this build: its control
 # lists the shared libraries the tools load as dependencies, its contents are the tools,
 # libnebula, the headers, the CMake and pkg-config packages, the man pages (gzipped) and bash

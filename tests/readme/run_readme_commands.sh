@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # Runs the shell commands of the README's and the docs pages' examples, in order, as a new
 # user would type them.
 #

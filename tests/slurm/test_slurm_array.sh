@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # Runs examples/slurm/submit.sh on a private one-node Slurm cluster on localhost.
 #
 #   test_slurm_array.sh TOOLS_DIR WORK_DIR

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // A small phase table specification shared by the phase-table tests (physics and io).
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // Small analytic scenes shared by the renderer tests (fast ray caster and path tracer).
 #include "nebula/physics/optical_depth.h"

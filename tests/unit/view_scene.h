@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // A small lit scene for nebview's tests (tests/unit/stages/test_view.cpp,
 // tests/unit/serve/test_view_server.cpp): a uniform cube of dust and a star beside it.

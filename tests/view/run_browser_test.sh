@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # nebview in a real browser (tests/view/test_browser.py) on a small example made here: the
 # reflection preset at 64^3, lit, with nebscatter's field (few packets: the test looks at the
 # viewer, not the field's noise). Skipped (exit 77, with a message) without Chromium,

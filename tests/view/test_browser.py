@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """nebview's page in a headless Chromium (Debian's chromium and chromium-driver, driven by
 python3-selenium): the page loads and shows the final frame; orbiting by mouse changes the
 image (latency and frame rate measured); the voxel probe answers a click; a camera path built

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // nebexport - a grid as a dense float32 cube (FITS, .npy, HDF5) for other programs.
 #include "nebula/cli/cli.h"
 #include "nebula/stages/export.h"

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // nebgen - procedural reflection nebula: fBm dust density, gas emission, stars, and with
 // --spectral temperature, velocity and [O III] emission.
 #include "nebula/cli/cli.h"

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // nebillum - per-star optical depth from each star to every voxel.
 #include "nebula/cli/cli.h"
 #include "nebula/cli/options.h"

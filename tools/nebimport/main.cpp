@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // nebimport - a dense density cube from another program (FITS, HDF5, .npy, RADMC-3D) as
 // nebula's sparse density grid.
 #include "nebula/cli/cli.h"

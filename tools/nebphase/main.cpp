@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // nebphase - the effective phase function Phi(t, mu) of a dust voxel by Monte Carlo
 // (DESIGN §4), and plane-parallel slab runs of the same Monte Carlo core.
 #include "nebula/cli/cli.h"

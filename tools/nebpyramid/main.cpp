@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // nebpyramid - multi-resolution levels of the density and the optical depths (DESIGN §5).
 #include "nebula/cli/cli.h"
 #include "nebula/core/error.h"

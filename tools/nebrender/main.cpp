@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // nebrender - single-scattering ray caster: scattered starlight + gas emission to EXR/PNG.
 #include "nebula/cli/cli.h"
 #include "nebula/cli/options.h"

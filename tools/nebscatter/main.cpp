@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // nebscatter - the field of multiply scattered light, computed once per scene (DESIGN §5b).
 #include "nebula/cli/cli.h"
 #include "nebula/cli/options.h"

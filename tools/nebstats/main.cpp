@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // nebstats - the statistics of observed clouds, measured on a grid: the column density's PDF,
 // power spectrum and contour dimension, and the 3-D PDF of ln n.
 #include "nebula/cli/cli.h"

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // nebtone - display frames of an EXR sequence under one slowly changing tone curve.
 #include "nebula/cli/cli.h"
 #include "nebula/core/error.h"

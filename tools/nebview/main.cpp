@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // nebview - explore a nebula live in a web page, and author camera paths there.
 #include "nebula/cli/cli.h"
 #include "nebula/cli/options.h"

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "nebula/cli/options.h"
 #include "nebula/core/format.h"
 #include "nebula/core/input.h"

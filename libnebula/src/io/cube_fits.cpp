@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // FITS cubes (DESIGN §10): images read through cfitsio (io/fits.h), their WCS as the cube's
 // geometry; cubes written as a primary float32 image with a linear WCS.
 #include "cube_raw.h"

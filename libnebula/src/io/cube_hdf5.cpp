@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // HDF5 cubes (DESIGN §10), through the C API: a dataset read in x planes as h5py indexes it
 // (f[path][x, y, z], C order), its attributes units/unit, voxel_size_pc and origin_pc; cubes
 // written in memory (the core driver) and handed to AtomicFile.

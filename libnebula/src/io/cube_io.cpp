@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Cubes from and to other programs: formats, units, the plane reader over an N-D array
 // (DESIGN §10). The formats themselves: cube_fits.cpp, cube_hdf5.cpp, cube_npy.cpp,
 // cube_radmc.cpp.

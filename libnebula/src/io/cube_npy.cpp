@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // NumPy .npy cubes (DESIGN §10): our own header parser (format versions 1.0, 2.0, 3.0; the
 // header is a Python dict literal), the data mapped and read plane by plane in either byte
 // order and either memory order; cubes written as little-endian float32 in Fortran order.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // RADMC-3D regular grids (DESIGN §10): amr_grid.inp (style 0, cartesian) with
 // dust_density.inp (ASCII) or dust_density.binp (binary, 4- or 8-byte values), one dust
 // species, dust mass density [g cm^-3] in cells whose walls are in cm. Cells of unequal

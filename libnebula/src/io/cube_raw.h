@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // Private to io/: the arrays behind FITS, HDF5 and .npy cubes, and the CubeSource that reads
 // any of them plane by plane (cube_io.cpp).

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "nebula/io/fits.h"
 
 #include "fits_header.h"

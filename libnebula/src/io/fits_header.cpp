@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // FITS headers read by nebula itself (fits_header.h): the declared size of a file, the first
 // card that breaks the standard, and gzipped files inflated within their declared size.
 #include "fits_header.h"

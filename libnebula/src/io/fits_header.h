@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // Private to io/: FITS headers read by nebula itself, beside cfitsio. Two jobs cfitsio cannot
 // do for us: the size a file's headers declare, as its bytes arrive (the bound on what a

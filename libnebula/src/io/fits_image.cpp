@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "nebula/io/fits_image.h"
 
 #include "nebula/core/error.h"

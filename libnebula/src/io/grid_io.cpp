@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "nebula/io/grid_io.h"
 #include "nebula/io/grid_values.h"
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 /// @file phase_table_vdb.cpp
 /// The phase table as grids; see phase_table_vdb.h.
 

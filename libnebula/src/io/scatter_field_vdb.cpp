@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "nebula/io/scatter_field_vdb.h"
 
 #include "nebula/core/error.h"

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "nebula/io/spectral_grids.h"
 
 #include "nebula/core/error.h"

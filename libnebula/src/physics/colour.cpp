@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 /// @file colour.cpp
 /// Colour (DESIGN §7): the shipped CIE 1931 CMF table, exact XYZ of piecewise-linear
 /// spectra (per spectrum and per piece), black-body XYZ, XYZ <-> linear sRGB, CIE L*a*b* and

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 /// @file dust.cpp
 /// Dust model (DESIGN §3): phase functions, the CCM89 extinction curve, and the
 /// `nebula:dust` parameters with their JSON form.

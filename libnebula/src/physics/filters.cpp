@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 /// @file filters.cpp
 /// Photometric passbands (DESIGN §13): filter files, the shipped standard filters, band
 /// averages, Gaussian band quadrature, pivot wavelengths and AB magnitudes.

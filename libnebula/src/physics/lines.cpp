@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 /// @file lines.cpp
 /// The emission-line catalogue, line lists, and checks of the spectral input grids.
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 /// @file montecarlo.cpp
 /// Monte Carlo transport in a slab and a cube (DESIGN §4); see montecarlo.h.
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 /// @file motion.cpp
 /// Velocity models (expansion, rotation, curl-noise turbulence) and the velocity-grid check.
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 /// @file noise.cpp
 /// Perlin's improved noise (K. Perlin, "Improving Noise", SIGGRAPH 2002) and fBm on top of it.
 

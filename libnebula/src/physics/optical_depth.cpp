@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "nebula/physics/optical_depth.h"
 
 #include "nebula/core/error.h"

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 /// @file phase_table.cpp
 /// The effective phase-function table (DESIGN §4); see phase_table.h.
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 /// @file spectrum.cpp
 /// Piecewise-linear spectra (DESIGN §7.1): insertion sweep, integrals, merging.
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 /// @file stars.cpp
 /// Stars (DESIGN §2-3): the `nebula:stars` JSON, spectral class -> temperature, Planck's law
 /// and black-body colours in linear sRGB (through the shipped CIE 1931 table, colour.h).

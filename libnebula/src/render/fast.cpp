@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 /// @file fast.cpp
 /// The fast integrator (DESIGN §3-5): a ray marched front to back through the dense fields;
 /// at every step the gas emits, every star's light scatters towards the eye (single

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// @file frame.h
 /// Internal to render/: what every integrator's pixel loop shares. The image with the

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 /// @file path_tracer.cpp
 /// nebrender's reference integrator (DESIGN §6): unbiased volumetric path tracing with delta
 /// and ratio tracking against a block-wise constant majorant; see render.h.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 /// @file scatter_packets.cpp
 /// nebscatter's packets (DESIGN §5b): runPacket(), see scatter_transport.h.
 

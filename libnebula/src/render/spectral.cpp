@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 /// @file spectral.cpp
 /// nebrender --spectral (DESIGN §7): see spectral.h.
 ///

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 /// @file spectral_scene.cpp
 /// nebrender --spectral's scene (DESIGN §7): buildSpectralScene() reads the emission grids and
 /// their lines, the temperature and velocity grids onto the RGB scene's lattice, and checks

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 /// @file star_depth.cpp
 /// Short characteristics through cells where a star's optical depth bends; see star_depth.h.
 

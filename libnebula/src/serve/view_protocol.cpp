@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "nebula/serve/view_protocol.h"
 
 #include "nebula/core/format.h"

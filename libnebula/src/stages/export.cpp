@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "nebula/stages/export.h"
 
 #include "nebula/core/disk_space.h"

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// @file nebula_model.h
 /// (private to stages/) What generateNebula() asks of a nebula's model: the fields at a voxel,

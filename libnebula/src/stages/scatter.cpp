@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "nebula/stages/scatter.h"
 
 #include "nebula/core/error.h"

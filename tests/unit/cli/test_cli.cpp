@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 /// @file test_cli.cpp
 /// cli/cli.h: the options every tool shares (addCommon), cli::run's exit codes (0 ok, 1 an
 /// error, 2 a usage error) and its "tool: error: " messages, the version line, and the

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // cli::inputFile(), cli::outputFile() and checkFileOptions(): every file option of a tool,
 // in option groups too, compared with every other before any work.
 #include "nebula/cli/cli.h"

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 /// @file test_options.cpp
 /// cli/options.h: --star values (parseStarOption), the stars of --stars and --star together
 /// (loadStars), the dust options (addDust, DustOptions::apply: only what was given, then

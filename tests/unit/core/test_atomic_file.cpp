@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 /// @file test_atomic_file.cpp
 /// AtomicFile (core/atomic_file.h): the data goes to a temporary next to the target,
 /// commit() renames it into place, and a destroyed uncommitted AtomicFile leaves neither a

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // freeDiskSpace(): the room left where an output goes, and none where no file system fills up.
 #include "nebula/core/disk_space.h"
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // core/file_format.h: the names each output format goes by, and the check every writer and
 // the command line make with them.
 #include "nebula/core/error.h"

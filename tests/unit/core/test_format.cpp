@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 /// @file test_format.cpp
 /// core/format.h: numbers in error messages (the shortest %g text, at least 6 significant
 /// digits, that reads back as the same double) and parseJson()'s error message.

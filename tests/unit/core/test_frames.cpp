@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // core/frames.h: output-name frame patterns and --frames ranges.
 #include "nebula/core/frames.h"
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 /// @file test_input.cpp
 /// core/input.h: every input read once, as the stream it is: a regular file's size checked
 /// before reading, a pipe refused as it passes the limit, the head checked after the first

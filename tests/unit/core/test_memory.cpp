@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 /// @file test_memory.cpp
 /// core/memory.h: the machine's memory, byte counts in words, and requireMemory()'s usage
 /// error that names the allocation and both sizes.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 /// @file test_rng.cpp
 /// PCG32 (core/rng.h) against the reference implementation's published output, the
 /// float conversions from raw bits, and independent streams.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 /// @file test_run.cpp
 /// Run and Progress (core/run.h): what a run says on stderr under -q, by default and under
 /// -v, and the progress bar, which only a run on a terminal draws.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 /// @file test_cube_hdf5.cpp
 /// io/cube_hdf5.cpp through openHdf5Memory() (nebimport's HDF5 reader over bytes in memory):
 /// the fuzzer's seed corpus (tests/fuzz/corpus/hdf5, written by h5py) read or refused as each

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 /// @file test_cube_io.cpp
 /// io/cube_io.h: the .npy header parser (versions, byte orders, memory orders, bad headers),
 /// .npy cubes read plane by plane in both orders and byte orders, RADMC-3D grids and density

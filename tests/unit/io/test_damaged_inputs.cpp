@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 /// @file test_damaged_inputs.cpp
 /// readGrids() on damaged copies of a small file nebula wrote (README "Failure behaviour"):
 /// every truncation is refused, and of a fixed set of 400 mutations (1-4 bytes, fixed seed)

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 /// @file test_fits.cpp
 /// io/fits.h: a FITS file made in memory and read back (keys with their types, HISTORY, image
 /// HDUs of any dimension and extension names), HDU navigation by number and name, errors that

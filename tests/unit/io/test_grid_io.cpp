@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 /// @file test_grid_io.cpp
 /// io/grid_io.h: reading and writing grid files (round trip, provenance stamps and the
 /// nebula:history chain, errors naming the file), GridSet's grid lookup and replacement,

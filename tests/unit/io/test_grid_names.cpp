@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 /// @file test_grid_names.cpp
 /// io/grid_names.h: the grid names and metadata keys that are a contract between the tools
 /// (DESIGN §1-2).

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Tests for nebula/image.h: EXR round trip, atomic failure behaviour, PNG encoding and the
 // automatic tone curve (DESIGN §8).
 

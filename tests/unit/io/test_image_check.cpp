@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 /// @file test_image_check.cpp
 /// io/image_check.h: a frame with a NaN or infinite pixel is refused before it is written,
 /// naming the file, the first bad pixel and its channel, and the likely cause.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The effective phase-function table as grids (io/phase_table_vdb.h): the round trip and
 // the error messages of readPhaseTable().
 #include "nebula/io/phase_table_vdb.h"

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // nebscatter's field as grids (io/scatter_field_vdb.h): the round trip of the grids and the
 // metadata, the sum readScatterMoments() forms, and its errors.
 #include "nebula/io/scatter_field_vdb.h"

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 /// @file test_spectral_grids.cpp
 /// The spectral grids (io/spectral_grids.h): an emission grid's nebula:lines metadata, the
 /// temperature grid's check and the velocity grid's, each error naming the file and grid.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 /// @file test_vdb_check.cpp
 /// io/vdb_check.h: every file and stream OpenVDB writes passes (each compression setting,
 /// half floats, every grid type nebula checks, instances, metadata); every truncation is

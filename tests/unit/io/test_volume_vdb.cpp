@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 /// @file test_volume_vdb.cpp
 /// io/volume_vdb.h: OpenVDB grids <-> SparseVolume: the affine map of a transform, the
 /// active bounds, sparse channels holding the active values (voxels and tiles) and zero

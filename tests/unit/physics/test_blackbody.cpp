@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 /// @file test_blackbody.cpp
 /// Planck's law (physics/blackbody.h) against Wien's and Stefan-Boltzmann's laws, its closed
 /// form, the per-nm and unchecked forms, and its argument checks.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The map statistics of physics/cloud_statistics.h against maps whose answers are known.
 #include "nebula/core/error.h"
 #include "nebula/physics/cloud_statistics.h"

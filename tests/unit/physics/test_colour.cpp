@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 /// @file test_colour.cpp
 /// The colour module (DESIGN §7): the shipped CIE 1931 table, exact XYZ of piecewise-linear
 /// spectra (per spectrum, per piece, per hat function), black-body XYZ against published

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 /// @file test_dust.cpp
 /// Phase functions (normalisation, asymmetry), the CCM89 extinction curve against published
 /// values, the dust parameters' validation and JSON form, and the phase-function samplers

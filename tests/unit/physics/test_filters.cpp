@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 /// @file test_filters.cpp
 /// Photometric passbands (physics/filters.h): the shipped filters against their published
 /// pivot wavelengths, band averages and their Gaussian quadrature through black bodies,

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 /// @file test_lines.cpp
 /// Spectral inputs: the emission-line catalogue, line lists, the Doppler factors, and the
 /// Doppler-broadened line profiles (trapezoids) drawn along a ray segment. (The grid

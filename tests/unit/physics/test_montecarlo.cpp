@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The Monte Carlo core (montecarlo.h): exact bookkeeping, the two estimators against each
 // other, determinism, the thin limit, and plane-parallel slabs against published results.
 #include "nebula/core/error.h"

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 /// @file test_motion.cpp
 /// Gas motion: the expansion, rotation and turbulence models of MotionField and their
 /// parameter checks. (The noise gradients and curl noise it builds on are in

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 /// @file test_noise.cpp
 /// Perlin's improved noise against his reference code, properties of fBm, the analytic
 /// noise gradients, and curl noise.

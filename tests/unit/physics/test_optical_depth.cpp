@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Optical depth (nebillum) against closed forms and brute force (DESIGN §2-3).
 #include "nebula/physics/optical_depth.h"
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The effective phase-function table (physics/phase_table.h): building and lookup. (The
 // grid form and its error messages are in io/test_phase_table_vdb.cpp.)
 #include "nebula/physics/phase_table.h"

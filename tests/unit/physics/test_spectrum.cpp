@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 /// @file test_spectrum.cpp
 /// Piecewise-linear spectra (DESIGN §7.1): the 11 overlap cases of the paper's
 /// table, random sums against brute force, exact integrals of products, merging and

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // physics/spherical_harmonics.h: the real harmonics' orthonormality and addition theorem by
 // quadrature, the phase functions' Legendre moments (closed forms for Henyey-Greenstein and
 // Rayleigh, brute force for the Mie approximations), and the identity the scattered-light

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 /// @file test_stars.cpp
 /// The stars JSON (parsing, every error, round trip) and spectral classes. (Planck's law is
 /// in test_blackbody.cpp, black-body colours in test_colour.cpp.)

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // LognormalField (physics/turbulence.h): the statistics it promises, checked on the lattice.
 #include "nebula/physics/cloud_statistics.h"
 #include "nebula/physics/turbulence.h"

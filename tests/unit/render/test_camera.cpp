@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Cameras (render/camera.h): the perspective, fisheye and equirect projections' geometry
 // (round trips, orientation, exact pixel solid angles), the Camera convenience functions
 // against Projection, and validateCamera().

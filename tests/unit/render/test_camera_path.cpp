@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // render/camera_path.h: keyframed camera paths: parsing (carry-over, errors), centripetal
 // Catmull-Rom through the keyframes, constant speed, ease in and out.
 #include "nebula/render/camera_path.h"

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The single-scattering ray caster (DESIGN §3) against closed forms. When the source
 // function S = j / k is constant along a ray, exact per-step attenuation telescopes to
 // L = S (1 - exp(-tau)) for any step length, so these tests hold for large steps too, where

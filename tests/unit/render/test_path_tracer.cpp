@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The reference path tracer (DESIGN §6) against closed forms and published slab results.
 // Monte Carlo estimates are compared within 3 of their own standard errors (the variance
 // layer) plus a stated allowance for what the closed form leaves out.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The scattered-light field (DESIGN §5b, nebscatter) against an energy balance, a brute-force
 // single-scattering integral, the reference path tracer and published slab radiances, and
 // its determinism.

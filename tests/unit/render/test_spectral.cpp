@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Spectral rendering (DESIGN §7): the spectral ray caster against closed forms, its
 // fixed-band mode and the RGB mode. (The Doppler line profiles it draws, physics/lines.h,
 // are tested in physics/test_lines.cpp.)

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // StarDepth (render/star_depth.h, DESIGN §3.3): each star's optical depth exact through
 // optically rough cells, against nebillum's exact integral (columnDensityReference) and a
 // brute-force single-scattering integral at the lit face of optically thick voxels.

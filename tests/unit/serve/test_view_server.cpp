@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // nebview's server, spoken to as a browser would (Beast clients): the token, the embedded
 // page only, frames at three stages with the final one nebrender's image, bad messages that
 // close only their own connection, a client that stops reading, two clients, the probe and

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 /// @file test_export.cpp
 /// stages/export.h: the box written (the imported cube, the active voxels, explicit bounds),
 /// the unit a grid's cube carries, and a grid written as .npy and read back with its values

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 /// @file test_generate.cpp
 /// nebgen's stage (stages/generate.h): the grids generateNebula() makes on a small lattice
 /// (names, types, metadata, values finite and >= 0, zero voxels inactive), their

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 /// @file test_import.cpp
 /// stages/import.h: a cube becomes the sparse density grid (values converted to n_H, zeros
 /// and values at the threshold inactive, the transform centred or from the file), temperature

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // nebgen's presets (stages/presets.h) measured by nebstats' statistics (stages/stats.h): the
 // ranges docs/presets.md documents, the observed targets, determinism, and the turbulence's
 // Mach number and anisotropy as the grids carry them.

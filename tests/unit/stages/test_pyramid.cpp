@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The multi-resolution levels (nebpyramid, DESIGN §5): box averages that conserve mass,
 // the coarse transform, and the two ways of making tau.<star>.L<k>.
 #include "nebula/stages/pyramid.h"

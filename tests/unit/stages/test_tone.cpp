@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // stages/tone.h: the tone curve of a sequence (smoothed statistics), the frames on disk.
 #include "nebula/stages/tone.h"
 

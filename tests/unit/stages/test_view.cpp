@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // nebview's stage: frames equal to nebrender's, components that add up to the beauty,
 // cancellation, the voxel probe against the cube's closed form, camera paths that read back.
 #include "nebula/core/error.h"

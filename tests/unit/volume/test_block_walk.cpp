@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 /// @file test_block_walk.cpp
 /// volume/block_walk.h: occupancy blocks (blockMaxima() against brute force), voxelSize()
 /// of any affine map, and the Marcher's walk along a ray, whose steps cover the occupied

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 /// @file test_volume.cpp
 /// volume/volume.h: Vec3, the affine maps (apply, inverse) and SparseVolume (lattice
 /// indexing, interleaved channels, trilinear sampling: exact for fields that are linear in

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// @file cli.h
 /// The command-line vocabulary every tool shares (docs/ARCHITECTURE.md): -i/-o with "-" for

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// @file manual.h
 /// Each tool's man page and bash completion, generated from its CLI11 options, so that a new

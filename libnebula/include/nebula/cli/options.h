@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// @file options.h
 /// Option groups shared by several tools: stars (--star, --stars), dust parameters, filters,

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// @file process_ranks.h
 /// The MPI ranks a tool was started as (nebscatter under mpirun or srun; README,

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// @file atomic_file.h
 /// Every output file (VDB, EXR, PNG, JSON) is written through AtomicFile, so that nothing is

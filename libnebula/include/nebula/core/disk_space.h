@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// @file disk_space.h
 /// The room left on the file system an output goes to, so that a writer whose size is known

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// @file error.h
 /// The exceptions libnebula throws. Tools turn Error into "tool: error: ..." and exit 1;

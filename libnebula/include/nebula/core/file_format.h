@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// @file file_format.h
 /// The file formats nebula writes and the names they go by (docs/failures.md, "Outputs that

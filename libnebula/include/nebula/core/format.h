@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // Internal: parsing JSON, and numbers in error messages, for the dust and star metadata.
 

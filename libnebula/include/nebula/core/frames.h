@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// @file frames.h
 /// Frame numbers for sequences: output-name patterns (`f.####.exr`, `f.%04d.exr`) and frame

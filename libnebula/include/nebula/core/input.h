@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// @file input.h
 /// Every input's way in, the counterpart of atomic_file.h: a file, "-" (stdin), /dev/stdin,

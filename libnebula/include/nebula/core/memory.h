@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// @file memory.h
 /// Memory checks before a big allocation whose size comes from an option (image size, sprite

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// @file ranks.h
 /// The processes one computation is shared by: nebscatter's packets over MPI ranks

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// @file rng.h
 /// PCG32 random number generator (O'Neill 2014, "PCG: A Family of Simple Fast Space-Efficient

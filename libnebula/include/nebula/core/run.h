@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// @file run.h
 /// What a running tool knows about itself (its name, the command line for provenance, how

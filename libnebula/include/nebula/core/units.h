@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// @file units.h
 /// The one place for mathematical and physical constants and unit conversions (DESIGN §3).

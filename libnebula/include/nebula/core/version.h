@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// @file version.h
 /// NEBULA_VERSION_STRING: this build's version, "0.1.0" at the tag v0.1.0 and

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// @file checksum.h
 /// Integrity of nebula's own VDB outputs (README "Failure behaviour"): writeGrids() records a

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// @file cube_io.h
 /// Dense cubes from and to other programs (DESIGN §10): FITS images, HDF5 datasets, NumPy

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// @file fits.h
 /// A small RAII wrapper of cfitsio for nebula's FITS inputs and outputs (nebimport's cubes,

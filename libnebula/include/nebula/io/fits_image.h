@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// @file fits_image.h
 /// FITS files described as data (FITS standard 4.0): float images and cubes with their

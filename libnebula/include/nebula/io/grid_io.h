@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// @file grid_io.h
 /// Reading and writing the grids that flow between the tools (DESIGN §1-2): files or "-"

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// @file grid_names.h
 /// The names that are a contract between the tools (DESIGN §1-2): file-level metadata keys

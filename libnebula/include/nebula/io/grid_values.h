@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// @file grid_values.h
 /// Checks of a grid's values that a reader makes before it uses them (implemented beside

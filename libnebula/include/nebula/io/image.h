@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// @file image.h
 /// Rendered frames: float RGBA plus named RGB layers, written as EXR (linear radiance,

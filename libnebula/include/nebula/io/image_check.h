@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// @file image_check.h
 /// The check a frame passes before it is written: no pixel may be NaN or infinite.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// @file phase_table_vdb.h
 /// The phase table as grids (DESIGN §2, §4): `phase` (Phi), `phase.error` (its standard

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// @file scatter_field_vdb.h
 /// nebscatter's field as grids (DESIGN §5b), written and read here only: per source, per

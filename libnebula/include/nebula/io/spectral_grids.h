@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// @file spectral_grids.h
 /// Reading the spectral grids (DESIGN §2, §7): an emission grid's lines, the temperature

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// @file vdb_check.h
 /// A structural check of VDB bytes before OpenVDB reads them. OpenVDB 10 trusts the lengths

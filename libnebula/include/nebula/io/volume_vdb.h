@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// @file volume_vdb.h
 /// Conversions between OpenVDB grids and the compact SparseVolume of volume.h.

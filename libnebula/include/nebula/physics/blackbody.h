@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// @file blackbody.h
 /// Planck's law, the one black body of nebula (DESIGN §3, §7): star colours, the spectral

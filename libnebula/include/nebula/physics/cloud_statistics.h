@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// @file cloud_statistics.h
 /// The statistics observers measure on column-density maps (nebstats; DESIGN §2b): the

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// @file colour.h
 /// Colour (DESIGN §7): the CIE 1931 2-degree colour-matching functions (CMFs) shipped as a

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// @file dust.h
 /// Dust model (DESIGN §3): extinction curve, phase functions, and the parameters that

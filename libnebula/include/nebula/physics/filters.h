@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// @file filters.h
 /// Photometric passbands and synthetic photometry (DESIGN §13): the standard filters shipped

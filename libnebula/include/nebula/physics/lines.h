@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// @file lines.h
 /// Spectral lines (DESIGN §2, §7): the catalogue of nebular emission lines, line lists

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// @file montecarlo.h
 /// The Monte Carlo transport core (DESIGN §4): weighted photon packets in the

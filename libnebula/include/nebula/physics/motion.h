@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// @file motion.h
 /// Gas motion (DESIGN §2, §7): the `velocity` field [km/s] in world axes (parsec world) as a

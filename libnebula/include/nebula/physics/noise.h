@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// @file noise.h
 /// Ken Perlin's improved noise (SIGGRAPH 2002, with his permutation table) and fractal

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// @file optical_depth.h
 /// Optical depth from a star to every voxel (nebillum, DESIGN §2-3):

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// @file phase_table.h
 /// The effective phase-function table Phi(t, mu) of nebphase (DESIGN §4): built with the

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// @file spectrum.h
 /// Piecewise-linear spectra (DESIGN §7.1; Alghamdi et al. 2023): linear pieces on

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// @file spherical_harmonics.h
 /// Real spherical harmonics and the Legendre moments of the phase functions: what the

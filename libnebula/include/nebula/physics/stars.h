@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// @file stars.h
 /// Stars: the `nebula:stars` JSON (DESIGN §2), spectral classes, black-body colours.

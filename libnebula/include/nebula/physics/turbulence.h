@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// @file turbulence.h
 /// A lognormal density field with the statistics of isothermal supersonic turbulence

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// @file camera.h
 /// Cameras (DESIGN §8): the view a user sets (Camera) and the projection an integrator uses

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// @file camera_path.h
 /// Keyframed camera paths for fly-throughs (DESIGN §8): a JSON file of keyframes (time, eye,

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// @file fast.h
 /// nebrender's fast integrator: the single-scattering ray caster with the effective phase

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// @file options.h
 /// Every render parameter, with its default and unit (the values nebrender's options fill).

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// @file path_tracer.h
 /// nebrender --integrator path: the reference path tracer (DESIGN §6).

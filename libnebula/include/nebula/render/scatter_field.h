@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// @file scatter_field.h
 /// The scattered-light field (DESIGN §5b): the angular moments of the radiance of light

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// @file scene.h
 /// What the integrators render: compact dense fields built once from the grids (with

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// @file spectral.h
 /// nebrender --spectral (DESIGN §7): spectra along camera rays instead of three channels.

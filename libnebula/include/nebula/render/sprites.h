@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// @file sprites.h
 /// Star sprites: each star's attenuated flux spread over a small Gaussian footprint.

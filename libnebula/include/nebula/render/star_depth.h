@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// @file star_depth.h
 /// The optical depth from a star to any point, exact where trilinear interpolation of the

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// @file view_protocol.h
 /// nebview's messages (docs/tools/nebview-protocol.md): what the page sends, parsed and

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// @file view_server.h
 /// nebview's server: HTTP and WebSocket (Boost.Beast) on one I/O thread, a render thread

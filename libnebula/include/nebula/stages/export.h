@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// @file export.h
 /// nebexport's entry point: a FloatGrid as a dense float32 cube (FITS, .npy, HDF5) with its

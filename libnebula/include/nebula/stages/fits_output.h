@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// @file fits_output.h
 /// nebrender --fits: calibrated images (DESIGN §13). The render is calibrated

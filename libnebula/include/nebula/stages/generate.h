@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// @file generate.h
 /// Procedural nebula (nebgen): fBm dust density n_H, gas emission, stars, and with

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// @file illuminate.h
 /// nebillum's entry point: a tau.<star> grid per star (DESIGN §2).

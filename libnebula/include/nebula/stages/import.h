@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// @file import.h
 /// nebimport's entry point: a dense cube from another program (FITS, HDF5, .npy, RADMC-3D)

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// @file presets.h
 /// nebgen's presets (DESIGN §2b): recognisable nebula types, each a turbulent lognormal cloud

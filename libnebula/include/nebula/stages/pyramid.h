@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// @file pyramid.h
 /// nebpyramid (DESIGN §5): multi-resolution levels of the density and the optical depths.

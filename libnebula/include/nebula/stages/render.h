@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// @file render.h
 /// nebrender's stage: scene, integrator, EXR and PNG.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// @file scatter.h
 /// nebscatter's entry point: the scattered-light field (DESIGN §5b) as grids.

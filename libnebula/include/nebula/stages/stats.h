@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// @file stats.h
 /// nebstats' entry point: a grid's column density along an axis and the statistics observers

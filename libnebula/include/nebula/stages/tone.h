@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// @file tone.h
 /// nebtone's stage: display frames of an EXR sequence with one tone curve that changes

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// @file view.h
 /// nebview's stage: a scene built once from the grids and rendered again and again for a

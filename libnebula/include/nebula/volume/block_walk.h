@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// @file block_walk.h
 /// Occupancy blocks over a dense volume and the walk along rays that skips the empty ones,

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// @file volume.h
 /// Compact volumes for the hot loops (DESIGN §9, STYLE "Determinism and speed"): sparse

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 /// @file process_ranks.cpp
 /// cli/process_ranks.h: MPI ranks where the build has MPI (NEBULA_HAVE_MPI), the single
 /// process otherwise. Compiled into nebula_mpi, not nebula_cli: only the tools that share
