@@ -4,14 +4,15 @@
 # nebimport (.npy, .fits, .h5) with two builds of nebula, and checks that every grid, image,
 # FITS file, cube and SED is the same, bit for bit (apart from file UUIDs, nebula:version and
 # nebula:history; FITS: HISTORY, DATE, ORIGIN, CHECKSUM): the check that a refactoring changed
-# no result. The .h5 cubes are compared as bytes: their history attribute holds the version,
-# so two builds of different versions differ there (their re-imported grids still compare).
+# no result. The .h5 cubes are compared through nebimport (the grids read back from them), not
+# as bytes: HDF5 stamps each object with the time it was written.
 #
 #   bench/before_after.sh BEFORE_BUILD AFTER_BUILD [WORK]
 #
 # BEFORE_BUILD, AFTER_BUILD: CMake build folders (with tools/<tool>), e.g. a build of the
 # previous commit (git worktree add /tmp/before HEAD~1; cmake -S /tmp/before -B /tmp/before/build;
-# cmake --build /tmp/before/build -j2) and build. AFTER_BUILD must also have bench/same_output.
+# cmake --build /tmp/before/build -j2) and build. AFTER_BUILD must also have bench/same_output
+# (or SAME_OUTPUT=path/to/same_output in the environment: the comparer of another build).
 # Both builds run the same command lines (the tools are found on PATH), so nebula:command
 # matches. Prints one line per output and exits 1 if any differs.
 set -euo pipefail
@@ -20,8 +21,8 @@ SCRIPT=before_after
 before=$(cd "$1" && pwd)
 after=$(cd "$2" && pwd)
 work=${3:-$(mktemp -d)}
-compare=$after/bench/same_output
-[[ -x $compare ]] || { echo "$SCRIPT: error: $compare not found (cmake --build $2 --target same_output)" >&2; exit 1; }
+compare=${SAME_OUTPUT:-$after/bench/same_output}
+[[ -x $compare ]] || { echo "$SCRIPT: error: $compare not found (cmake --build $2 --target same_output, or set SAME_OUTPUT)" >&2; exit 1; }
 
 examples() {
     nebgen --res 64 --seed 1 -o nebula.vdb
@@ -136,7 +137,7 @@ done
 
 shopt -s nullglob
 status=0 count=0
-for f in "$work"/before/*.{vdb,exr,png,fits,csv,npy,h5}; do
+for f in "$work"/before/*.{vdb,exr,png,fits,csv,npy}; do
     name=$(basename "$f")
     count=$((count + 1))
     (cd "$work" && "$compare" "before/$name" "after/$name") || status=1

@@ -6,7 +6,8 @@
 ///
 /// .vdb: the same grids in the same order, each with the same name, type, transform, grid
 /// metadata, active topology and values (compared as bits), and the same file metadata apart
-/// from nebula:history and nebula:version (the file UUID is not compared: OpenVDB writes a
+/// from nebula:history and nebula:version, nebscatter's run time (nebula:scatter's "seconds")
+/// and the metadata's checksum that covers it (the file UUID is not compared: OpenVDB writes a
 /// new one every time). .exr: the same size, channels (beauty, layers, single channels) as
 /// bits, and attributes apart from nebula:history and nebula:version; an attribute holding
 /// JSON is compared as JSON, numbers to 6 significant digits (older files wrote them with 6).
@@ -48,12 +49,28 @@ bool sameBits(const float* a, const float* b, std::size_t n)
     return std::memcmp(a, b, n * sizeof(float)) == 0;
 }
 
+/// File metadata @p value of @p key without the members that change from run to run: the
+/// scattered-light field's run time ("seconds") and, in nebula:checksums, the checksum of the
+/// metadata that holds it (every other key is compared itself).
+std::string comparedMeta(const std::string& key, const std::string& value)
+{
+    const char* member = key == "nebula:scatter" || key == "nebula:scatter_spectral" ? "seconds"
+                         : key == "nebula:checksums"                                 ? "metadata"
+                                                                                     : nullptr;
+    if (!member) return value;
+    auto json = nlohmann::json::parse(value, nullptr, false);
+    if (json.is_discarded() || !json.is_object()) return value;
+    json.erase(member);
+    return json.dump();
+}
+
 std::string metaText(const openvdb::MetaMap& meta, bool fileLevel)
 {
     std::ostringstream out;
     for (auto it = meta.beginMeta(); it != meta.endMeta(); ++it) {
         if (fileLevel && IGNORED_META.count(it->first)) continue;
-        out << it->first << "=" << it->second->str() << "\n";
+        const std::string value = it->second->str();
+        out << it->first << "=" << (fileLevel ? comparedMeta(it->first, value) : value) << "\n";
     }
     return out.str();
 }
