@@ -122,6 +122,7 @@ run_all() {
 # a failing command in the middle would go unnoticed).
 for side in before after; do
     build=${!side}
+    rm -rf "${work:?}/$side" # no file of an earlier run compared
     mkdir -p "$work/$side"
     set +e
     (
