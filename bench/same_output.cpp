@@ -7,12 +7,14 @@
 ///
 /// .vdb: the same grids in the same order, each with the same name, type, transform, grid
 /// metadata, active topology and values (compared as bits), and the same file metadata apart
-/// from nebula:history and nebula:version (the file UUID is not compared: OpenVDB writes a
+/// from nebula:history and nebula:version, nebscatter's run time (nebula:scatter's "seconds")
+/// and the metadata's checksum that covers it (the file UUID is not compared: OpenVDB writes a
 /// new one every time). .exr: the same size, channels (beauty, layers, single channels) as
 /// bits, and attributes apart from nebula:history and nebula:version; an attribute holding
 /// JSON is compared as JSON, numbers to 6 significant digits (older files wrote them with 6).
-/// Anything else: the same bytes. Prints "same" or the first difference; exit 0 if the same, 1 if
-/// not, 2 on bad use.
+/// .fits: HDU by HDU, the same header cards apart from HISTORY, DATE, ORIGIN (the version) and
+/// CHECKSUM (which covers them), and the same data bytes. Anything else: the same bytes. Prints
+/// "same" or the first difference; exit 0 if the same, 1 if not, 2 on bad use.
 
 #include "nebula/core/error.h"
 #include "nebula/io/grid_io.h"
@@ -31,6 +33,7 @@
 #include <set>
 #include <sstream>
 #include <string>
+#include <vector>
 
 namespace {
 
@@ -47,12 +50,28 @@ bool sameBits(const float* a, const float* b, std::size_t n)
     return std::memcmp(a, b, n * sizeof(float)) == 0;
 }
 
+/// File metadata @p value of @p key without the members that change from run to run: the
+/// scattered-light field's run time ("seconds") and, in nebula:checksums, the checksum of the
+/// metadata that holds it (every other key is compared itself).
+std::string comparedMeta(const std::string& key, const std::string& value)
+{
+    const char* member = key == "nebula:scatter" || key == "nebula:scatter_spectral" ? "seconds"
+                         : key == "nebula:checksums"                                 ? "metadata"
+                                                                                     : nullptr;
+    if (!member) return value;
+    auto json = nlohmann::json::parse(value, nullptr, false);
+    if (json.is_discarded() || !json.is_object()) return value;
+    json.erase(member);
+    return json.dump();
+}
+
 std::string metaText(const openvdb::MetaMap& meta, bool fileLevel)
 {
     std::ostringstream out;
     for (auto it = meta.beginMeta(); it != meta.endMeta(); ++it) {
         if (fileLevel && IGNORED_META.count(it->first)) continue;
-        out << it->first << "=" << it->second->str() << "\n";
+        const std::string value = it->second->str();
+        out << it->first << "=" << (fileLevel ? comparedMeta(it->first, value) : value) << "\n";
     }
     return out.str();
 }
@@ -181,6 +200,90 @@ std::string compareBytes(const std::string& pa, const std::string& pb)
     return a == b ? "" : "bytes differ";
 }
 
+/// One HDU of a FITS file: its header cards (those compared) and its data bytes.
+struct FitsHdu
+{
+    std::vector<std::string> cards;
+    std::string data;
+};
+
+/// The cards whose values change from run to run or with the version, not with the result.
+bool ignoredFitsCard(const std::string& keyword)
+{
+    return keyword == "HISTORY" || keyword == "DATE" || keyword == "ORIGIN" ||
+           keyword == "CHECKSUM";
+}
+
+/// The integer value of card @p card (a mandatory keyword: BITPIX, NAXISn, PCOUNT, GCOUNT).
+long long fitsInteger(const std::string& card, const std::string& path)
+{
+    try {
+        return std::stoll(card.substr(10, 20));
+    } catch (const std::exception&) {
+        throw nebula::Error(path + ": not an integer in the FITS card \"" + card + "\"");
+    }
+}
+
+/// The HDUs of the FITS file @p path: the 80-character cards of each header up to END, then
+/// |BITPIX| / 8 x GCOUNT x (PCOUNT + NAXIS1 x ... x NAXISn) data bytes, each padded to 2880.
+std::vector<FitsHdu> readFitsHdus(const std::string& path)
+{
+    std::ifstream in(path, std::ios::binary);
+    if (!in) throw nebula::Error("cannot open " + path);
+    const std::string bytes((std::istreambuf_iterator<char>(in)), {});
+    const std::size_t BLOCK = 2880, CARD = 80;
+    std::vector<FitsHdu> hdus;
+    std::size_t at = 0;
+    while (at < bytes.size()) {
+        FitsHdu hdu;
+        long long bitpix = 0, naxis = 0, pcount = 0, gcount = 1, elements = 1;
+        for (bool end = false; !end; at += CARD) {
+            if (at + CARD > bytes.size()) throw nebula::Error(path + ": a FITS header ends early");
+            const std::string card = bytes.substr(at, CARD);
+            std::string key = card.substr(0, 8); // the keyword: columns 1-8, blank padded
+            key.erase(key.find_last_not_of(' ') + 1);
+            end = key == "END";
+            if (key == "BITPIX") bitpix = fitsInteger(card, path);
+            if (key == "NAXIS") naxis = fitsInteger(card, path);
+            if (key.size() > 5 && key.compare(0, 5, "NAXIS") == 0)
+                elements *= fitsInteger(card, path);
+            if (key == "PCOUNT") pcount = fitsInteger(card, path);
+            if (key == "GCOUNT") gcount = fitsInteger(card, path);
+            if (!ignoredFitsCard(key) && card.find_first_not_of(' ') != std::string::npos) {
+                hdu.cards.push_back(card);
+            }
+        }
+        at = (at + BLOCK - 1) / BLOCK * BLOCK;
+        const long long size =
+            naxis == 0 && pcount == 0 ? 0 : std::abs(bitpix) / 8 * gcount * (pcount + elements);
+        if (size < 0 || at + static_cast<std::size_t>(size) > bytes.size()) {
+            throw nebula::Error(path + ": FITS data shorter than its header says");
+        }
+        const std::size_t padded = (static_cast<std::size_t>(size) + BLOCK - 1) / BLOCK * BLOCK;
+        hdu.data = bytes.substr(at, padded); // with its padding: every byte is compared
+        at += padded;
+        hdus.push_back(std::move(hdu));
+    }
+    return hdus;
+}
+
+std::string compareFits(const std::string& pa, const std::string& pb)
+{
+    const auto a = readFitsHdus(pa), b = readFitsHdus(pb);
+    if (a.size() != b.size()) return "numbers of HDUs differ";
+    for (std::size_t i = 0; i < a.size(); ++i) {
+        const std::string hdu = "HDU " + std::to_string(i) + ": ";
+        for (std::size_t c = 0; c < std::min(a[i].cards.size(), b[i].cards.size()); ++c) {
+            if (a[i].cards[c] != b[i].cards[c]) {
+                return hdu + "cards differ: \"" + a[i].cards[c] + "\" | \"" + b[i].cards[c] + "\"";
+            }
+        }
+        if (a[i].cards.size() != b[i].cards.size()) return hdu + "numbers of cards differ";
+        if (a[i].data != b[i].data) return hdu + "data differ";
+    }
+    return "";
+}
+
 } // namespace
 
 int main(int argc, char** argv)
@@ -192,9 +295,10 @@ int main(int argc, char** argv)
     const std::string a = argv[1], b = argv[2];
     try {
         openvdb::initialize();
-        const std::string diff = endsWith(a, ".vdb")   ? compareVdb(a, b)
-                                 : endsWith(a, ".exr") ? compareExr(a, b)
-                                                       : compareBytes(a, b);
+        const std::string diff = endsWith(a, ".vdb")    ? compareVdb(a, b)
+                                 : endsWith(a, ".exr")  ? compareExr(a, b)
+                                 : endsWith(a, ".fits") ? compareFits(a, b)
+                                                        : compareBytes(a, b);
         if (diff.empty()) {
             std::printf("same       %s\n", a.c_str());
             return 0;

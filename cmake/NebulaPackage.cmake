@@ -51,6 +51,11 @@ install(FILES ${CMAKE_CURRENT_BINARY_DIR}/nebula.pc
         DESTINATION ${CMAKE_INSTALL_LIBDIR}/pkgconfig COMPONENT dev)
 install(FILES ${PROJECT_SOURCE_DIR}/README.md ${PROJECT_SOURCE_DIR}/CHANGELOG.md
         DESTINATION ${CMAKE_INSTALL_DOCDIR} COMPONENT tools)
+# The licence (LICENSE: Apache-2.0) as Debian's machine-readable copyright file, where a .deb
+# keeps it (/usr/share/doc/nebula/copyright); it points at the system's copy of the full text
+# (/usr/share/common-licenses/Apache-2.0), as Debian policy 12.5 asks.
+install(FILES ${PROJECT_SOURCE_DIR}/cmake/debian-copyright DESTINATION ${CMAKE_INSTALL_DOCDIR}
+        RENAME copyright COMPONENT tools)
 # Debian's changelog.gz of a native package, pointing at CHANGELOG.md, for the version the
 # build wrote into its version header (rewritten when git describe changes; gzip -n).
 add_custom_command(OUTPUT ${CMAKE_CURRENT_BINARY_DIR}/changelog.gz
@@ -76,6 +81,7 @@ file(WRITE ${CMAKE_CURRENT_BINARY_DIR}/NebulaCPackVersion.cmake
      "include(\"${PROJECT_SOURCE_DIR}/cmake/NebulaBuildVersion.cmake\")\n")
 set(CPACK_PROJECT_CONFIG_FILE ${CMAKE_CURRENT_BINARY_DIR}/NebulaCPackVersion.cmake)
 set(CPACK_PACKAGE_CONTACT "nebula developers <nebula@localhost>")
+set(CPACK_RESOURCE_FILE_LICENSE ${PROJECT_SOURCE_DIR}/LICENSE) # Apache-2.0 (NEBULA_LICENSE)
 set(CPACK_PACKAGE_DESCRIPTION_SUMMARY
     "physically based rendering of reflection and emission nebulae from OpenVDB grids")
 # Lines of at most 80 characters (Debian policy 5.6.13).

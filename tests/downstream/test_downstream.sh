@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # SPDX-License-Identifier: Apache-2.0
 # Installs the build into a scratch prefix (cmake --install), builds tests/downstream against
-# it twice (find_package(nebula CONFIG), and pkg-config nebula), and checks that the program
+# it twice (find_package(nebula CONFIG), and pkg-config nebula; both name the licence,
+# Apache-2.0, as the copyright file installed beside the docs does), and checks that the program
 # renders a small lit nebula as nebrender does (the same pixels to 1e-6 of the peak). Also:
 # make -f Makefile.data install (cmake/install_staged.sh) into a prefix that cannot be written
 # fails with a message and leaves nothing.
@@ -13,7 +14,8 @@ mkdir -p "$work"
 prefix=$work/prefix
 cmake --install "$build" --prefix "$prefix" > "$work/install.log"
 for f in bin/nebrender lib/libnebula_core.a include/nebula/core/version.h \
-    include/nebula/core/nebula_version.h lib/cmake/nebula/nebulaConfig.cmake lib/pkgconfig/nebula.pc; do
+    include/nebula/core/nebula_version.h lib/cmake/nebula/nebulaConfig.cmake lib/pkgconfig/nebula.pc \
+    share/doc/nebula/copyright; do
     [[ -e $prefix/$f ]] || { echo "FAIL: $prefix/$f not installed" >&2; exit 1; }
 done
 "$prefix/bin/nebrender" --version
@@ -32,6 +34,8 @@ cmake --build "$work/cmake-build" -j 2 > "$work/build.log"
 # pkg-config: the same program with the flags nebula.pc gives.
 export PKG_CONFIG_PATH=$prefix/lib/pkgconfig
 pkg-config --exists --print-errors nebula
+[[ $(pkg-config --variable=license nebula) == Apache-2.0 ]] ||
+    { echo "FAIL: nebula.pc's license is not Apache-2.0" >&2; exit 1; }
 g++ -std=c++17 -O2 "$src/tests/downstream/main.cpp" -o "$work/downstream-pc" \
     $(pkg-config --cflags --libs nebula)
 "$work/downstream-pc" "$work/lit.vdb" "$work/ref512.exr"

@@ -5,7 +5,8 @@
 # libnebula, the headers, the CMake and pkg-config packages, the man pages (gzipped) and bash
 # completion; apt-get accepts it (a dry run, as root); unpacked into a scratch root (dpkg -x)
 # the installed nebrender runs and prints the package's version, the one its changelog names
-# (also in a build directory configured several commits before).
+# (also in a build directory configured several commits before), and its copyright file
+# names the licence (Apache-2.0).
 #   test_deb.sh BUILD_DIR WORK
 set -euo pipefail
 build=$1 work=$2
@@ -33,7 +34,7 @@ for f in ./usr/bin/nebrender ./usr/bin/nebscatter ./usr/lib/libnebula_core.a \
     ./usr/include/nebula/render/fast.h ./usr/include/nebula/core/nebula_version.h \
     ./usr/lib/cmake/nebula/nebulaConfig.cmake ./usr/lib/pkgconfig/nebula.pc \
     ./usr/share/doc/nebula/CHANGELOG.md ./usr/share/man/man1/nebrender.1.gz \
-    ./usr/share/bash-completion/completions/nebrender; do
+    ./usr/share/bash-completion/completions/nebrender ./usr/share/doc/nebula/copyright; do
     grep -q " $f\$" "$work/contents.txt" || { echo "FAIL: the package lacks $f" >&2; exit 1; }
 done
 # apt accepts it: its dependencies resolve against this system (a dry run, nothing installed).
@@ -52,6 +53,11 @@ echo "$out"
     echo "FAIL: --version \"$out\" is not the package's version $version" >&2
     exit 1
 }
+# The licence: Debian's machine-readable copyright file, Apache-2.0 for every file.
+copyright=$work/root/usr/share/doc/nebula/copyright
+head -1 "$copyright" | grep -q "^Format: https://www.debian.org/doc/packaging-manuals/copyright-format/1.0/" &&
+    grep -q "^License: Apache-2.0$" "$copyright" ||
+    { echo "FAIL: $copyright is not a machine-readable Apache-2.0 copyright file" >&2; exit 1; }
 first=$(gzip -dc "$work/root/usr/share/doc/nebula/changelog.gz" | head -1)
 [[ $first == "nebula ($version) "* ]] || {
     echo "FAIL: the changelog's \"$first\" is not for the package's version $version" >&2
