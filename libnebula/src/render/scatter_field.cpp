@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 /// @file scatter_field.cpp
 /// nebscatter's Monte Carlo (DESIGN §5b), see scatter_field.h: the field level, the field
 /// over its sources with its report (computeField()), the spectral field, and the field as

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 /// @file scatter_packets.cpp
 /// nebscatter's packets (DESIGN §5b), see scatter_transport.h: the flight walk
 /// (Transport::walk(), one straight flight over the half-voxel lattice with its track-length

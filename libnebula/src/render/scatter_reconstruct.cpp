@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 /// @file scatter_reconstruct.cpp
 /// nebscatter's tallies turned into the field's cells (scatter_reconstruct.h, DESIGN §5b).
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// @file scatter_reconstruct.h
 /// Internal to render/: nebscatter's tallies turned into the field's cells (DESIGN §5b,

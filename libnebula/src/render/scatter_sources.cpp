@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 /// @file scatter_sources.cpp
 /// nebscatter's sources (DESIGN §5b "Sources"), see scatter_transport.h: each source's
 /// strength per voxel and the sampler its packets start from.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 /// @file scatter_tally.cpp
 /// nebscatter's tallies (scatter_tally.h, DESIGN §5b "Determinism" and "Ranks"): one
 /// source's packets over the threads, their integer tallies summed over the threads and the

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// @file scatter_tally.h
 /// Internal to render/: nebscatter's tallies (DESIGN §5b "Determinism"): the fixed point

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 /// @file scatter_transport.cpp
 /// nebscatter's Transport (scatter_transport.h, DESIGN §5b): the field lattice, its active
 /// cells and tally slots, the adaptive cells' blocks and the flight walk's skip blocks,

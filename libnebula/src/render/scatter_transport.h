@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// @file scatter_transport.h
 /// Internal to render/: nebscatter's Monte Carlo (DESIGN §5b) beneath computeField()

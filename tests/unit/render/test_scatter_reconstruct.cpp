@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // nebscatter's adaptive cells turned back into cells (render/scatter_reconstruct.h, DESIGN §5b
 // "Adaptive cells"): a cell of a block tallied whole is its block's value plus limited slopes
 // times its offset. Checked against closed forms on small block lattices: a linear field is
