@@ -29,10 +29,11 @@ void blockMaxima(const SparseVolume& v, std::array<int, 3>& blocks,
 double voxelSize(const Affine& indexToWorld);
 
 /// A ray through the occupancy blocks of a lattice, in index space, with world distance t
-/// as its parameter: the one block walk of nebula. It clips the ray to the lattice box, finds
+/// as its parameter: the renderers' block walk. It clips the ray to the lattice box, finds
 /// the block holding a point of the ray and the distance at which the ray leaves that block.
 /// The fast integrators step along it and skip empty blocks (Marcher); the path tracer
-/// draws free flights against each block's majorant (path_tracer.cpp).
+/// draws free flights against each block's majorant (path_tracer.cpp); nebscatter's flight
+/// walk clips its rays with it and steps over half-voxel cells itself (DESIGN §9).
 struct BlockRay
 {
     Vec3 oI, dI;       ///< origin and direction in index space (dI: index units per pc)
