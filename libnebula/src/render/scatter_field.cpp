@@ -180,9 +180,9 @@ ScatterField computeField(const RenderScene& scene, const RenderOptions& ropts,
     std::vector<SourceSpec> specs;
     if (opts.perStar) {
         for (std::size_t s = 0; s < S; ++s)
-            specs.push_back({"star_" + scene.stars[s].name, {s}});
+            specs.push_back({ScatterSource::oneStar(s), {s}});
     } else if (S > 0) {
-        SourceSpec all{"stars", {}};
+        SourceSpec all{ScatterSource::allStars(), {}};
         for (std::size_t s = 0; s < S; ++s)
             all.stars.push_back(s);
         specs.push_back(all);
@@ -190,7 +190,7 @@ ScatterField computeField(const RenderScene& scene, const RenderOptions& ropts,
     bool hasEmission = false;
     for (std::size_t i = 0; i < f.voxelCount() && !hasEmission; ++i)
         hasEmission = f.voxel(i)[1] > 0.0f;
-    if (opts.emission && hasEmission) specs.push_back({"emission", {}});
+    if (opts.emission && hasEmission) specs.push_back({ScatterSource::emission(), {}});
 
     ScatterField field;
     field.order = opts.order;
@@ -250,7 +250,8 @@ ScatterField computeField(const RenderScene& scene, const RenderOptions& ropts,
         eta = SparseVolume();
 
         ScatterSourceField out;
-        out.name = spec.name;
+        out.source = spec.source;
+        const std::string name = scatterSourceName(spec.source, scene.stars);
         out.packets = opts.packets;
         out.power.assign(UC, 0.0);
         out.escaped.assign(UC, 0.0);
@@ -288,7 +289,7 @@ ScatterField computeField(const RenderScene& scene, const RenderOptions& ropts,
                 opts.ranks ? opts.ranks->share(opts.packets)
                            : std::pair<std::uint64_t, std::uint64_t>(0, opts.packets);
             {
-                Progress bar(run, "nebscatter " + spec.name, last - first);
+                Progress bar(run, "nebscatter " + name, last - first);
                 tbb::parallel_for(tbb::blocked_range<std::uint64_t>(first, last, 4096),
                                   [&](const tbb::blocked_range<std::uint64_t>& r) {
                                       Transport::Tally tally = shared;
@@ -505,8 +506,8 @@ ScatterField computeField(const RenderScene& scene, const RenderOptions& ropts,
                 "{:.4g} {:.4g} L_sun{}: escaped {:.4g} {:.4g} {:.4g}, absorbed {:.4g} {:.4g} "
                 "{:.4g}; noise of J {:.2g} % (mean relative standard error per field cell, "
                 "weighted by its scattered light)",
-                out.name, out.packets, out.flights, double(out.flights) / double(out.packets),
-                which, out.power[a], out.power[b], out.power[e], wl.empty() ? "" : " nm^-1",
+                name, out.packets, out.flights, double(out.flights) / double(out.packets), which,
+                out.power[a], out.power[b], out.power[e], wl.empty() ? "" : " nm^-1",
                 out.escaped[a], out.escaped[b], out.escaped[e], out.absorbed[a], out.absorbed[b],
                 out.absorbed[e], 100.0 * out.relativeError));
         }
@@ -638,7 +639,7 @@ SceneScatterField sceneScatterField(const ScatterField& field, const RenderOptio
     out.moments.setZero();
     for (const auto& src : field.sources) {
         std::vector<double> factor(field.wavelengths.empty() ? 3 : field.wavelengths.size(), 1.0);
-        if (src.name == "emission" && field.wavelengths.empty()) {
+        if (src.source.kind == ScatterSource::Kind::Emission && field.wavelengths.empty()) {
             for (std::size_t c = 0; c < 3; ++c)
                 factor[c] = opts.emissionScale * opts.emissionColor[c];
         }
