@@ -36,6 +36,13 @@ examples() {
     nebillum -i shell.vdb -o shell-lit.vdb
     nebrender -i shell-lit.vdb --spectral --exaggerate-velocity 500 --eye 0,0,-19 --fov 30 \
         --res 96x96 -o doppler.exr --png doppler.png
+    # nebscatter's fields (summed, per star, spectral) and renders that read them back.
+    nebscatter -i lit.vdb --packets 20000 --field-level 2 -o scattered.vdb
+    nebscatter -i lit.vdb --packets 20000 --field-level 2 --per-star -o per-star.vdb
+    nebscatter -i spectral-lit.vdb --packets 5000 --field-level 2 --spectral 6 -o spectral-field.vdb
+    nebrender -i scattered.vdb --res 96x96 -o field.exr --png field.png
+    nebrender -i per-star.vdb --res 64x64 -o per-star.exr --fits per-star.fits
+    nebrender -i spectral-field.vdb --spectral --res 64x64 -o spectral-field.exr
 }
 
 for side in before after; do
@@ -49,7 +56,7 @@ for side in before after; do
 done
 
 status=0
-for f in "$work"/before/*.vdb "$work"/before/*.exr "$work"/before/*.png; do
+for f in "$work"/before/*.vdb "$work"/before/*.exr "$work"/before/*.png "$work"/before/*.fits; do
     name=$(basename "$f")
     (cd "$work" && "$compare" "before/$name" "after/$name") || status=1
 done

@@ -7,11 +7,12 @@
 /// .vdb: the same grids in the same order, each with the same name, type, transform, grid
 /// metadata, active topology and values (compared as bits), and the same file metadata apart
 /// from nebula:history and nebula:version (the file UUID is not compared: OpenVDB writes a
-/// new one every time). .exr: the same size, channels (beauty, layers, single channels) as
-/// bits, and attributes apart from nebula:history and nebula:version; an attribute holding
-/// JSON is compared as JSON, numbers to 6 significant digits (older files wrote them with 6).
-/// Anything else: the same bytes. Prints "same" or the first difference; exit 0 if the same, 1 if
-/// not, 2 on bad use.
+/// new one every time), and nebscatter's run time ("seconds" of nebula:scatter and
+/// nebula:scatter_spectral: how long it took, not what it computed). .exr: the same size, channels
+/// (beauty, layers, single channels) as bits, and attributes apart from nebula:history and
+/// nebula:version; an attribute holding JSON is compared as JSON, numbers to 6 significant digits
+/// (older files wrote them with 6). Anything else: the same bytes. Prints "same" or the first
+/// difference; exit 0 if the same, 1 if not, 2 on bad use.
 
 #include "nebula/core/error.h"
 #include "nebula/io/grid_io.h"
@@ -34,6 +35,8 @@
 namespace {
 
 const std::set<std::string> IGNORED_META = {"nebula:history", "nebula:version"};
+/// File metadata (JSON) whose "seconds", a run time, is not compared.
+const std::set<std::string> TIMED_META = {"nebula:scatter", "nebula:scatter_spectral"};
 
 bool endsWith(const std::string& s, const std::string& suffix)
 {
@@ -51,7 +54,15 @@ std::string metaText(const openvdb::MetaMap& meta, bool fileLevel)
     std::ostringstream out;
     for (auto it = meta.beginMeta(); it != meta.endMeta(); ++it) {
         if (fileLevel && IGNORED_META.count(it->first)) continue;
-        out << it->first << "=" << it->second->str() << "\n";
+        std::string text = it->second->str();
+        if (fileLevel && TIMED_META.count(it->first)) {
+            auto json = nlohmann::json::parse(text, nullptr, false);
+            if (json.is_object()) {
+                json.erase("seconds");
+                text = json.dump();
+            }
+        }
+        out << it->first << "=" << text << "\n";
     }
     return out.str();
 }
