@@ -41,17 +41,21 @@ examples() {
     nebscatter -i lit.vdb --packets 20000 --field-level 2 --per-star -o per-star.vdb
     nebscatter -i spectral-lit.vdb --packets 5000 --field-level 2 --spectral 6 -o spectral-field.vdb
     nebrender -i scattered.vdb --res 96x96 -o field.exr --png field.png
-    nebrender -i per-star.vdb --res 64x64 -o per-star.exr --fits per-star.fits
+    nebrender -i per-star.vdb --camera orthographic --res 64x64 -o per-star.exr \
+        --fits per-star.fits
     nebrender -i spectral-field.vdb --spectral --res 64x64 -o spectral-field.exr
 }
+export -f examples
 
 for side in before after; do
     build=${!side}
     mkdir -p "$work/$side"
+    # A shell of its own, so that -e stops at the first failing example (a subshell on the
+    # left of || would run on after one).
     (
         cd "$work/$side"
         export PATH="$build/tools:$PATH"
-        examples 2> stderr.log
+        bash -eo pipefail -c examples 2> stderr.log
     ) || { echo "$SCRIPT: error: the examples failed with the $side build; see $work/$side/stderr.log" >&2; exit 1; }
 done
 

@@ -8,11 +8,12 @@
 /// metadata, active topology and values (compared as bits), and the same file metadata apart
 /// from nebula:history and nebula:version (the file UUID is not compared: OpenVDB writes a
 /// new one every time), and nebscatter's run time ("seconds" of nebula:scatter and
-/// nebula:scatter_spectral: how long it took, not what it computed). .exr: the same size, channels
-/// (beauty, layers, single channels) as bits, and attributes apart from nebula:history and
-/// nebula:version; an attribute holding JSON is compared as JSON, numbers to 6 significant digits
-/// (older files wrote them with 6). Anything else: the same bytes. Prints "same" or the first
-/// difference; exit 0 if the same, 1 if not, 2 on bad use.
+/// nebula:scatter_spectral: how long it took, not what it computed) with the checksum of
+/// the metadata that holds it (nebula:checksums' "metadata"; its grids' checksums are kept). .exr:
+/// the same size, channels (beauty, layers, single channels) as bits, and attributes apart from
+/// nebula:history and nebula:version; an attribute holding JSON is compared as JSON, numbers to 6
+/// significant digits (older files wrote them with 6). Anything else: the same bytes. Prints "same"
+/// or the first difference; exit 0 if the same, 1 if not, 2 on bad use.
 
 #include "nebula/core/error.h"
 #include "nebula/io/grid_io.h"
@@ -28,6 +29,7 @@
 #include <fstream>
 #include <iostream>
 #include <iterator>
+#include <map>
 #include <set>
 #include <sstream>
 #include <string>
@@ -35,8 +37,12 @@
 namespace {
 
 const std::set<std::string> IGNORED_META = {"nebula:history", "nebula:version"};
-/// File metadata (JSON) whose "seconds", a run time, is not compared.
-const std::set<std::string> TIMED_META = {"nebula:scatter", "nebula:scatter_spectral"};
+/// File metadata (JSON) and the member of each that is not compared: nebscatter's run time,
+/// and the metadata's checksum, which covers that run time.
+const std::map<std::string, std::string> UNCOMPARED_MEMBER = {
+    {"nebula:scatter", "seconds"},
+    {"nebula:scatter_spectral", "seconds"},
+    {"nebula:checksums", "metadata"}};
 
 bool endsWith(const std::string& s, const std::string& suffix)
 {
@@ -55,10 +61,11 @@ std::string metaText(const openvdb::MetaMap& meta, bool fileLevel)
     for (auto it = meta.beginMeta(); it != meta.endMeta(); ++it) {
         if (fileLevel && IGNORED_META.count(it->first)) continue;
         std::string text = it->second->str();
-        if (fileLevel && TIMED_META.count(it->first)) {
+        const auto member = UNCOMPARED_MEMBER.find(it->first);
+        if (fileLevel && member != UNCOMPARED_MEMBER.end()) {
             auto json = nlohmann::json::parse(text, nullptr, false);
             if (json.is_object()) {
-                json.erase("seconds");
+                json.erase(member->second);
                 text = json.dump();
             }
         }
