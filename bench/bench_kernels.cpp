@@ -19,6 +19,7 @@
 #include "nebula/render/fast.h"
 #include "nebula/stages/generate.h"
 #include "nebula/stages/illuminate.h"
+#include "nebula/stages/scene_assembly.h"
 #include "nebula/volume/volume.h"
 
 #include <benchmark/benchmark.h>

@@ -19,6 +19,7 @@
 #include "nebula/io/image.h"
 #include "nebula/render/scatter_field.h"
 #include "nebula/render/spectral.h"
+#include "nebula/stages/scene_assembly.h"
 
 #include <openvdb/openvdb.h>
 

@@ -4,7 +4,7 @@
 #include <nebula/io/grid_io.h>
 #include <nebula/io/image.h>
 #include <nebula/render/fast.h>
-#include <nebula/render/scene.h>
+#include <nebula/stages/scene_assembly.h>
 
 #include <algorithm>
 #include <cmath>

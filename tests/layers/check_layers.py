@@ -4,7 +4,8 @@
 
 Usage: tests/layers/check_layers.py [REPO_ROOT]
 Prints each upward include as "file:line: <layer> includes <layer> (header)" and the totals;
-exits 1 if there is any. The build enforces the same rule (each layer is a CMake target that
+exits 1 if there is any, or if a render/ file sees OpenVDB (an <openvdb/...> include, itself
+or through the headers it includes) or names GridSet: scenes are assembled in stages/. The build enforces the same rule (each layer is a CMake target that
 sees only its own and lower layers' headers); this script is the quick, readable check.
 """
 import pathlib
@@ -13,6 +14,48 @@ import sys
 
 LAYERS = ["core", "volume", "physics", "io", "render", "stages", "cli", "serve"]
 INCLUDE = re.compile(r'^\s*#\s*include\s+[<"]nebula/([a-z]+)/([A-Za-z0-9_]+\.h)[>"]')
+LOCAL = re.compile(r'^\s*#\s*include\s+"([A-Za-z0-9_]+\.h)"')
+OPENVDB = re.compile(r'^\s*#\s*include\s+<openvdb/')
+NO_OPENVDB = ["render"]  # layers that know no files: no OpenVDB, even through a header
+
+
+def sees_openvdb(path, lib, seen):
+    """The chain of files by which @p path includes an OpenVDB header, or None."""
+    if path in seen:
+        return seen[path]
+    seen[path] = None
+    for line in path.read_text().splitlines():
+        if OPENVDB.match(line):
+            seen[path] = [path]
+            break
+        m = INCLUDE.match(line)
+        local = LOCAL.match(line)
+        target = (lib / "include" / "nebula" / m.group(1) / m.group(2) if m
+                  else path.parent / local.group(1) if local else None)
+        if target is not None and target.exists():
+            chain = sees_openvdb(target, lib, seen)
+            if chain:
+                seen[path] = [path] + chain
+                break
+    return seen[path]
+
+
+def files_seeing_openvdb(files, lib, root):
+    """Prints each file of a NO_OPENVDB layer that sees OpenVDB or names GridSet."""
+    bad = 0
+    seen = {}
+    for path in files:
+        if layer_of(path, lib) not in NO_OPENVDB:
+            continue
+        chain = sees_openvdb(path, lib, seen)
+        if chain:
+            print(f"{path.relative_to(root)}: sees OpenVDB through "
+                  + " -> ".join(str(p.relative_to(root)) for p in chain[1:]))
+            bad += 1
+        if "GridSet" in path.read_text():
+            print(f"{path.relative_to(root)}: names GridSet (scenes are assembled in stages/)")
+            bad += 1
+    return bad
 
 
 def layer_of(path, lib):
@@ -49,7 +92,9 @@ def main():
                       f"({m.group(1)}/{m.group(2)})")
                 upward += 1
     print(f"{total} includes between libnebula modules, {upward} upward")
-    return 1 if upward else 0
+    blind = files_seeing_openvdb(files, lib, root)
+    print(f"{blind} files of {', '.join(NO_OPENVDB)} seeing OpenVDB or GridSet")
+    return 1 if upward or blind else 0
 
 
 if __name__ == "__main__":

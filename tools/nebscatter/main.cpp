@@ -105,7 +105,7 @@ int main(int argc, char** argv)
                  "One field per star (scatter.star_<name>.*) instead of their sum: nebrender\n"
                  "then scales each by the star's luminosity, for animating a star");
     app.add_flag("--no-emission", noEmission, "Leave out the gas emission's scattered light");
-    app.add_option("--emission-grid", opts.emissionGrid, "Gas emission grid")
+    app.add_option("--emission-grid", opts.scene.emissionGrid, "Gas emission grid")
         ->capture_default_str();
     auto* wavelengthsOpt = nebula::cli::addVec3(
         app, "--wavelengths", opts.wavelengths,
@@ -121,7 +121,7 @@ int main(int argc, char** argv)
     app.add_flag("--interpolated-tau", interpolatedTau,
                  "Start packets with each star's optical depth from the trilinear tau grid\n"
                  "everywhere (as nebrender --interpolated-tau), not exact where it bends");
-    app.add_option("--min-star-distance", opts.minStarDistance,
+    app.add_option("--min-star-distance", opts.scene.minStarDistance,
                    "Distance below which 1/r^2 is clamped [voxels] (as nebrender's)")
         ->capture_default_str()
         ->check(nebula::cli::positive());
@@ -145,7 +145,7 @@ int main(int argc, char** argv)
         f.ranks = ranks.get();
         f.emission = !noEmission;
         f.fieldLevel = fieldLevel == "auto" ? nebula::AUTO_FIELD_LEVEL : std::stoi(fieldLevel);
-        opts.exactStarDepth = !interpolatedTau;
+        opts.scene.exactStarDepth = !interpolatedTau;
         auto grids = nebula::readGrids(common.input, say);
         if (ranks->size() > 1) { // every rank must compute the same field's share
             std::vector<nebula::cli::RunPart> parts{{"the version", NEBULA_VERSION_STRING}};
@@ -158,7 +158,7 @@ int main(int argc, char** argv)
                              nebula::contentDigest(grids)});
             nebula::cli::requireSameRun(*ranks, parts);
         }
-        opts.densityGrid = common.densityGrid;
+        opts.scene.densityGrid = common.densityGrid;
         opts.onlyNew = common.onlyNew;
         nebula::scatter(grids, opts, say);
         if (ranks->root()) nebula::writeGrids(common.output, std::move(grids), run);

@@ -51,11 +51,12 @@ void writeScatterField(GridSet& grids, const ScatterFieldMeta& meta,
         if (!isFieldGrid(g->getName(), spectral)) kept.push_back(g);
     grids.grids = kept;
 
-    const int L = meta.order;
+    const int L = meta.settings.order;
     const int C = int(meta.wavelengths.size()); // channels per moment
     nlohmann::json sources = nlohmann::json::array();
     for (std::size_t s = 0; s < meta.sources.size(); ++s) {
         const ScatterSourceSummary& src = meta.sources[s];
+        const std::string name = scatterSourceName(src.source, meta.stars);
         const SparseVolume& m = *moments[s];
         const double j0 = 0.5 / std::sqrt(PI); // Y_00: J = c_00 / (4 pi Y_00)
         for (int l = 0; l <= L; ++l)
@@ -79,7 +80,7 @@ void writeScatterField(GridSet& grids, const ScatterFieldMeta& meta,
                                              float(m.voxel(m.index(I, J, K))[ch] * scale));
                             }
                     grid->setTransform(fieldTransform.copy());
-                    grid->setName(gridName(src.name, l, mm, c, meta.wavelengths, spectral));
+                    grid->setName(gridName(name, l, mm, c, meta.wavelengths, spectral));
                     grid->setGridClass(openvdb::GRID_UNKNOWN);
                     const char* units =
                         spectral ? (l == 0 ? "L_sun pc^-2 sr^-1 nm^-1 (mean intensity J per nm)"
@@ -91,13 +92,13 @@ void writeScatterField(GridSet& grids, const ScatterFieldMeta& meta,
                         grid->insertMeta("wavelength_nm",
                                          openvdb::DoubleMetadata(meta.wavelengths[std::size_t(c)]));
                     }
-                    grid->insertMeta("source", openvdb::StringMetadata(src.name));
+                    grid->insertMeta("source", openvdb::StringMetadata(name));
                     grid->insertMeta("l", openvdb::Int32Metadata(l));
                     grid->insertMeta("m", openvdb::Int32Metadata(mm));
-                    grid->insertMeta("level", openvdb::Int32Metadata(meta.level));
+                    grid->insertMeta("level", openvdb::Int32Metadata(meta.settings.fieldLevel));
                     grids.replace(grid);
                 }
-        sources.push_back({{"name", src.name},
+        sources.push_back({{"name", name},
                            {"packets", src.packets},
                            {"flights", src.flights},
                            {"power", src.power},
@@ -106,20 +107,21 @@ void writeScatterField(GridSet& grids, const ScatterFieldMeta& meta,
                            {"relative_error", src.relativeError}});
     }
     const Affine& a0 = meta.indexToWorld;
+    const ScatterSettings& set = meta.settings;
     const nlohmann::json json = {{"order", L},
-                                 {"level", meta.level},
-                                 {"per_star", meta.perStar},
-                                 {"packets", meta.packets},
-                                 {"seed", meta.seed},
-                                 {"refine_tau", meta.refineTau},
+                                 {"level", set.fieldLevel},
+                                 {"per_star", set.perStar},
+                                 {"packets", set.packets},
+                                 {"seed", set.seed},
+                                 {"refine_tau", set.refineTau},
                                  {"sources", sources},
                                  {"dust", nlohmann::json::parse(meta.dust.toJson())},
                                  {"stars", nlohmann::json::parse(starsToJson(meta.stars))},
                                  {"wavelengths", meta.wavelengths},
-                                 {"min_star_distance", meta.minStarDistance},
-                                 {"exact_star_depth", meta.exactStarDepth},
-                                 {"density_grid", meta.densityGrid},
-                                 {"emission_grid", meta.emissionGrid},
+                                 {"min_star_distance", meta.scene.minStarDistance},
+                                 {"exact_star_depth", meta.scene.exactStarDepth},
+                                 {"density_grid", meta.scene.densityGrid},
+                                 {"emission_grid", meta.scene.emissionGrid},
                                  {"index_to_world",
                                   {a0.m[0], a0.m[1], a0.m[2], a0.t.x, a0.m[3], a0.m[4], a0.m[5],
                                    a0.t.y, a0.m[6], a0.m[7], a0.m[8], a0.t.z}},
@@ -145,14 +147,16 @@ std::optional<ScatterFieldMeta> readScatterFieldMeta(const GridSet& grids, bool 
         return std::nullopt;
     }
     ScatterFieldMeta meta;
+    ScatterSettings& set = meta.settings;
+    std::vector<std::string> names;
     detail::checkJsonBounds(metaText, grids.source, std::string(metaKey) + " metadata is ");
     try {
         const nlohmann::json json = nlohmann::json::parse(metaText);
-        meta.order = json.at("order").get<int>();
-        meta.level = json.at("level").get<int>();
+        set.order = json.at("order").get<int>();
+        set.fieldLevel = json.at("level").get<int>();
         for (const auto& src : json.at("sources")) {
             ScatterSourceSummary s;
-            s.name = src.at("name").get<std::string>();
+            names.push_back(src.at("name").get<std::string>());
             s.packets = src.value("packets", std::uint64_t(0));
             s.flights = src.value("flights", std::uint64_t(0));
             s.power = src.value("power", std::vector<double>());
@@ -168,23 +172,23 @@ std::optional<ScatterFieldMeta> readScatterFieldMeta(const GridSet& grids, bool 
         const auto a = json.at("index_to_world").get<std::array<double, 12>>();
         meta.indexToWorld.m = {a[0], a[1], a[2], a[4], a[5], a[6], a[8], a[9], a[10]};
         meta.indexToWorld.t = Vec3(a[3], a[7], a[11]);
-        meta.minStarDistance = json.at("min_star_distance").get<double>();
-        meta.densityGrid = json.at("density_grid").get<std::string>();
-        meta.emissionGrid = json.at("emission_grid").get<std::string>();
-        meta.perStar = json.value("per_star", false);
-        meta.packets = json.value("packets", std::uint64_t(0));
-        meta.seed = json.value("seed", std::uint64_t(0));
-        meta.refineTau = json.value("refine_tau", 0.0);
-        meta.exactStarDepth = json.value("exact_star_depth", false);
+        meta.scene.minStarDistance = json.at("min_star_distance").get<double>();
+        meta.scene.densityGrid = json.at("density_grid").get<std::string>();
+        meta.scene.emissionGrid = json.at("emission_grid").get<std::string>();
+        set.perStar = json.value("per_star", false);
+        set.packets = json.value("packets", std::uint64_t(0));
+        set.seed = json.value("seed", std::uint64_t(0));
+        set.refineTau = json.value("refine_tau", 0.0);
+        meta.scene.exactStarDepth = json.value("exact_star_depth", false);
         meta.seconds = json.value("seconds", 0.0);
     } catch (const nlohmann::json::exception& e) {
         throw Error(grids.source + ": " + metaKey +
                     " metadata is not nebscatter's: " + detail::jsonErrorText(e));
     }
-    if (meta.order < 0 || meta.order > SH_MAX_DEGREE || meta.level < MIN_FIELD_LEVEL ||
-        meta.level > MAX_FIELD_LEVEL) {
-        throw Error(grids.source + ": " + metaKey + " has order " + std::to_string(meta.order) +
-                    " and level " + std::to_string(meta.level) + "; expected 0..4 and " +
+    if (set.order < 0 || set.order > SH_MAX_DEGREE || set.fieldLevel < MIN_FIELD_LEVEL ||
+        set.fieldLevel > MAX_FIELD_LEVEL) {
+        throw Error(grids.source + ": " + metaKey + " has order " + std::to_string(set.order) +
+                    " and level " + std::to_string(set.fieldLevel) + "; expected 0..4 and " +
                     std::to_string(MIN_FIELD_LEVEL) + ".." + std::to_string(MAX_FIELD_LEVEL));
     }
     const auto& wl = meta.wavelengths;
@@ -196,8 +200,10 @@ std::optional<ScatterFieldMeta> readScatterFieldMeta(const GridSet& grids, bool 
                     "; expected " + (spectral ? "at least 2 increasing" : "3 (R, G, B)") +
                     " wavelengths > 0 nm");
     }
-    for (const auto& src : meta.sources) {
-        if (spectral && src.name == "emission") {
+    for (std::size_t s = 0; s < meta.sources.size(); ++s) {
+        ScatterSource& source = meta.sources[s].source;
+        source = parseScatterSource(names[s], meta.stars, grids.source + ": " + metaKey);
+        if (spectral && source.kind == ScatterSource::Kind::Emission) {
             throw Error(grids.source + ": the spectral scattered-light field (nebscatter "
                                        "--spectral) has an emission source, which a spectral "
                                        "field does not have; rerun nebscatter --spectral on "
@@ -217,12 +223,12 @@ SparseVolume readScatterMoments(const GridSet& grids, const ScatterFieldMeta& me
     std::vector<std::vector<openvdb::FloatGrid::ConstPtr>> perSource;
     std::vector<openvdb::FloatGrid::ConstPtr> jGrids;
     for (const auto& src : meta.sources) {
+        const std::string source = scatterSourceName(src.source, meta.stars);
         std::vector<openvdb::FloatGrid::ConstPtr> list;
-        for (int l = 0; l <= meta.order; ++l)
+        for (int l = 0; l <= meta.settings.order; ++l)
             for (int m = -l; m <= l; ++m)
                 for (int c = 0; c < C; ++c) {
-                    const std::string name =
-                        gridName(src.name, l, m, c, meta.wavelengths, spectral);
+                    const std::string name = gridName(source, l, m, c, meta.wavelengths, spectral);
                     if (!grids.find(name)) {
                         throw Error(what + " lacks its grid \"" + name + "\"" + rerun);
                     }
@@ -238,16 +244,17 @@ SparseVolume readScatterMoments(const GridSet& grids, const ScatterFieldMeta& me
                                   std::abs(a.t.y - fieldMap.t.y), std::abs(a.t.z - fieldMap.t.z)});
                     if (off > 1e-6 * norm) {
                         throw Error(what + ": grid \"" + name + "\" is not on field level " +
-                                    std::to_string(meta.level) + "'s transform (cells of " +
-                                    fieldCellVoxels(meta.level) + " voxels of \"" +
-                                    meta.densityGrid + "\")" + rerun);
+                                    std::to_string(meta.settings.fieldLevel) +
+                                    "'s transform (cells of " +
+                                    fieldCellVoxels(meta.settings.fieldLevel) + " voxels of \"" +
+                                    meta.scene.densityGrid + "\")" + rerun);
                     }
                     if (l == 0) jGrids.push_back(g);
                     list.push_back(g);
                 }
         perSource.push_back(std::move(list));
     }
-    const int channels = shCount(meta.order) * C;
+    const int channels = shCount(meta.settings.order) * C;
     const double c00PerJ =
         4.0 * PI * (0.5 / std::sqrt(PI)); // the l = 0 grids hold J = c_00 / (4 pi Y_00)
     SparseVolume out = emptyVolume(

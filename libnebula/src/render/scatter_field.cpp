@@ -169,9 +169,9 @@ std::vector<SourceSpec> fieldSources(const RenderScene& scene, const ScatterOpti
     std::vector<SourceSpec> specs;
     if (opts.perStar) {
         for (std::size_t s = 0; s < S; ++s)
-            specs.push_back({"star_" + scene.stars[s].name, {s}});
+            specs.push_back({ScatterSource::oneStar(s), {s}});
     } else if (S > 0) {
-        SourceSpec all{"stars", {}};
+        SourceSpec all{ScatterSource::allStars(), {}};
         for (std::size_t s = 0; s < S; ++s)
             all.stars.push_back(s);
         specs.push_back(all);
@@ -179,7 +179,7 @@ std::vector<SourceSpec> fieldSources(const RenderScene& scene, const ScatterOpti
     bool hasEmission = false;
     for (std::size_t i = 0; i < f.voxelCount() && !hasEmission; ++i)
         hasEmission = f.voxel(i)[1] > 0.0f;
-    if (opts.emission && hasEmission) specs.push_back({"emission", {}});
+    if (opts.emission && hasEmission) specs.push_back({ScatterSource::emission(), {}});
     return specs;
 }
 
@@ -210,15 +210,15 @@ void reportSource(const Transport& tr, const ScatterSourceField& out, const Run&
     const std::string which = wl.empty()
                                   ? std::string("R,G,B")
                                   : fmt::format("at {:g}, {:g}, {:g} nm", wl[a], wl[b], wl[e]);
-    run.info(
-        fmt::format("{}: {} packets, {} flights ({:.3g} per packet); collided power {} {:.4g} "
-                    "{:.4g} {:.4g} L_sun{}: escaped {:.4g} {:.4g} {:.4g}, absorbed {:.4g} {:.4g} "
-                    "{:.4g}; noise of J {:.2g} % (mean relative standard error per field cell, "
-                    "weighted by its scattered light)",
-                    out.name, out.packets, out.flights, double(out.flights) / double(out.packets),
-                    which, out.power[a], out.power[b], out.power[e], wl.empty() ? "" : " nm^-1",
-                    out.escaped[a], out.escaped[b], out.escaped[e], out.absorbed[a],
-                    out.absorbed[b], out.absorbed[e], 100.0 * out.relativeError));
+    run.info(fmt::format(
+        "{}: {} packets, {} flights ({:.3g} per packet); collided power {} {:.4g} "
+        "{:.4g} {:.4g} L_sun{}: escaped {:.4g} {:.4g} {:.4g}, absorbed {:.4g} {:.4g} "
+        "{:.4g}; noise of J {:.2g} % (mean relative standard error per field cell, "
+        "weighted by its scattered light)",
+        scatterSourceName(out.source, tr.mScene.stars), out.packets, out.flights,
+        double(out.flights) / double(out.packets), which, out.power[a], out.power[b], out.power[e],
+        wl.empty() ? "" : " nm^-1", out.escaped[a], out.escaped[b], out.escaped[e], out.absorbed[a],
+        out.absorbed[b], out.absorbed[e], 100.0 * out.relativeError));
 }
 
 /// A source's field before its packets run: its name, packet count, zero energies and an
@@ -228,7 +228,7 @@ ScatterSourceField emptySourceField(const Transport& tr, const SourceSpec& spec,
 {
     const std::size_t C = std::size_t(tr.channels());
     ScatterSourceField out;
-    out.name = spec.name;
+    out.source = spec.source;
     out.packets = opts.packets;
     out.power.assign(C, 0.0);
     out.escaped.assign(C, 0.0);
@@ -415,7 +415,7 @@ SceneScatterField sceneScatterField(const ScatterField& field, const RenderOptio
     out.moments.setZero();
     for (const auto& src : field.sources) {
         std::vector<double> factor(field.wavelengths.empty() ? 3 : field.wavelengths.size(), 1.0);
-        if (src.name == "emission" && field.wavelengths.empty()) {
+        if (src.source.kind == ScatterSource::Kind::Emission && field.wavelengths.empty()) {
             for (std::size_t c = 0; c < 3; ++c)
                 factor[c] = opts.emissionScale * opts.emissionColor[c];
         }

@@ -77,7 +77,8 @@ void runSourcePackets(const Transport& tr, const SourceSpec& spec, std::uint64_t
                                    ? opts.ranks->share(opts.packets)
                                    : std::pair<std::uint64_t, std::uint64_t>(0, opts.packets);
     {
-        Progress bar(run, "nebscatter " + spec.name, last - first);
+        Progress bar(run, "nebscatter " + scatterSourceName(spec.source, tr.mScene.stars),
+                     last - first);
         tbb::parallel_for(tbb::blocked_range<std::uint64_t>(first, last, 4096),
                           [&](const tbb::blocked_range<std::uint64_t>& r) {
                               Transport::Tally tally = shared;

@@ -330,7 +330,7 @@ struct EnergySums
 /// What a source is: a set of stars (their first-scattering source), or the emission.
 struct SourceSpec
 {
-    std::string name;
+    ScatterSource source;
     std::vector<std::size_t> stars; ///< empty: the emission
 };
 

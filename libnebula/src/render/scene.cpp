@@ -3,17 +3,10 @@
 
 #include "nebula/core/error.h"
 #include "nebula/core/format.h"
-#include "nebula/core/units.h"
-#include "nebula/io/grid_io.h"
-#include "nebula/io/grid_names.h"
-#include "nebula/io/scatter_field_vdb.h"
-#include "nebula/io/volume_vdb.h"
 #include "nebula/physics/blackbody.h"
 #include "nebula/physics/colour.h"
-#include "nebula/render/scatter_field.h"
 
 #include <fmt/format.h>
-#include <openvdb/tools/Count.h>
 
 #include <algorithm>
 #include <cmath>
@@ -22,419 +15,37 @@ namespace nebula {
 
 using detail::numberText;
 
-namespace {
-
-/// The tau grid of star @p star (with @p suffix, ".L<k>" for a level); Error naming the file,
-/// the grid and the command that makes it if it is missing.
-openvdb::FloatGrid::Ptr tauGrid(const GridSet& grids, const Star& star, const std::string& suffix,
-                                const std::string& missingHint)
+std::vector<std::array<double, 3>> starColors(const std::vector<Star>& stars,
+                                              const RenderOptions& opts)
 {
-    const std::string name = tauGridName(star.name) + suffix;
-    if (!grids.find(name)) {
-        throw Error(grids.source + ": no grid \"" + name + "\" for star \"" + star.name + "\"" +
-                    missingHint);
-    }
-    return grids.floatGrid(name, "");
-}
-
-/// Throws Error unless @p tau was computed with the dust's kappa_V (its metadata, if any).
-void requireSameKappa(const GridSet& grids, const openvdb::FloatGrid& tau, const DustParams& dust)
-{
-    if (const auto k = tau.getMetadata<openvdb::DoubleMetadata>("kappa_V")) {
-        if (std::abs(k->value() - dust.kappa_V) > 1e-9 * dust.kappa_V) {
-            throw Error(grids.source + ": grid \"" + tau.getName() +
-                        "\" was computed with kappa_V = " + std::to_string(k->value()) +
-                        " but the dust has kappa_V = " + std::to_string(dust.kappa_V) +
-                        "; rerun nebillum");
-        }
-    }
-}
-
-/// Throws Error unless the phase table was made for the dust's albedo, g and phase model
-/// (or opts.phaseIgnoreDust).
-void requireTableForDust(const GridSet& grids, const RenderOptions& opts, const DustParams& dust)
-{
-    const auto& table = opts.phaseTable;
-    if (!table) return;
-    const auto& m = table->medium;
-    const bool same = std::abs(m.albedo - dust.albedo) <= 1e-9 && std::abs(m.g - dust.g) <= 1e-9 &&
-                      m.phase == dust.phase;
-    if (!same && !opts.phaseIgnoreDust) {
-        throw Error(opts.phaseSource + ": the phase table was made for albedo " +
-                    numberText(m.albedo) + ", g " + numberText(m.g) + ", phase " +
-                    toString(m.phase) + " but " + grids.source + "'s dust has albedo " +
-                    numberText(dust.albedo) + ", g " + numberText(dust.g) + ", phase " +
-                    toString(dust.phase) + "; rebuild it (nebphase -i " + grids.source +
-                    " -o phase.vdb) or pass --phase-ignore-dust");
-    }
-}
-
-/// How many pyramid levels to read: opts.levels, or (auto, -1) every level the input has
-/// when there is a phase table.
-int levelCount(const GridSet& grids, const RenderOptions& opts)
-{
-    int count = opts.levels;
-    if (count < 0) {
-        count = 0;
-        while (opts.phaseTable && grids.find(levelGridName(opts.densityGrid, count + 1)))
-            ++count;
-    }
-    if (count > 0 && !opts.phaseTable) {
-        throw UsageError("--levels needs a phase table (--phase): each level adds the change "
-                         "of the per-voxel scattering Phi as the voxel doubles");
-    }
-    return count;
-}
-
-/// Pyramid level @p k: density.L<k> and tau.<star>.L<k> as dense fields (channel 1, the
-/// emission, empty); Error if a grid is missing or its voxels are not 2^k times level 0's
-/// (@p a0: level 0's index-to-world map).
-RenderLevel readLevel(const GridSet& grids, const RenderOptions& opts,
-                      const std::vector<Star>& stars, int k, const Affine& a0)
-{
-    const std::string suffix = ".L" + std::to_string(k);
-    const std::string dName = levelGridName(opts.densityGrid, k);
-    if (!grids.find(dName)) {
-        throw Error(grids.source + ": no grid \"" + dName + "\" for level " + std::to_string(k) +
-                    " of --levels " + std::to_string(opts.levels) + "; run nebpyramid --levels " +
-                    std::to_string(opts.levels) + " first");
-    }
-    auto dk = grids.floatGrid(dName, "");
-    requireFiniteNonNegative(*dk, grids.source);
-    auto empty = openvdb::FloatGrid::create(0.0f);
-    empty->setTransform(dk->transform().copy());
-    std::vector<openvdb::FloatGrid::ConstPtr> lf{dk, empty};
-    for (const auto& st : stars) {
-        lf.push_back(tauGrid(grids, st, suffix,
-                             " at level " + std::to_string(k) + "; run nebpyramid on this file"));
-    }
-    RenderLevel level;
-    level.level = k;
-    level.fields = volumeFromGrids(lf, activeBounds({dk}, 1), grids.source);
-    // Voxels 2^k times level 0's (same orientation): compare the linear maps.
-    const auto& ak = level.fields.indexToWorld;
-    const double scale = double(1 << k);
-    double worst = 0.0, norm = 0.0;
-    for (int i = 0; i < 9; ++i) {
-        worst = std::max(worst, std::abs(ak.m[std::size_t(i)] - scale * a0.m[std::size_t(i)]));
-        norm = std::max(norm, std::abs(scale * a0.m[std::size_t(i)]));
-    }
-    if (worst > 1e-6 * norm) {
-        throw Error(grids.source + ": grid \"" + dName + "\" has voxels that are not " +
-                    std::to_string(1 << k) + " times those of \"" + opts.densityGrid +
-                    "\" (level " + std::to_string(k) + "); rebuild the levels with nebpyramid");
-    }
-    return level;
-}
-
-bool close(double a, double b, double rel = 1e-9)
-{
-    return std::abs(a - b) <= rel * std::max({std::abs(a), std::abs(b), 1e-300});
-}
-
-/// What differs between the stars a field was made for and the scene's ("" if nothing):
-/// names, places, colours, and (for a summed field) luminosities; a per-star field is
-/// scaled to the scene's.
-std::string starDifference(const std::vector<Star>& fieldStars, const std::vector<Star>& stars,
-                           bool perStar)
-{
-    if (fieldStars.size() != stars.size()) {
-        return std::to_string(fieldStars.size()) + " stars, the scene has " +
-               std::to_string(stars.size());
-    }
-    for (std::size_t s = 0; s < fieldStars.size(); ++s) {
-        const Star& a = fieldStars[s];
-        const Star& b = stars[s];
-        if (a.name != b.name) {
-            return "star " + std::to_string(s + 1) + " \"" + a.name + "\", the scene's is \"" +
-                   b.name + "\"";
-        }
-        if (!close(a.position[0], b.position[0]) || !close(a.position[1], b.position[1]) ||
-            !close(a.position[2], b.position[2])) {
-            return "star \"" + a.name + "\" at another position";
-        }
-        if (!close(a.temperature, b.temperature)) {
-            return "star \"" + a.name + "\" at " + numberText(a.temperature) +
-                   " K, the scene's at " + numberText(b.temperature) + " K";
-        }
-        if (!perStar && !close(a.luminosity, b.luminosity)) {
-            return "star \"" + a.name + "\" of luminosity " + numberText(a.luminosity) +
-                   " L_sun, the scene's is " + numberText(b.luminosity) +
-                   " (nebscatter --per-star makes a field that follows the luminosity)";
-        }
-    }
-    return "";
-}
-
-/// A star's field was made with its sRGB colour times the luminosity it had then
-/// (@p made): the factors per channel that scale it to @p power, the star's spectral
-/// luminosity at each channel's wavelength (RenderOptions::monochromatic).
-std::array<double, 3> monochromaticFieldFactors(const std::array<double, 3>& power,
-                                                const Star& made, const std::string& what,
-                                                const std::string& rerun)
-{
-    const auto rgb = blackbodyLinearSRGB(made.temperature);
-    std::array<double, 3> f;
-    for (std::size_t c = 0; c < 3; ++c) {
-        if (!(rgb[c] > 0.0)) {
-            throw Error(what + ": star " + made.name + "'s sRGB colour has " +
-                        std::string(1, "RGB"[c]) +
-                        " = 0, so its field cannot be scaled to its spectrum" + rerun);
-        }
-        f[c] = power[c] / (rgb[c] * made.luminosity);
-    }
-    return f;
-}
-
-/// A star's spectral field was made with starSpectralPower() (luminance Y = L) of the star
-/// as it was then (@p made): the factor, the same at every wavelength, that scales it to the
-/// black body of bolometric luminosity @p now.luminosity (RenderOptions::monochromatic).
-double calibratedSpectralFieldFactor(const Star& now, const Star& made)
-{
-    constexpr double lambda = 550.0; // any: both are the same black body's shape
-    return blackbodySpectralLuminosity(now.luminosity, now.temperature, lambda) /
-           starSpectralPower(made, lambda);
-}
-
-/// Reads nebscatter's field (DESIGN §5b, io/scatter_field_vdb.h) into scene.scatter, checking
-/// that it was made for this scene; see buildScene(). @p spectral: the spectral field
-/// (nebscatter --spectral, for the spectral renderer) instead of the R, G, B one.
-void readScatterField(const GridSet& grids, const RenderOptions& opts, const DustParams& dust,
-                      RenderScene& scene, bool spectral)
-{
-    const auto found = readScatterFieldMeta(grids, spectral);
-    if (!found) return;
-    const ScatterFieldMeta& meta = *found;
-    const std::string what = grids.source + ": the " + (spectral ? "spectral " : "") +
-                             "scattered-light field (nebscatter" + (spectral ? " --spectral" : "") +
-                             ")";
-    const std::string rerun = "; rerun nebscatter" + std::string(spectral ? " --spectral" : "") +
-                              " on this scene, or pass --no-scatter-field";
-    if (opts.phaseTable || opts.levels > 0) {
-        throw UsageError(grids.source +
-                         " has a scattered-light field (nebscatter), which "
-                         "already holds the multiply scattered light that --phase and --levels "
-                         "approximate: together they would count it twice. Pass "
-                         "--no-scatter-field to use the table and levels instead");
-    }
-    // Dust.
-    const DustParams& fieldDust = meta.dust;
-    const bool sameDust = close(fieldDust.albedo, dust.albedo) && close(fieldDust.g, dust.g) &&
-                          fieldDust.phase == dust.phase && close(fieldDust.kappa_V, dust.kappa_V) &&
-                          fieldDust.curve == dust.curve && close(fieldDust.R_V, dust.R_V);
-    if (!sameDust) {
-        throw Error(what + " was made for other dust: " + fieldDust.toJson() +
-                    ", but the scene's is " + dust.toJson() + rerun);
-    }
-    const auto& wl = meta.wavelengths;
-    for (int c = 0; c < 3 && !spectral; ++c) {
-        if (!close(wl[std::size_t(c)], opts.wavelengths[std::size_t(c)])) {
-            throw Error(what + " was made for channel wavelengths " + detail::numbersText(wl) +
-                        " nm, but this render's channels (--wavelengths or --filter) are " +
-                        numberText(opts.wavelengths[0]) + ", " + numberText(opts.wavelengths[1]) +
-                        ", " + numberText(opts.wavelengths[2]) + rerun);
-        }
-    }
-    if (!close(meta.minStarDistance, opts.minStarDistance)) {
-        throw Error(what + " was made with --min-star-distance " +
-                    numberText(meta.minStarDistance) + ", but this render uses " +
-                    numberText(opts.minStarDistance) + rerun);
-    }
-    if (meta.densityGrid != opts.densityGrid || meta.emissionGrid != opts.emissionGrid) {
-        throw Error(what + " was made from the grids \"" + meta.densityGrid + "\" and \"" +
-                    meta.emissionGrid + "\", but this render uses \"" + opts.densityGrid +
-                    "\" and \"" + opts.emissionGrid + "\"" + rerun);
-    }
-    const std::string starDiff = starDifference(meta.stars, scene.stars, meta.perStar);
-    if (!starDiff.empty()) throw Error(what + " was made for other stars: " + starDiff + rerun);
-    // Transform: level 0's, and each grid on the field level's.
-    const Affine& s0 = scene.fields.indexToWorld;
-    const Affine& a0 = meta.indexToWorld;
-    double worst = 0.0, size = 0.0;
-    for (std::size_t i = 0; i < 9; ++i) {
-        worst = std::max(worst, std::abs(s0.m[i] - a0.m[i]));
-        size = std::max(size, std::abs(s0.m[i]));
-    }
-    for (int i = 0; i < 3; ++i) {
-        worst = std::max(worst, std::abs(s0.t[i] - a0.t[i]));
-        size = std::max(size, std::abs(s0.t[i]));
-    }
-    if (worst > 1e-9 * std::max(size, 1e-300)) {
-        throw Error(what +
-                    " was made for a grid with another transform (voxel size, "
-                    "orientation or position) than \"" +
-                    opts.densityGrid + "\"" + rerun);
-    }
-    if (meta.sources.empty()) return;
-
-    // Each source's factor per channel: a star's luminosity ratio, the emission's scale and
-    // colour.
-    const std::size_t C = wl.size();
-    std::vector<std::vector<double>> factors;
-    for (const auto& source : meta.sources) {
-        std::vector<double> factor(C, 1.0);
-        const std::string& src = source.name;
-        if (src == "emission") {
-            for (int c = 0; c < 3; ++c)
-                factor[std::size_t(c)] =
-                    opts.monochromatic ? 0.0
-                                       : opts.emissionScale * opts.emissionColor[std::size_t(c)];
-        } else if (src == "stars" && opts.monochromatic && spectral) {
-            // All stars in one field, each made with luminance Y = L: one factor scales it to
-            // bolometric luminosities only if it is the same for every star (one temperature).
-            for (std::size_t s = 0; s < scene.stars.size(); ++s) {
-                const double f = calibratedSpectralFieldFactor(scene.stars[s], meta.stars[s]);
-                if (s > 0 && std::abs(f - factor[0]) > 1e-9 * std::abs(factor[0])) {
-                    throw Error(what + " holds the stars' light as one field; stars of "
-                                       "different temperatures need a field per star for "
-                                       "--fits: run nebscatter --spectral --per-star");
-                }
-                std::fill(factor.begin(), factor.end(), f);
-            }
-        } else if (src == "stars" && opts.monochromatic && !spectral) {
-            // All stars in one field, made with their sRGB colours: one factor per channel
-            // scales it to the stars' spectral luminosities only if it is the same for every
-            // star (one star, or stars of one temperature).
-            for (std::size_t s = 0; s < scene.stars.size(); ++s) {
-                const auto f =
-                    monochromaticFieldFactors(scene.starColor[s], meta.stars[s], what, rerun);
-                for (std::size_t c = 0; c < 3; ++c) {
-                    if (s > 0 && std::abs(f[c] - factor[c]) > 1e-9 * std::abs(factor[c])) {
-                        throw Error(what + " holds the stars' light as one field, made with their "
-                                           "colours; stars of different temperatures need a "
-                                           "field per star for --fits: run nebscatter --per-star");
-                    }
-                    factor[c] = f[c];
-                }
-            }
-        } else if (src.rfind("star_", 0) == 0) {
-            for (std::size_t s = 0; s < scene.stars.size(); ++s) {
-                if ("star_" + scene.stars[s].name != src) continue;
-                std::fill(factor.begin(), factor.end(),
-                          scene.stars[s].luminosity / meta.stars[s].luminosity);
-                if (!opts.monochromatic) continue;
-                if (spectral) {
-                    std::fill(factor.begin(), factor.end(),
-                              calibratedSpectralFieldFactor(scene.stars[s], meta.stars[s]));
-                    continue;
-                }
-                const auto f =
-                    monochromaticFieldFactors(scene.starColor[s], meta.stars[s], what, rerun);
-                factor.assign(f.begin(), f.end());
-            }
-        }
-        factors.push_back(std::move(factor));
-    }
-    SceneScatterField& out = scene.scatter;
-    out.moments = readScatterMoments(grids, meta, spectral, factors, fieldLevelMap(s0, meta.level),
-                                     what, rerun);
-    out.order = meta.order;
-    out.level = meta.level;
-    if (spectral) out.wavelengths = wl;
-    std::string names;
-    for (const auto& s : meta.sources)
-        names += (names.empty() ? "" : ", ") + s.name;
-    out.description = fmt::format(
-        "{}scattered-light field: order {}, level {} (cells of {}^3 "
-        "voxels), sources {}{}",
-        spectral ? "spectral " : "", meta.order, meta.level, fieldCellVoxels(meta.level), names,
-        spectral ? fmt::format(", {} wavelengths {:g}-{:g} nm", C, wl.front(), wl.back())
-                 : std::string());
-}
-
-} // namespace
-
-namespace {
-
-/// The largest active value of @p grid (0 for none).
-float largestValue(const openvdb::FloatGrid& grid)
-{
-    if (grid.tree().activeVoxelCount() == 0) return 0.0f;
-    return std::max(0.0f, openvdb::tools::minMax(grid.tree()).max()); // threaded
-}
-
-/// Throws UsageError naming --emission-scale (and the grid's largest value) if @p scale times
-/// @p emission's largest value across @p lattice's diagonal exceeds MAX_RADIANCE.
-void requireFiniteEmission(const openvdb::FloatGrid& emission, double scale,
-                           const SparseVolume& lattice, const std::string& source)
-{
-    const double largest = largestValue(emission);
-    const auto& d = lattice.dims();
-    const Vec3 diagonal = lattice.indexToWorld.applyLinear(Vec3(d[0], d[1], d[2]));
-    const double length =
-        std::sqrt(diagonal.x * diagonal.x + diagonal.y * diagonal.y + diagonal.z * diagonal.z);
-    const double radiance = scale * largest * length;
-    if (!(radiance <= MAX_RADIANCE)) {
-        throw UsageError(source + ": --emission-scale " + detail::numberText(scale) +
-                         " times the emission grid \"" + emission.getName() +
-                         "\"'s largest value " + fmt::format("{:.4g}", largest) + " over " +
-                         fmt::format("{:.4g}", length) + " pc gives radiances up to " +
-                         fmt::format("{:.4g}", radiance) + ", beyond " +
-                         detail::numberText(MAX_RADIANCE) + "; use a smaller --emission-scale");
-    }
-}
-
-} // namespace
-
-RenderScene buildScene(const GridSet& grids, const RenderOptions& opts, const DustParams& dust)
-{
-    RenderScene scene;
-    const auto density = grids.floatGrid(opts.densityGrid, "--density-grid");
-    requireFiniteNonNegative(*density, grids.source);
-    openvdb::FloatGrid::Ptr emission;
-    if (grids.find(opts.emissionGrid) && !opts.monochromatic) {
-        emission = grids.floatGrid(opts.emissionGrid, "--emission-grid");
-        requireFiniteNonNegative(*emission, grids.source);
-    }
-    scene.stars = grids.stars();
-    if (scene.stars.empty()) {
-        throw Error(grids.source + ": no stars: the file has no " + std::string(META_STARS) +
-                    " metadata (run nebgen and nebillum, or nebillum --star)");
-    }
-    if (!emission) {
-        emission = openvdb::FloatGrid::create(0.0f); // no emission: an empty grid
-        emission->setTransform(density->transform().copy());
-    }
-    std::vector<openvdb::FloatGrid::ConstPtr> fields{density, emission};
-    for (const auto& s : scene.stars) {
-        auto tau = tauGrid(grids, s, "", "; run nebillum on this file first");
-        requireSameKappa(grids, *tau, dust);
-        fields.push_back(tau);
-    }
-    scene.fields = volumeFromGrids(fields, activeBounds({density, fields[1]}, 1), grids.source);
-    requireFiniteEmission(*emission, opts.emissionScale, scene.fields, grids.source);
-
-    for (const auto& s : scene.stars) {
+    std::vector<std::array<double, 3>> colors;
+    for (const auto& s : stars) {
         if (opts.monochromatic) {
             std::array<double, 3> L;
             for (std::size_t c = 0; c < 3; ++c)
                 L[c] =
                     blackbodySpectralLuminosity(s.luminosity, s.temperature, opts.wavelengths[c]);
-            scene.starColor.push_back(L);
+            colors.push_back(L);
             continue;
         }
         const auto c = blackbodyLinearSRGB(s.temperature);
-        scene.starColor.push_back({c[0] * s.luminosity, c[1] * s.luminosity, c[2] * s.luminosity});
+        colors.push_back({c[0] * s.luminosity, c[1] * s.luminosity, c[2] * s.luminosity});
     }
-    static_cast<DustParams&>(scene.dust) = dust;
+    return colors;
+}
+
+ChannelDust channelDust(const DustParams& dust, const std::array<double, 3>& wavelengths)
+{
+    ChannelDust out;
+    static_cast<DustParams&>(out) = dust;
     for (int c = 0; c < 3; ++c) {
         try {
-            scene.dust.r[c] = extinctionRatio(dust, opts.wavelengths[c]);
+            out.r[c] = extinctionRatio(dust, wavelengths[c]);
         } catch (const Error& e) { // a wavelength outside the curve: the option's fault
             throw UsageError("--wavelengths: " + std::string(e.what()));
         }
     }
-    requireTableForDust(grids, opts, dust);
-    scene.buildOccupancy();
-
-    if (opts.scatterField && opts.integrator == Integrator::Fast) {
-        readScatterField(grids, opts, dust, scene, opts.spectral.enabled);
-    }
-    const int levels = levelCount(grids, opts);
-    for (int k = 1; k <= levels; ++k) {
-        scene.levels.push_back(readLevel(grids, opts, scene.stars, k, scene.fields.indexToWorld));
-    }
-    return scene;
+    return out;
 }
 
 double latticeDiagonal(const RenderScene& scene)

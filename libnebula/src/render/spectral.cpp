@@ -692,4 +692,40 @@ Image renderSpectral(const SpectralScene& scene, const RenderOptions& opts, cons
     return img;
 }
 
+void validateSpectralOptions(const RenderOptions& opts)
+{
+    const SpectralOptions& so = opts.spectral;
+    if (opts.integrator == Integrator::Path) {
+        throw UsageError("--spectral is for the fast integrator (--integrator fast)");
+    }
+    if (opts.phaseTable) {
+        throw UsageError("--spectral does not use --phase (the table's gain depends on the "
+                         "wavelength through the voxel's optical thickness); its multiple "
+                         "scattering comes from nebscatter --spectral's field");
+    }
+    if (opts.levels > 0) throw UsageError("--spectral does not use pyramid levels (--levels)");
+    if (so.bands < 0 || so.bands > MAX_SPECTRAL_BANDS) {
+        throw UsageError(fmt::format("--bands must be in [1, {}] (bands of 0.1 nm at the most; 0: "
+                                     "piecewise-linear spectra), got {}",
+                                     MAX_SPECTRAL_BANDS, so.bands));
+    }
+    if (!(so.continuumStep >= MIN_CONTINUUM_STEP && so.continuumStep <= 50.0)) {
+        throw UsageError(fmt::format("--continuum-step must be in [{:g}, 50] nm, got {}",
+                                     MIN_CONTINUUM_STEP, detail::numberText(so.continuumStep)));
+    }
+    if (!(so.lineWidth > 0.0) || !std::isfinite(so.lineWidth)) {
+        throw UsageError("--line-width must be a finite number > 0 [km/s]");
+    }
+    if (!(so.exaggerateVelocity > 0.0) || !std::isfinite(so.exaggerateVelocity)) {
+        throw UsageError("--exaggerate-velocity must be a finite number > 0 (1: true speeds)");
+    }
+    if (!(so.blackbodyScale >= 0.0) || !std::isfinite(so.blackbodyScale)) {
+        throw UsageError("--blackbody-scale must be a finite number >= 0");
+    }
+    if (!(so.temperatureScale > 0.0) || !std::isfinite(so.temperatureScale)) {
+        throw UsageError("--temperature-scale must be a finite number > 0");
+    }
+    if (so.layers < 0 || so.layers > 470) throw UsageError("--spectral-layers must be in [0, 470]");
+}
+
 } // namespace nebula

@@ -11,6 +11,7 @@
 #include "nebula/render/fast.h"
 #include "nebula/render/path_tracer.h"
 #include "nebula/render/spectral.h"
+#include "nebula/stages/scene_assembly.h"
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>

@@ -6,6 +6,7 @@
 #include "nebula/physics/spherical_harmonics.h"
 #include "nebula/render/scene.h"
 #include "nebula/stages/pyramid.h"
+#include "nebula/stages/scene_assembly.h"
 
 #include <fmt/format.h>
 
@@ -15,16 +16,28 @@
 
 namespace nebula {
 
+namespace {
+
+/// The render options the field's scene is built and walked with: @p opts' grids,
+/// wavelengths, star distance clamp and exact star depth, no pyramid levels.
+RenderOptions sceneOptions(const ScatterStageOptions& opts)
+{
+    RenderOptions ropts;
+    ropts.densityGrid = opts.scene.densityGrid;
+    ropts.emissionGrid = opts.scene.emissionGrid;
+    ropts.wavelengths = opts.wavelengths;
+    ropts.minStarDistance = opts.scene.minStarDistance;
+    ropts.exactStarDepth = opts.scene.exactStarDepth;
+    ropts.levels = 0;
+    return ropts;
+}
+
+} // namespace
+
 ScatterField scatter(GridSet& grids, const ScatterStageOptions& opts, const Run& run)
 {
     const DustParams dust = grids.dust(run);
-    RenderOptions ropts;
-    ropts.densityGrid = opts.densityGrid;
-    ropts.emissionGrid = opts.emissionGrid;
-    ropts.wavelengths = opts.wavelengths;
-    ropts.minStarDistance = opts.minStarDistance;
-    ropts.exactStarDepth = opts.exactStarDepth;
-    ropts.levels = 0;
+    const RenderOptions ropts = sceneOptions(opts);
     // The scene is freed once the field is computed, before the field's grids are made (at
     // 512^3 it is the largest thing in memory then: 577 MiB of 1.5 GiB).
     auto built = std::make_unique<const RenderScene>(buildScene(grids, ropts, dust));
@@ -68,16 +81,11 @@ ScatterField scatter(GridSet& grids, const ScatterStageOptions& opts, const Run&
     if (fopts.ranks && !fopts.ranks->root()) return field; // rank 0 writes the grids
 
     ScatterFieldMeta meta;
-    meta.order = field.order;
-    meta.level = field.level;
-    meta.perStar = fopts.perStar;
-    meta.packets = fopts.packets;
-    meta.seed = fopts.seed;
-    meta.refineTau = fopts.refineTau;
+    meta.settings = fopts; // the level resolved: the field's
+    meta.scene = opts.scene;
     std::vector<const SparseVolume*> moments;
     for (const auto& src : field.sources) {
-        meta.sources.push_back({src.name, src.packets, src.flights, src.power, src.escaped,
-                                src.absorbed, src.relativeError});
+        meta.sources.push_back(src); // its summary
         moments.push_back(&src.moments);
     }
     meta.dust = dust;
@@ -87,12 +95,8 @@ ScatterField scatter(GridSet& grids, const ScatterStageOptions& opts, const Run&
     meta.wavelengths = spectral
                            ? wavelengths
                            : std::vector<double>(opts.wavelengths.begin(), opts.wavelengths.end());
-    meta.minStarDistance = opts.minStarDistance;
-    meta.exactStarDepth = opts.exactStarDepth;
-    meta.densityGrid = opts.densityGrid;
-    meta.emissionGrid = opts.emissionGrid;
     meta.seconds = seconds;
-    const auto xform = levelTransform(grids.find(opts.densityGrid)->transform(), field.level);
+    const auto xform = levelTransform(grids.find(opts.scene.densityGrid)->transform(), field.level);
     if (opts.onlyNew) grids.grids.clear();
     writeScatterField(grids, meta, moments, field.active, *xform, spectral);
     return field;

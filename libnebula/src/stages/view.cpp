@@ -8,6 +8,7 @@
 #include "nebula/render/fast.h"
 #include "nebula/render/sprites.h"
 #include "nebula/render/star_depth.h"
+#include "nebula/stages/scene_assembly.h"
 #include "nebula/volume/block_walk.h"
 
 #include <fmt/format.h>

@@ -15,6 +15,8 @@
 
 #include <gtest/gtest.h>
 
+#include <nlohmann/json.hpp>
+
 #include <cmath>
 #include <string>
 
@@ -39,18 +41,25 @@ struct SmallField
 
     SmallField()
     {
-        meta.order = 1;
-        meta.level = 1;
-        meta.perStar = true;
-        meta.packets = 1000;
-        meta.seed = 7;
-        meta.sources = {{"star_a", 1000, 3000, {1, 2, 3}, {0.1, 0.2, 0.3}, {0.4, 0.5, 0.6}, 0.02},
-                        {"emission", 1000, 2000, {4, 5, 6}, {0, 0, 0}, {1, 1, 1}, 0.03}};
-        meta.stars = {Star{"a", {1, 2, 3}, 2.0, 6000.0}};
+        meta.settings.order = 1;
+        meta.settings.fieldLevel = 1;
+        meta.settings.perStar = true;
+        meta.settings.packets = 1000;
+        meta.settings.seed = 7;
+        meta.sources = {
+            {ScatterSource::oneStar(1),
+             1000,
+             3000,
+             {1, 2, 3},
+             {0.1, 0.2, 0.3},
+             {0.4, 0.5, 0.6},
+             0.02},
+            {ScatterSource::emission(), 1000, 2000, {4, 5, 6}, {0, 0, 0}, {1, 1, 1}, 0.03}};
+        meta.stars = {Star{"b", {4, 5, 6}, 1.0, 9000.0}, Star{"a", {1, 2, 3}, 2.0, 6000.0}};
         meta.wavelengths = {650, 550, 450};
-        meta.minStarDistance = 0.25;
-        meta.densityGrid = "density";
-        meta.emissionGrid = "emission";
+        meta.scene.minStarDistance = 0.25;
+        meta.scene.densityGrid = "density";
+        meta.scene.emissionGrid = "emission";
         meta.indexToWorld.m = {1, 0, 0, 0, 1, 0, 0, 0, 1};
         meta.indexToWorld.t = Vec3(0.5, 0.5, 0.5);
         meta.seconds = 1.5;
@@ -91,22 +100,24 @@ TEST(ScatterFieldVdb, MetadataRoundTrip)
     ASSERT_TRUE(grids.find(scatterGridName("star_a", 1, -1, 2)));
     const auto back = readScatterFieldMeta(grids, false);
     ASSERT_TRUE(back);
-    EXPECT_EQ(back->order, 1);
-    EXPECT_EQ(back->level, 1);
-    EXPECT_TRUE(back->perStar);
-    EXPECT_EQ(back->packets, 1000u);
-    EXPECT_EQ(back->seed, 7u);
+    EXPECT_EQ(back->settings.order, 1);
+    EXPECT_EQ(back->settings.fieldLevel, 1);
+    EXPECT_TRUE(back->settings.perStar);
+    EXPECT_EQ(back->settings.packets, 1000u);
+    EXPECT_EQ(back->settings.seed, 7u);
     ASSERT_EQ(back->sources.size(), 2u);
-    EXPECT_EQ(back->sources[1].name, "emission");
+    // Typed sources: the second star (named "star_a" in the grids), then the emission.
+    EXPECT_EQ(back->sources[0].source, ScatterSource::oneStar(1));
+    EXPECT_EQ(back->sources[1].source, ScatterSource::emission());
     EXPECT_EQ(back->sources[0].flights, 3000u);
     EXPECT_EQ(back->sources[0].escaped, (std::vector<double>{0.1, 0.2, 0.3}));
     EXPECT_DOUBLE_EQ(back->sources[1].relativeError, 0.03);
-    ASSERT_EQ(back->stars.size(), 1u);
-    EXPECT_EQ(back->stars[0].name, "a");
-    EXPECT_DOUBLE_EQ(back->stars[0].position[2], 3.0);
+    ASSERT_EQ(back->stars.size(), 2u);
+    EXPECT_EQ(back->stars[1].name, "a");
+    EXPECT_DOUBLE_EQ(back->stars[1].position[2], 3.0);
     EXPECT_EQ(back->wavelengths, f.meta.wavelengths);
-    EXPECT_DOUBLE_EQ(back->minStarDistance, 0.25);
-    EXPECT_EQ(back->densityGrid, "density");
+    EXPECT_DOUBLE_EQ(back->scene.minStarDistance, 0.25);
+    EXPECT_EQ(back->scene.densityGrid, "density");
     EXPECT_DOUBLE_EQ(back->indexToWorld.t.y, 0.5);
     EXPECT_DOUBLE_EQ(back->indexToWorld.m[4], 1.0);
     // No spectral field in this file.
@@ -197,4 +208,35 @@ TEST(ScatterFieldVdb, MissingOrMisplacedGridsAndBrokenMetadataNameTheirCause)
                   std::string::npos)
             << e;
     }
+}
+
+// A source is typed in memory and named only in the file: "stars", "star_<name>" of one of
+// the field's stars, "emission"; any other name is refused, naming it.
+TEST(ScatterFieldVdb, SourcesAreNamedOnlyInTheFile)
+{
+    const std::vector<Star> stars{Star{"b", {4, 5, 6}, 1.0, 9000.0},
+                                  Star{"star_b", {1, 2, 3}, 2.0, 6000.0}};
+    for (const auto& source : {ScatterSource::allStars(), ScatterSource::oneStar(0),
+                               ScatterSource::oneStar(1), ScatterSource::emission()}) {
+        const std::string name = scatterSourceName(source, stars);
+        EXPECT_EQ(parseScatterSource(name, stars, "f.vdb"), source) << name;
+    }
+    EXPECT_EQ(scatterSourceName(ScatterSource::oneStar(1), stars), "star_star_b");
+    EXPECT_EQ(scatterSourceName(ScatterSource::allStars(), stars), "stars");
+    EXPECT_EQ(errorMessage([&] { parseScatterSource("star_c", stars, "f.vdb"); }),
+              "f.vdb: source \"star_c\" is none of \"stars\", \"emission\" or "
+              "\"star_<name>\" of one of its stars");
+
+    openvdb::initialize();
+    SmallField f;
+    f.meta.stars[1].name = "c"; // written as "star_c"; renamed below to name no star
+    GridSet grids = f.written();
+    const nlohmann::json meta = nlohmann::json::parse(grids.metaString(META_SCATTER));
+    EXPECT_EQ(meta.at("sources").at(0).at("name"), "star_c");
+    nlohmann::json renamed = meta;
+    renamed["sources"][0]["name"] = "star_a";
+    grids.setMetaString(META_SCATTER, renamed.dump());
+    const std::string e = errorMessage([&] { readScatterFieldMeta(grids, false); });
+    EXPECT_NE(e.find("field.vdb: nebula:scatter: source \"star_a\" is none of"), std::string::npos)
+        << e;
 }

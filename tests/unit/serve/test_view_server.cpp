@@ -7,6 +7,7 @@
 #include "nebula/render/fast.h"
 #include "nebula/serve/view_protocol.h"
 #include "nebula/serve/view_server.h"
+#include "nebula/stages/scene_assembly.h"
 #include "test_util.h"
 #include "view_scene.h"
 

@@ -4,6 +4,7 @@
 #include "nebula/core/error.h"
 #include "nebula/render/fast.h"
 #include "nebula/render/sprites.h"
+#include "nebula/stages/scene_assembly.h"
 #include "nebula/stages/view.h"
 #include "test_util.h"
 #include "view_scene.h"

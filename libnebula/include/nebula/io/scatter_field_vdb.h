@@ -6,66 +6,20 @@
 /// transform (cells of 2^level voxels, level >= -1) named by scatterGridName() (R, G, B) or
 /// spectralScatterGridName() (a spectral field), active on the cells the renderer reads;
 /// the l = 0 grids hold the mean intensity J, the others c_lm. What the field was made for
-/// (dust, stars, wavelengths, grids, level 0's transform) is ScatterFieldMeta, the JSON of
-/// the file metadata `nebula:scatter` (`nebula:scatter_spectral`).
+/// (dust, stars, wavelengths, grids, level 0's transform) is ScatterFieldMeta
+/// (io/scatter_field_meta.h), the JSON of the file metadata `nebula:scatter`
+/// (`nebula:scatter_spectral`). Sources are named (scatterSourceName()) here only.
 
 #include "nebula/io/grid_io.h"
-#include "nebula/physics/dust.h"
-#include "nebula/physics/stars.h"
+#include "nebula/io/scatter_field_meta.h"
 #include "nebula/volume/volume.h"
 
-#include <algorithm>
 #include <cstdint>
 #include <optional>
 #include <string>
 #include <vector>
 
 namespace nebula {
-
-/// One source's Monte Carlo summary (nebscatter -v, the README's error figures).
-struct ScatterSourceSummary
-{
-    std::string name; ///< "stars", "star_<name>" (--per-star) or "emission"
-    std::uint64_t packets = 0;
-    std::uint64_t flights = 0;
-    std::vector<double> power, escaped, absorbed; ///< per channel [L_sun]
-    double relativeError = 0.0;
-};
-
-/// The field levels (cells of 2^level voxels): level -1's cells are half a voxel across, the
-/// finest the walk's half-voxel lattice resolves (optically thick voxels, DESIGN §5b).
-inline constexpr int MIN_FIELD_LEVEL = -1;
-inline constexpr int MAX_FIELD_LEVEL = 16;
-
-/// A field level's cell edge in voxels, as text: "4", "1", "1/2".
-inline std::string fieldCellVoxels(int level)
-{
-    const long long k = level; // -level of INT_MIN would overflow an int
-    return k >= 0 ? std::to_string(1LL << std::min(k, 62LL))
-                  : "1/" + std::to_string(1LL << std::min(-k, 62LL));
-}
-
-/// What a field was made for, and how.
-struct ScatterFieldMeta
-{
-    int order = 0; ///< highest spherical-harmonic degree, 0..SH_MAX_DEGREE
-    int level = 0; ///< field level: cells of 2^level voxels, MIN_FIELD_LEVEL..MAX_FIELD_LEVEL
-    bool perStar = false;
-    std::uint64_t packets = 0;
-    std::uint64_t seed = 0;
-    /// Adaptive cells' --refine-tau (0: uniform cells; fields from before adaptive cells).
-    double refineTau = 0.0;
-    std::vector<ScatterSourceSummary> sources;
-    DustParams dust;
-    std::vector<Star> stars;
-    /// R, G, B: 3 channel wavelengths; a spectral field: at least 2, increasing [nm].
-    std::vector<double> wavelengths;
-    double minStarDistance = 0.0;
-    bool exactStarDepth = false;
-    std::string densityGrid, emissionGrid;
-    Affine indexToWorld; ///< level 0's (the density grid's) index-to-world map
-    double seconds = 0.0;
-};
 
 /// The metadata key of a field of the kind: META_SCATTER or META_SCATTER_SPECTRAL.
 const char* scatterMetaKey(bool spectral);

@@ -22,7 +22,7 @@
 
 #include "nebula/core/ranks.h"
 #include "nebula/core/run.h"
-#include "nebula/io/scatter_field_vdb.h"
+#include "nebula/io/scatter_field_meta.h"
 #include "nebula/render/options.h"
 #include "nebula/render/scene.h"
 
@@ -38,24 +38,10 @@ namespace nebula {
 /// default 1e6 takes 15-60 s per star on 2 cores, 1e9 some hours.
 inline constexpr std::uint64_t MAX_PACKETS = 1000000000;
 
-/// What nebscatter computes and how hard it tries.
-struct ScatterOptions
+/// What nebscatter computes (ScatterSettings: order, field level, packets, seed, adaptive
+/// cells, per star; recorded with the field) and how it runs.
+struct ScatterOptions : ScatterSettings
 {
-    int order = 2; ///< L: real spherical harmonics of degree 0..L, (L + 1)^2 moments
-    /// Field cells of 2^k x 2^k x 2^k voxels (nebpyramid's level k layout), k >=
-    /// MIN_FIELD_LEVEL (-1: half-voxel cells); AUTO_FIELD_LEVEL: autoFieldLevel()'s choice
-    /// (the stage resolves it before computing).
-    int fieldLevel = 1;
-    /// Packets per source: all stars together (or each star with perStar), and the emission;
-    /// at most MAX_PACKETS.
-    std::uint64_t packets = 1000000;
-    std::uint64_t seed = 1;
-    /// Adaptive cells (> 0): a block of 2x2x2 field cells is tallied as one, its cells'
-    /// values from the block's value and slopes, unless its densest voxel makes it
-    /// optically thicker than this across (tau_V), a star is in or next to it, or it
-    /// borders such a block; 0: every field cell tallied on its own. At most MAX_REFINE_TAU.
-    double refineTau = 0.0;
-    bool perStar = false; ///< one field per star instead of their sum
     bool emission = true; ///< also the gas emission's collided light (if the scene emits)
     /// Per-thread tally buffers (one set per thread, the first becomes the sum) while all of
     /// them stay below this [bytes]; above it one shared buffer with atomic additions. The
@@ -69,25 +55,16 @@ struct ScatterOptions
     const Ranks* ranks = nullptr;
 };
 
-/// One source's field.
-struct ScatterSourceField
+/// One source's field: its summary (ScatterSourceSummary: the source, packets, power, noise)
+/// and its moments.
+struct ScatterSourceField : ScatterSourceSummary
 {
-    std::string name; ///< "stars", a star's name (perStar) or "emission"
     /// Moments on the field lattice: channel k * C + c is c_lm of channel c (C = 3: R, G, B;
     /// a spectral field: C wavelengths), k = shIndex(l, m), c_lm = integral of L(w) Y_lm(w)
     /// dw [L_sun pc^-2] (a spectral field: per nm, [L_sun pc^-2 nm^-1]; the l = 0 moment is
     /// 4 pi Y_00 J = 2 sqrt(pi) J). The emission's is per unit --emission-scale and colour
     /// (1, 1, 1). Its indexToWorld is fieldLevelMap() of level 0's.
     SparseVolume moments;
-    std::vector<double> power;    ///< per channel: first-scattered (or emitted) power [L_sun]
-    std::vector<double> escaped;  ///< per channel: collided power leaving the grid [L_sun]
-    std::vector<double> absorbed; ///< per channel: collided power absorbed [L_sun]
-    /// Relative standard error of J (green; a spectral field: the largest of its runs'
-    /// middle wavelengths) per field cell, averaged with weights n_H J V (each cell's share
-    /// of the scattered light) over the cells holding dust.
-    double relativeError = 0.0;
-    std::uint64_t packets = 0;
-    std::uint64_t flights = 0; ///< straight flights walked (one per scattering order)
 };
 
 /// The whole field: every source's moments on one lattice.

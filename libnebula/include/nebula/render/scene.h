@@ -1,9 +1,9 @@
 // SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// @file scene.h
-/// What the integrators render: compact dense fields built once from the grids (with
-/// render/spectral's buildSpectralScene, the only render code that reads OpenVDB grids; the
-/// integrators never touch them), the stars and the per-channel dust.
+/// What the integrators render: compact dense fields, the stars and the per-channel dust.
+/// The scene is assembled from the files in stages/ (stages/scene_assembly.h: buildScene(),
+/// buildSpectralScene()); render/ knows no files and no OpenVDB.
 
 #include "nebula/physics/dust.h"
 #include "nebula/physics/optical_depth.h"
@@ -20,8 +20,6 @@
 #include <vector>
 
 namespace nebula {
-
-struct GridSet;
 
 /// One pyramid level's fields for the fast integrator: channels as RenderScene::fields
 /// (0 density, 1 emission = 0, 2 + s tau_V of star s), voxel 2^level times level 0's. Levels
@@ -138,27 +136,25 @@ struct RenderScene
     /// Pyramid levels 1..K (empty without RenderOptions::levels).
     std::vector<RenderLevel> levels;
 
-    /// The scattered-light field, if the input has one and RenderOptions::scatterField.
+    /// The scattered-light field, if the input has one and RenderOptions::scatterField
+    /// (buildScene()), or sceneScatterField() of a field in memory.
     SceneScatterField scatter;
 };
 
-/// Builds the scene from nebillum's output: density (opts.densityGrid), emission (optional) and
-/// tau.<star> for every star in nebula:stars. Throws Error naming the file and grid on anything
-/// missing or inconsistent (no stars, a tau grid missing, kappa_V of a tau grid != the dust's), or
-/// if opts.phaseTable was made for another albedo, g or phase model than @p dust (unless
-/// opts.phaseIgnoreDust). With opts.levels = K, also reads density.L<k> and tau.<star>.L<k>
-/// for k = 1..K and throws Error if one is missing or its voxels are not 2^k times level 0's.
-/// With opts.scatterField and an input holding nebscatter's field (nebula:scatter; with
-/// opts.spectral.enabled the spectral field, nebula:scatter_spectral), reads it into
-/// RenderScene::scatter; throws Error if it was made for other dust, stars (a summed
-/// field: also their luminosity), wavelengths, star distance clamp, density or emission grid
-/// or grid transform, or if a field grid is missing or not a FloatGrid on the field level's
-/// transform; UsageError if it would be combined with a phase table or pyramid levels.
-RenderScene buildScene(const GridSet& grids, const RenderOptions& opts, const DustParams& dust);
+/// Each star's light as the integrators use it (RenderScene::starColor): L_s times its
+/// black body's linear sRGB (Y = 1) [L_sun], or with opts.monochromatic its spectral
+/// luminosity at each of opts.wavelengths [L_sun nm^-1].
+std::vector<std::array<double, 3>> starColors(const std::vector<Star>& stars,
+                                              const RenderOptions& opts);
+
+/// @p dust with each RGB channel's extinction ratio at @p wavelengths [nm]; UsageError naming
+/// --wavelengths if one is outside the extinction curve.
+ChannelDust channelDust(const DustParams& dust, const std::array<double, 3>& wavelengths);
 
 /// The largest radiance any option or value may produce before a frame is rendered
 /// [L_sun pc^-2 sr^-1]: far beyond any nebula, and 3e8 times short of a float's limit, so
-/// that sums over pixels and channels stay finite. buildScene() refuses an --emission-scale
+/// that sums over pixels and channels stay finite. buildScene() (stages/scene_assembly.h)
+/// refuses an --emission-scale
 /// that would exceed it across the grid, naming the option and the grid's largest value.
 inline constexpr double MAX_RADIANCE = 1e30;
 

@@ -25,8 +25,6 @@
 
 namespace nebula {
 
-struct GridSet;
-
 /// The visible range every spectral image covers (the CMF table's range) [nm].
 inline constexpr double SPECTRAL_MIN_NM = 360.0;
 inline constexpr double SPECTRAL_MAX_NM = 830.0;
@@ -51,7 +49,8 @@ struct SpectralEmitter
     double unit = 1.0;
 };
 
-/// The scene of a spectral render: the RGB scene's fields (channels 0 density, 1 the sum of
+/// The scene of a spectral render (assembled by buildSpectralScene(),
+/// stages/scene_assembly.h): the RGB scene's fields (channels 0 density, 1 the sum of
 /// every emission grid (occupancy only), 2 + s tau_V of star s) followed by the emission
 /// grids, the temperature and the velocity (3 channels), each where present.
 struct SpectralScene
@@ -63,18 +62,12 @@ struct SpectralScene
     int velocityChannel = -1;    ///< vx; vy, vz follow. -1: no velocity grid
 };
 
-/// Builds the spectral scene: everything buildScene() checks and reads (with
-/// opts.scatterField, the spectral field into base.scatter), plus every emission
-/// grid (opts.emissionGrid and each FloatGrid with nebula:lines metadata), the temperature
-/// grid (opts.spectral.temperatureGrid, optional; Error if a value is negative, NaN or
-/// infinite) and the velocity grid (opts.spectral.velocityGrid, optional; Error unless a
-/// Vec3fGrid of finite values). The emission grid's lines: opts.spectral.lines if given,
-/// else its nebula:lines metadata, else "H-alpha:1,H-beta:0.35" (Case B Balmer ratio).
-/// UsageError for options the spectral renderer cannot honour (a phase table, levels,
-/// the path tracer, bands < 0, a continuum step outside (0, 50] nm, a line width <= 0, an
-/// --exaggerate-velocity <= 0 or one that makes gas move at the speed of light).
-SpectralScene buildSpectralScene(const GridSet& grids, const RenderOptions& opts,
-                                 const DustParams& dust);
+/// UsageError for options the spectral renderer cannot honour: a phase table, levels, the
+/// path tracer, bands outside [0, MAX_SPECTRAL_BANDS], a continuum step outside
+/// [MIN_CONTINUUM_STEP, 50] nm, a line width, --exaggerate-velocity or --temperature-scale
+/// <= 0, a --blackbody-scale < 0 (or any of them not finite), --spectral-layers outside
+/// [0, 470]. buildSpectralScene() (stages/scene_assembly.h) calls it first.
+void validateSpectralOptions(const RenderOptions& opts);
 
 /// Renders @p scene spectrally (see the file comment and DESIGN §7). Output as renderFrame:
 /// beauty R,G,B (linear sRGB of the spectrum's XYZ; may be negative for colours outside the

@@ -23,17 +23,15 @@ inline ScatterOptions defaultStageFieldOptions()
     return o;
 }
 
+/// nebscatter's options: the field's (ScatterOptions) and the scene's it is made from and
+/// for (recorded in its metadata, ScatterFieldMeta).
 struct ScatterStageOptions
 {
     ScatterOptions field = defaultStageFieldOptions();
-    std::string densityGrid = "density";
-    std::string emissionGrid = "emission";
+    ScatterSceneSettings scene;
     /// R, G, B wavelengths [nm]: the channels' extinction (nebrender's --wavelengths).
     std::array<double, 3> wavelengths{700.0, 546.1, 435.8};
-    double minStarDistance = 0.5; ///< 1/r^2 clamp [voxels] (nebrender's --min-star-distance)
-    bool onlyNew = false;         ///< write only the field grids
-    /// Stars' optical depth exact through rough cells (RenderOptions::exactStarDepth).
-    bool exactStarDepth = true;
+    bool onlyNew = false; ///< write only the field grids
     /// > 0: the starlight's field for nebrender --spectral at this many wavelengths
     /// (spectralFieldWavelengths()) instead of the R, G, B field.
     int spectral = 0;

@@ -1,10 +1,10 @@
 // SPDX-License-Identifier: Apache-2.0
-/// @file spectral_scene.cpp
-/// nebrender --spectral's scene (DESIGN §7): buildSpectralScene() reads the emission grids and
-/// their lines, the temperature and velocity grids onto the RGB scene's lattice, and checks
-/// the spectral options; the integrator is in spectral.cpp.
+/// @file spectral_scene_assembly.cpp
+/// nebrender --spectral's scene (DESIGN §7, stages/scene_assembly.h): buildSpectralScene()
+/// reads the emission grids and their lines, the temperature and velocity grids onto the RGB
+/// scene's lattice; the integrator is render/spectral.cpp.
 
-#include "nebula/render/spectral.h"
+#include "nebula/stages/scene_assembly.h"
 
 #include "nebula/core/error.h"
 #include "nebula/core/format.h"
@@ -26,43 +26,6 @@
 namespace nebula {
 
 namespace {
-
-/// UsageError for options the spectral renderer cannot honour.
-void checkSpectralOptions(const RenderOptions& opts)
-{
-    const SpectralOptions& so = opts.spectral;
-    if (opts.integrator == Integrator::Path) {
-        throw UsageError("--spectral is for the fast integrator (--integrator fast)");
-    }
-    if (opts.phaseTable) {
-        throw UsageError("--spectral does not use --phase (the table's gain depends on the "
-                         "wavelength through the voxel's optical thickness); its multiple "
-                         "scattering comes from nebscatter --spectral's field");
-    }
-    if (opts.levels > 0) throw UsageError("--spectral does not use pyramid levels (--levels)");
-    if (so.bands < 0 || so.bands > MAX_SPECTRAL_BANDS) {
-        throw UsageError(fmt::format("--bands must be in [1, {}] (bands of 0.1 nm at the most; 0: "
-                                     "piecewise-linear spectra), got {}",
-                                     MAX_SPECTRAL_BANDS, so.bands));
-    }
-    if (!(so.continuumStep >= MIN_CONTINUUM_STEP && so.continuumStep <= 50.0)) {
-        throw UsageError(fmt::format("--continuum-step must be in [{:g}, 50] nm, got {}",
-                                     MIN_CONTINUUM_STEP, detail::numberText(so.continuumStep)));
-    }
-    if (!(so.lineWidth > 0.0) || !std::isfinite(so.lineWidth)) {
-        throw UsageError("--line-width must be a finite number > 0 [km/s]");
-    }
-    if (!(so.exaggerateVelocity > 0.0) || !std::isfinite(so.exaggerateVelocity)) {
-        throw UsageError("--exaggerate-velocity must be a finite number > 0 (1: true speeds)");
-    }
-    if (!(so.blackbodyScale >= 0.0) || !std::isfinite(so.blackbodyScale)) {
-        throw UsageError("--blackbody-scale must be a finite number >= 0");
-    }
-    if (!(so.temperatureScale > 0.0) || !std::isfinite(so.temperatureScale)) {
-        throw UsageError("--temperature-scale must be a finite number > 0");
-    }
-    if (so.layers < 0 || so.layers > 470) throw UsageError("--spectral-layers must be in [0, 470]");
-}
 
 /// The emission grids: opts.emissionGrid, then every other FloatGrid with nebula:lines, each
 /// with its lines and the unit that gives the line mix the RGB mode's luminance.
@@ -158,7 +121,7 @@ SpectralScene buildSpectralScene(const GridSet& grids, const RenderOptions& opts
                                  const DustParams& dust)
 {
     const SpectralOptions& so = opts.spectral;
-    checkSpectralOptions(opts);
+    validateSpectralOptions(opts);
     SpectralScene scene;
     scene.dust = dust;
     RenderOptions base = opts;
