@@ -366,7 +366,7 @@ TEST(ViewServer, BadMessagesCloseOnlyTheirConnection)
     Client c(port, t);
     c.until("hello");
     json v = viewMessage(1, test::cubeSettings().render.camera, false);
-    v["camera"]["fov"] = -5;
+    v["camera"]["fov_deg"] = -5;
     c.send(v);
     const json e = c.until("error");
     EXPECT_TRUE(test::contains(e["message"], "fov")) << e.dump();
@@ -501,7 +501,7 @@ TEST(ViewProtocol, MessagesAreCheckedBeforeUse)
              R"({"type": "view", "id": 1, "camera": {"eye": [0, 0]}})",
              R"({"type": "view", "id": 1, "camera": {"eye": [0, 0, "x"]}})",
              R"({"type": "view", "id": 1, "camera": {"eye": [0, 0, 0], "look_at": [0, 0, 0]}})",
-             R"({"type": "view", "id": 1, "camera": {"model": "ods"}})",
+             R"({"type": "view", "id": 1, "camera": {"projection": "ods"}})",
              R"({"type": "view", "id": 1, )" + cam + R"(, "tone": {"gamma": 0}})",
              R"({"type": "view", "id": 1, )" + cam + R"(, "format": "gif"})",
              R"({"type": "probe", "x": 1})", R"({"type": "scrub", "time": 1, "path": 3})",
