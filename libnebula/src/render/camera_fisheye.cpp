@@ -115,6 +115,7 @@ public:
     }
     std::vector<std::string> parameters() const override { return {"dome-tilt"}; }
     double defaultFov() const override { return 180.0; }
+    double maxFov() const override { return 360.0; }
     void fitSize(int& width, int& height) const override
     {
         width = height = std::min(width, height);

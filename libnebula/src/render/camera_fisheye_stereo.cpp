@@ -106,6 +106,7 @@ public:
     }
     std::string stereoOf() const override { return "fisheye"; }
     double defaultFov() const override { return 180.0; }
+    double maxFov() const override { return 360.0; }
     void defaultSize(int& width, int& height) const override { height = 2 * width; }
     void fitSize(int& width, int& height) const override
     {

@@ -770,9 +770,13 @@ ViewServer::ViewServer(const ViewSession& session, const ViewServerOptions& opti
     const auto full = session.resolution(ViewStage::Final);
     const auto fast = session.resolution(ViewStage::Interactive);
     const ToneParams& tone = session.settings().tone;
-    json cameraNames = json::array(); // the registered models, for the page's menu
-    for (const CameraModel* m : cameraModels())
-        cameraNames.push_back(m->name());
+    json cameraNames = json::array(); // the registered models, for the page's controls
+    for (const CameraModel* m : cameraModels()) {
+        cameraNames.push_back({{"name", m->name()},
+                               {"uses_fov", m->usesFov(Camera{})},
+                               {"fov_max", m->maxFov()},
+                               {"parameters", m->parameters()}});
+    }
     json hello = {
         {"type", "hello"},
         {"version", NEBULA_VERSION_STRING},

@@ -2,6 +2,7 @@
 // (round trips, orientation, exact pixel solid angles), the Camera convenience functions
 // against Projection, and validateCamera().
 #include "nebula/render/camera.h"
+#include "nebula/render/camera_model.h"
 
 #include "nebula/core/error.h"
 #include "nebula/core/units.h"
@@ -398,6 +399,6 @@ TEST(Camera, OrthographicRaysAreParallelFromTheEyesPlane)
     refused(bad, "--pixel-size");
     bad = c;
     bad.model = "perspective";
-    refused(bad, "--distance is for --camera orthographic");
+    refused(bad, "--pixel-size is for --camera orthographic (--camera is perspective)");
     EXPECT_EQ(cameraModel("orthographic").name(), "orthographic");
 }

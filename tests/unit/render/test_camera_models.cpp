@@ -225,7 +225,9 @@ TEST(CameraModels, StereoFisheyeParallaxFadesTowardsThePole)
             EXPECT_NEAR((origin - c.eye).length(), want, 1e-6) << lat << " view " << view;
             // The origin is to the left (view 0) or right of the ray's horizontal direction.
             const Vec3 right = Vec3(0, 0, 1).cross(c.up);
-            if (want > 0) EXPECT_GT((origin - c.eye).dot(right) * (view == 0 ? -1 : 1), 0.0);
+            if (want > 0) {
+                EXPECT_GT((origin - c.eye).dot(right) * (view == 0 ? -1 : 1), 0.0);
+            }
         }
     }
     // A star on the horizon, 35 degrees round from the view direction, 1.5 pc away.

@@ -3,6 +3,7 @@
 // close only their own connection, a client that stops reading, two clients, the probe and
 // the camera path's save and load.
 #include "nebula/core/error.h"
+#include "nebula/render/camera_model.h"
 #include "nebula/render/fast.h"
 #include "nebula/serve/view_protocol.h"
 #include "nebula/serve/view_server.h"
@@ -296,6 +297,12 @@ TEST(ViewServer, RefinesToNebrendersImage)
     ASSERT_EQ(hello["stars"].size(), 1u);
     EXPECT_EQ(hello["stars"][0]["name"], "s");
     EXPECT_EQ(hello["field"], false);
+    // The registered camera models, with what the page's controls need.
+    ASSERT_EQ(hello["cameras"].size(), cameraModels().size());
+    for (std::size_t i = 0; i < cameraModels().size(); ++i) {
+        EXPECT_EQ(hello["cameras"][i]["name"], cameraModels()[i]->name());
+        EXPECT_EQ(hello["cameras"][i]["fov_max"], cameraModels()[i]->maxFov());
+    }
     EXPECT_NEAR(hello["box"]["min"][0].get<double>(), -0.8, 0.11);
     Camera cam = settings.render.camera;
     cam.eye = {0.5, 0.3, -4.0};

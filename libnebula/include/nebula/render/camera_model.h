@@ -112,6 +112,8 @@ public:
     virtual double defaultFov() const { return 36.0; }
     /// Whether --fov means something to it (not for panoramas; the JSON leaves it out).
     virtual bool usesFov(const Camera&) const { return true; }
+    /// The widest --fov it takes [degrees] (nebview's slider; validate() checks it).
+    virtual double maxFov() const { return 179.0; }
     /// The image size when --res is not given, from @p width x @p height (512x512).
     virtual void defaultSize(int& /*width*/, int& /*height*/) const {}
     /// The largest image of its shape within @p width x @p height (nebview's stages).
