@@ -213,8 +213,8 @@ const nebula::RenderScene& smallScene()
         nebula::IllumOptions illum;
         illum.dust = params.dust;
         nebula::illuminate(grids, illum, run);
-        return std::make_unique<nebula::RenderScene>(
-            nebula::buildScene(grids, nebula::RenderOptions{}, grids.dust()));
+        const nebula::RenderOptions opts; // a named value: GCC 12 misreads a temporary's string
+        return std::make_unique<nebula::RenderScene>(nebula::buildScene(grids, opts, grids.dust()));
     }();
     return *scene;
 }

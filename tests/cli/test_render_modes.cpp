@@ -180,6 +180,51 @@ TEST_F(RenderModes, DomeAndPanoramaCameras)
     expectFailure("nebrender -i lit.vdb --camera cube -o bad.exr", 2, "--camera");
 }
 
+// The stereo fisheye end to end: --camera fisheye --stereo renders two dome masters, the left
+// eye's on top (W x 2W by default from the width), each with its circle; --stereo with a
+// camera that has no stereo form, and a stereo camera without --ipd, are refused.
+TEST_F(RenderModes, StereoFisheyeDomeMaster)
+{
+    makeLit();
+    const Result r = run("nebrender -i lit.vdb --camera fisheye --stereo --ipd 0.05 "
+                         "--dome-tilt 20 --eye 0,0,-1 --res 32x64 --step 2 -o dome3d.exr");
+    ASSERT_EQ(r.code, 0) << r.err;
+    const nebula::Image img = nebula::readExr(path("dome3d.exr"), nullptr);
+    EXPECT_EQ(img.width, 32);
+    EXPECT_EQ(img.height, 64);
+    const auto alpha = [&](int x, int y) { return img.rgba[(std::size_t(y) * 32 + x) * 4 + 3]; };
+    EXPECT_EQ(alpha(0, 0), 0.0f);   // the left eye's corner: outside its circle
+    EXPECT_EQ(alpha(0, 32), 0.0f);  // the right eye's
+    EXPECT_GT(alpha(16, 16), 0.0f); // the nebula in each eye's circle
+    EXPECT_GT(alpha(16, 48), 0.0f);
+    expectFailure("nebrender -i lit.vdb --camera perspective --stereo -o f.exr", 2,
+                  "--stereo: --camera perspective has no stereo form");
+    expectFailure("nebrender -i lit.vdb --camera fisheye --stereo --res 32x64 -o f.exr", 2,
+                  "--camera fisheye-stereo needs --ipd");
+    expectFailure("nebrender -i lit.vdb --camera fisheye --stereo --ipd 0.05 --res 32x32 -o f.exr",
+                  2, "must be twice as high as wide, e.g. 32x64");
+    EXPECT_FALSE(fs::exists(path("f.exr")));
+}
+
+// One mechanism refuses an option that the chosen camera, integrator or mode does not use,
+// naming the option and what it is for: a camera model's parameter (the registry's rows), an
+// integrator's option, a --spectral option.
+TEST_F(RenderModes, OptionOfAnotherModeIsRefused)
+{
+    makeLit();
+    expectFailure("nebrender -i lit.vdb --camera equirect --pixel-size 0.1 -o f.exr", 2,
+                  "--pixel-size is for --camera orthographic (--camera is equirect)");
+    expectFailure("nebrender -i lit.vdb --pole-merge 50,70 -o f.exr", 2,
+                  "--pole-merge is for --camera ods or fisheye-stereo (--camera is perspective)");
+    expectFailure("nebrender -i lit.vdb --spp 16 -o f.exr", 2,
+                  "--spp is for --integrator path (here: --integrator fast)");
+    expectFailure("nebrender -i lit.vdb --seed 3 -o f.exr", 2,
+                  "--seed is for --integrator path (here: --integrator fast)");
+    expectFailure("nebrender -i lit.vdb --line-width 20 -o f.exr", 2,
+                  "--line-width is for --spectral (here: --integrator fast)");
+    EXPECT_FALSE(fs::exists(path("f.exr")));
+}
+
 // --camera-path: many frames in one process with a frame pattern, one frame per process
 // (the same pixels), the frame and time recorded, --skip-existing resuming a batch, and the
 // mistakes a batch script makes refused before anything renders.

@@ -109,7 +109,8 @@ TEST_F(RenderSpectral, BadInputIsAClearErrorWithNoOutput)
 {
     makeSpectral();
     expectFailure("nebrender -i spec.vdb --bands 0 -o f.exr", 2, "--bands");
-    expectFailure("nebrender -i spec.vdb --exaggerate-velocity 5 -o f.exr", 2, "needs --spectral");
+    expectFailure("nebrender -i spec.vdb --exaggerate-velocity 5 -o f.exr", 2,
+                  "--exaggerate-velocity is for --spectral (here: --integrator fast)");
     expectFailure("nebrender -i spec.vdb --spectral --lines 'H-alfa:1' -o f.exr", 2, "H-alfa");
     expectFailure("nebrender -i spec.vdb --spectral --lines 'H-alpha:-1' -o f.exr", 2, "H-alpha");
     expectFailure("nebrender -i spec.vdb --spectral --lines '0:1' -o f.exr", 2, "--lines");

@@ -2,6 +2,7 @@
 // nebview - explore a nebula live in a web page, and author camera paths there.
 #include "nebula/cli/cli.h"
 #include "nebula/cli/options.h"
+#include "nebula/cli/render_command.h"
 #include "nebula/core/atomic_file.h"
 #include "nebula/core/error.h"
 #include "nebula/core/input.h"
@@ -21,7 +22,10 @@ int main(int argc, char** argv)
     nebula::RenderOptions& opts = settings.render; // nebrender's defaults
     nebula::ViewServerOptions server;
     nebula::DustOptions dustOpts;
-    std::string res = "512x512", interactiveRes, phaseFile, listen, pathFile;
+    nebula::cli::CameraOptions camera;
+    camera.res = "512x512";
+    camera.fitSize = true;
+    std::string interactiveRes, phaseFile, listen, pathFile;
     bool noStars = false;
     int port = 0;
 
@@ -63,7 +67,7 @@ int main(int argc, char** argv)
         nebula::FileFormat::Json);
     nebula::cli::inputFile(
         app.add_option("--camera-path", pathFile, "A camera path (JSON) to start with and edit"));
-    app.add_option("--res", res,
+    app.add_option("--res", camera.res,
                    "Full resolution WxH of the preview and final frames (equirect: W x W/2;\n"
                    "fisheye: the smaller side squared)")
         ->capture_default_str();
@@ -81,12 +85,7 @@ int main(int argc, char** argv)
     app.add_option("--jpeg-quality", server.jpegQuality, "JPEG quality of the frames (1-100)")
         ->capture_default_str()
         ->check(nebula::cli::integerIn(1, 100));
-    nebula::cli::addVec3(app, "--eye", opts.camera.eye, "Starting camera position [pc]");
-    nebula::cli::addVec3(app, "--look-at", opts.camera.lookAt, "Starting look-at point [pc]");
-    nebula::cli::addVec3(app, "--up", opts.camera.up, "Up direction");
-    app.add_option("--fov", opts.camera.fovDeg, "Starting field of view [degrees]")
-        ->capture_default_str()
-        ->check(nebula::cli::numberIn(0.01, 179.0));
+    nebula::cli::addCamera(app, camera, "Starting ", /*withRes=*/false);
     app.add_option("--step", opts.step, "Ray step of the final frames [voxels] (nebrender's)")
         ->capture_default_str()
         ->check(nebula::cli::positive());
@@ -111,42 +110,17 @@ int main(int argc, char** argv)
 
     return nebula::cli::run(app, "nebview", common, argc, argv, [&](nebula::Run& run) {
         nebula::cli::refuseSharedStream({{"-i", common.input}, {"--phase", phaseFile}}, "stdin");
-        nebula::cli::parseResolution(res, opts.camera.width, opts.camera.height);
         if (!interactiveRes.empty()) {
             nebula::cli::parseResolution(interactiveRes, settings.interactiveWidth,
                                          settings.interactiveHeight);
         }
         server.port = std::uint16_t(port);
-        if (listenOpt->count() > 0) {
-            const auto colon = listen.rfind(':');
-            if (colon == std::string::npos || colon == 0) {
-                throw nebula::UsageError("--listen " + listen +
-                                         ": expected ADDR:PORT, e.g. "
-                                         "0.0.0.0:8080");
-            }
-            server.address = listen.substr(0, colon);
-            if (server.address.size() > 2 && server.address.front() == '[' &&
-                server.address.back() == ']') {
-                server.address = server.address.substr(1, server.address.size() - 2);
-            }
-            const std::string p = listen.substr(colon + 1);
-            if (p.empty() || p.size() > 5 ||
-                p.find_first_not_of("0123456789") != std::string::npos || std::stoi(p) > 65535) {
-                throw nebula::UsageError("--listen " + listen + ": the port must be 0-65535");
-            }
-            server.port = std::uint16_t(std::stoi(p));
-        }
+        if (listenOpt->count() > 0) nebula::cli::parseListen(listen, server.address, server.port);
         // Refused now, not at the first save.
         if (!server.pathOut.empty()) nebula::checkOutputTarget(server.pathOut, "--path-out");
-        nebula::validateCamera(opts.camera);
-        if (!pathFile.empty()) {
-            nebula::InputSpec spec;
-            spec.option = "--camera-path";
-            spec.format = "a JSON file";
-            spec.head = nebula::jsonHead("{", "a camera path (a JSON object)");
-            server.path = std::make_shared<nebula::CameraPath>(nebula::parseCameraPath(
-                nebula::readInput(pathFile, spec), nebula::inputName(pathFile), opts.camera));
-        }
+        opts.camera = nebula::cli::makeCamera(camera);
+        if (!pathFile.empty())
+            server.path = nebula::cli::readCameraPathOption(pathFile, opts.camera);
         opts.drawStars = !noStars;
         opts.scatterField = !noScatterField;
         opts.exactStarDepth = !interpolatedTau;

@@ -155,6 +155,24 @@ void requireMode(const std::vector<CLI::Option*>& options, bool enabled, const s
     }
 }
 
+void parseListen(const std::string& listen, std::string& address, std::uint16_t& port)
+{
+    const auto colon = listen.rfind(':');
+    if (colon == std::string::npos || colon == 0) {
+        throw UsageError("--listen " + listen + ": expected ADDR:PORT, e.g. 0.0.0.0:8080");
+    }
+    address = listen.substr(0, colon);
+    if (address.size() > 2 && address.front() == '[' && address.back() == ']') {
+        address = address.substr(1, address.size() - 2);
+    }
+    const std::string p = listen.substr(colon + 1);
+    if (p.empty() || p.size() > 5 || p.find_first_not_of("0123456789") != std::string::npos ||
+        std::stoi(p) > 65535) {
+        throw UsageError("--listen " + listen + ": the port must be 0-65535");
+    }
+    port = std::uint16_t(std::stoi(p));
+}
+
 void parseResolution(const std::string& text, int& width, int& height)
 {
     const auto x = text.find('x');
@@ -172,32 +190,6 @@ void parseResolution(const std::string& text, int& width, int& height)
         throw UsageError("--res \"" + text +
                          "\": expected WxH, each an integer in [1, 65536], e.g. 512x512");
     }
-}
-
-double parsePixelSize(const std::string& text, double distancePc)
-{
-    const auto unitAt = text.find_first_not_of("0123456789.eE+-");
-    const std::string number = text.substr(0, unitAt);
-    const std::string unit = unitAt == std::string::npos ? "pc" : text.substr(unitAt);
-    double value = 0.0;
-    try {
-        std::size_t used = 0;
-        value = std::stod(number, &used);
-        if (used != number.size()) throw std::invalid_argument(text);
-    } catch (const std::exception&) {
-        value = std::nan("");
-    }
-    if (!(value > 0.0) || !std::isfinite(value) || (unit != "pc" && unit != "arcsec")) {
-        throw UsageError("--pixel-size \"" + detail::printable(text, 40) +
-                         "\": expected a number > 0 with an optional unit pc or arcsec, e.g. "
-                         "0.01pc or 2arcsec");
-    }
-    if (unit == "pc") return value;
-    if (std::isnan(distancePc)) {
-        throw UsageError("--pixel-size " + detail::printable(text, 40) +
-                         " is an angle: it needs the observer's --distance [pc]");
-    }
-    return value * ARCSEC_RAD * distancePc;
 }
 
 namespace {

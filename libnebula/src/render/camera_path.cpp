@@ -183,12 +183,27 @@ CameraPath parseCameraPath(const std::string& text, const std::string& source,
     CameraPath path;
     path.source = source;
     for (const auto& [key, value] : j.items()) {
-        if (key != "fps" && key != "keyframes" && key != "constant_speed" && key != "ease_in" &&
-            key != "ease_out") {
+        if (key != "version" && key != "fps" && key != "keyframes" && key != "constant_speed" &&
+            key != "ease_in" && key != "ease_out") {
             throw Error(where + ": unknown key \"" + detail::printable(key, 40) +
-                        "\" (expected fps, keyframes, constant_speed, ease_in, ease_out)");
+                        "\" (expected version, fps, keyframes, constant_speed, ease_in, "
+                        "ease_out)");
         }
     }
+    // Version 2 (what nebula writes): keyframes in the camera's JSON (cameraToJson(): fov_deg,
+    // roll_deg); version 1 (no "version"): fov and roll.
+    int version = 1;
+    if (j.contains("version")) {
+        const auto& v = j["version"];
+        if (!v.is_number_integer() ||
+            (v.get<long>() != 1 && v.get<long>() != CAMERA_PATH_VERSION)) {
+            throw Error(where + ": version must be 1 or 2 (this nebula reads camera paths of "
+                                "versions 1 and 2)");
+        }
+        version = int(v.get<long>());
+    }
+    const std::string fovKey = version == 1 ? "fov" : "fov_deg";
+    const std::string rollKey = version == 1 ? "roll" : "roll_deg";
     if (!j.contains("fps")) throw Error(where + ": \"fps\" is missing");
     path.fps = readNumber(j["fps"], where + ": fps", 1e-3, 1e4);
     if (j.contains("constant_speed")) {
@@ -207,10 +222,17 @@ CameraPath parseCameraPath(const std::string& text, const std::string& source,
         const std::string at = where + ": keyframe " + std::to_string(n + 1);
         if (!k.is_object()) throw Error(at + " must be an object");
         for (const auto& [key, value] : k.items()) {
-            if (key != "time" && key != "eye" && key != "look_at" && key != "up" && key != "fov" &&
-                key != "roll") {
+            if (key != "time" && key != "eye" && key != "look_at" && key != "up" && key != fovKey &&
+                key != rollKey) {
+                const bool other =
+                    key == "fov" || key == "roll" || key == "fov_deg" || key == "roll_deg";
                 throw Error(at + ": unknown key \"" + detail::printable(key, 40) +
-                            "\" (expected time, eye, look_at, up, fov, roll)");
+                            "\" (expected time, eye, look_at, up, " + fovKey + ", " + rollKey +
+                            ")" +
+                            (!other         ? ""
+                             : version == 1 ? "; fov_deg and roll_deg are version 2's: add "
+                                              "\"version\": 2 to the path"
+                                            : "; version 2 names them fov_deg and roll_deg"));
             }
         }
         for (const char* req : {"time", "eye", "look_at"}) {
@@ -221,8 +243,10 @@ CameraPath parseCameraPath(const std::string& text, const std::string& source,
         key.eye = readVec3(k["eye"], at + ": eye");
         key.lookAt = readVec3(k["look_at"], at + ": look_at");
         if (k.contains("up")) up = readVec3(k["up"], at + ": up");
-        if (k.contains("fov")) fov = readNumber(k["fov"], at + ": fov", 1e-3, 360.0);
-        if (k.contains("roll")) roll = readNumber(k["roll"], at + ": roll", -3600.0, 3600.0);
+        if (k.contains(fovKey)) fov = readNumber(k[fovKey], at + ": " + fovKey, 1e-3, 360.0);
+        if (k.contains(rollKey)) {
+            roll = readNumber(k[rollKey], at + ": " + rollKey, -3600.0, 3600.0);
+        }
         key.up = up;
         key.fovDeg = fov;
         key.rollDeg = roll;
@@ -235,7 +259,7 @@ CameraPath parseCameraPath(const std::string& text, const std::string& source,
         check.eye = key.eye, check.lookAt = key.lookAt, check.up = key.up;
         check.fovDeg = key.fovDeg;
         try {
-            validateCamera(check);
+            (void)Projection(check); // a created camera is valid
         } catch (const UsageError& e) {
             throw Error(at + ": " + e.what());
         }

@@ -51,8 +51,8 @@ inline Image frameImage(const RenderScene& scene, const RenderOptions& opts,
     img.layers.push_back({"transmittance", std::vector<float>(n, 1.0f)});
     for (const auto& name : extra)
         img.layers.push_back({name, std::vector<float>(n, 0.0f)});
-    if (opts.camera.model == CameraModel::Fisheye) { // the corners outside the circle
-        const Projection projection(opts.camera);
+    const Projection projection(opts.camera);
+    if (!projection.coversImage()) { // a fisheye's corners outside the circle
         img.inView.resize(std::size_t(width) * height);
         for (int y = 0; y < height; ++y)
             for (int x = 0; x < width; ++x)

@@ -2,9 +2,11 @@
 #include "nebula/serve/view_protocol.h"
 
 #include "nebula/core/format.h"
+#include "nebula/render/camera_model.h"
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <cctype>
 #include <cmath>
 
@@ -33,23 +35,6 @@ bool flag(const json& j, const char* key, bool fallback, const std::string& wher
     return it->get<bool>();
 }
 
-Vec3 vec3(const json& j, const char* key, const Vec3& fallback, const std::string& where)
-{
-    const auto it = j.find(key);
-    if (it == j.end()) return fallback;
-    if (!it->is_array() || it->size() != 3) {
-        throw Error(where + ": \"" + key + "\" must be an array of 3 numbers");
-    }
-    double v[3];
-    for (std::size_t i = 0; i < 3; ++i) {
-        if (!(*it)[i].is_number() || !std::isfinite((*it)[i].get<double>())) {
-            throw Error(where + ": \"" + key + "\" must be an array of 3 finite numbers");
-        }
-        v[i] = (*it)[i].get<double>();
-    }
-    return {v[0], v[1], v[2]};
-}
-
 const json& object(const json& j, const char* key, const std::string& where)
 {
     const auto it = j.find(key);
@@ -69,39 +54,20 @@ CameraPath pathFromJson(const json& j, const Camera& base, const std::string& na
 
 json cameraJson(const Camera& c)
 {
-    json j = {{"eye", {c.eye.x, c.eye.y, c.eye.z}},
-              {"look_at", {c.lookAt.x, c.lookAt.y, c.lookAt.z}},
-              {"up", {c.up.x, c.up.y, c.up.z}},
-              {"fov", c.fovDeg},
-              {"roll", c.rollDeg},
-              {"model", toString(c.model)}};
-    j["dome_tilt"] = std::isnan(c.domeTiltDeg) ? json(nullptr) : json(c.domeTiltDeg);
-    return j;
+    return cameraToJson(c);
 }
 
-Camera cameraFromJson(const json& j, const Camera& base, const std::string& where)
+Camera viewCameraFromJson(const json& j, const Camera& base, const std::string& where)
 {
-    if (!j.is_object()) throw Error(where + ": the camera must be an object");
-    Camera c = base;
-    c.eye = vec3(j, "eye", base.eye, where);
-    c.lookAt = vec3(j, "look_at", base.lookAt, where);
-    c.up = vec3(j, "up", base.up, where);
-    if (j.contains("fov")) c.fovDeg = number(j, "fov", where);
-    if (j.contains("roll")) c.rollDeg = number(j, "roll", where);
-    if (j.contains("model")) {
-        if (!j["model"].is_string()) throw Error(where + ": \"model\" must be a string");
-        const std::string m = j["model"].get<std::string>();
-        if (m != "perspective" && m != "fisheye" && m != "equirect") {
-            throw Error(where + ": \"model\" must be perspective, fisheye or equirect, not \"" +
-                        m.substr(0, 40) + "\"");
-        }
-        c.model = cameraModelFromString(m);
-    }
-    if (j.contains("dome_tilt")) {
-        c.domeTiltDeg = j["dome_tilt"].is_null() ? std::nan("") : number(j, "dome_tilt", where);
+    Camera c = cameraFromJson(j, base, where);
+    // The page switches models: the base's parameters that the new model does not read go.
+    const auto reads = cameraModel(c.model).parameters();
+    for (const CameraParameter& p : cameraParameters()) {
+        if (std::find(reads.begin(), reads.end(), p.name) == reads.end() && !j.contains(p.json))
+            p.set(c, {});
     }
     try {
-        validateCamera(c);
+        (void)Projection(c); // a created camera is valid
     } catch (const Error& e) {
         throw Error(where + ": " + e.what());
     }
@@ -186,7 +152,7 @@ ClientMessage parseClientMessage(const std::string& text, const std::vector<std:
             throw Error(where + ": \"id\" must be a whole number >= 0");
         }
         v.id = static_cast<long long>(id);
-        v.camera = cameraFromJson(object(j, "camera", where), base, where + ": camera");
+        v.camera = viewCameraFromJson(object(j, "camera", where), base, where + ": camera");
         v.moving = flag(j, "moving", false, where);
         if (j.contains("mode")) {
             const json& mode = j["mode"];

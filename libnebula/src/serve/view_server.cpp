@@ -4,6 +4,7 @@
 #include "nebula/core/error.h"
 #include "nebula/core/format.h"
 #include "nebula/core/version.h"
+#include "nebula/render/camera_model.h"
 #include "nebula/serve/view_protocol.h"
 #include "nebula/volume/block_walk.h"
 
@@ -90,11 +91,7 @@ std::string errorText(const std::string& request, const std::string& message)
 
 bool sameView(const Camera& a, const Camera& b)
 {
-    const auto same = [](double x, double y) { return x == y || (std::isnan(x) && std::isnan(y)); };
-    return a.eye.x == b.eye.x && a.eye.y == b.eye.y && a.eye.z == b.eye.z &&
-           a.lookAt.x == b.lookAt.x && a.lookAt.y == b.lookAt.y && a.lookAt.z == b.lookAt.z &&
-           a.up.x == b.up.x && a.up.y == b.up.y && a.up.z == b.up.z && a.fovDeg == b.fovDeg &&
-           a.rollDeg == b.rollDeg && a.model == b.model && same(a.domeTiltDeg, b.domeTiltDeg);
+    return cameraToJson(a) == cameraToJson(b);
 }
 
 bool sameShow(const ViewShow& a, const ViewShow& b)
@@ -392,12 +389,13 @@ void WsSession::handle(const std::string& text)
     case ClientMessage::Kind::Scrub: {
         ViewRequest view; // the look of the last view, with the path's camera
         Camera model = base;
-        if (mServer.renderer->lastView(this, view)) {
-            model.model = view.camera.model;
-            model.domeTiltDeg = view.camera.domeTiltDeg;
+        if (mServer.renderer->lastView(this, view)) { // its model and parameters, base's size
+            model = view.camera;
+            model.width = base.width;
+            model.height = base.height;
         }
         const Camera c = m.path.at(m.time, model);
-        validateCamera(c);
+        (void)Projection(c); // a created camera is valid
         sendText(json({{"type", "camera"}, {"camera", cameraJson(c)}, {"time", m.time}}).dump());
         view.camera = c;
         view.moving = true;
@@ -773,6 +771,13 @@ ViewServer::ViewServer(const ViewSession& session, const ViewServerOptions& opti
     const auto full = session.resolution(ViewStage::Final);
     const auto fast = session.resolution(ViewStage::Interactive);
     const ToneParams& tone = session.settings().tone;
+    json cameraNames = json::array(); // the registered models, for the page's controls
+    for (const CameraModel* m : cameraModels()) {
+        cameraNames.push_back({{"name", m->name()},
+                               {"uses_fov", m->usesFov(Camera{})},
+                               {"fov_max", m->maxFov()},
+                               {"parameters", m->parameters()}});
+    }
     json hello = {
         {"type", "hello"},
         {"version", NEBULA_VERSION_STRING},
@@ -784,6 +789,7 @@ ViewServer::ViewServer(const ViewSession& session, const ViewServerOptions& opti
         {"field", session.hasField()},
         {"emission", session.hasEmission()},
         {"camera", cameraJson(session.settings().render.camera)},
+        {"cameras", cameraNames},
         {"width", full[0]},
         {"height", full[1]},
         {"interactive", {{"width", fast[0]}, {"height", fast[1]}}},

@@ -4,7 +4,7 @@
 #include "nebula/core/error.h"
 #include "nebula/core/format.h"
 #include "nebula/core/units.h"
-#include "nebula/render/camera.h"
+#include "nebula/render/camera_model.h"
 #include "nebula/render/spectral.h"
 
 #include <fmt/format.h>
@@ -31,16 +31,20 @@ void checkFitsOutput(const FitsOutput& fits, const RenderOptions& opts, bool man
                          detail::printable(fits.unit, 40) + "\"");
     }
     if (manyFrames) throw UsageError(option + " is for one image: render one frame");
-    const CameraModel m = opts.camera.model;
-    if (m != CameraModel::Orthographic && m != CameraModel::Perspective) {
-        throw UsageError(option +
-                         " needs --camera orthographic (a telescope's view) or "
-                         "perspective; " +
-                         toString(m) + " images have no FITS projection here");
+    const auto plane = cameraModel(opts.camera.model).skyPlane(opts.camera);
+    if (!plane) {
+        std::string have;
+        for (const CameraModel* m : cameraModels()) {
+            if (!m->skyPlane(Camera{}).has_value()) continue;
+            have += (have.empty() ? "" : " or ") + m->name();
+        }
+        throw UsageError(option + " needs --camera " + have + "; " + opts.camera.model +
+                         " images have no FITS projection here");
     }
-    if (m == CameraModel::Perspective && !fits.sky && !fits.path.empty()) {
-        throw UsageError("--fits with the perspective camera needs --sky RA,DEC: its pixels are "
-                         "angles (or use --camera orthographic for offsets in pc)");
+    if (std::isnan(plane->pixelPc) && !fits.sky && !fits.path.empty()) {
+        throw UsageError("--fits with the " + opts.camera.model +
+                         " camera needs --sky RA,DEC: its pixels are angles (or use --camera "
+                         "orthographic for offsets in pc)");
     }
     if (fits.sky) {
         if (!(fits.ra >= 0.0 && fits.ra < 360.0) || !(fits.dec >= -90.0 && fits.dec <= 90.0)) {
@@ -118,8 +122,8 @@ std::vector<FitsCard> imageWcsCards(const Camera& camera, const FitsOutput& fits
         {"CRPIX1", cx, "the image centre: the look-at point"},
         {"CRPIX2", cy, "the image centre: the look-at point"},
     };
-    if (!fits.sky) { // orthographic: offsets in the image plane [pc]
-        const double p = camera.orthographicPixel();
+    if (!fits.sky) { // pixels of a size in pc (orthographic): offsets in the image plane
+        const double p = cameraModel(camera.model).skyPlane(camera)->pixelPc;
         cards.push_back({"CTYPE1", std::string("XOFFSET"), "along the image's right [pc]"});
         cards.push_back({"CTYPE2", std::string("YOFFSET"), "along the image's up [pc]"});
         cards.push_back({"CUNIT1", std::string("pc"), ""});
@@ -132,9 +136,7 @@ std::vector<FitsCard> imageWcsCards(const Camera& camera, const FitsOutput& fits
     }
     // Tangent-plane radians per pixel: the perspective camera's image plane at distance 1 is
     // the gnomonic plane; the orthographic camera's pixel spans pixel / distance.
-    const double s = camera.model == CameraModel::Orthographic
-                         ? camera.orthographicPixel() / camera.observerDistance()
-                         : 2.0 * std::tan(0.5 * camera.fovDeg * DEG_RAD) / camera.width;
+    const double s = cameraModel(camera.model).skyPlane(camera)->radiansPerPixel;
     const double deg = s / DEG_RAD, ct = std::cos(fits.positionAngle * DEG_RAD),
                  st = std::sin(fits.positionAngle * DEG_RAD);
     // The image's right and up on the sky, (east, north): up at the position angle from

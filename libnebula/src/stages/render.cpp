@@ -8,6 +8,7 @@
 #include "nebula/core/version.h"
 #include "nebula/io/grid_names.h"
 #include "nebula/io/image_check.h"
+#include "nebula/render/camera_model.h"
 #include "nebula/render/fast.h"
 #include "nebula/render/path_tracer.h"
 #include "nebula/render/spectral.h"
@@ -141,26 +142,9 @@ std::map<std::string, std::string> exrAttributes(const GridSet& grids, const Ren
 {
     const bool path = opts.integrator == Integrator::Path;
     const bool spectral = opts.spectral.enabled;
-    const auto vec = [](const Vec3& v) { return nlohmann::json::array({v.x, v.y, v.z}); };
     const nlohmann::json tone = {
         {"white", curve.white}, {"gamma", curve.gamma}, {"automatic", out.tone.automatic}};
-    nlohmann::json cam = {
-        {"eye", vec(opts.camera.eye)},     {"look_at", vec(opts.camera.lookAt)},
-        {"up", vec(opts.camera.up)},       {"fov_deg", opts.camera.fovDeg},
-        {"roll_deg", opts.camera.rollDeg}, {"projection", toString(opts.camera.model)}};
-    if (opts.camera.model == CameraModel::Equirect) cam.erase("fov_deg");
-    if (opts.camera.model == CameraModel::Ods) {
-        cam.erase("fov_deg");
-        cam["ipd_pc"] = opts.camera.ipdPc;
-        cam["pole_merge_deg"] = {opts.camera.poleMergeFromDeg, opts.camera.poleMergeToDeg};
-        cam["layout"] = "left eye top";
-    }
-    if (!std::isnan(opts.camera.domeTiltDeg)) cam["dome_tilt_deg"] = opts.camera.domeTiltDeg;
-    if (opts.camera.model == CameraModel::Orthographic) {
-        cam.erase("fov_deg");
-        cam["pixel_size_pc"] = opts.camera.orthographicPixel();
-        cam["distance_pc"] = opts.camera.observerDistance();
-    }
+    const nlohmann::json cam = cameraToJson(opts.camera);
     std::map<std::string, std::string> attrs{
         {"comments",
          path ? "nebula reference path-traced render (DESIGN section 6); linear radiance"
@@ -234,17 +218,13 @@ std::vector<FitsCard> fitsCards(const GridSet& grids, const RenderOptions& opts,
     };
     std::vector<FitsCard> cards{
         {"ORIGIN", std::string("nebula ") + NEBULA_VERSION_STRING, "the software"},
-        {"CAMERA", toString(c.model), "nebrender --camera"},
+        {"CAMERA", c.model, "nebrender --camera"},
         {"EYE", vec(c.eye), "camera position [pc]"},
         {"LOOKAT", vec(c.lookAt), "the image centre [pc]"},
         {"UP", vec(c.up), "camera up"},
     };
-    if (c.model == CameraModel::Orthographic) {
-        cards.push_back({"DISTANCE", c.observerDistance(), "observer's distance [pc]"});
-        cards.push_back({"PIXSIZE", c.orthographicPixel(), "pixel size [pc]"});
-    } else {
-        cards.push_back({"FOV", c.fovDeg, "horizontal field of view [deg]"});
-    }
+    for (const CameraCard& card : cameraModel(c.model).fitsCards(c))
+        cards.push_back({card.key, card.value, card.comment});
     cards.push_back({"PIXSR", Projection(c).pixelSolidAngle(0.5 * c.width, 0.5 * c.height),
                      "solid angle of the central pixel [sr]"});
     if (out.fits.sky) cards.push_back({"POSANG", out.fits.positionAngle, "up, N through E [deg]"});
@@ -329,10 +309,7 @@ void renderOneFrame(const GridSet& grids, const RenderOptions& opts, const DustP
             *sedFile, sed, hasCalibratedEmission(opts),
             {"nebula SED: flux density at the observer [Jy] per component (DESIGN section 13), " +
                  band,
-             std::string("camera ") + toString(c.model) +
-                 (c.model == CameraModel::Orthographic
-                      ? fmt::format(", distance {:g} pc", c.observerDistance())
-                      : std::string(", at the eye")),
+             "camera " + c.model + ", " + cameraModel(c.model).observer(c),
              "command: " + run.command()});
     }
     // The components (and layers the user did not ask for) stay out of the EXR.
@@ -425,7 +402,7 @@ void renderToFiles(const GridSet& grids, const RenderOptions& given, const DustP
         for (std::size_t i = 0; i < frames.size(); ++i) {
             cameras[i] = out.path->at(out.path->frameTime(frames[i]), opts.camera);
             try {
-                validateCamera(cameras[i]);
+                (void)Projection(cameras[i]); // a created camera is valid
             } catch (const UsageError& e) {
                 throw UsageError(out.path->source + ": frame " + std::to_string(frames[i]) + ": " +
                                  e.what());
@@ -442,17 +419,11 @@ void renderToFiles(const GridSet& grids, const RenderOptions& given, const DustP
     }
     const double tBuild =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-    if (opts.camera.model == CameraModel::Ods) { // a stereo base beyond the scene is a mistake
+    { // e.g. a stereo base beyond the scene
         const SparseVolume& v = sscene.base.fields;
         const double across =
             v.indexToWorld.applyLinear(Vec3(v.dims()[0], v.dims()[1], v.dims()[2])).length();
-        if (opts.camera.ipdPc > across) {
-            throw UsageError(fmt::format("--ipd {:g} pc is larger than the scene, whose box is "
-                                         "{:.4g} pc across: the eyes would stand outside each "
-                                         "other's view of it (try about 1/30 of the distance to "
-                                         "the nebula)",
-                                         opts.camera.ipdPc, across));
-        }
+        cameraModel(opts.camera.model).validateInScene(opts.camera, across);
     }
     {
         const SparseVolume& v = sscene.base.fields;

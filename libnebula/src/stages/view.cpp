@@ -5,6 +5,7 @@
 #include "nebula/core/error.h"
 #include "nebula/core/file_format.h"
 #include "nebula/core/units.h"
+#include "nebula/render/camera_model.h"
 #include "nebula/render/fast.h"
 #include "nebula/render/sprites.h"
 #include "nebula/render/star_depth.h"
@@ -55,7 +56,7 @@ ViewSession::ViewSession(std::shared_ptr<const GridSet> grids, const ViewSetting
         mSettings.interactiveWidth = std::max(1, c.width / 2);
         mSettings.interactiveHeight = std::max(1, c.height / 2);
     }
-    validateCamera(c);
+    (void)Projection(c); // a created camera is valid
     const auto start = std::chrono::steady_clock::now();
     mScene = buildScene(*mGrids, mSettings.render, mDust);
     requireRayStep(mScene, mSettings.render.step);
@@ -91,11 +92,7 @@ RenderOptions ViewSession::stageOptions(const Camera& camera, ViewStage stage, b
     opts.camera.width = size[0];
     opts.camera.height = size[1];
     // The page switches models; each gets the image shape it needs from the stage's size.
-    if (camera.model == CameraModel::Equirect) {
-        opts.camera.height = std::max(1, opts.camera.width / 2);
-    } else if (camera.model == CameraModel::Fisheye) {
-        opts.camera.width = opts.camera.height = std::min(size[0], size[1]);
-    }
+    cameraModel(camera.model).fitSize(opts.camera.width, opts.camera.height);
     if (stage != ViewStage::Final) {
         opts.step = mSettings.fastStep;
         opts.exactStarDepth = false;
@@ -116,7 +113,7 @@ ViewFrame ViewSession::render(const Camera& camera, ViewStage stage, bool spectr
     frame.stage = stage;
     frame.spectral = spectral;
     const RenderOptions opts = stageOptions(camera, stage, spectral);
-    validateCamera(opts.camera);
+    (void)Projection(opts.camera); // a created camera is valid
     frame.camera = opts.camera;
     const auto start = std::chrono::steady_clock::now();
     if (spectral) {
@@ -186,8 +183,7 @@ Image ViewSession::compose(const ViewFrame& frame, const ViewShow& show) const
 
 ProbeResult ViewSession::probe(const Camera& camera, double px, double py) const
 {
-    validateCamera(camera);
-    const Projection projection(camera);
+    const Projection projection(camera); // a created camera is valid
     ProbeResult result;
     Vec3 dir;
     if (!projection.direction(px, py, dir)) return result; // outside a fisheye's circle
@@ -249,10 +245,11 @@ std::string cameraPathJson(const CameraPath& path)
                         {"eye", {k.eye.x, k.eye.y, k.eye.z}},
                         {"look_at", {k.lookAt.x, k.lookAt.y, k.lookAt.z}},
                         {"up", {k.up.x, k.up.y, k.up.z}},
-                        {"fov", k.fovDeg},
-                        {"roll", k.rollDeg}});
+                        {"fov_deg", k.fovDeg},
+                        {"roll_deg", k.rollDeg}});
     }
-    const json j = {{"fps", path.fps},
+    const json j = {{"version", CAMERA_PATH_VERSION},
+                    {"fps", path.fps},
                     {"constant_speed", path.constantSpeed},
                     {"ease_in", path.easeIn},
                     {"ease_out", path.easeOut},

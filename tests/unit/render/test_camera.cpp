@@ -3,6 +3,7 @@
 // (round trips, orientation, exact pixel solid angles), the Camera convenience functions
 // against Projection, and validateCamera().
 #include "nebula/render/camera.h"
+#include "nebula/render/camera_model.h"
 
 #include "nebula/core/error.h"
 #include "nebula/core/units.h"
@@ -133,7 +134,7 @@ TEST(Camera, ValidateNamesTheOptionOfAHugeOrNonFiniteVector)
 
 namespace {
 
-Camera model(CameraModel m, int w, int h, double fov)
+Camera model(const std::string& m, int w, int h, double fov)
 {
     Camera c;
     c.eye = Vec3(1, -2, 3);
@@ -168,10 +169,10 @@ double angle(const Vec3& a, const Vec3& b)
 // is exact; the fisheye's rim pixels are integrated on 16 x 16 midpoints (error ~ 1e-4).
 TEST(Camera, SolidAnglesAddUpToTheView)
 {
-    EXPECT_NEAR(totalSolidAngle(model(CameraModel::Equirect, 64, 32, 0)), 4 * PI, 1e-12);
+    EXPECT_NEAR(totalSolidAngle(model("equirect", 64, 32, 0)), 4 * PI, 1e-12);
     for (const double fov : {60.0, 180.0, 250.0, 360.0}) {
         const double cap = 2 * PI * (1 - std::cos(fov * PI / 360));
-        EXPECT_NEAR(totalSolidAngle(model(CameraModel::Fisheye, 96, 96, fov)), cap, 2e-4 * cap)
+        EXPECT_NEAR(totalSolidAngle(model("fisheye", 96, 96, fov)), cap, 2e-4 * cap)
             << "fov " << fov;
     }
 }
@@ -179,9 +180,8 @@ TEST(Camera, SolidAnglesAddUpToTheView)
 // project() inverts direction() in every model, and every direction is unit length.
 TEST(Camera, ProjectInvertsDirectionInEveryModel)
 {
-    for (const auto& c :
-         {model(CameraModel::Perspective, 80, 60, 70), model(CameraModel::Fisheye, 90, 90, 180),
-          model(CameraModel::Fisheye, 90, 90, 330), model(CameraModel::Equirect, 120, 60, 0)}) {
+    for (const auto& c : {model("perspective", 80, 60, 70), model("fisheye", 90, 90, 180),
+                          model("fisheye", 90, 90, 330), model("equirect", 120, 60, 0)}) {
         const Projection p(c);
         int checked = 0;
         for (double y = 0.75; y < c.height; y += 3.1)
@@ -190,12 +190,12 @@ TEST(Camera, ProjectInvertsDirectionInEveryModel)
                 if (!p.direction(x, y, d)) continue;
                 EXPECT_NEAR(d.length(), 1.0, 1e-12);
                 double px, py;
-                ASSERT_TRUE(p.project(c.eye + d * 3.5, px, py)) << toString(c.model);
-                EXPECT_NEAR(px, x, 1e-6) << toString(c.model) << " at " << x << "," << y;
-                EXPECT_NEAR(py, y, 1e-6) << toString(c.model) << " at " << x << "," << y;
+                ASSERT_TRUE(p.project(c.eye + d * 3.5, px, py)) << c.model;
+                EXPECT_NEAR(px, x, 1e-6) << c.model << " at " << x << "," << y;
+                EXPECT_NEAR(py, y, 1e-6) << c.model << " at " << x << "," << y;
                 ++checked;
             }
-        EXPECT_GT(checked, 300) << toString(c.model);
+        EXPECT_GT(checked, 300) << c.model;
     }
 }
 
@@ -205,7 +205,7 @@ TEST(Camera, ProjectInvertsDirectionInEveryModel)
 // view and have no solid angle.
 TEST(Camera, FisheyeIsAzimuthalEquidistant)
 {
-    Camera c = model(CameraModel::Fisheye, 100, 100, 200);
+    Camera c = model("fisheye", 100, 100, 200);
     c.eye = Vec3(0, 0, 0);
     c.lookAt = Vec3(0, 0, 5);
     c.up = Vec3(0, 1, 0);
@@ -218,7 +218,7 @@ TEST(Camera, FisheyeIsAzimuthalEquidistant)
     }
     EXPECT_GT(p.direction(50, 10).y, 0.0); // top: up
     Camera persp = c;
-    persp.model = CameraModel::Perspective;
+    persp.model = "perspective";
     persp.fovDeg = 90;
     EXPECT_GT(p.direction(90, 50).x * persp.direction(90, 50).x, 0.0); // right: right
     Vec3 d;
@@ -240,7 +240,7 @@ TEST(Camera, FisheyeIsAzimuthalEquidistant)
 // untilted fisheye; in between, the look-at point is 90 - T degrees below the centre.
 TEST(Camera, DomeTiltTurnsTheAxisFromUpTowardsTheView)
 {
-    Camera c = model(CameraModel::Fisheye, 100, 100, 180);
+    Camera c = model("fisheye", 100, 100, 180);
     c.eye = Vec3(0, 0, 0);
     c.lookAt = Vec3(0, 0, 5);
     c.up = Vec3(0, 1, 0);
@@ -268,7 +268,7 @@ TEST(Camera, DomeTiltTurnsTheAxisFromUpTowardsTheView)
 // each pixel subtends (2 pi / W)(sin lat_top - sin lat_bottom).
 TEST(Camera, EquirectOrientationAndSolidAngle)
 {
-    Camera c = model(CameraModel::Equirect, 200, 100, 0);
+    Camera c = model("equirect", 200, 100, 0);
     c.eye = Vec3(0, 0, 0);
     c.lookAt = Vec3(0, 0, 5);
     c.up = Vec3(0, 1, 0);
@@ -309,7 +309,7 @@ TEST(Camera, ValidateChecksTheModelsShapeAndAngles)
     Camera c;
     c.fovDeg = 200;
     EXPECT_THROW(validateCamera(c), UsageError); // perspective: at most 179
-    c.model = CameraModel::Fisheye;
+    c.model = "fisheye";
     EXPECT_NO_THROW(validateCamera(c));
     c.fovDeg = 361;
     EXPECT_THROW(validateCamera(c), UsageError);
@@ -327,14 +327,14 @@ TEST(Camera, ValidateChecksTheModelsShapeAndAngles)
     EXPECT_THROW(validateCamera(c), UsageError);
     c.domeTiltDeg = 20;
     EXPECT_NO_THROW(validateCamera(c));
-    c.model = CameraModel::Equirect;
+    c.model = "equirect";
     EXPECT_THROW(validateCamera(c), UsageError); // --dome-tilt is for the fisheye
     c.domeTiltDeg = std::nan("");
     EXPECT_THROW(validateCamera(c), UsageError); // 512x512 is not 2:1
     c.width = 1024;
     EXPECT_NO_THROW(validateCamera(c));
-    EXPECT_EQ(cameraModelFromString("equirect"), CameraModel::Equirect);
-    EXPECT_THROW(cameraModelFromString("cube"), UsageError);
+    EXPECT_EQ(cameraModel("equirect").name(), "equirect");
+    EXPECT_THROW(cameraModel("cube").name(), UsageError);
 }
 
 // The orthographic camera: parallel rays along the view, each from its pixel on the plane
@@ -345,7 +345,7 @@ TEST(Camera, ValidateChecksTheModelsShapeAndAngles)
 TEST(Camera, OrthographicRaysAreParallelFromTheEyesPlane)
 {
     Camera c;
-    c.model = CameraModel::Orthographic;
+    c.model = "orthographic";
     c.eye = Vec3(1, 2, -20);
     c.lookAt = Vec3(1, 2, 0);
     c.width = 40;
@@ -399,7 +399,7 @@ TEST(Camera, OrthographicRaysAreParallelFromTheEyesPlane)
     bad.pixelSizePc = -1.0;
     refused(bad, "--pixel-size");
     bad = c;
-    bad.model = CameraModel::Perspective;
-    refused(bad, "--distance is for --camera orthographic");
-    EXPECT_EQ(cameraModelFromString("orthographic"), CameraModel::Orthographic);
+    bad.model = "perspective";
+    refused(bad, "--pixel-size is for --camera orthographic (--camera is perspective)");
+    EXPECT_EQ(cameraModel("orthographic").name(), "orthographic");
 }

@@ -99,9 +99,9 @@ TEST(CameraPath, PassesThroughItsKeyframes)
     EXPECT_NEAR((p.at(99, base).eye - p.keys[2].eye).length(), 0.0, 1e-12);
     // The model and resolution come from the base camera.
     Camera dome;
-    dome.model = CameraModel::Fisheye;
+    dome.model = "fisheye";
     dome.width = dome.height = 64;
-    EXPECT_EQ(p.at(0.5, dome).model, CameraModel::Fisheye);
+    EXPECT_EQ(p.at(0.5, dome).model, "fisheye");
     EXPECT_EQ(p.at(0.5, dome).width, 64);
 }
 

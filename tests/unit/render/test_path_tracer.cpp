@@ -243,7 +243,7 @@ TEST(PathTracer, EveryCameraModel)
     o.camera.lookAt = Vec3(2.03, 1.98, 10);
     o.camera.up = Vec3(0, 1, 0);
     o.emissionColor = {1, 1, 1};
-    o.camera.model = CameraModel::Equirect;
+    o.camera.model = "equirect";
     o.camera.width = 32;
     o.camera.height = 16;
     const Projection p(o.camera);
@@ -256,7 +256,7 @@ TEST(PathTracer, EveryCameraModel)
             path += t.rgba[i] * p.pixelSolidAngle(x + 0.5, y + 0.5);
         }
     EXPECT_NEAR(path, fast, 1e-2 * fast);
-    o.camera.model = CameraModel::Fisheye;
+    o.camera.model = "fisheye";
     o.camera.width = 16;
     o.camera.fovDeg = 180;
     const Image dome = renderPathTraced(gas, pathOptions(o, 16));

@@ -395,8 +395,8 @@ TEST(SpectralRender, CalibratedComponentsAddUpAndStarsAreBolometric)
     auto still = [](int, int, int) { return std::array<double, 3>{0, 0, 0}; };
     const SpectralScene scene = makeScene(dust, gas, still, {star}, oneLine(603.0));
     auto o = zCamera(32, 25.0);
-    o.camera.model = CameraModel::Orthographic; // a telescope 100 pc away: fluxes L / (4 pi D^2)
-    o.camera.pixelSizePc = 0.0625;              // the sprite well inside the image
+    o.camera.model = "orthographic"; // a telescope 100 pc away: fluxes L / (4 pi D^2)
+    o.camera.pixelSizePc = 0.0625;   // the sprite well inside the image
     o.camera.distancePc = 100.0;
     o.drawStars = true;
     o.monochromatic = true;
@@ -445,7 +445,7 @@ TEST(SpectralRender, FisheyeAndEquirectCameras)
     const SpectralScene scene = makeScene(none, gas, still, {}, oneLine(656.3));
     RenderOptions o = zCamera(5, 10.0);
     const Image persp = renderSpectral(scene, o);
-    o.camera.model = CameraModel::Fisheye;
+    o.camera.model = "fisheye";
     o.camera.fovDeg = 180;
     const Image dome = renderSpectral(scene, o);
     const std::size_t centre = (2 * 5 + 2) * 4;
@@ -454,7 +454,7 @@ TEST(SpectralRender, FisheyeAndEquirectCameras)
                     1e-6 * std::abs(persp.rgba[centre + c]) + 1e-12);
     EXPECT_GT(std::abs(dome.rgba[centre]), 0.0f);
     EXPECT_EQ(dome.rgba[0], 0.0f);
-    o.camera.model = CameraModel::Equirect;
+    o.camera.model = "equirect";
     o.camera.width = 90;
     o.camera.height = 45;
     const Image pano = renderSpectral(scene, o);

@@ -4,6 +4,7 @@
 // close only their own connection, a client that stops reading, two clients, the probe and
 // the camera path's save and load.
 #include "nebula/core/error.h"
+#include "nebula/render/camera_model.h"
 #include "nebula/render/fast.h"
 #include "nebula/serve/view_protocol.h"
 #include "nebula/serve/view_server.h"
@@ -298,6 +299,12 @@ TEST(ViewServer, RefinesToNebrendersImage)
     ASSERT_EQ(hello["stars"].size(), 1u);
     EXPECT_EQ(hello["stars"][0]["name"], "s");
     EXPECT_EQ(hello["field"], false);
+    // The registered camera models, with what the page's controls need.
+    ASSERT_EQ(hello["cameras"].size(), cameraModels().size());
+    for (std::size_t i = 0; i < cameraModels().size(); ++i) {
+        EXPECT_EQ(hello["cameras"][i]["name"], cameraModels()[i]->name());
+        EXPECT_EQ(hello["cameras"][i]["fov_max"], cameraModels()[i]->maxFov());
+    }
     EXPECT_NEAR(hello["box"]["min"][0].get<double>(), -0.8, 0.11);
     Camera cam = settings.render.camera;
     cam.eye = {0.5, 0.3, -4.0};
@@ -368,7 +375,7 @@ TEST(ViewServer, BadMessagesCloseOnlyTheirConnection)
     Client c(port, t);
     c.until("hello");
     json v = viewMessage(1, test::cubeSettings().render.camera, false);
-    v["camera"]["fov"] = -5;
+    v["camera"]["fov_deg"] = -5;
     c.send(v);
     const json e = c.until("error");
     EXPECT_TRUE(test::contains(e["message"], "fov")) << e.dump();
@@ -503,7 +510,7 @@ TEST(ViewProtocol, MessagesAreCheckedBeforeUse)
              R"({"type": "view", "id": 1, "camera": {"eye": [0, 0]}})",
              R"({"type": "view", "id": 1, "camera": {"eye": [0, 0, "x"]}})",
              R"({"type": "view", "id": 1, "camera": {"eye": [0, 0, 0], "look_at": [0, 0, 0]}})",
-             R"({"type": "view", "id": 1, "camera": {"model": "ods"}})",
+             R"({"type": "view", "id": 1, "camera": {"projection": "ods"}})",
              R"({"type": "view", "id": 1, )" + cam + R"(, "tone": {"gamma": 0}})",
              R"({"type": "view", "id": 1, )" + cam + R"(, "format": "gif"})",
              R"({"type": "probe", "x": 1})", R"({"type": "scrub", "time": 1, "path": 3})",

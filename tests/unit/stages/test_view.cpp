@@ -193,11 +193,11 @@ TEST(ViewSession, EveryCameraModelAndTheSpectralMode)
     const ViewSettings settings = cubeSettings(64, 48);
     const ViewSession session(cube(), settings, cube()->dust(run), run);
     Camera cam = settings.render.camera;
-    cam.model = CameraModel::Equirect;
+    cam.model = "equirect";
     const ViewFrame e = session.render(cam, ViewStage::Preview, false, run);
     EXPECT_EQ(e.image.width, 64);
     EXPECT_EQ(e.image.height, 32);
-    cam.model = CameraModel::Fisheye;
+    cam.model = "fisheye";
     cam.fovDeg = 180;
     cam.domeTiltDeg = 30;
     const ViewFrame f = session.render(cam, ViewStage::Interactive, false, run);

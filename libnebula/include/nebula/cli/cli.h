@@ -131,13 +131,12 @@ CLI::Option* addVec3(CLI::App& app, const std::string& name, std::array<double, 
 CLI::Option* addVec3(CLI::App& app, const std::string& name, Vec3& target,
                      const std::string& description);
 
+/// Parses --listen ADDR:PORT ([V6]:PORT too) into @p address and @p port; throws UsageError
+/// naming the option otherwise.
+void parseListen(const std::string& text, std::string& address, std::uint16_t& port);
+
 /// Parses "WxH" (positive integers) for @p option "--res"; throws UsageError otherwise.
 void parseResolution(const std::string& text, int& width, int& height);
-
-/// Parses --pixel-size: a number > 0 with an optional unit, "pc" (the default) or "arcsec"
-/// (which needs the observer's @p distancePc, not NaN), into pc; throws UsageError naming the
-/// option otherwise.
-double parsePixelSize(const std::string& text, double distancePc);
 
 /// The largest magnitude of a coordinate of an X,Y,Z option (addVec3, parseVec3): squares of
 /// three such numbers, and of differences of two points, stay finite.

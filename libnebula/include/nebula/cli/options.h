@@ -13,6 +13,7 @@
 #include <CLI/CLI.hpp>
 
 #include <array>
+#include <map>
 #include <optional>
 #include <string>
 #include <vector>
@@ -58,6 +59,49 @@ struct ToneOptions
 };
 
 namespace cli {
+
+/// Options that mean something only in some scopes of a run ("--spectral", "--integrator
+/// path"): each is declared once with its scopes, and check() refuses every one given outside
+/// them in one way: "--spp is for --integrator path (here: --integrator fast)". (Camera
+/// parameters are checked the same way against the camera's model by makeCamera() and
+/// validateCamera().)
+class OptionScopes
+{
+public:
+    /// Declares that @p option applies only in @p scopes; returns it.
+    CLI::Option* add(std::vector<std::string> scopes, CLI::Option* option);
+    /// Throws UsageError for the first declared option that was given while none of its
+    /// scopes is in @p active; @p here describes the run ("--integrator fast").
+    void check(const std::vector<std::string>& active, const std::string& here) const;
+
+private:
+    std::vector<std::pair<CLI::Option*, std::vector<std::string>>> mOptions;
+};
+
+/// The camera given on the command line (addCamera(), makeCamera()).
+struct CameraOptions
+{
+    Camera camera; ///< --eye, --look-at, --up, --fov, --roll as given
+    std::string model = "perspective";
+    bool stereo = false;
+    std::string res; ///< --res WxH; empty: the model's default size
+    /// The model's shape fitted into --res (nebview: equirect W x W/2, fisheye the smaller
+    /// side squared) instead of --res refused when it is not the model's shape.
+    bool fitSize = false;
+    /// Each model parameter given (cameraParameters(), render/camera_model.h): its text.
+    std::map<std::string, std::string> parameters;
+    CLI::Option* fovOption = nullptr;
+};
+
+/// --eye, --look-at, --up, --camera (the registered models, their help from the registry),
+/// --stereo, --fov, --roll, --res (if @p withRes) and every model parameter's option
+/// (--dome-tilt, --ipd, ...). @p prefix starts the view's help texts ("Starting ").
+void addCamera(CLI::App& app, CameraOptions& opts, const std::string& prefix = "",
+               bool withRes = true);
+/// The camera given: the model (--stereo: its stereo form), --fov and the size the model's
+/// defaults where not given, the parameters parsed; valid (a Projection of it is made).
+/// Throws UsageError naming the option, e.g. a parameter the model does not read.
+Camera makeCamera(const CameraOptions& opts);
 
 void addStars(CLI::App& app, StarOptions& opts);
 /// The stars of --stars FILE followed by each --star; empty if neither was given.

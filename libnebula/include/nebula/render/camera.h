@@ -2,7 +2,9 @@
 #pragma once
 /// @file camera.h
 /// Cameras (DESIGN §8): the view a user sets (Camera) and the projection an integrator uses
-/// for every pixel, its basis computed once (Projection). Three models:
+/// for every pixel, its basis computed once (Projection). The models are registered types
+/// (render/camera_model.h: each one file, src/render/camera_<name>.cpp, and one line in
+/// src/render/camera_models.cpp); today:
 ///  - perspective: a pinhole, --fov the horizontal angle;
 ///  - fisheye: the azimuthal-equidistant dome master of fulldome production: a square image
 ///    whose inscribed circle holds the view, the distance from its centre proportional to the
@@ -19,23 +21,23 @@
 ///    of diameter --ipd [pc] round the eye, half the IPD to the left (left eye) or right of
 ///    its horizontal direction, the IPD fading to 0 towards the poles between the two
 ///    --pole-merge latitudes, so that the poles have no parallax (Blender's spherical stereo
-///    does the same).
+///    does the same);
+///  - fisheye-stereo (--camera fisheye --stereo): two fisheye dome masters, the left eye's on
+///    top (W x 2W), each ray leaving from half the IPD left or right of its direction's
+///    horizontal part, faded to 0 towards the pole (the up direction) as ODS does.
 /// Every pixel carries its true solid angle (pixelSolidAngle()), so radiance times solid
 /// angle summed over pixels is the flux in every projection.
 
 #include "nebula/volume/volume.h"
 
 #include <limits>
+#include <memory>
 #include <string>
 
 namespace nebula {
 
-enum class CameraModel { Perspective, Fisheye, Equirect, Orthographic, Ods };
-
-/// "perspective", "fisheye", "equirect", "orthographic", "ods".
-std::string toString(CameraModel model);
-/// The inverse of toString(); throws UsageError naming --camera otherwise.
-CameraModel cameraModelFromString(const std::string& name);
+class CameraModel;
+class CameraProjection;
 
 /// A camera (world space, pc).
 struct Camera
@@ -46,7 +48,8 @@ struct Camera
     double fovDeg = 36.0; ///< perspective: horizontal; fisheye: the full angle of the circle
     int width = 512;
     int height = 512;
-    CameraModel model = CameraModel::Perspective;
+    /// The model: a registered camera's name (cameraModel(), render/camera_model.h).
+    std::string model = "perspective";
     double rollDeg = 0.0; ///< turns the image about the view direction, clockwise as seen
     /// Fisheye only. NaN (the default): the dome's axis (the image centre) is the view
     /// direction, a fisheye lens pointed at --look-at. A number T in [0, 90]: a planetarium
@@ -81,13 +84,16 @@ struct Camera
     bool project(const Vec3& p, double& px, double& py) const;
 };
 
-/// The projection of a Camera, its orthonormal basis precomputed.
+/// The projection of a Camera, its orthonormal basis precomputed: a created projection is
+/// of a valid camera (the constructor calls validateCamera()). Copies share the model's
+/// per-pixel mapping (CameraProjection, render/camera_model.h).
 class Projection
 {
 public:
     explicit Projection(const Camera& camera);
 
-    CameraModel model() const { return mModel; }
+    /// The camera's registered model.
+    const CameraModel& model() const { return *mModel; }
 
     /// The unit world direction through the image point (px, py) [pixels] (py = 0 is the top
     /// edge; pixel centres at +0.5) into @p d; false (d untouched) if the point is not in
@@ -105,7 +111,7 @@ public:
     /// observer: |p - eye|^2, or D^2 for the orthographic camera (star sprites).
     double distanceSquared(const Vec3& p) const;
     /// Whether all rays are parallel (orthographic): they start at origin(), not at eye().
-    bool parallel() const { return mModel == CameraModel::Orthographic; }
+    bool parallel() const;
     /// Whether the centre of pixel (px, py) is in view (the integrators render only those).
     bool inView(double px, double py) const;
     double pixelSolidAngle(double px, double py) const;
@@ -122,42 +128,28 @@ public:
     /// (behind a perspective eye, beyond a fisheye's angle, or at the eye).
     bool project(const Vec3& p, double& px, double& py) const;
     /// Whether the image wraps around horizontally (equirect, ODS: column W is column 0).
-    bool wrapsHorizontally() const
-    {
-        return mModel == CameraModel::Equirect || mModel == CameraModel::Ods;
-    }
-    /// How many views the image holds: 2 for ODS (the left eye's rows on top), else 1.
-    int views() const { return mModel == CameraModel::Ods ? 2 : 1; }
+    bool wrapsHorizontally() const;
+    /// Whether every pixel is in view (false: a fisheye's corners; the integrators render only
+    /// the pixels inView(), and Image::inView marks them).
+    bool coversImage() const;
+    /// How many views the image holds: 2 for stereo (the left eye's rows on top), else 1.
+    int views() const;
     /// The rows [y0, y1) of view @p view.
     void viewRows(int view, int& y0, int& y1) const;
-    /// project() into view @p view (ODS: 0 left eye, 1 right eye): where the ray of that eye
+    /// project() into view @p view (stereo: 0 left eye, 1 right eye): where the ray of that eye
     /// that passes through @p p is; false if none does (p within half the IPD of the eye's
     /// axis).
     bool project(const Vec3& p, double& px, double& py, int view) const;
 
-    const Vec3& eye() const { return mEye; }
+    const Vec3& eye() const;
     /// The axis (image centre), the image's right and up directions in the world.
-    const Vec3& forward() const { return mForward; }
-    const Vec3& right() const { return mRight; }
-    const Vec3& upward() const { return mUp; }
+    const Vec3& forward() const;
+    const Vec3& right() const;
+    const Vec3& upward() const;
 
 private:
-    double fisheyeJacobian(double u, double v) const;
-
-    CameraModel mModel;
-    Vec3 mEye, mForward, mRight, mUp;
-    double mTanH = 0.0;     ///< perspective: tan of half the horizontal field of view
-    double mThetaMax = 0.0; ///< fisheye: half the full angle [rad]
-    double mPixel = 0.0;    ///< orthographic: the pixel's edge [pc]
-    double mDistance = 0.0; ///< orthographic: the observer's distance [pc]
-    double mIpdHalf = 0.0;  ///< ODS: half the IPD [pc]
-    double mMergeFrom = 0.0, mMergeTo = 0.0; ///< ODS: the pole merge latitudes [rad]
-    /// ODS: the IPD's fraction at latitude @p lat [rad] (1 below mMergeFrom, 0 above mMergeTo).
-    double ipdFade(double lat) const;
-    /// Equirect and ODS: the view of image row @p py (0; ODS 0 left eye, 1 right eye), the
-    /// row within it and the view's height [pixels].
-    int panoramaRow(double py, double& local, double& height) const;
-    int mWidth, mHeight;
+    const CameraModel* mModel;
+    std::shared_ptr<const CameraProjection> mMap;
 };
 
 /// The largest magnitude of a coordinate of --eye, --look-at and --up: squared distances
@@ -166,12 +158,10 @@ inline constexpr double MAX_CAMERA_COORDINATE = 1e150;
 
 /// Throws UsageError naming the option unless --eye, --look-at and --up are finite with
 /// coordinates of at most MAX_CAMERA_COORDINATE in magnitude, the eye differs from the
-/// look-at point and up is not parallel to the view direction; and unless --fov, --roll,
-/// --dome-tilt and --res suit the model (fisheye: square, fov in (0, 360], tilt in [0, 90];
-/// equirect: width = 2 x height; perspective: fov in (0, 179]; orthographic: fov in (0, 179]
-/// when it sets the pixel; ods: square with an even height), and --pixel-size and --distance
-/// are finite and > 0 and given only for the orthographic camera, --ipd (required) and
-/// --pole-merge (0 <= from < to <= 90) only for ods.
+/// look-at point and up is not parallel to the view direction, --roll is in [-360, 360], every
+/// model-specific parameter given (cameraParameters()) is one the model reads, and the
+/// model's own checks pass (CameraModel::validate()). Called by Projection's constructor
+/// alone: a created camera is valid.
 void validateCamera(const Camera& camera);
 
 } // namespace nebula

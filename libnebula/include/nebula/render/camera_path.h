@@ -43,10 +43,15 @@ struct CameraPath
     Camera at(double t, const Camera& base) const;
 };
 
+/// The version of camera paths nebula writes (keyframes in cameraToJson()'s keys).
+inline constexpr int CAMERA_PATH_VERSION = 2;
+
 /// Parses a camera path:
-///   {"fps": 24, "constant_speed": false, "ease_in": 0, "ease_out": 0,
+///   {"version": 2, "fps": 24, "constant_speed": false, "ease_in": 0, "ease_out": 0,
 ///    "keyframes": [{"time": 0, "eye": [x,y,z], "look_at": [x,y,z], "up": [x,y,z],
-///                   "fov": 40, "roll": 0}, ...]}
+///                   "fov_deg": 40, "roll_deg": 0}, ...]}
+/// Version 1 (no "version"; nebula before 2026-12) named them "fov" and "roll": read as
+/// before; a key of the other version is refused saying which version has it.
 /// fps, time and eye and look_at of every keyframe are required; "up", "fov" and "roll" carry
 /// over from the previous keyframe (the first takes them from @p defaults, the command
 /// line's --up, --fov and --roll). Times must increase strictly. Throws Error naming

@@ -83,10 +83,12 @@ struct ClientMessage
 ClientMessage parseClientMessage(const std::string& text, const std::vector<std::string>& stars,
                                  const Camera& base, const std::string& pathName);
 
-/// A camera as the protocol's JSON (eye, look_at, up, fov, roll, model, dome_tilt).
+/// A camera as the protocol's JSON: the one camera JSON (cameraToJson(),
+/// render/camera_model.h).
 nlohmann::json cameraJson(const Camera& camera);
-/// The protocol's camera JSON over @p base; throws Error naming @p where on a bad value.
-Camera cameraFromJson(const nlohmann::json& j, const Camera& base, const std::string& where);
+/// The protocol's camera over @p base (nebula::cameraFromJson()), valid (a Projection is
+/// made of it); throws Error naming @p where on a bad value.
+Camera viewCameraFromJson(const nlohmann::json& j, const Camera& base, const std::string& where);
 /// A path's JSON (cameraPathJson() as an object).
 nlohmann::json pathJson(const CameraPath& path);
 
