@@ -66,6 +66,13 @@ struct RayState
     double Lemission[3] = {0, 0, 0}; ///< the part of L from the gas's glow (componentLayers)
 };
 
+/// The layers renderPixel() writes, looked up once per frame.
+struct PixelLayers
+{
+    detail::FrameLayers frame;
+    LayerId field, emission; ///< with RenderOptions::componentLayers
+};
+
 class FastIntegrator
 {
 public:
@@ -144,8 +151,8 @@ public:
         return s;
     }
 
-    /// Renders pixel (px, py) into @p img.
-    void renderPixel(int px, int py, Scratch& sc, Image& img) const
+    /// Renders pixel (px, py) into @p img's beauty and its layers @p ids.
+    void renderPixel(int px, int py, Scratch& sc, Image& img, const PixelLayers& ids) const
     {
         const std::size_t S = mScene.stars.size();
         RayState ray;
@@ -196,19 +203,21 @@ public:
                                                });
         }
         const std::size_t pix = std::size_t(py) * img.width + px;
-        ImageLayer& transLayer = img.layers[S];
+        std::vector<float>& trans = img.rgb(ids.frame.transmittance);
         for (int c = 0; c < 3; ++c) {
             img.rgba[pix * 4 + c] = float(ray.L[c]);
-            transLayer.rgb[pix * 3 + c] = float(ray.T[c]);
+            trans[pix * 3 + c] = float(ray.T[c]);
             for (std::size_t s = 0; s < S; ++s) {
-                img.layers[s].rgb[pix * 3 + c] = float(sc.starL[s * 3 + c]);
+                img.rgb(ids.frame.stars[s])[pix * 3 + c] = float(sc.starL[s * 3 + c]);
             }
         }
         img.rgba[pix * 4 + 3] = float(1.0 - ray.T[1]);
-        if (mOpts.componentLayers) { // frameImage()'s layers after transmittance
+        if (mOpts.componentLayers) {
+            std::vector<float>& field = img.rgb(ids.field);
+            std::vector<float>& emission = img.rgb(ids.emission);
             for (int c = 0; c < 3; ++c) {
-                img.layers[S + 1].rgb[pix * 3 + c] = float(ray.Lfield[c]);
-                img.layers[S + 2].rgb[pix * 3 + c] = float(ray.Lemission[c]);
+                field[pix * 3 + c] = float(ray.Lfield[c]);
+                emission[pix * 3 + c] = float(ray.Lemission[c]);
             }
         }
     }
@@ -491,16 +500,22 @@ Image renderFrame(const RenderScene& scene, const RenderOptions& opts, const Run
     const Camera& view = opts.camera;
     if (view.width <= 0 || view.height <= 0) throw UsageError("--res must be WxH with W, H > 0");
     requireRayStep(scene, opts.step);
+    PixelLayers ids;
     Image img = opts.componentLayers
-                    ? detail::frameImage(scene, opts, {"field", "emission", "direct"})
-                    : detail::frameImage(scene, opts);
+                    ? detail::frameImage(scene, opts, ids.frame,
+                                         {FIELD_LAYER, EMISSION_LAYER, DIRECT_LAYER})
+                    : detail::frameImage(scene, opts, ids.frame);
+    if (opts.componentLayers) {
+        ids.field = img.layerId(FIELD_LAYER);
+        ids.emission = img.layerId(EMISSION_LAYER);
+    }
     const FastIntegrator integrator(scene, opts);
     detail::forEachRowBand(view.height, 4, run, "nebrender", stats,
                            [&](int y0, int y1, RenderStats& bandStats) {
                                Scratch sc = integrator.scratch();
                                for (int py = y0; py < y1; ++py) {
                                    for (int px = 0; px < view.width; ++px) {
-                                       integrator.renderPixel(px, py, sc, img);
+                                       integrator.renderPixel(px, py, sc, img, ids);
                                    }
                                }
                                bandStats = sc.stats;
@@ -508,7 +523,7 @@ Image renderFrame(const RenderScene& scene, const RenderOptions& opts, const Run
     if (opts.drawStars) {
         // With the component layers, the sprites alone (the direct starlight) into "direct".
         drawStarSprites(img, scene, opts, {}, {},
-                        opts.componentLayers ? &img.layers[scene.stars.size() + 3].rgb : nullptr);
+                        opts.componentLayers ? &img.rgb(img.layerId(DIRECT_LAYER)) : nullptr);
     }
     return img;
 }

@@ -7,6 +7,7 @@
 #include "nebula/core/memory.h"
 #include "nebula/core/run.h"
 #include "nebula/io/image.h"
+#include "nebula/render/frame_layers.h"
 #include "nebula/render/options.h"
 #include "nebula/render/scene.h"
 #include "nebula/render/sprites.h"
@@ -35,21 +36,30 @@ inline void requireFrameMemory(const RenderOptions& opts, int width, int height,
     if (opts.drawStars) requireSpriteMemory(opts);
 }
 
-/// The standard layers, in this order: "star.<name>" per star (0), "transmittance" (1),
-/// then each of @p extra (0); after the beauty R,G,B,A (0). @p channels: how many single
-/// channels the caller adds, for the memory check (requireFrameMemory()) done first.
-inline Image frameImage(const RenderScene& scene, const RenderOptions& opts,
+/// The standard layers of frameImage(), looked up once per frame: what an integrator
+/// writes through per pixel.
+struct FrameLayers
+{
+    std::vector<LayerId> stars; ///< starLayerName() of each of the scene's stars, in order
+    LayerId transmittance;      ///< TRANSMITTANCE_LAYER
+};
+
+/// The standard layers, in this order: starLayerName() per star (0), TRANSMITTANCE_LAYER (1),
+/// then each of @p extra (0), whose ids the caller finds by name; after the beauty R,G,B,A
+/// (0). @p ids: the standard layers. @p channels: how many single channels the caller adds,
+/// for the memory check (requireFrameMemory()) done first.
+inline Image frameImage(const RenderScene& scene, const RenderOptions& opts, FrameLayers& ids,
                         const std::vector<std::string>& extra = {}, std::size_t channels = 0)
 {
     const int width = opts.camera.width, height = opts.camera.height;
     requireFrameMemory(opts, width, height, scene.stars.size() + 1 + extra.size(), channels);
     Image img(width, height);
-    const std::size_t n = std::size_t(width) * height * 3;
+    ids.stars.clear();
     for (const auto& s : scene.stars)
-        img.layers.push_back({"star." + s.name, std::vector<float>(n, 0.0f)});
-    img.layers.push_back({"transmittance", std::vector<float>(n, 1.0f)});
+        ids.stars.push_back(img.addLayer(starLayerName(s.name)));
+    ids.transmittance = img.addLayer(TRANSMITTANCE_LAYER, 1.0f);
     for (const auto& name : extra)
-        img.layers.push_back({name, std::vector<float>(n, 0.0f)});
+        img.addLayer(name);
     if (opts.camera.model == CameraModel::Fisheye) { // the corners outside the circle
         const Projection projection(opts.camera);
         img.inView.resize(std::size_t(width) * height);

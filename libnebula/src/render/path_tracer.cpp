@@ -281,13 +281,13 @@ Image renderPathTraced(const RenderScene& scene, const RenderOptions& opts, cons
     const std::size_t S = scene.stars.size();
     const PathScene ps = buildPathScene(scene, opts);
 
-    Image img = detail::frameImage(scene, opts, {"variance"}, 1);
-    ImageLayer& transLayer = img.layers[S];
-    ImageLayer& varLayer = img.layers[S + 1];
+    detail::FrameLayers ids;
+    Image img = detail::frameImage(scene, opts, ids, {VARIANCE_LAYER}, 1);
+    std::vector<float>& transLayer = img.rgb(ids.transmittance);
+    std::vector<float>& varLayer = img.rgb(img.layerId(VARIANCE_LAYER));
     // The luminance's own variance: one walk carries all three channels, so their noise is
     // correlated and the Y variance is not the weighted sum of theirs.
-    img.channels.push_back({"variance.Y", std::vector<float>(std::size_t(W) * H, 0.0f)});
-    std::vector<float>& varY = img.channels.back().values;
+    std::vector<float>& varY = img.values(img.addChannel(std::string(VARIANCE_LAYER) + ".Y"));
 
     // Grey dust (equal extinction ratios): one walk serves all three channels; coloured dust:
     // one spectrally tracked walk against the most extinguished channel's majorant.
@@ -330,10 +330,10 @@ Image renderPathTraced(const RenderScene& scene, const RenderOptions& opts, cons
                     const double n = opts.spp;
                     for (int c = 0; c < 3; ++c) {
                         img.rgba[pix * 4 + c] = float(mean[c]);
-                        transLayer.rgb[pix * 3 + c] = float(trans[c] / n);
-                        varLayer.rgb[pix * 3 + c] = n > 1 ? float(m2[c] / (n - 1) / n) : 0.0f;
+                        transLayer[pix * 3 + c] = float(trans[c] / n);
+                        varLayer[pix * 3 + c] = n > 1 ? float(m2[c] / (n - 1) / n) : 0.0f;
                         for (std::size_t s = 0; s < S; ++s) {
-                            img.layers[s].rgb[pix * 3 + c] = float(starSum[s * 3 + c] / n);
+                            img.rgb(ids.stars[s])[pix * 3 + c] = float(starSum[s * 3 + c] / n);
                         }
                     }
                     varY[pix] = n > 1 ? float(m2[3] / (n - 1) / n) : 0.0f;

@@ -34,6 +34,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <iterator>
 #include <limits>
 #include <optional>
 #include <utility>
@@ -138,6 +139,15 @@ struct ContinuumNodes
     std::size_t size() const { return lam.size(); }
 };
 
+/// The layers and channels a frame's pixels are written to, looked up once per frame.
+struct SpectralLayers
+{
+    detail::FrameLayers frame;
+    std::vector<ChannelId> bands; ///< the spectral layers' channels, per band
+    /// With componentLayers, per band: the channels of SPECTRAL_COMPONENTS.
+    std::vector<ChannelId> direct, single, field, emission;
+};
+
 /// What one band of rows keeps (reused from pixel to pixel).
 struct SpectralScratch
 {
@@ -192,7 +202,6 @@ public:
     }
 
     int layers() const { return mSo.layers; }
-    double layerWidth() const { return mLayerWidth; }
 
     SpectralScratch scratch() const
     {
@@ -212,8 +221,9 @@ public:
         return sc;
     }
 
-    /// Renders pixel (px, py) into @p img.
-    void renderPixel(int px, int py, SpectralScratch& sc, Image& img) const
+    /// Renders pixel (px, py) into @p img's beauty and its layers and channels @p ids.
+    void renderPixel(int px, int py, SpectralScratch& sc, Image& img,
+                     const SpectralLayers& ids) const
     {
         SpectralRay ray;
         if (!mCam.direction(px + 0.5, py + 0.5, ray.dW)) return; // outside the view: black
@@ -234,12 +244,12 @@ public:
         sc.stats.rays += mLevel0.marchFrom(
             mLevel0.w2i.apply(ray.oW), ray.dW, mOpts.step,
             [&](const Vec3& pI, double tm, double seg) { return step(pI, tm, seg, ray, sc); });
-        writePixel(std::size_t(py) * img.width + px, ray, sc, img);
+        writePixel(std::size_t(py) * img.width + px, ray, sc, img, ids);
     }
 
     /// Adds each star's sprite: its attenuated spectrum's colour, and its share of every
-    /// spectral layer.
-    void drawSprites(Image& img) const
+    /// spectral layer (@p ids).
+    void drawSprites(Image& img, const SpectralLayers& ids) const
     {
         const std::size_t S = mRs.stars.size(), J = mNodes.size();
         const int NL = mSo.layers;
@@ -259,9 +269,9 @@ public:
                     for (std::size_t j = j0; j < j1; ++j) {
                         v += mLayerOfNode[std::size_t(b) * J + j] * att[s * J + j];
                     }
-                    img.channels[std::size_t(b)].values[pix] += float(v * factor);
-                    if (mOpts.componentLayers) // SPECTRAL_COMPONENTS[0]: direct
-                        img.channels[std::size_t(NL + b)].values[pix] += float(v * factor);
+                    img.values(ids.bands[std::size_t(b)])[pix] += float(v * factor);
+                    if (mOpts.componentLayers)
+                        img.values(ids.direct[std::size_t(b)])[pix] += float(v * factor);
                 }
             });
     }
@@ -542,7 +552,8 @@ private:
 
     /// The pixel's colour (continuum per star and gas, plus the lines), transmittance,
     /// spectral layers and (countPieces) its spectrum's piece count.
-    void writePixel(std::size_t pix, const SpectralRay& ray, SpectralScratch& sc, Image& img) const
+    void writePixel(std::size_t pix, const SpectralRay& ray, SpectralScratch& sc, Image& img,
+                    const SpectralLayers& ids) const
     {
         const std::size_t S = mRs.stars.size(), J = mNodes.size();
         const int NL = mSo.layers;
@@ -552,7 +563,7 @@ private:
             const auto rgb = xyzToLinearSRGB(xyz);
             for (int c = 0; c < 3; ++c) {
                 total[std::size_t(c)] += xyz[std::size_t(c)];
-                img.layers[s].rgb[pix * 3 + std::size_t(c)] = float(rgb[std::size_t(c)]);
+                img.rgb(ids.frame.stars[s])[pix * 3 + std::size_t(c)] = float(rgb[std::size_t(c)]);
             }
         }
         const XYZ gas = nodesToXYZ(sc.Cgas.data(), mNodes.weight);
@@ -560,11 +571,10 @@ private:
         for (int c = 0; c < 3; ++c)
             total[std::size_t(c)] += gas[std::size_t(c)] + field[std::size_t(c)];
         const auto rgb = xyzToLinearSRGB(total);
-        ImageLayer& transLayer = img.layers[S];
+        std::vector<float>& trans = img.rgb(ids.frame.transmittance);
         for (int c = 0; c < 3; ++c) {
             img.rgba[pix * 4 + std::size_t(c)] = float(rgb[std::size_t(c)]);
-            transLayer.rgb[pix * 3 + std::size_t(c)] =
-                float(std::exp(-ray.tau * mRChannel[std::size_t(c)]));
+            trans[pix * 3 + std::size_t(c)] = float(std::exp(-ray.tau * mRChannel[std::size_t(c)]));
         }
         img.rgba[pix * 4 + 3] = float(1.0 - std::exp(-ray.tau * mRChannel[1]));
         if (NL > 0 || mSo.countPieces) {
@@ -581,18 +591,18 @@ private:
             double v = sc.layerAcc[std::size_t(b)];
             for (std::size_t j = j0; j < j1; ++j)
                 v += weight[j] * sc.Ctotal[j];
-            img.channels[std::size_t(b)].values[pix] = float(v);
+            img.values(ids.bands[std::size_t(b)])[pix] = float(v);
             if (!mOpts.componentLayers) continue;
-            // SPECTRAL_COMPONENTS after the sprites' "direct": single, field, emission.
+            // The components besides the sprites' "direct".
             double single = 0.0, field = 0.0, emission = sc.layerAcc[std::size_t(b)];
             for (std::size_t j = j0; j < j1; ++j) {
                 single += weight[j] * (sc.Ctotal[j] - sc.Cgas[j] - sc.Cfield[j]); // the stars'
                 field += weight[j] * sc.Cfield[j];
                 emission += weight[j] * sc.Cgas[j];
             }
-            img.channels[std::size_t(2 * NL + b)].values[pix] = float(single);
-            img.channels[std::size_t(3 * NL + b)].values[pix] = float(field);
-            img.channels[std::size_t(4 * NL + b)].values[pix] = float(emission);
+            img.values(ids.single[std::size_t(b)])[pix] = float(single);
+            img.values(ids.field[std::size_t(b)])[pix] = float(field);
+            img.values(ids.emission[std::size_t(b)])[pix] = float(emission);
         }
         if (mSo.countPieces && !mNodes.bandsMode) countPieces(sc);
         sc.stats.pieces += mNodes.bandsMode ? 0 : J - 1;
@@ -656,6 +666,13 @@ private:
 
 } // namespace
 
+std::string spectralChannelName(std::size_t band, std::size_t bands, const std::string& component)
+{
+    const double width = (SPECTRAL_MAX_NM - SPECTRAL_MIN_NM) / double(bands);
+    const std::string name = bandName(SPECTRAL_MIN_NM + (double(band) + 0.5) * width);
+    return component.empty() ? name : component + "." + name;
+}
+
 Image renderSpectral(const SpectralScene& scene, const RenderOptions& opts, const Run* run,
                      RenderStats* stats)
 {
@@ -668,26 +685,29 @@ Image renderSpectral(const SpectralScene& scene, const RenderOptions& opts, cons
     if (opts.componentLayers && NL == 0) {
         throw UsageError("the spectral components need spectral layers (--spectral-layers)");
     }
-    Image img = detail::frameImage(scene.base, opts, {}, NL * parts);
-    for (std::size_t k = 0; k < parts; ++k)
+    SpectralLayers ids;
+    Image img = detail::frameImage(scene.base, opts, ids.frame, {}, NL * parts);
+    // The bands, then (componentLayers) the same bands of each of SPECTRAL_COMPONENTS.
+    std::vector<ChannelId>* components[] = {&ids.direct, &ids.single, &ids.field, &ids.emission};
+    static_assert(std::size(components) == SPECTRAL_COMPONENT_COUNT);
+    for (std::size_t b = 0; b < NL; ++b)
+        ids.bands.push_back(img.addChannel(spectralChannelName(b, NL)));
+    for (std::size_t k = 1; k < parts; ++k)
         for (std::size_t b = 0; b < NL; ++b) {
-            const std::string band =
-                bandName(SPECTRAL_MIN_NM + (double(b) + 0.5) * integrator.layerWidth());
-            img.channels.push_back(
-                {k == 0 ? band : std::string(SPECTRAL_COMPONENTS[k - 1]) + "." + band,
-                 std::vector<float>(std::size_t(view.width) * view.height, 0.0f)});
+            components[k - 1]->push_back(
+                img.addChannel(spectralChannelName(b, NL, SPECTRAL_COMPONENTS[k - 1])));
         }
     detail::forEachRowBand(view.height, 4, run, "nebrender", stats,
                            [&](int y0, int y1, RenderStats& band) {
                                SpectralScratch sc = integrator.scratch();
                                for (int py = y0; py < y1; ++py) {
                                    for (int px = 0; px < view.width; ++px) {
-                                       integrator.renderPixel(px, py, sc, img);
+                                       integrator.renderPixel(px, py, sc, img, ids);
                                    }
                                }
                                band = sc.stats;
                            });
-    if (opts.drawStars) integrator.drawSprites(img);
+    if (opts.drawStars) integrator.drawSprites(img, ids);
     return img;
 }
 

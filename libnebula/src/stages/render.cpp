@@ -8,6 +8,7 @@
 #include "nebula/io/grid_names.h"
 #include "nebula/io/image_check.h"
 #include "nebula/render/fast.h"
+#include "nebula/render/frame_layers.h"
 #include "nebula/render/path_tracer.h"
 #include "nebula/render/spectral.h"
 
@@ -276,7 +277,7 @@ std::vector<FitsCard> fitsCards(const GridSet& grids, const RenderOptions& opts,
 void renderOneFrame(const GridSet& grids, const RenderOptions& opts, const DustParams& dust,
                     const SpectralScene& sscene, const RenderOutput& out, const std::string& exr,
                     const std::string& png, const std::map<std::string, std::string>& extra,
-                    std::size_t exrChannels, double tBuild, const Run& run)
+                    const std::vector<std::string>& exrChannels, double tBuild, const Run& run)
 {
     const auto start = std::chrono::steady_clock::now();
     RenderStats stats;
@@ -334,14 +335,12 @@ void renderOneFrame(const GridSet& grids, const RenderOptions& opts, const DustP
              "command: " + run.command()});
     }
     // The components (and layers the user did not ask for) stay out of the EXR.
-    if (opts.componentLayers) {
-        const auto component = [](const ImageLayer& l) {
-            return l.name == "field" || l.name == "emission" || l.name == "direct";
-        };
-        img.layers.erase(std::remove_if(img.layers.begin(), img.layers.end(), component),
-                         img.layers.end());
-    }
-    if (img.channels.size() > exrChannels) img.channels.resize(exrChannels);
+    if (opts.componentLayers) img.removeLayers({FIELD_LAYER, EMISSION_LAYER, DIRECT_LAYER});
+    const auto unasked = [&](const ImageChannel& c) {
+        return std::find(exrChannels.begin(), exrChannels.end(), c.name) == exrChannels.end();
+    };
+    img.channels.erase(std::remove_if(img.channels.begin(), img.channels.end(), unasked),
+                       img.channels.end());
     AtomicFile exrFile(exr);
     writeExr(exrFile, img, attrs);
     std::vector<AtomicFile*> files{&exrFile};
@@ -370,7 +369,10 @@ void renderToFiles(const GridSet& grids, const RenderOptions& given, const DustP
 {
     RenderOptions opts = given;
     // The EXR's single channels: the spectral layers asked for.
-    const std::size_t exrChannels = std::size_t(std::max(given.spectral.layers, 0));
+    std::vector<std::string> exrChannels;
+    const std::size_t asked = std::size_t(std::max(given.spectral.layers, 0));
+    for (std::size_t b = 0; b < asked; ++b)
+        exrChannels.push_back(spectralChannelName(b, asked));
     if (calibrated(out.fits)) { // calibrated light and its components
         opts.monochromatic = true;
         opts.componentLayers = true;
