@@ -12,6 +12,7 @@
 #include "nebula/core/error.h"
 #include "nebula/core/units.h"
 #include "nebula/physics/spherical_harmonics.h"
+#include "nebula/render/integrator.h"
 #include "nebula/render/sprites.h"
 #include "nebula/render/star_depth.h"
 #include "nebula/volume/block_walk.h"
@@ -527,5 +528,61 @@ Image renderFrame(const RenderScene& scene, const RenderOptions& opts, const Run
     }
     return img;
 }
+
+namespace {
+
+void checkFastInput(const IntegratorInput& input, const RenderOptions& opts, const Run& run)
+{
+    if (input.spectralField && !input.rgbField) {
+        run.warn(input.source +
+                 " has a spectral scattered-light field but no R, G, B one: "
+                 "this image is single scattering (render with --spectral, or run nebscatter "
+                 "without --spectral to add one)");
+    }
+    detail::warnUnusedLevels(input, opts, input.rgbField, run);
+}
+
+std::string describeFast(const RenderOptions& opts, const SpectralScene& scene)
+{
+    const RenderScene& rgb = scene.base;
+    if (!rgb.scatter.description.empty()) return "single scattering + " + rgb.scatter.description;
+    if (!opts.phaseTable) return "single-scattering";
+    return std::string("effective phase function (") +
+           (opts.phaseUse == PhaseUse::Gain ? "gain" : "replace") + "), levels " +
+           std::to_string(rgb.levels.size());
+}
+
+} // namespace
+
+namespace detail {
+
+const IntegratorType& fastIntegrator()
+{
+    static const IntegratorType type = [] {
+        IntegratorType t;
+        t.name = "fast";
+        t.chosenBy = "--integrator fast";
+        t.doc = "ray caster (single scattering, or --phase)";
+        t.options = {"--step",
+                     "--lod",
+                     "--phase",
+                     "--phase-use",
+                     "--levels",
+                     "--phase-ignore-dust",
+                     "--interpolated-tau",
+                     "--no-scatter-field"};
+        t.calibrated = true;
+        t.comment = "nebula ray-cast render (DESIGN sections 3-4); linear radiance";
+        t.validate = detail::requireTableForLevels;
+        t.checkInput = checkFastInput;
+        t.render = [](const SpectralScene& scene, const RenderOptions& opts, const Run* run,
+                      RenderStats* stats) { return renderFrame(scene.base, opts, run, stats); };
+        t.describe = describeFast;
+        return t;
+    }();
+    return type;
+}
+
+} // namespace detail
 
 } // namespace nebula

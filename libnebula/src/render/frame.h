@@ -4,10 +4,12 @@
 /// standard layers, and the parallel loop over bands of rows that owns the threads, the
 /// progress bar and the statistics, so an integrator only says what one band of rows does.
 
+#include "nebula/core/error.h"
 #include "nebula/core/memory.h"
 #include "nebula/core/run.h"
 #include "nebula/io/image.h"
 #include "nebula/render/frame_layers.h"
+#include "nebula/render/integrator.h"
 #include "nebula/render/options.h"
 #include "nebula/render/scene.h"
 #include "nebula/render/sprites.h"
@@ -69,6 +71,21 @@ inline Image frameImage(const RenderScene& scene, const RenderOptions& opts, Fra
     }
     return img;
 }
+
+/// Refuses --levels without a phase table (the fast integrator and its spectral mode): each
+/// level adds the change of the per-voxel scattering Phi.
+inline void requireTableForLevels(const RenderOptions& opts)
+{
+    if (opts.levels > 0 && !opts.phaseTable) {
+        throw UsageError("--levels needs a phase table (--phase): each level adds the change "
+                         "of the per-voxel scattering Phi as the voxel doubles");
+    }
+}
+
+/// Warns that @p input's pyramid levels go unused: without a phase table, --levels or the
+/// RGB scattered-light @p field (the fast integrator and the path tracer). In integrator.cpp.
+void warnUnusedLevels(const IntegratorInput& input, const RenderOptions& opts, bool field,
+                      const Run& run);
 
 /// Runs @p band(y0, y1, stats) for bands of rows [y0, y1) of an image @p height rows high,
 /// in parallel (bands of at least @p grain rows), with a progress bar labelled @p label

@@ -346,4 +346,70 @@ Image renderPathTraced(const RenderScene& scene, const RenderOptions& opts, cons
     return img;
 }
 
+namespace {
+
+/// The path tracer simulates every order of scattering itself: no phase table, no levels.
+void validatePath(const RenderOptions& opts)
+{
+    requirePathWalks(opts);
+    if (opts.levels > 0) {
+        throw UsageError("--levels is for the fast integrator; --integrator path simulates "
+                         "multiple scattering itself");
+    }
+    if (opts.phaseTable) {
+        throw UsageError("--phase is for the fast integrator; --integrator path simulates "
+                         "multiple scattering itself");
+    }
+}
+
+void checkPathInput(const IntegratorInput& input, const RenderOptions& opts, const Run& run)
+{
+    if (input.rgbField || input.spectralField) {
+        run.warn(input.source +
+                 " has a scattered-light field (nebscatter), which --integrator "
+                 "path does not need: it simulates every order of scattering itself");
+    }
+    detail::warnUnusedLevels(input, opts, input.rgbField, run);
+}
+
+void reportPath(const RenderOptions&, const SpectralScene&, const RenderStats& stats,
+                double seconds, const Run& run)
+{
+    run.info(fmt::format("path tracing: {} walks, {} tentative collisions, {:.4g} ns wall "
+                         "per walk",
+                         stats.paths, stats.collisions,
+                         1e9 * seconds / double(std::max<std::uint64_t>(stats.paths, 1))));
+}
+
+} // namespace
+
+namespace detail {
+
+const IntegratorType& pathIntegrator()
+{
+    static const IntegratorType type = [] {
+        IntegratorType t;
+        t.name = "path";
+        t.chosenBy = "--integrator path";
+        t.doc = "reference Monte Carlo path tracer, all orders of scattering (--spp, --seed)";
+        t.options = {"--spp", "--seed"};
+        t.comment = "nebula reference path-traced render (DESIGN section 6); linear radiance";
+        t.validate = validatePath;
+        t.checkInput = checkPathInput;
+        t.render = [](const SpectralScene& scene, const RenderOptions& opts, const Run* run,
+                      RenderStats* stats) {
+            return renderPathTraced(scene.base, opts, run, stats);
+        };
+        t.describe = [](const RenderOptions& opts, const SpectralScene&) {
+            return "path tracing (reference), spp " + std::to_string(opts.spp) + ", seed " +
+                   std::to_string(opts.seed);
+        };
+        t.report = reportPath;
+        return t;
+    }();
+    return type;
+}
+
+} // namespace detail
+
 } // namespace nebula

@@ -24,6 +24,7 @@
 #include "nebula/physics/blackbody.h"
 #include "nebula/physics/colour.h"
 #include "nebula/physics/spherical_harmonics.h"
+#include "nebula/render/integrator.h"
 #include "nebula/render/sprites.h"
 #include "nebula/render/star_depth.h"
 
@@ -710,5 +711,92 @@ Image renderSpectral(const SpectralScene& scene, const RenderOptions& opts, cons
     if (opts.drawStars) integrator.drawSprites(img, ids);
     return img;
 }
+
+namespace {
+
+void checkSpectralInput(const IntegratorInput& input, const RenderOptions&, const Run& run)
+{
+    if (input.rgbField && !input.spectralField) {
+        run.warn(input.source +
+                 " has an R, G, B scattered-light field but no spectral one, "
+                 "which --spectral needs: this image is single scattering (nebscatter "
+                 "--spectral 6 adds one)");
+    }
+}
+
+std::string describeSpectral(const RenderOptions& opts, const SpectralScene& scene)
+{
+    const SpectralOptions& so = opts.spectral;
+    const std::string& field = scene.base.scatter.description;
+    return (so.bands > 0 ? "spectral, " + std::to_string(so.bands) + " fixed bands"
+                         : std::string("spectral, piecewise-linear")) +
+           ", exaggerate-velocity " + std::to_string(so.exaggerateVelocity) +
+           (so.relativistic ? ", relativistic Doppler" : ", first-order Doppler") +
+           (field.empty() ? std::string() : ", single scattering + " + field);
+}
+
+void reportSpectral(const RenderOptions& opts, const SpectralScene& scene, const RenderStats& stats,
+                    double, const Run& run)
+{
+    const SpectralOptions& so = opts.spectral;
+    const double rays = double(std::max<std::uint64_t>(stats.rays, 1));
+    run.info(fmt::format("spectral: {}, {} emission grid(s), {} linear pieces projected "
+                         "({:.6g} per ray)",
+                         so.bands > 0 ? fmt::format("{} fixed bands", so.bands)
+                                      : std::string("piecewise-linear"),
+                         scene.emitters.size(), stats.pieces, double(stats.pieces) / rays));
+    if (so.countPieces && so.bands == 0) {
+        run.info(fmt::format("spectral: the rays' spectra have {:.6g} pieces on average "
+                             "(largest {}), {:.6g} after merging at tolerance {}",
+                             double(stats.spectrumPieces) / rays, stats.maxSpectrumPieces,
+                             double(stats.mergedPieces) / rays, so.mergeTolerance));
+    }
+}
+
+} // namespace
+
+namespace detail {
+
+const IntegratorType& spectralIntegrator()
+{
+    static const IntegratorType type = [] {
+        IntegratorType t;
+        t.name = "spectral";
+        t.chosenBy = "--spectral";
+        t.doc = "the fast integrator with spectra along each ray instead of three channels: "
+                "piecewise-linear (exact Doppler trapezoids), or --bands";
+        t.options = {"--spectral",
+                     "--bands",
+                     "--continuum-step",
+                     "--exaggerate-velocity",
+                     "--relativistic",
+                     "--line-width",
+                     "--lines",
+                     "--blackbody-scale",
+                     "--temperature-scale",
+                     "--temperature-grid",
+                     "--velocity-grid",
+                     "--spectral-layers",
+                     "--count-pieces",
+                     "--merge-tolerance",
+                     "--step",
+                     "--interpolated-tau",
+                     "--no-scatter-field"};
+        t.calibrated = true;
+        t.comment =
+            "nebula spectral ray-cast render (DESIGN section 7); linear sRGB of CIE 1931 XYZ";
+        // As the fast integrator's; the spectral checks are buildSpectralScene()'s.
+        t.validate = requireTableForLevels;
+        t.checkInput = checkSpectralInput;
+        t.render = [](const SpectralScene& scene, const RenderOptions& opts, const Run* run,
+                      RenderStats* stats) { return renderSpectral(scene, opts, run, stats); };
+        t.describe = describeSpectral;
+        t.report = reportSpectral;
+        return t;
+    }();
+    return type;
+}
+
+} // namespace detail
 
 } // namespace nebula
