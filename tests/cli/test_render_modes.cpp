@@ -101,9 +101,9 @@ TEST_F(RenderModes, BadCombinationsAndMissingLevels)
     makePyramid();
     expectFailure("nebrender -i pyr.vdb --levels 2 -o x.exr", 2, "--levels needs a phase table");
     expectFailure("nebrender -i pyr.vdb --integrator path --phase t.vdb -o x.exr", 2,
-                  "--phase is for the fast integrator");
+                  "--phase is for --integrator fast (here: --integrator path)");
     expectFailure("nebrender -i pyr.vdb --integrator path --levels 1 -o x.exr", 2,
-                  "--levels is for the fast integrator");
+                  "--levels is for --integrator fast (here: --integrator path)");
     expectFailure("nebrender -i pyr.vdb --integrator mc -o x.exr", 2, "--integrator");
     expectFailure("nebrender -i pyr.vdb --spp 0 --integrator path -o x.exr", 2, "--spp");
     expectFailure("nebrender -i lit.vdb --phase t.vdb --levels 1 -o x.exr", 1,

@@ -35,7 +35,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     // The file's only cube, and a path named as --dataset names it (the seeds' /density).
     for (const char* dataset : {"", "/density"}) {
         nebula::CubeSelect select;
-        select.format = nebula::CubeFormat::Hdf5;
+        select.format = &nebula::cubeFormat("hdf5", "--format");
         select.dataset = dataset;
         try {
             readSmall(bytes, select);

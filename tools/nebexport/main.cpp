@@ -32,21 +32,20 @@ int main(int argc, char** argv)
     // -o's format is --format's or its name's: the cube writer checks the name.
     nebula::cli::outputFile(app.get_option("--output"), std::nullopt);
     app.add_option("--grid", opts.grid, "The FloatGrid written")->capture_default_str();
-    app.add_option("--format", format, "fits, npy or hdf5 (default: from -o's extension)")
-        ->check(CLI::IsMember({"fits", "npy", "hdf5"}));
+    app.add_option("--format", format,
+                   nebula::cubeFormatList(true) + " (default: from -o's extension)")
+        ->check(CLI::IsMember(nebula::cubeFormatNames(true)));
     app.add_option("--bbox", opts.bbox, "auto, active or I0,J0,K0,I1,J1,K1")->capture_default_str();
     app.add_option("--dataset", opts.dataset, "HDF5 dataset path (default: /<grid>)");
 
     return nebula::cli::run(app, "nebexport", common, argc, argv, [&](nebula::Run& run) {
         nebula::refuseBinaryToTerminal(common.output, "-o");
-        if (!format.empty()) opts.format = nebula::parseCubeFormat(format, "--format");
+        if (!format.empty()) opts.format = &nebula::cubeFormat(format, "--format");
         opts.output = common.output;
         opts.validate();
         // A --format the name does not say: refused before the grids are read.
-        if (opts.format) {
-            if (const auto file = nebula::cubeFileFormat(*opts.format))
-                nebula::checkOutputName(common.output, "-o", *file);
-        }
+        if (opts.format && opts.format->fileFormat)
+            nebula::checkOutputName(common.output, "-o", *opts.format->fileFormat);
         const auto grids = nebula::readGrids(common.input, run);
         nebula::exportCube(grids, opts, run);
     });

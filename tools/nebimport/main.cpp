@@ -34,13 +34,11 @@ int main(int argc, char** argv)
         "nebimport"};
     nebula::cli::addCommon(app, common, nebula::cli::OUTPUT);
     nebula::cli::inputFile(
-        app.add_option("-i,--input", opts.input,
-                       "The cube: .fits/.fit/.fts, .h5/.hdf5, .npy, or a RADMC-3D folder or its "
-                       "amr_grid.inp")
+        app.add_option("-i,--input", opts.input, "The cube: " + nebula::cubeFileNamesDoc())
             ->required());
     auto* grp = app.add_option_group("Cube");
-    grp->add_option("--format", format, "fits, hdf5, npy or radmc (default: from the name)")
-        ->check(CLI::IsMember({"fits", "hdf5", "npy", "radmc"}));
+    grp->add_option("--format", format, nebula::cubeFormatList(false) + " (default: from the name)")
+        ->check(CLI::IsMember(nebula::cubeFormatNames(false)));
     grp->add_option("--hdu", opts.select.hdu,
                     "FITS: the HDU, by number (0 = primary) or EXTNAME (default: the first 3-D "
                     "image)");
@@ -89,7 +87,7 @@ int main(int argc, char** argv)
         for (const auto& [option, file] : nebula::importInputFiles(opts))
             inputs.push_back({option, file, false, std::nullopt});
         nebula::cli::checkFileOptions(app, common, inputs);
-        if (!format.empty()) opts.select.format = nebula::parseCubeFormat(format, "--format");
+        if (!format.empty()) opts.select.format = &nebula::cubeFormat(format, "--format");
         if (!voxelSize.empty()) opts.voxelSize = nebula::parseLength(voxelSize, "--voxel-size");
         if (originOpt->count() > 0) opts.origin = origin;
         opts.stars = nebula::cli::loadStars(starOpts);

@@ -8,12 +8,29 @@
 #include "nebula/core/frames.h"
 #include "nebula/core/input.h"
 #include "nebula/io/phase_table_vdb.h"
+#include "nebula/render/integrator.h"
 
 #include <fmt/format.h>
 
 #include <cstdint>
+#include <map>
 
 namespace nebula::cli {
+
+namespace {
+
+/// The integrators --integrator NAME chooses (the registry's; --spectral chooses its own).
+std::vector<std::string> commandLineIntegrators()
+{
+    const std::string prefix = "--integrator ";
+    std::vector<std::string> names;
+    for (const IntegratorType* t : integratorTypes()) {
+        if (t->chosenBy.rfind(prefix, 0) == 0) names.push_back(t->chosenBy.substr(prefix.size()));
+    }
+    return names;
+}
+
+} // namespace
 
 std::shared_ptr<CameraPath> readCameraPathOption(const std::string& file, const Camera& defaults)
 {
@@ -131,20 +148,16 @@ void addRenderCommand(CLI::App& app, RenderCommand& c)
     app.add_option("--integrator", c.integrator,
                    "fast: ray caster (single scattering, or --phase); path: reference Monte\n"
                    "Carlo path tracer, all orders of scattering (--spp, --seed)")
-        ->check(CLI::IsMember({"fast", "path"}))
+        ->check(CLI::IsMember(commandLineIntegrators()))
         ->capture_default_str();
-    c.scopes.add(
-        {"--integrator path"},
-        app.add_option("--spp", c.opts.spp,
-                       "Path tracer: random walks per pixel (one serves R, G and B); --spp x the\n"
-                       "pixels at most 1e10, a work bound refused with its estimate")
-            ->capture_default_str()
-            ->check(integerIn(1, 1 << 30)));
-    c.scopes.add(
-        {"--integrator path"},
-        app.add_option("--seed", c.opts.seed, "Path tracer: random seed (same seed, same image)")
-            ->capture_default_str()
-            ->check(integerIn(0, UINT64_MAX)));
+    app.add_option("--spp", c.opts.spp,
+                   "Path tracer: random walks per pixel (one serves R, G and B); --spp x the\n"
+                   "pixels at most 1e10, a work bound refused with its estimate")
+        ->capture_default_str()
+        ->check(integerIn(1, 1 << 30));
+    app.add_option("--seed", c.opts.seed, "Path tracer: random seed (same seed, same image)")
+        ->capture_default_str()
+        ->check(integerIn(0, UINT64_MAX));
     app.add_flag(
         "--phase-ignore-dust", c.opts.phaseIgnoreDust,
         "Use the --phase table even if its albedo, g or phase model differ from the dust's");
@@ -158,96 +171,76 @@ void addRenderCommand(CLI::App& app, RenderCommand& c)
                          "Fixed-band mode instead: N bands over 360-830 nm, point-sampled at\n"
                          "their centres (for comparison; implies --spectral)")
             ->check(integerIn(1, MAX_SPECTRAL_BANDS));
-    c.scopes.add({"--spectral"},
-                 spectral
-                     ->add_option("--continuum-step", sp.continuumStep,
-                                  "Piecewise-linear mode: continuum node spacing [nm]")
-                     ->capture_default_str()
-                     ->check(numberIn(MIN_CONTINUUM_STEP, 50.0)));
-    c.scopes.add(
-        {"--spectral"},
-
-        spectral
-            ->add_option("--exaggerate-velocity", sp.exaggerateVelocity,
-                         "Multiply every velocity by F before the Doppler shift (visualisation):\n"
-                         "the velocity grid and the line width alike")
-            ->capture_default_str()
-            ->check(positive()));
-    c.scopes.add(
-        {"--spectral"},
-
-        spectral->add_flag("--relativistic", sp.relativistic,
-                           "Relativistic Doppler factor gamma (1 + v_r/c): gas moving across the\n"
-                           "line of sight is red-shifted too (default: first order, 1 + v_r/c)"));
-    c.scopes.add(
-        {"--spectral"},
-
-        spectral
-            ->add_option("--line-width", sp.lineWidth,
-                         "Half-width of each line's rest-frame box profile [km/s] (thermal and\n"
-                         "turbulent broadening)")
-            ->capture_default_str()
-            ->check(positive()));
-    c.scopes.add({"--spectral"},
-                 spectral->add_option(
-                     "--lines", sp.lines,
-                     "Lines of the emission grid, e.g. H-alpha:1,H-beta:0.35,[O III]5007:0.5\n"
-                     "(overrides its nebula:lines; default H-alpha:1,H-beta:0.35)"));
-    c.scopes.add(
-        {"--spectral"},
-
-        spectral
-            ->add_option("--blackbody-scale", sp.blackbodyScale,
-                         "Multiply the black-body emission (1 = Kirchhoff's law, physical)")
-            ->capture_default_str()
-            ->check(numberIn(0.0, 1e6)));
-    c.scopes.add({"--spectral"},
-
-                 spectral
-                     ->add_option("--temperature-scale", sp.temperatureScale,
-                                  "Multiply the temperature grid (visualisation of cold dust)")
-                     ->capture_default_str()
-                     ->check(positive()));
-    c.scopes.add(
-        {"--spectral"},
-
-        spectral->add_option("--temperature-grid", sp.temperatureGrid, "Temperature grid [K]")
-            ->capture_default_str());
-    c.scopes.add({"--spectral"}, spectral
-                                     ->add_option("--velocity-grid", sp.velocityGrid,
-                                                  "Velocity grid (Vec3f, km/s, world axes)")
-                                     ->capture_default_str());
-    c.scopes.add(
-        {"--spectral"},
-
-        spectral
-            ->add_option("--spectral-layers", sp.layers,
-                         "Also write N spectral EXR channels S0.<centre>nm: mean radiance per nm\n"
-                         "in N equal bands over 360-830 nm")
-            ->check(integerIn(1, 470)));
-    c.scopes.add({"--spectral"},
-                 spectral->add_flag(
-                     "--count-pieces", sp.countPieces,
-                     "Assemble each ray's piecewise-linear spectrum and report its piece count\n"
-                     "with -v (slower; for benchmarks)"));
-    c.scopes.add({"--spectral"},
-
-                 spectral
-                     ->add_option("--merge-tolerance", sp.mergeTolerance,
-                                  "With --count-pieces: also count the pieces left after merging\n"
-                                  "neighbours under this relative tolerance (Spectrum::merge)")
-                     ->check(numberIn(0.0, 1.0)));
+    spectral
+        ->add_option("--continuum-step", sp.continuumStep,
+                     "Piecewise-linear mode: continuum node spacing [nm]")
+        ->capture_default_str()
+        ->check(numberIn(MIN_CONTINUUM_STEP, 50.0));
+    spectral
+        ->add_option("--exaggerate-velocity", sp.exaggerateVelocity,
+                     "Multiply every velocity by F before the Doppler shift (visualisation):\n"
+                     "the velocity grid and the line width alike")
+        ->capture_default_str()
+        ->check(positive());
+    spectral->add_flag("--relativistic", sp.relativistic,
+                       "Relativistic Doppler factor gamma (1 + v_r/c): gas moving across the\n"
+                       "line of sight is red-shifted too (default: first order, 1 + v_r/c)");
+    spectral
+        ->add_option("--line-width", sp.lineWidth,
+                     "Half-width of each line's rest-frame box profile [km/s] (thermal and\n"
+                     "turbulent broadening)")
+        ->capture_default_str()
+        ->check(positive());
+    spectral->add_option("--lines", sp.lines,
+                         "Lines of the emission grid, e.g. H-alpha:1,H-beta:0.35,[O III]5007:0.5\n"
+                         "(overrides its nebula:lines; default H-alpha:1,H-beta:0.35)");
+    spectral
+        ->add_option("--blackbody-scale", sp.blackbodyScale,
+                     "Multiply the black-body emission (1 = Kirchhoff's law, physical)")
+        ->capture_default_str()
+        ->check(numberIn(0.0, 1e6));
+    spectral
+        ->add_option("--temperature-scale", sp.temperatureScale,
+                     "Multiply the temperature grid (visualisation of cold dust)")
+        ->capture_default_str()
+        ->check(positive());
+    spectral->add_option("--temperature-grid", sp.temperatureGrid, "Temperature grid [K]")
+        ->capture_default_str();
+    spectral
+        ->add_option("--velocity-grid", sp.velocityGrid, "Velocity grid (Vec3f, km/s, world axes)")
+        ->capture_default_str();
+    spectral
+        ->add_option("--spectral-layers", sp.layers,
+                     "Also write N spectral EXR channels S0.<centre>nm: mean radiance per nm\n"
+                     "in N equal bands over 360-830 nm")
+        ->check(integerIn(1, 470));
+    spectral->add_flag("--count-pieces", sp.countPieces,
+                       "Assemble each ray's piecewise-linear spectrum and report its piece count\n"
+                       "with -v (slower; for benchmarks)");
+    spectral
+        ->add_option("--merge-tolerance", sp.mergeTolerance,
+                     "With --count-pieces: also count the pieces left after merging\n"
+                     "neighbours under this relative tolerance (Spectrum::merge)")
+        ->check(numberIn(0.0, 1.0));
     addTone(app, c.out.tone, c.tone, "PNG: ");
+    // The options of one integrator (or --spectral), from the registry: each is refused
+    // with another (OptionScopes::check() in runRenderCommand()).
+    std::map<std::string, std::vector<std::string>> scopes;
+    for (const IntegratorType* t : integratorTypes()) {
+        for (const std::string& option : t->options)
+            scopes[option].push_back(t->chosenBy);
+    }
+    for (const auto& [option, by] : scopes)
+        c.scopes.add(by, app.get_option(option));
 }
 
 void runRenderCommand(CLI::App& app, RenderCommand& c, Run& run)
 {
     refuseSharedStream({{"-i", c.common.input}, {"--phase", c.phaseFile}}, "stdin");
-    c.scopes.check(
-        {c.opts.spectral.enabled || c.bandsOption->count() > 0 ? "--spectral" : "",
-         "--integrator " + c.integrator},
-        "--integrator " + c.integrator +
-            (c.opts.spectral.enabled || c.bandsOption->count() > 0 ? ", --spectral" : ""));
+    if (c.bandsOption->count() > 0) c.opts.spectral.enabled = true;
+    c.opts.integrator = c.integrator;
+    const IntegratorType& chosen = chosenIntegrator(c.opts);
+    c.scopes.check({chosen.chosenBy}, chosen.chosenBy);
     c.opts.camera = makeCamera(c.camera);
     if (!c.pathFile.empty()) {
         auto path = readCameraPathOption(c.pathFile, c.opts.camera);
@@ -293,8 +286,6 @@ void runRenderCommand(CLI::App& app, RenderCommand& c, Run& run)
     c.opts.drawStars = !c.noStars;
     c.opts.scatterField = !c.noScatterField;
     c.opts.exactStarDepth = !c.interpolatedTau;
-    if (c.bandsOption->count() > 0) c.opts.spectral.enabled = true;
-    c.opts.integrator = c.integrator == "path" ? Integrator::Path : Integrator::Fast;
     c.opts.phaseUse = c.phaseUse == "replace" ? PhaseUse::Replace : PhaseUse::Gain;
     if (c.noPng) c.out.png = "none";
     if (c.out.png.empty()) { // the PNG the EXR's name gives: checked as the outputs named

@@ -5,6 +5,7 @@
 
 #include "nebula/core/error.h"
 #include "nebula/core/format.h"
+#include "nebula/core/memory.h"
 
 #include <fmt/format.h>
 
@@ -361,6 +362,35 @@ void writeFitsCube(const std::string& path, const CubeHeader& h, const PlaneFunc
         f.writeFloats(k * nx * ny, nx * ny, buf.data());
     }
     f.writeFile(path);
+}
+
+const CubeFormat& fitsCubeFormat()
+{
+    static const CubeFormat format = [] {
+        CubeFormat f;
+        f.name = "fits";
+        f.title = "FITS";
+        f.doc = ".fits/.fit/.fts";
+        f.hint = ".fits";
+        f.endings = {".fits", ".fit", ".fts", ".fits.gz", ".fit.gz", ".fts.gz"};
+        f.selector = &CubeSelect::hdu;
+        f.open = openFitsCube;
+        f.fileFormat = FileFormat::Fits;
+        f.write = [](const std::string& path, const CubeHeader& header, const std::string&,
+                     const PlaneFunction& plane) {
+            const double bytes =
+                double(header.dims[0]) * double(header.dims[1]) * double(header.dims[2]) * 4.0;
+            requireMemory(bytes, path + ": the FITS file (built in memory)");
+            writeFitsCube(path, header, plane);
+        };
+        f.writerMemory = [](const std::array<std::int64_t, 3>& dims, double fileBytes) {
+            // The file in memory (cfitsio's), and one z plane.
+            return WriterMemory{fileBytes + 4.0 * double(dims[0]) * double(dims[1]),
+                                "the FITS file is built in memory"};
+        };
+        return f;
+    }();
+    return format;
 }
 
 } // namespace detail

@@ -1134,6 +1134,37 @@ void writeHdf5Cube(const std::string& path, const CubeHeader& h, const std::stri
     out.commit();
 }
 
+const CubeFormat& hdf5CubeFormat()
+{
+    static const CubeFormat format = [] {
+        CubeFormat f;
+        f.name = "hdf5";
+        f.title = "HDF5";
+        f.doc = ".h5/.hdf5";
+        f.hint = ".h5";
+        f.endings = {".h5", ".hdf5", ".he5", ".hdf"};
+        f.selector = &CubeSelect::dataset;
+        f.open = openHdf5Cube;
+        f.fileFormat = FileFormat::Hdf5;
+        f.write = [](const std::string& path, const CubeHeader& header, const std::string& dataset,
+                     const PlaneFunction& plane) {
+            // The image in memory, and its copy handed to the writer.
+            const double bytes =
+                double(header.dims[0]) * double(header.dims[1]) * double(header.dims[2]) * 4.0;
+            requireMemory(2.0 * bytes, path + ": the HDF5 file (built in memory)");
+            writeHdf5Cube(path, header, dataset, plane);
+        };
+        f.writerMemory = [](const std::array<std::int64_t, 3>& dims, double fileBytes) {
+            // The file in memory (HDF5's core driver), its copy handed to the writer, one x
+            // plane.
+            return WriterMemory{2.0 * fileBytes + 4.0 * double(dims[1]) * double(dims[2]),
+                                "the HDF5 file is built in memory and copied out"};
+        };
+        return f;
+    }();
+    return format;
+}
+
 } // namespace nebula::detail
 
 namespace nebula {

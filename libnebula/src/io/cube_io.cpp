@@ -18,26 +18,6 @@
 
 namespace nebula {
 
-std::string cubeFormatName(CubeFormat format)
-{
-    switch (format) {
-    case CubeFormat::Fits: return "fits";
-    case CubeFormat::Hdf5: return "hdf5";
-    case CubeFormat::Npy: return "npy";
-    case CubeFormat::Radmc: return "radmc";
-    }
-    return "?";
-}
-
-CubeFormat parseCubeFormat(const std::string& name, const std::string& option)
-{
-    for (auto f : {CubeFormat::Fits, CubeFormat::Hdf5, CubeFormat::Npy, CubeFormat::Radmc}) {
-        if (name == cubeFormatName(f)) return f;
-    }
-    throw UsageError(option + ": unknown format \"" + name +
-                     "\" (expected fits, hdf5, npy or radmc)");
-}
-
 namespace {
 
 std::string lower(std::string s)
@@ -54,26 +34,75 @@ bool endsWith(const std::string& s, const std::string& tail)
 
 } // namespace
 
-std::optional<CubeFormat> cubeFormatOf(const std::string& path)
+namespace detail {
+// The formats, each defined in its own file. A new format: a line here and its entry below.
+const CubeFormat& fitsCubeFormat();  // cube_fits.cpp
+const CubeFormat& hdf5CubeFormat();  // cube_hdf5.cpp
+const CubeFormat& npyCubeFormat();   // cube_npy.cpp
+const CubeFormat& radmcCubeFormat(); // cube_radmc.cpp
+} // namespace detail
+
+const std::vector<const CubeFormat*>& cubeFormats()
+{
+    static const std::vector<const CubeFormat*> formats{
+        &detail::fitsCubeFormat(), &detail::hdf5CubeFormat(), &detail::npyCubeFormat(),
+        &detail::radmcCubeFormat()};
+    return formats;
+}
+
+std::vector<std::string> cubeFormatNames(bool written)
+{
+    std::vector<std::string> names;
+    for (const CubeFormat* f : cubeFormats())
+        if (!written || f->write) names.push_back(f->name);
+    return names;
+}
+
+std::string cubeFormatList(bool written)
+{
+    const auto names = cubeFormatNames(written);
+    std::string list;
+    for (std::size_t i = 0; i < names.size(); ++i)
+        list += (i == 0 ? "" : i + 1 == names.size() ? " or " : ", ") + names[i];
+    return list;
+}
+
+std::string cubeFileNamesDoc()
+{
+    const auto& formats = cubeFormats();
+    std::string doc;
+    for (std::size_t i = 0; i < formats.size(); ++i)
+        doc += (i == 0 ? "" : i + 1 == formats.size() ? ", or " : ", ") + formats[i]->doc;
+    return doc;
+}
+
+const CubeFormat& cubeFormat(const std::string& name, const std::string& option)
+{
+    for (const CubeFormat* f : cubeFormats())
+        if (f->name == name) return *f;
+    throw UsageError(option + ": unknown format \"" + name + "\" (expected " +
+                     cubeFormatList(false) + ")");
+}
+
+const CubeFormat* cubeFormatOf(const std::string& path)
 {
     const std::string p = lower(path);
-    for (const char* ext : {".fits", ".fit", ".fts", ".fits.gz", ".fit.gz", ".fts.gz"}) {
-        if (endsWith(p, ext)) return CubeFormat::Fits;
-    }
-    for (const char* ext : {".h5", ".hdf5", ".he5", ".hdf"}) {
-        if (endsWith(p, ext)) return CubeFormat::Hdf5;
-    }
-    if (endsWith(p, ".npy")) return CubeFormat::Npy;
     const std::string base =
         p.substr(p.find_last_of('/') == std::string::npos ? 0 : p.find_last_of('/') + 1);
-    if (base == "amr_grid.inp" || base == "dust_density.inp" || base == "dust_density.binp") {
-        return CubeFormat::Radmc;
+    for (const CubeFormat* f : cubeFormats()) {
+        for (const auto& ending : f->endings)
+            if (endsWith(p, ending)) return f;
+        for (const auto& name : f->fileNames)
+            if (base == name) return f;
     }
     struct stat st
     {
     };
-    if (::stat(path.c_str(), &st) == 0 && S_ISDIR(st.st_mode)) return CubeFormat::Radmc;
-    return std::nullopt;
+    if (::stat(path.c_str(), &st) == 0 && S_ISDIR(st.st_mode)) {
+        for (const CubeFormat* f : cubeFormats())
+            if (f->folder) return f;
+    }
+    return nullptr;
 }
 
 std::optional<double> lengthUnitPc(const std::string& unit)
@@ -258,52 +287,24 @@ std::unique_ptr<CubeSource> arrayCube(std::unique_ptr<RawArray> array, CubeInfo 
 
 std::unique_ptr<CubeSource> openCube(const std::string& path, const CubeSelect& select)
 {
-    std::optional<CubeFormat> format = select.format ? select.format : cubeFormatOf(path);
+    const CubeFormat* format = select.format ? select.format : cubeFormatOf(path);
     if (!format) {
-        throw UsageError(select.option + ": " + path +
-                         ": cannot tell the format from the name (.fits, .h5, .npy, a RADMC-3D "
-                         "folder or amr_grid.inp)" +
-                         (select.option == "-i" ? "; give --format" : ""));
+        std::string hints;
+        for (const CubeFormat* f : cubeFormats())
+            hints += (hints.empty() ? "" : ", ") + f->hint;
+        throw UsageError(select.option + ": " + path + ": cannot tell the format from the name (" +
+                         hints + ")" + (select.option == "-i" ? "; give --format" : ""));
     }
-    switch (*format) {
-    case CubeFormat::Fits: return detail::openFitsCube(path, select);
-    case CubeFormat::Hdf5: return detail::openHdf5Cube(path, select);
-    case CubeFormat::Npy: return detail::openNpyCube(path, select);
-    case CubeFormat::Radmc: return detail::openRadmcCube(path, select);
-    }
-    return nullptr;
+    return format->open(path, select);
 }
 
-std::optional<FileFormat> cubeFileFormat(CubeFormat format)
-{
-    switch (format) {
-    case CubeFormat::Fits: return FileFormat::Fits;
-    case CubeFormat::Hdf5: return FileFormat::Hdf5;
-    case CubeFormat::Npy: return FileFormat::Npy;
-    case CubeFormat::Radmc: return std::nullopt;
-    }
-    return std::nullopt;
-}
-
-void writeCube(CubeFormat format, const std::string& path, const CubeHeader& header,
+void writeCube(const CubeFormat& format, const std::string& path, const CubeHeader& header,
                const std::string& dataset, const PlaneFunction& plane)
 {
-    if (const auto file = cubeFileFormat(format)) checkOutputName(path, "-o", *file);
-    const double bytes =
-        double(header.dims[0]) * double(header.dims[1]) * double(header.dims[2]) * 4.0;
-    switch (format) {
-    case CubeFormat::Fits:
-        requireMemory(bytes, path + ": the FITS file (built in memory)");
-        detail::writeFitsCube(path, header, plane);
-        return;
-    case CubeFormat::Hdf5:
-        // The image in memory, and its copy handed to the writer.
-        requireMemory(2.0 * bytes, path + ": the HDF5 file (built in memory)");
-        detail::writeHdf5Cube(path, header, dataset, plane);
-        return;
-    case CubeFormat::Npy: detail::writeNpyCube(path, header, plane); return;
-    case CubeFormat::Radmc: throw UsageError(path + ": nebexport does not write RADMC-3D files");
-    }
+    if (!format.write)
+        throw UsageError(path + ": nebexport does not write " + format.title + " files");
+    checkOutputName(path, "-o", *format.fileFormat);
+    format.write(path, header, dataset, plane);
 }
 
 } // namespace nebula

@@ -379,5 +379,28 @@ void writeNpyCube(const std::string& path, const CubeHeader& h, const PlaneFunct
     file.commit();
 }
 
+const CubeFormat& npyCubeFormat()
+{
+    static const CubeFormat format = [] {
+        CubeFormat f;
+        f.name = "npy";
+        f.title = "NumPy .npy";
+        f.doc = ".npy";
+        f.hint = ".npy";
+        f.endings = {".npy"};
+        f.open = openNpyCube;
+        f.fileFormat = FileFormat::Npy;
+        f.write = [](const std::string& path, const CubeHeader& header, const std::string&,
+                     const PlaneFunction& plane) { writeNpyCube(path, header, plane); };
+        f.writerMemory = [](const std::array<std::int64_t, 3>& dims, double) {
+            // Streamed: one z plane at a time.
+            return WriterMemory{4.0 * double(dims[0]) * double(dims[1]),
+                                "one z plane of the .npy stream"};
+        };
+        return f;
+    }();
+    return format;
+}
+
 } // namespace detail
 } // namespace nebula

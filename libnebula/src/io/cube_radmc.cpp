@@ -386,5 +386,21 @@ std::unique_ptr<CubeSource> openRadmcCube(const std::string& path, const CubeSel
                                        data);
 }
 
+const CubeFormat& radmcCubeFormat()
+{
+    static const CubeFormat format = [] {
+        CubeFormat f;
+        f.name = "radmc";
+        f.title = "RADMC-3D";
+        f.doc = "a RADMC-3D folder or its amr_grid.inp";
+        f.hint = "a RADMC-3D folder or amr_grid.inp";
+        f.fileNames = {"amr_grid.inp", "dust_density.inp", "dust_density.binp"};
+        f.folder = true;
+        f.open = openRadmcCube;
+        return f;
+    }();
+    return format;
+}
+
 } // namespace detail
 } // namespace nebula

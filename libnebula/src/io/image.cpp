@@ -204,6 +204,54 @@ bool isAscii(const std::string& s)
 
 // ---- EXR ------------------------------------------------------------------------------------
 
+LayerId Image::addLayer(const std::string& name, float fill)
+{
+    if (findLayer(name)) throw Error("the image has two layers named \"" + name + "\"");
+    layers.push_back({name, std::vector<float>(pixelCount(width, height) * 3, fill)});
+    return LayerId{layers.size() - 1};
+}
+
+ChannelId Image::addChannel(const std::string& name)
+{
+    if (findChannel(name)) throw Error("the image has two channels named \"" + name + "\"");
+    channels.push_back({name, std::vector<float>(pixelCount(width, height), 0.0f)});
+    return ChannelId{channels.size() - 1};
+}
+
+std::optional<LayerId> Image::findLayer(const std::string& name) const
+{
+    for (std::size_t i = 0; i < layers.size(); ++i)
+        if (layers[i].name == name) return LayerId{i};
+    return std::nullopt;
+}
+
+std::optional<ChannelId> Image::findChannel(const std::string& name) const
+{
+    for (std::size_t i = 0; i < channels.size(); ++i)
+        if (channels[i].name == name) return ChannelId{i};
+    return std::nullopt;
+}
+
+LayerId Image::layerId(const std::string& name) const
+{
+    if (const auto id = findLayer(name)) return *id;
+    throw Error("the image has no layer \"" + name + "\"");
+}
+
+ChannelId Image::channelId(const std::string& name) const
+{
+    if (const auto id = findChannel(name)) return *id;
+    throw Error("the image has no channel \"" + name + "\"");
+}
+
+void Image::removeLayers(const std::vector<std::string>& names)
+{
+    const auto named = [&](const ImageLayer& l) {
+        return std::find(names.begin(), names.end(), l.name) != names.end();
+    };
+    layers.erase(std::remove_if(layers.begin(), layers.end(), named), layers.end());
+}
+
 void writeExr(AtomicFile& file, const Image& image,
               const std::map<std::string, std::string>& attributes)
 {

@@ -13,6 +13,7 @@
 #include "nebula/core/error.h"
 #include "nebula/core/units.h"
 #include "nebula/physics/spherical_harmonics.h"
+#include "nebula/render/integrator.h"
 #include "nebula/render/sprites.h"
 #include "nebula/render/star_depth.h"
 #include "nebula/volume/block_walk.h"
@@ -65,6 +66,13 @@ struct RayState
     double L[3] = {0, 0, 0};
     double Lfield[3] = {0, 0, 0};    ///< the part of L from the field (componentLayers)
     double Lemission[3] = {0, 0, 0}; ///< the part of L from the gas's glow (componentLayers)
+};
+
+/// The layers renderPixel() writes, looked up once per frame.
+struct PixelLayers
+{
+    detail::FrameLayers frame;
+    LayerId field, emission; ///< with RenderOptions::componentLayers
 };
 
 class FastIntegrator
@@ -145,8 +153,8 @@ public:
         return s;
     }
 
-    /// Renders pixel (px, py) into @p img.
-    void renderPixel(int px, int py, Scratch& sc, Image& img) const
+    /// Renders pixel (px, py) into @p img's beauty and its layers @p ids.
+    void renderPixel(int px, int py, Scratch& sc, Image& img, const PixelLayers& ids) const
     {
         const std::size_t S = mScene.stars.size();
         RayState ray;
@@ -197,19 +205,21 @@ public:
                                                });
         }
         const std::size_t pix = std::size_t(py) * img.width + px;
-        ImageLayer& transLayer = img.layers[S];
+        std::vector<float>& trans = img.rgb(ids.frame.transmittance);
         for (int c = 0; c < 3; ++c) {
             img.rgba[pix * 4 + c] = float(ray.L[c]);
-            transLayer.rgb[pix * 3 + c] = float(ray.T[c]);
+            trans[pix * 3 + c] = float(ray.T[c]);
             for (std::size_t s = 0; s < S; ++s) {
-                img.layers[s].rgb[pix * 3 + c] = float(sc.starL[s * 3 + c]);
+                img.rgb(ids.frame.stars[s])[pix * 3 + c] = float(sc.starL[s * 3 + c]);
             }
         }
         img.rgba[pix * 4 + 3] = float(1.0 - ray.T[1]);
-        if (mOpts.componentLayers) { // frameImage()'s layers after transmittance
+        if (mOpts.componentLayers) {
+            std::vector<float>& field = img.rgb(ids.field);
+            std::vector<float>& emission = img.rgb(ids.emission);
             for (int c = 0; c < 3; ++c) {
-                img.layers[S + 1].rgb[pix * 3 + c] = float(ray.Lfield[c]);
-                img.layers[S + 2].rgb[pix * 3 + c] = float(ray.Lemission[c]);
+                field[pix * 3 + c] = float(ray.Lfield[c]);
+                emission[pix * 3 + c] = float(ray.Lemission[c]);
             }
         }
     }
@@ -492,16 +502,22 @@ Image renderFrame(const RenderScene& scene, const RenderOptions& opts, const Run
     const Camera& view = opts.camera;
     if (view.width <= 0 || view.height <= 0) throw UsageError("--res must be WxH with W, H > 0");
     requireRayStep(scene, opts.step);
+    PixelLayers ids;
     Image img = opts.componentLayers
-                    ? detail::frameImage(scene, opts, {"field", "emission", "direct"})
-                    : detail::frameImage(scene, opts);
+                    ? detail::frameImage(scene, opts, ids.frame,
+                                         {FIELD_LAYER, EMISSION_LAYER, DIRECT_LAYER})
+                    : detail::frameImage(scene, opts, ids.frame);
+    if (opts.componentLayers) {
+        ids.field = img.layerId(FIELD_LAYER);
+        ids.emission = img.layerId(EMISSION_LAYER);
+    }
     const FastIntegrator integrator(scene, opts);
     detail::forEachRowBand(view.height, 4, run, "nebrender", stats,
                            [&](int y0, int y1, RenderStats& bandStats) {
                                Scratch sc = integrator.scratch();
                                for (int py = y0; py < y1; ++py) {
                                    for (int px = 0; px < view.width; ++px) {
-                                       integrator.renderPixel(px, py, sc, img);
+                                       integrator.renderPixel(px, py, sc, img, ids);
                                    }
                                }
                                bandStats = sc.stats;
@@ -509,9 +525,65 @@ Image renderFrame(const RenderScene& scene, const RenderOptions& opts, const Run
     if (opts.drawStars) {
         // With the component layers, the sprites alone (the direct starlight) into "direct".
         drawStarSprites(img, scene, opts, {}, {},
-                        opts.componentLayers ? &img.layers[scene.stars.size() + 3].rgb : nullptr);
+                        opts.componentLayers ? &img.rgb(img.layerId(DIRECT_LAYER)) : nullptr);
     }
     return img;
 }
+
+namespace {
+
+void checkFastInput(const IntegratorInput& input, const RenderOptions& opts, const Run& run)
+{
+    if (input.spectralField && !input.rgbField) {
+        run.warn(input.source +
+                 " has a spectral scattered-light field but no R, G, B one: "
+                 "this image is single scattering (render with --spectral, or run nebscatter "
+                 "without --spectral to add one)");
+    }
+    detail::warnUnusedLevels(input, opts, input.rgbField, run);
+}
+
+std::string describeFast(const RenderOptions& opts, const SpectralScene& scene)
+{
+    const RenderScene& rgb = scene.base;
+    if (!rgb.scatter.description.empty()) return "single scattering + " + rgb.scatter.description;
+    if (!opts.phaseTable) return "single-scattering";
+    return std::string("effective phase function (") +
+           (opts.phaseUse == PhaseUse::Gain ? "gain" : "replace") + "), levels " +
+           std::to_string(rgb.levels.size());
+}
+
+} // namespace
+
+namespace detail {
+
+const IntegratorType& fastIntegrator()
+{
+    static const IntegratorType type = [] {
+        IntegratorType t;
+        t.name = "fast";
+        t.chosenBy = "--integrator fast";
+        t.doc = "ray caster (single scattering, or --phase)";
+        t.options = {"--step",
+                     "--lod",
+                     "--phase",
+                     "--phase-use",
+                     "--levels",
+                     "--phase-ignore-dust",
+                     "--interpolated-tau",
+                     "--no-scatter-field"};
+        t.calibrated = true;
+        t.comment = "nebula ray-cast render (DESIGN sections 3-4); linear radiance";
+        t.validate = detail::requireTableForLevels;
+        t.checkInput = checkFastInput;
+        t.render = [](const SpectralScene& scene, const RenderOptions& opts, const Run* run,
+                      RenderStats* stats) { return renderFrame(scene.base, opts, run, stats); };
+        t.describe = describeFast;
+        return t;
+    }();
+    return type;
+}
+
+} // namespace detail
 
 } // namespace nebula

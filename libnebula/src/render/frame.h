@@ -5,9 +5,12 @@
 /// standard layers, and the parallel loop over bands of rows that owns the threads, the
 /// progress bar and the statistics, so an integrator only says what one band of rows does.
 
+#include "nebula/core/error.h"
 #include "nebula/core/memory.h"
 #include "nebula/core/run.h"
 #include "nebula/io/image.h"
+#include "nebula/render/frame_layers.h"
+#include "nebula/render/integrator.h"
 #include "nebula/render/options.h"
 #include "nebula/render/scene.h"
 #include "nebula/render/sprites.h"
@@ -36,21 +39,30 @@ inline void requireFrameMemory(const RenderOptions& opts, int width, int height,
     if (opts.drawStars) requireSpriteMemory(opts);
 }
 
-/// The standard layers, in this order: "star.<name>" per star (0), "transmittance" (1),
-/// then each of @p extra (0); after the beauty R,G,B,A (0). @p channels: how many single
-/// channels the caller adds, for the memory check (requireFrameMemory()) done first.
-inline Image frameImage(const RenderScene& scene, const RenderOptions& opts,
+/// The standard layers of frameImage(), looked up once per frame: what an integrator
+/// writes through per pixel.
+struct FrameLayers
+{
+    std::vector<LayerId> stars; ///< starLayerName() of each of the scene's stars, in order
+    LayerId transmittance;      ///< TRANSMITTANCE_LAYER
+};
+
+/// The standard layers, in this order: starLayerName() per star (0), TRANSMITTANCE_LAYER (1),
+/// then each of @p extra (0), whose ids the caller finds by name; after the beauty R,G,B,A
+/// (0). @p ids: the standard layers. @p channels: how many single channels the caller adds,
+/// for the memory check (requireFrameMemory()) done first.
+inline Image frameImage(const RenderScene& scene, const RenderOptions& opts, FrameLayers& ids,
                         const std::vector<std::string>& extra = {}, std::size_t channels = 0)
 {
     const int width = opts.camera.width, height = opts.camera.height;
     requireFrameMemory(opts, width, height, scene.stars.size() + 1 + extra.size(), channels);
     Image img(width, height);
-    const std::size_t n = std::size_t(width) * height * 3;
+    ids.stars.clear();
     for (const auto& s : scene.stars)
-        img.layers.push_back({"star." + s.name, std::vector<float>(n, 0.0f)});
-    img.layers.push_back({"transmittance", std::vector<float>(n, 1.0f)});
+        ids.stars.push_back(img.addLayer(starLayerName(s.name)));
+    ids.transmittance = img.addLayer(TRANSMITTANCE_LAYER, 1.0f);
     for (const auto& name : extra)
-        img.layers.push_back({name, std::vector<float>(n, 0.0f)});
+        img.addLayer(name);
     const Projection projection(opts.camera);
     if (!projection.coversImage()) { // a fisheye's corners outside the circle
         img.inView.resize(std::size_t(width) * height);
@@ -60,6 +72,21 @@ inline Image frameImage(const RenderScene& scene, const RenderOptions& opts,
     }
     return img;
 }
+
+/// Refuses --levels without a phase table (the fast integrator and its spectral mode): each
+/// level adds the change of the per-voxel scattering Phi.
+inline void requireTableForLevels(const RenderOptions& opts)
+{
+    if (opts.levels > 0 && !opts.phaseTable) {
+        throw UsageError("--levels needs a phase table (--phase): each level adds the change "
+                         "of the per-voxel scattering Phi as the voxel doubles");
+    }
+}
+
+/// Warns that @p input's pyramid levels go unused: without a phase table, --levels or the
+/// RGB scattered-light @p field (the fast integrator and the path tracer). In integrator.cpp.
+void warnUnusedLevels(const IntegratorInput& input, const RenderOptions& opts, bool field,
+                      const Run& run);
 
 /// Runs @p band(y0, y1, stats) for bands of rows [y0, y1) of an image @p height rows high,
 /// in parallel (bands of at least @p grain rows), with a progress bar labelled @p label

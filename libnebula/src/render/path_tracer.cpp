@@ -282,13 +282,13 @@ Image renderPathTraced(const RenderScene& scene, const RenderOptions& opts, cons
     const std::size_t S = scene.stars.size();
     const PathScene ps = buildPathScene(scene, opts);
 
-    Image img = detail::frameImage(scene, opts, {"variance"}, 1);
-    ImageLayer& transLayer = img.layers[S];
-    ImageLayer& varLayer = img.layers[S + 1];
+    detail::FrameLayers ids;
+    Image img = detail::frameImage(scene, opts, ids, {VARIANCE_LAYER}, 1);
+    std::vector<float>& transLayer = img.rgb(ids.transmittance);
+    std::vector<float>& varLayer = img.rgb(img.layerId(VARIANCE_LAYER));
     // The luminance's own variance: one walk carries all three channels, so their noise is
     // correlated and the Y variance is not the weighted sum of theirs.
-    img.channels.push_back({"variance.Y", std::vector<float>(std::size_t(W) * H, 0.0f)});
-    std::vector<float>& varY = img.channels.back().values;
+    std::vector<float>& varY = img.values(img.addChannel(std::string(VARIANCE_LAYER) + ".Y"));
 
     // Grey dust (equal extinction ratios): one walk serves all three channels; coloured dust:
     // one spectrally tracked walk against the most extinguished channel's majorant.
@@ -331,10 +331,10 @@ Image renderPathTraced(const RenderScene& scene, const RenderOptions& opts, cons
                     const double n = opts.spp;
                     for (int c = 0; c < 3; ++c) {
                         img.rgba[pix * 4 + c] = float(mean[c]);
-                        transLayer.rgb[pix * 3 + c] = float(trans[c] / n);
-                        varLayer.rgb[pix * 3 + c] = n > 1 ? float(m2[c] / (n - 1) / n) : 0.0f;
+                        transLayer[pix * 3 + c] = float(trans[c] / n);
+                        varLayer[pix * 3 + c] = n > 1 ? float(m2[c] / (n - 1) / n) : 0.0f;
                         for (std::size_t s = 0; s < S; ++s) {
-                            img.layers[s].rgb[pix * 3 + c] = float(starSum[s * 3 + c] / n);
+                            img.rgb(ids.stars[s])[pix * 3 + c] = float(starSum[s * 3 + c] / n);
                         }
                     }
                     varY[pix] = n > 1 ? float(m2[3] / (n - 1) / n) : 0.0f;
@@ -346,5 +346,71 @@ Image renderPathTraced(const RenderScene& scene, const RenderOptions& opts, cons
     if (opts.drawStars) drawStarSprites(img, scene, opts);
     return img;
 }
+
+namespace {
+
+/// The path tracer simulates every order of scattering itself: no phase table, no levels.
+void validatePath(const RenderOptions& opts)
+{
+    requirePathWalks(opts);
+    if (opts.levels > 0) {
+        throw UsageError("--levels is for the fast integrator; --integrator path simulates "
+                         "multiple scattering itself");
+    }
+    if (opts.phaseTable) {
+        throw UsageError("--phase is for the fast integrator; --integrator path simulates "
+                         "multiple scattering itself");
+    }
+}
+
+void checkPathInput(const IntegratorInput& input, const RenderOptions& opts, const Run& run)
+{
+    if (input.rgbField || input.spectralField) {
+        run.warn(input.source +
+                 " has a scattered-light field (nebscatter), which --integrator "
+                 "path does not need: it simulates every order of scattering itself");
+    }
+    detail::warnUnusedLevels(input, opts, input.rgbField, run);
+}
+
+void reportPath(const RenderOptions&, const SpectralScene&, const RenderStats& stats,
+                double seconds, const Run& run)
+{
+    run.info(fmt::format("path tracing: {} walks, {} tentative collisions, {:.4g} ns wall "
+                         "per walk",
+                         stats.paths, stats.collisions,
+                         1e9 * seconds / double(std::max<std::uint64_t>(stats.paths, 1))));
+}
+
+} // namespace
+
+namespace detail {
+
+const IntegratorType& pathIntegrator()
+{
+    static const IntegratorType type = [] {
+        IntegratorType t;
+        t.name = "path";
+        t.chosenBy = "--integrator path";
+        t.doc = "reference Monte Carlo path tracer, all orders of scattering (--spp, --seed)";
+        t.options = {"--spp", "--seed"};
+        t.comment = "nebula reference path-traced render (DESIGN section 6); linear radiance";
+        t.validate = validatePath;
+        t.checkInput = checkPathInput;
+        t.render = [](const SpectralScene& scene, const RenderOptions& opts, const Run* run,
+                      RenderStats* stats) {
+            return renderPathTraced(scene.base, opts, run, stats);
+        };
+        t.describe = [](const RenderOptions& opts, const SpectralScene&) {
+            return "path tracing (reference), spp " + std::to_string(opts.spp) + ", seed " +
+                   std::to_string(opts.seed);
+        };
+        t.report = reportPath;
+        return t;
+    }();
+    return type;
+}
+
+} // namespace detail
 
 } // namespace nebula

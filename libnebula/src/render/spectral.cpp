@@ -25,6 +25,7 @@
 #include "nebula/physics/blackbody.h"
 #include "nebula/physics/colour.h"
 #include "nebula/physics/spherical_harmonics.h"
+#include "nebula/render/integrator.h"
 #include "nebula/render/sprites.h"
 #include "nebula/render/star_depth.h"
 
@@ -35,6 +36,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <iterator>
 #include <limits>
 #include <optional>
 #include <utility>
@@ -139,6 +141,15 @@ struct ContinuumNodes
     std::size_t size() const { return lam.size(); }
 };
 
+/// The layers and channels a frame's pixels are written to, looked up once per frame.
+struct SpectralLayers
+{
+    detail::FrameLayers frame;
+    std::vector<ChannelId> bands; ///< the spectral layers' channels, per band
+    /// With componentLayers, per band: the channels of SPECTRAL_COMPONENTS.
+    std::vector<ChannelId> direct, single, field, emission;
+};
+
 /// What one band of rows keeps (reused from pixel to pixel).
 struct SpectralScratch
 {
@@ -193,7 +204,6 @@ public:
     }
 
     int layers() const { return mSo.layers; }
-    double layerWidth() const { return mLayerWidth; }
 
     SpectralScratch scratch() const
     {
@@ -213,8 +223,9 @@ public:
         return sc;
     }
 
-    /// Renders pixel (px, py) into @p img.
-    void renderPixel(int px, int py, SpectralScratch& sc, Image& img) const
+    /// Renders pixel (px, py) into @p img's beauty and its layers and channels @p ids.
+    void renderPixel(int px, int py, SpectralScratch& sc, Image& img,
+                     const SpectralLayers& ids) const
     {
         SpectralRay ray;
         if (!mCam.direction(px + 0.5, py + 0.5, ray.dW)) return; // outside the view: black
@@ -235,12 +246,12 @@ public:
         sc.stats.rays += mLevel0.marchFrom(
             mLevel0.w2i.apply(ray.oW), ray.dW, mOpts.step,
             [&](const Vec3& pI, double tm, double seg) { return step(pI, tm, seg, ray, sc); });
-        writePixel(std::size_t(py) * img.width + px, ray, sc, img);
+        writePixel(std::size_t(py) * img.width + px, ray, sc, img, ids);
     }
 
     /// Adds each star's sprite: its attenuated spectrum's colour, and its share of every
-    /// spectral layer.
-    void drawSprites(Image& img) const
+    /// spectral layer (@p ids).
+    void drawSprites(Image& img, const SpectralLayers& ids) const
     {
         const std::size_t S = mRs.stars.size(), J = mNodes.size();
         const int NL = mSo.layers;
@@ -260,9 +271,9 @@ public:
                     for (std::size_t j = j0; j < j1; ++j) {
                         v += mLayerOfNode[std::size_t(b) * J + j] * att[s * J + j];
                     }
-                    img.channels[std::size_t(b)].values[pix] += float(v * factor);
-                    if (mOpts.componentLayers) // SPECTRAL_COMPONENTS[0]: direct
-                        img.channels[std::size_t(NL + b)].values[pix] += float(v * factor);
+                    img.values(ids.bands[std::size_t(b)])[pix] += float(v * factor);
+                    if (mOpts.componentLayers)
+                        img.values(ids.direct[std::size_t(b)])[pix] += float(v * factor);
                 }
             });
     }
@@ -543,7 +554,8 @@ private:
 
     /// The pixel's colour (continuum per star and gas, plus the lines), transmittance,
     /// spectral layers and (countPieces) its spectrum's piece count.
-    void writePixel(std::size_t pix, const SpectralRay& ray, SpectralScratch& sc, Image& img) const
+    void writePixel(std::size_t pix, const SpectralRay& ray, SpectralScratch& sc, Image& img,
+                    const SpectralLayers& ids) const
     {
         const std::size_t S = mRs.stars.size(), J = mNodes.size();
         const int NL = mSo.layers;
@@ -553,7 +565,7 @@ private:
             const auto rgb = xyzToLinearSRGB(xyz);
             for (int c = 0; c < 3; ++c) {
                 total[std::size_t(c)] += xyz[std::size_t(c)];
-                img.layers[s].rgb[pix * 3 + std::size_t(c)] = float(rgb[std::size_t(c)]);
+                img.rgb(ids.frame.stars[s])[pix * 3 + std::size_t(c)] = float(rgb[std::size_t(c)]);
             }
         }
         const XYZ gas = nodesToXYZ(sc.Cgas.data(), mNodes.weight);
@@ -561,11 +573,10 @@ private:
         for (int c = 0; c < 3; ++c)
             total[std::size_t(c)] += gas[std::size_t(c)] + field[std::size_t(c)];
         const auto rgb = xyzToLinearSRGB(total);
-        ImageLayer& transLayer = img.layers[S];
+        std::vector<float>& trans = img.rgb(ids.frame.transmittance);
         for (int c = 0; c < 3; ++c) {
             img.rgba[pix * 4 + std::size_t(c)] = float(rgb[std::size_t(c)]);
-            transLayer.rgb[pix * 3 + std::size_t(c)] =
-                float(std::exp(-ray.tau * mRChannel[std::size_t(c)]));
+            trans[pix * 3 + std::size_t(c)] = float(std::exp(-ray.tau * mRChannel[std::size_t(c)]));
         }
         img.rgba[pix * 4 + 3] = float(1.0 - std::exp(-ray.tau * mRChannel[1]));
         if (NL > 0 || mSo.countPieces) {
@@ -582,18 +593,18 @@ private:
             double v = sc.layerAcc[std::size_t(b)];
             for (std::size_t j = j0; j < j1; ++j)
                 v += weight[j] * sc.Ctotal[j];
-            img.channels[std::size_t(b)].values[pix] = float(v);
+            img.values(ids.bands[std::size_t(b)])[pix] = float(v);
             if (!mOpts.componentLayers) continue;
-            // SPECTRAL_COMPONENTS after the sprites' "direct": single, field, emission.
+            // The components besides the sprites' "direct".
             double single = 0.0, field = 0.0, emission = sc.layerAcc[std::size_t(b)];
             for (std::size_t j = j0; j < j1; ++j) {
                 single += weight[j] * (sc.Ctotal[j] - sc.Cgas[j] - sc.Cfield[j]); // the stars'
                 field += weight[j] * sc.Cfield[j];
                 emission += weight[j] * sc.Cgas[j];
             }
-            img.channels[std::size_t(2 * NL + b)].values[pix] = float(single);
-            img.channels[std::size_t(3 * NL + b)].values[pix] = float(field);
-            img.channels[std::size_t(4 * NL + b)].values[pix] = float(emission);
+            img.values(ids.single[std::size_t(b)])[pix] = float(single);
+            img.values(ids.field[std::size_t(b)])[pix] = float(field);
+            img.values(ids.emission[std::size_t(b)])[pix] = float(emission);
         }
         if (mSo.countPieces && !mNodes.bandsMode) countPieces(sc);
         sc.stats.pieces += mNodes.bandsMode ? 0 : J - 1;
@@ -657,6 +668,13 @@ private:
 
 } // namespace
 
+std::string spectralChannelName(std::size_t band, std::size_t bands, const std::string& component)
+{
+    const double width = (SPECTRAL_MAX_NM - SPECTRAL_MIN_NM) / double(bands);
+    const std::string name = bandName(SPECTRAL_MIN_NM + (double(band) + 0.5) * width);
+    return component.empty() ? name : component + "." + name;
+}
+
 Image renderSpectral(const SpectralScene& scene, const RenderOptions& opts, const Run* run,
                      RenderStats* stats)
 {
@@ -669,26 +687,29 @@ Image renderSpectral(const SpectralScene& scene, const RenderOptions& opts, cons
     if (opts.componentLayers && NL == 0) {
         throw UsageError("the spectral components need spectral layers (--spectral-layers)");
     }
-    Image img = detail::frameImage(scene.base, opts, {}, NL * parts);
-    for (std::size_t k = 0; k < parts; ++k)
+    SpectralLayers ids;
+    Image img = detail::frameImage(scene.base, opts, ids.frame, {}, NL * parts);
+    // The bands, then (componentLayers) the same bands of each of SPECTRAL_COMPONENTS.
+    std::vector<ChannelId>* components[] = {&ids.direct, &ids.single, &ids.field, &ids.emission};
+    static_assert(std::size(components) == SPECTRAL_COMPONENT_COUNT);
+    for (std::size_t b = 0; b < NL; ++b)
+        ids.bands.push_back(img.addChannel(spectralChannelName(b, NL)));
+    for (std::size_t k = 1; k < parts; ++k)
         for (std::size_t b = 0; b < NL; ++b) {
-            const std::string band =
-                bandName(SPECTRAL_MIN_NM + (double(b) + 0.5) * integrator.layerWidth());
-            img.channels.push_back(
-                {k == 0 ? band : std::string(SPECTRAL_COMPONENTS[k - 1]) + "." + band,
-                 std::vector<float>(std::size_t(view.width) * view.height, 0.0f)});
+            components[k - 1]->push_back(
+                img.addChannel(spectralChannelName(b, NL, SPECTRAL_COMPONENTS[k - 1])));
         }
     detail::forEachRowBand(view.height, 4, run, "nebrender", stats,
                            [&](int y0, int y1, RenderStats& band) {
                                SpectralScratch sc = integrator.scratch();
                                for (int py = y0; py < y1; ++py) {
                                    for (int px = 0; px < view.width; ++px) {
-                                       integrator.renderPixel(px, py, sc, img);
+                                       integrator.renderPixel(px, py, sc, img, ids);
                                    }
                                }
                                band = sc.stats;
                            });
-    if (opts.drawStars) integrator.drawSprites(img);
+    if (opts.drawStars) integrator.drawSprites(img, ids);
     return img;
 }
 
@@ -727,5 +748,92 @@ void validateSpectralOptions(const RenderOptions& opts)
     }
     if (so.layers < 0 || so.layers > 470) throw UsageError("--spectral-layers must be in [0, 470]");
 }
+
+namespace {
+
+void checkSpectralInput(const IntegratorInput& input, const RenderOptions&, const Run& run)
+{
+    if (input.rgbField && !input.spectralField) {
+        run.warn(input.source +
+                 " has an R, G, B scattered-light field but no spectral one, "
+                 "which --spectral needs: this image is single scattering (nebscatter "
+                 "--spectral 6 adds one)");
+    }
+}
+
+std::string describeSpectral(const RenderOptions& opts, const SpectralScene& scene)
+{
+    const SpectralOptions& so = opts.spectral;
+    const std::string& field = scene.base.scatter.description;
+    return (so.bands > 0 ? "spectral, " + std::to_string(so.bands) + " fixed bands"
+                         : std::string("spectral, piecewise-linear")) +
+           ", exaggerate-velocity " + std::to_string(so.exaggerateVelocity) +
+           (so.relativistic ? ", relativistic Doppler" : ", first-order Doppler") +
+           (field.empty() ? std::string() : ", single scattering + " + field);
+}
+
+void reportSpectral(const RenderOptions& opts, const SpectralScene& scene, const RenderStats& stats,
+                    double, const Run& run)
+{
+    const SpectralOptions& so = opts.spectral;
+    const double rays = double(std::max<std::uint64_t>(stats.rays, 1));
+    run.info(fmt::format("spectral: {}, {} emission grid(s), {} linear pieces projected "
+                         "({:.6g} per ray)",
+                         so.bands > 0 ? fmt::format("{} fixed bands", so.bands)
+                                      : std::string("piecewise-linear"),
+                         scene.emitters.size(), stats.pieces, double(stats.pieces) / rays));
+    if (so.countPieces && so.bands == 0) {
+        run.info(fmt::format("spectral: the rays' spectra have {:.6g} pieces on average "
+                             "(largest {}), {:.6g} after merging at tolerance {}",
+                             double(stats.spectrumPieces) / rays, stats.maxSpectrumPieces,
+                             double(stats.mergedPieces) / rays, so.mergeTolerance));
+    }
+}
+
+} // namespace
+
+namespace detail {
+
+const IntegratorType& spectralIntegrator()
+{
+    static const IntegratorType type = [] {
+        IntegratorType t;
+        t.name = "spectral";
+        t.chosenBy = "--spectral";
+        t.doc = "the fast integrator with spectra along each ray instead of three channels: "
+                "piecewise-linear (exact Doppler trapezoids), or --bands";
+        t.options = {"--spectral",
+                     "--bands",
+                     "--continuum-step",
+                     "--exaggerate-velocity",
+                     "--relativistic",
+                     "--line-width",
+                     "--lines",
+                     "--blackbody-scale",
+                     "--temperature-scale",
+                     "--temperature-grid",
+                     "--velocity-grid",
+                     "--spectral-layers",
+                     "--count-pieces",
+                     "--merge-tolerance",
+                     "--step",
+                     "--interpolated-tau",
+                     "--no-scatter-field"};
+        t.calibrated = true;
+        t.comment =
+            "nebula spectral ray-cast render (DESIGN section 7); linear sRGB of CIE 1931 XYZ";
+        // As the fast integrator's; the spectral checks are buildSpectralScene()'s.
+        t.validate = requireTableForLevels;
+        t.checkInput = checkSpectralInput;
+        t.render = [](const SpectralScene& scene, const RenderOptions& opts, const Run* run,
+                      RenderStats* stats) { return renderSpectral(scene, opts, run, stats); };
+        t.describe = describeSpectral;
+        t.report = reportSpectral;
+        return t;
+    }();
+    return type;
+}
+
+} // namespace detail
 
 } // namespace nebula

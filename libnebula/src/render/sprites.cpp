@@ -6,6 +6,7 @@
 #include "nebula/core/memory.h"
 #include "nebula/core/units.h"
 #include "nebula/physics/optical_depth.h"
+#include "nebula/render/frame_layers.h"
 
 #include <fmt/format.h>
 
@@ -55,6 +56,9 @@ void drawStarSprites(Image& img, const RenderScene& scene, const RenderOptions& 
         // Column density eye -> star through the dust (channel 0), exact; the scene's
         // integrator (its cell occupancy built once per scene).
         const ColumnIntegrator& column = scene.column.get(vol);
+        std::vector<LayerId> starLayer; // each star's own layer
+        for (const auto& s : scene.stars)
+            starLayer.push_back(img.layerId(starLayerName(s.name)));
         for (std::size_t s = 0; s < S; ++s)
             for (int view = 0; view < cam.views(); ++view) { // ODS: each eye
                 double sx, sy;
@@ -98,7 +102,7 @@ void drawStarSprites(Image& img, const RenderScene& scene, const RenderOptions& 
                         for (int c = 0; c < 3; ++c) {
                             const float Lpix = float(F[std::size_t(c)] * w[wi] / wsum / omega);
                             img.rgba[pix * 4 + c] += Lpix;
-                            img.layers[s].rgb[pix * 3 + c] += Lpix;
+                            img.rgb(starLayer[s])[pix * 3 + c] += Lpix;
                             if (direct) (*direct)[pix * 3 + c] += Lpix;
                         }
                     }

@@ -81,28 +81,17 @@ nlohmann::json keptWcs(const nlohmann::json& record, const std::array<double, 3>
 
 } // namespace
 
-CubeCost cubeCost(CubeFormat format, const std::array<std::int64_t, 3>& dims, double headerBytes)
+CubeCost cubeCost(const CubeFormat& format, const std::array<std::int64_t, 3>& dims,
+                  double headerBytes)
 {
     CubeCost c;
     c.voxels = double(dims[0]) * double(dims[1]) * double(dims[2]);
     const double data = 4.0 * c.voxels;
     c.fileBytes = data + headerBytes;
-    switch (format) {
-    case CubeFormat::Fits:
-        // The file in memory (cfitsio's), and one z plane.
-        c.memoryBytes = c.fileBytes + 4.0 * double(dims[0]) * double(dims[1]);
-        c.memoryUse = "the FITS file is built in memory";
-        break;
-    case CubeFormat::Hdf5:
-        // The file in memory (HDF5's core driver), its copy handed to the writer, one x plane.
-        c.memoryBytes = 2.0 * c.fileBytes + 4.0 * double(dims[1]) * double(dims[2]);
-        c.memoryUse = "the HDF5 file is built in memory and copied out";
-        break;
-    default:
-        // Streamed: one z plane at a time.
-        c.memoryBytes = 4.0 * double(dims[0]) * double(dims[1]);
-        c.memoryUse = "one z plane of the .npy stream";
-        break;
+    if (format.writerMemory) {
+        const WriterMemory m = format.writerMemory(dims, c.fileBytes);
+        c.memoryBytes = m.bytes;
+        c.memoryUse = m.use;
     }
     return c;
 }
@@ -187,11 +176,13 @@ std::string cubeUnit(const openvdb::GridBase& grid)
 void exportCube(const GridSet& grids, const ExportOptions& opts, const Run& run)
 {
     opts.validate();
-    const auto format = opts.format ? opts.format : cubeFormatOf(opts.output);
-    if (!format || *format == CubeFormat::Radmc) {
-        throw UsageError(
-            "-o " + opts.output +
-            ": cannot tell the format from the name (.fits, .npy, .h5); give --format");
+    const CubeFormat* format = opts.format ? opts.format : cubeFormatOf(opts.output);
+    if (!format || !format->write) {
+        std::string hints;
+        for (const CubeFormat* f : cubeFormats())
+            if (f->write) hints += (hints.empty() ? "" : ", ") + f->hint;
+        throw UsageError("-o " + opts.output + ": cannot tell the format from the name (" + hints +
+                         "); give --format");
     }
     const auto grid = grids.floatGrid(opts.grid, "--grid");
     const auto box = exportBox(*grid, opts.bbox);

@@ -5,6 +5,7 @@
 #include "nebula/core/format.h"
 #include "nebula/core/units.h"
 #include "nebula/render/camera_model.h"
+#include "nebula/render/frame_layers.h"
 #include "nebula/render/spectral.h"
 
 #include <fmt/format.h>
@@ -176,9 +177,9 @@ public:
         if (!mSpectral) {
             for (std::size_t c = 0; c < 3; ++c)
                 mLambda.push_back(opts.wavelengths[c]);
-            mField = &layer("field", what);
-            mEmission = &layer("emission", what);
-            mDirect = &layer("direct", what);
+            mField = &layer(FIELD_LAYER, what);
+            mEmission = &layer(EMISSION_LAYER, what);
+            mDirect = &layer(DIRECT_LAYER, what);
             return;
         }
         mLayers = std::size_t(std::max(opts.spectral.layers, 0));
@@ -186,9 +187,15 @@ public:
             (SPECTRAL_MAX_NM - SPECTRAL_MIN_NM) / double(std::max<std::size_t>(mLayers, 1));
         for (std::size_t b = 0; b < mLayers; ++b)
             mLambda.push_back(SPECTRAL_MIN_NM + (double(b) + 0.5) * width);
-        if (mLayers == 0 || image.channels.size() != mLayers * (1 + SPECTRAL_COMPONENT_COUNT)) {
-            throw Error(what + ": the spectral render has no component channels");
-        }
+        if (mLayers == 0) throw Error(what + ": the spectral render has no component channels");
+        // Per component (the total, then SPECTRAL_COMPONENTS) and band, its channel.
+        for (std::size_t i = 0; i <= SPECTRAL_COMPONENT_COUNT; ++i)
+            for (std::size_t b = 0; b < mLayers; ++b) {
+                const auto id = image.findChannel(
+                    spectralChannelName(b, mLayers, i == 0 ? "" : SPECTRAL_COMPONENTS[i - 1]));
+                if (!id) throw Error(what + ": the spectral render has no component channels");
+                mChannels.push_back(&image.values(*id));
+            }
     }
 
     bool spectral() const { return mSpectral; }
@@ -203,9 +210,7 @@ public:
     double at(int part, std::size_t p, std::size_t k) const
     {
         if (mSpectral) {
-            const auto ch = [&](std::size_t i) {
-                return double(mImg.channels[i * mLayers + k].values[p]);
-            };
+            const auto ch = [&](std::size_t i) { return double((*mChannels[i * mLayers + k])[p]); };
             switch (part) { // channels: total, then SPECTRAL_COMPONENTS
             case Total: return ch(0);
             case Direct: return ch(1);
@@ -231,8 +236,7 @@ public:
 private:
     const std::vector<float>& layer(const std::string& name, const std::string& what) const
     {
-        for (const auto& l : mImg.layers)
-            if (l.name == name) return l.rgb;
+        if (const auto id = mImg.findLayer(name)) return mImg.rgb(*id);
         throw Error(what + ": the render has no component layer \"" + name + "\"");
     }
 
@@ -240,6 +244,9 @@ private:
     bool mSpectral;
     std::vector<double> mLambda; ///< each sample's wavelength [nm]
     std::size_t mLayers = 0;     ///< spectral mode: N
+    /// Spectral mode: the channel of each component (the total, then SPECTRAL_COMPONENTS)
+    /// and band, [component * N + band].
+    std::vector<const std::vector<float>*> mChannels;
     const std::vector<float>* mField = nullptr;
     const std::vector<float>* mEmission = nullptr;
     const std::vector<float>* mDirect = nullptr;

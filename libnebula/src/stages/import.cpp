@@ -381,9 +381,8 @@ std::unique_ptr<CubeSource> openSide(const std::string& text, const std::string&
     CubeSelect sel;
     sel.option = option;
     sel.component = component;
-    const auto format = cubeFormatOf(file);
-    if (format == CubeFormat::Fits) sel.hdu = selector;
-    if (format == CubeFormat::Hdf5) sel.dataset = selector;
+    const CubeFormat* format = cubeFormatOf(file);
+    if (format && format->selector) sel.*(format->selector) = selector;
     auto cube = openCube(file, sel);
     if (cube->info().dims != dims) {
         const auto& d = cube->info().dims;
@@ -618,8 +617,7 @@ GridSet importCube(const ImportOptions& opts, const Run& run)
     const double factor = densityToNH(unit, opts.mu, opts.dustToGas);
     nlohmann::json record;
     record["source"] = opts.input;
-    record["format"] =
-        cubeFormatName(opts.select.format ? *opts.select.format : *cubeFormatOf(opts.input));
+    record["format"] = (opts.select.format ? opts.select.format : cubeFormatOf(opts.input))->name;
     record["unit"] = densityUnitName(unit);
     record["to_n_H"] = factor;
     record["dims"] = info.dims;

@@ -9,8 +9,8 @@
 #include "nebula/io/grid_names.h"
 #include "nebula/io/image_check.h"
 #include "nebula/render/camera_model.h"
-#include "nebula/render/fast.h"
-#include "nebula/render/path_tracer.h"
+#include "nebula/render/frame_layers.h"
+#include "nebula/render/integrator.h"
 #include "nebula/render/spectral.h"
 #include "nebula/stages/scene_assembly.h"
 
@@ -48,80 +48,30 @@ std::string pngPath(const RenderOutput& out)
 
 namespace {
 
-/// Refuses combinations the integrators cannot honour, and warns about pyramid levels that
-/// no phase table will use.
-void checkIntegratorOptions(const GridSet& grids, const RenderOptions& opts, const Run& run)
+/// Refuses what @p integrator cannot honour, and has it warn about what in the input it
+/// will not use.
+void checkIntegrator(const IntegratorType& integrator, const GridSet& grids,
+                     const RenderOptions& opts, const Run& run)
 {
-    const bool path = opts.integrator == Integrator::Path;
-    if (path) requirePathWalks(opts);
-    if (path && opts.levels > 0) {
-        throw UsageError("--levels is for the fast integrator; --integrator path simulates "
-                         "multiple scattering itself");
-    }
-    if (opts.levels > 0 && !opts.phaseTable && !path) {
-        throw UsageError("--levels needs a phase table (--phase): each level adds the change "
-                         "of the per-voxel scattering Phi as the voxel doubles");
-    }
-    const bool spectral = opts.spectral.enabled;
-    const bool rgbField = opts.scatterField && !grids.metaString(META_SCATTER).empty();
-    const bool spectralField =
-        opts.scatterField && !grids.metaString(META_SCATTER_SPECTRAL).empty();
-    const bool field = spectral ? spectralField : rgbField;
-    if ((rgbField || spectralField) && path) {
-        run.warn(grids.source +
-                 " has a scattered-light field (nebscatter), which --integrator "
-                 "path does not need: it simulates every order of scattering itself");
-    } else if (spectral && rgbField && !spectralField) {
-        run.warn(grids.source +
-                 " has an R, G, B scattered-light field but no spectral one, "
-                 "which --spectral needs: this image is single scattering (nebscatter "
-                 "--spectral 6 adds one)");
-    } else if (!spectral && spectralField && !rgbField) {
-        run.warn(grids.source +
-                 " has a spectral scattered-light field but no R, G, B one: "
-                 "this image is single scattering (render with --spectral, or run nebscatter "
-                 "without --spectral to add one)");
-    }
-    if (opts.levels < 0 && !opts.phaseTable && !opts.spectral.enabled && !field &&
-        grids.find(levelGridName(opts.densityGrid, 1))) {
-        run.warn(grids.source + " has pyramid levels (" + levelGridName(opts.densityGrid, 1) +
-                 ", ...), which only a phase table uses: this image is single scattering. "
-                 "Pass --phase (nebphase -i " +
-                 grids.source + " -o phase.vdb) to use them, or --levels 0 to say you mean it");
-    }
-    if (path && opts.phaseTable) {
-        throw UsageError("--phase is for the fast integrator; --integrator path simulates "
-                         "multiple scattering itself");
-    }
+    integrator.validate(opts);
+    IntegratorInput input;
+    input.source = grids.source;
+    input.rgbField = opts.scatterField && !grids.metaString(META_SCATTER).empty();
+    input.spectralField = opts.scatterField && !grids.metaString(META_SCATTER_SPECTRAL).empty();
+    const std::string level = levelGridName(opts.densityGrid, 1);
+    if (grids.find(level)) input.pyramidLevel = level;
+    integrator.checkInput(input, opts, run);
 }
 
 /// What the render did, under -v; a warning if the phase table was too short.
-void reportStats(const RenderOptions& opts, const SpectralScene& sscene, const RenderStats& stats,
-                 double tBuild, double tRender, const Run& run)
+void reportStats(const IntegratorType& integrator, const RenderOptions& opts,
+                 const SpectralScene& sscene, const RenderStats& stats, double tBuild,
+                 double tRender, const Run& run)
 {
     const auto perItem = [](double seconds, std::uint64_t n) {
         return 1e9 * seconds / double(std::max<std::uint64_t>(n, 1));
     };
-    const double rays = double(std::max<std::uint64_t>(stats.rays, 1));
-    if (opts.integrator == Integrator::Path) {
-        run.info(fmt::format("path tracing: {} walks, {} tentative collisions, {:.4g} ns wall "
-                             "per walk",
-                             stats.paths, stats.collisions, perItem(tRender, stats.paths)));
-    }
-    if (opts.spectral.enabled) {
-        run.info(fmt::format("spectral: {}, {} emission grid(s), {} linear pieces projected "
-                             "({:.6g} per ray)",
-                             opts.spectral.bands > 0
-                                 ? fmt::format("{} fixed bands", opts.spectral.bands)
-                                 : std::string("piecewise-linear"),
-                             sscene.emitters.size(), stats.pieces, double(stats.pieces) / rays));
-        if (opts.spectral.countPieces && opts.spectral.bands == 0) {
-            run.info(fmt::format("spectral: the rays' spectra have {:.6g} pieces on average "
-                                 "(largest {}), {:.6g} after merging at tolerance {}",
-                                 double(stats.spectrumPieces) / rays, stats.maxSpectrumPieces,
-                                 double(stats.mergedPieces) / rays, opts.spectral.mergeTolerance));
-        }
-    }
+    if (integrator.report) integrator.report(opts, sscene, stats, tRender, run);
     run.info(fmt::format("scene {:.3g} s, render {:.3g} s, {} rays, {} samples ({:.4g} ns wall "
                          "per sample)",
                          tBuild, tRender, stats.rays, stats.samples,
@@ -135,43 +85,21 @@ void reportStats(const RenderOptions& opts, const SpectralScene& sscene, const R
 
 /// The EXR's attributes: how it was made (tool, command, the whole history), what it holds
 /// (units, integrator), and the scene (dust, stars, camera, exposure, phase table).
-std::map<std::string, std::string> exrAttributes(const GridSet& grids, const RenderOptions& opts,
-                                                 const DustParams& dust, const RenderScene& scene,
-                                                 const ToneCurve& curve, const RenderOutput& out,
-                                                 const Run& run)
+std::map<std::string, std::string>
+exrAttributes(const IntegratorType& integrator, const GridSet& grids, const RenderOptions& opts,
+              const DustParams& dust, const SpectralScene& sscene, const ToneCurve& curve,
+              const RenderOutput& out, const Run& run)
 {
-    const bool path = opts.integrator == Integrator::Path;
-    const bool spectral = opts.spectral.enabled;
+    const RenderScene& scene = sscene.base;
     const nlohmann::json tone = {
         {"white", curve.white}, {"gamma", curve.gamma}, {"automatic", out.tone.automatic}};
     const nlohmann::json cam = cameraToJson(opts.camera);
     std::map<std::string, std::string> attrs{
-        {"comments",
-         path ? "nebula reference path-traced render (DESIGN section 6); linear radiance"
-         : spectral
-             ? "nebula spectral ray-cast render (DESIGN section 7); linear sRGB of CIE 1931 XYZ"
-             : "nebula ray-cast render (DESIGN sections 3-4); linear radiance"},
+        {"comments", integrator.comment},
         {"nebula:tool", run.tool()},
         {"nebula:version", NEBULA_VERSION_STRING},
         {"nebula:command", run.command()},
-        {"nebula:integrator",
-         path ? "path tracing (reference), spp " + std::to_string(opts.spp) + ", seed " +
-                    std::to_string(opts.seed)
-         : spectral
-             ? (opts.spectral.bands > 0
-                    ? "spectral, " + std::to_string(opts.spectral.bands) + " fixed bands"
-                    : std::string("spectral, piecewise-linear")) +
-                   ", exaggerate-velocity " + std::to_string(opts.spectral.exaggerateVelocity) +
-                   (opts.spectral.relativistic ? ", relativistic Doppler"
-                                               : ", first-order Doppler") +
-                   (scene.scatter.description.empty()
-                        ? std::string()
-                        : ", single scattering + " + scene.scatter.description)
-         : !scene.scatter.description.empty() ? "single scattering + " + scene.scatter.description
-         : opts.phaseTable                    ? std::string("effective phase function (") +
-                                 (opts.phaseUse == PhaseUse::Gain ? "gain" : "replace") +
-                                 "), levels " + std::to_string(scene.levels.size())
-                           : "single-scattering"},
+        {"nebula:integrator", integrator.describe(opts, sscene)},
         {"nebula:units", "L_sun pc^-2 sr^-1"},
         {"nebula:dust", dust.toJson()},
         {"nebula:stars", starsToJson(scene.stars)},
@@ -254,25 +182,24 @@ std::vector<FitsCard> fitsCards(const GridSet& grids, const RenderOptions& opts,
     return cards;
 }
 
-/// Renders one frame with @p opts' camera and writes its EXR and PNG, both or neither.
-void renderOneFrame(const GridSet& grids, const RenderOptions& opts, const DustParams& dust,
-                    const SpectralScene& sscene, const RenderOutput& out, const std::string& exr,
-                    const std::string& png, const std::map<std::string, std::string>& extra,
-                    std::size_t exrChannels, double tBuild, const Run& run)
+/// Renders one frame with @p integrator and @p opts' camera and writes its EXR and PNG, both or
+/// neither.
+void renderOneFrame(const IntegratorType& integrator, const GridSet& grids,
+                    const RenderOptions& opts, const DustParams& dust, const SpectralScene& sscene,
+                    const RenderOutput& out, const std::string& exr, const std::string& png,
+                    const std::map<std::string, std::string>& extra,
+                    const std::vector<std::string>& exrChannels, double tBuild, const Run& run)
 {
     const auto start = std::chrono::steady_clock::now();
     RenderStats stats;
-    Image img = opts.spectral.enabled ? renderSpectral(sscene, opts, &run, &stats)
-                : opts.integrator == Integrator::Path
-                    ? renderPathTraced(sscene.base, opts, &run, &stats)
-                    : renderFrame(sscene.base, opts, &run, &stats);
+    Image img = integrator.render(sscene, opts, &run, &stats);
     const auto done = std::chrono::steady_clock::now();
-    reportStats(opts, sscene, stats, tBuild, std::chrono::duration<double>(done - start).count(),
-                run);
+    reportStats(integrator, opts, sscene, stats, tBuild,
+                std::chrono::duration<double>(done - start).count(), run);
 
     requireFinitePixels(img, exr);
     const ToneCurve curve = computeToneCurve(img, out.tone);
-    auto attrs = exrAttributes(grids, opts, dust, sscene.base, curve, out, run);
+    auto attrs = exrAttributes(integrator, grids, opts, dust, sscene, curve, out, run);
     for (const auto& [k, v] : extra)
         attrs[k] = v;
     // What the automatic tone curve reads, so that nebtone can tone a whole sequence.
@@ -313,14 +240,12 @@ void renderOneFrame(const GridSet& grids, const RenderOptions& opts, const DustP
              "command: " + run.command()});
     }
     // The components (and layers the user did not ask for) stay out of the EXR.
-    if (opts.componentLayers) {
-        const auto component = [](const ImageLayer& l) {
-            return l.name == "field" || l.name == "emission" || l.name == "direct";
-        };
-        img.layers.erase(std::remove_if(img.layers.begin(), img.layers.end(), component),
-                         img.layers.end());
-    }
-    if (img.channels.size() > exrChannels) img.channels.resize(exrChannels);
+    if (opts.componentLayers) img.removeLayers({FIELD_LAYER, EMISSION_LAYER, DIRECT_LAYER});
+    const auto unasked = [&](const ImageChannel& c) {
+        return std::find(exrChannels.begin(), exrChannels.end(), c.name) == exrChannels.end();
+    };
+    img.channels.erase(std::remove_if(img.channels.begin(), img.channels.end(), unasked),
+                       img.channels.end());
     AtomicFile exrFile(exr);
     writeExr(exrFile, img, attrs);
     std::vector<AtomicFile*> files{&exrFile};
@@ -349,7 +274,10 @@ void renderToFiles(const GridSet& grids, const RenderOptions& given, const DustP
 {
     RenderOptions opts = given;
     // The EXR's single channels: the spectral layers asked for.
-    const std::size_t exrChannels = std::size_t(std::max(given.spectral.layers, 0));
+    std::vector<std::string> exrChannels;
+    const std::size_t asked = std::size_t(std::max(given.spectral.layers, 0));
+    for (std::size_t b = 0; b < asked; ++b)
+        exrChannels.push_back(spectralChannelName(b, asked));
     if (calibrated(out.fits)) { // calibrated light and its components
         opts.monochromatic = true;
         opts.componentLayers = true;
@@ -381,12 +309,13 @@ void renderToFiles(const GridSet& grids, const RenderOptions& given, const DustP
         checkOutputWritable(expandFramePattern(out.exr, f), "EXR");
         if (!png.empty()) checkOutputWritable(expandFramePattern(png, f), "PNG");
     }
+    const IntegratorType& integrator = chosenIntegrator(opts);
     checkFitsOutput(out.fits, opts, frames.size() > 1);
     if (calibrated(out.fits)) {
         if (!out.fits.path.empty()) checkOutputWritable(out.fits.path, "FITS");
         if (!out.fits.sed.empty()) checkOutputWritable(out.fits.sed, "SED");
         const std::string option = out.fits.path.empty() ? "--sed" : "--fits";
-        if (opts.integrator != Integrator::Fast) {
+        if (!integrator.calibrated) {
             throw UsageError(option + " needs the fast integrator (its component layers)");
         }
         if (grids.find(opts.emissionGrid) && !hasCalibratedEmission(opts)) {
@@ -395,7 +324,7 @@ void renderToFiles(const GridSet& grids, const RenderOptions& given, const DustP
                      "(--spectral calibrates it)");
         }
     }
-    checkIntegratorOptions(grids, opts, run);
+    checkIntegrator(integrator, grids, opts, run);
     // Every frame's camera, computed once and checked before the scene is built.
     std::vector<Camera> cameras(frames.size(), opts.camera);
     if (out.path) {
@@ -461,8 +390,8 @@ void renderToFiles(const GridSet& grids, const RenderOptions& given, const DustP
                          " s)");
         }
         frameOpts.camera = cameras[i];
-        renderOneFrame(grids, frameOpts, dust, sscene, out, exr, framePng, extra, exrChannels,
-                       tBuild, run);
+        renderOneFrame(integrator, grids, frameOpts, dust, sscene, out, exr, framePng, extra,
+                       exrChannels, tBuild, run);
     }
     if (skipped > 0) {
         run.info(std::to_string(skipped) + " of " + std::to_string(frames.size()) +

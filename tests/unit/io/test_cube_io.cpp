@@ -536,18 +536,67 @@ TEST_F(CubeIo, WritersRoundTrip)
                 out[v * nu + u] = float(100 * c[0] + 10 * c[1] + c[2]);
             }
     };
-    for (auto format : {CubeFormat::Fits, CubeFormat::Npy, CubeFormat::Hdf5}) {
-        const std::string name = path("out." + nebula::cubeFormatName(format));
+    for (const std::string& written : nebula::cubeFormatNames(true)) {
+        const CubeFormat& format = nebula::cubeFormat(written, "--format");
+        const std::string name = path("out." + format.name);
         nebula::writeCube(format, name, h, "/grids/density", plane);
         CubeSelect sel;
-        sel.format = format;
+        sel.format = &format;
         auto cube = nebula::openCube(name, sel);
         SCOPED_TRACE(name);
         expectCube(*cube);
-        if (format == CubeFormat::Npy) continue;
+        if (format.name == "npy") continue;
         EXPECT_EQ(cube->info().unit, "cm-3");
         ASSERT_TRUE(cube->info().geometry);
         EXPECT_EQ(cube->info().geometry->spacing, h.spacing);
         EXPECT_EQ(*cube->info().geometry->origin, h.origin);
     }
+}
+
+// The formats' registry: each found by its name and its files' names, each documented;
+// an unknown name refused with the known ones.
+TEST(CubeFormats, EachIsFoundByNameAndDocumented)
+{
+    const auto& formats = nebula::cubeFormats();
+    ASSERT_EQ(formats.size(), 4u);
+    for (const CubeFormat* f : formats) {
+        SCOPED_TRACE(f->name);
+        EXPECT_EQ(&nebula::cubeFormat(f->name, "--format"), f);
+        EXPECT_FALSE(f->title.empty());
+        EXPECT_FALSE(f->doc.empty());
+        EXPECT_FALSE(f->hint.empty());
+        EXPECT_TRUE(f->open);
+        EXPECT_EQ(bool(f->write), bool(f->fileFormat)); // a writer says what it writes
+        EXPECT_EQ(bool(f->write), bool(f->writerMemory));
+        EXPECT_TRUE(!f->endings.empty() || !f->fileNames.empty());
+    }
+    EXPECT_EQ(nebula::cubeFormatList(false), "fits, hdf5, npy or radmc");
+    EXPECT_EQ(nebula::cubeFormatList(true), "fits, hdf5 or npy");
+}
+
+TEST(CubeFormats, AnUnknownNameIsRefusedWithTheKnownOnes)
+{
+    try {
+        nebula::cubeFormat("vtk", "--format");
+        FAIL() << "no error";
+    } catch (const nebula::UsageError& e) {
+        EXPECT_STREQ(e.what(),
+                     "--format: unknown format \"vtk\" (expected fits, hdf5, npy or radmc)");
+    }
+}
+
+TEST_F(CubeIo, TheNameOrTheFolderTellsTheFormat)
+{
+    const auto of = [](const std::string& p) {
+        const CubeFormat* f = nebula::cubeFormatOf(p);
+        return f ? f->name : std::string("none");
+    };
+    EXPECT_EQ(of("a/B.FITS.gz"), "fits");
+    EXPECT_EQ(of("c.fts"), "fits");
+    EXPECT_EQ(of("sim.hdf"), "hdf5");
+    EXPECT_EQ(of("rho.npy"), "npy");
+    EXPECT_EQ(of("model/amr_grid.inp"), "radmc");
+    EXPECT_EQ(of("dust_density.binp"), "radmc");
+    EXPECT_EQ(of("notes.txt"), "none");
+    EXPECT_EQ(of(path("")), "radmc"); // a folder
 }

@@ -664,3 +664,58 @@ TEST_F(ImageTest, ChannelNamesBeyondOpenExrsLimitAreRefused)
                           "has 256 characters; OpenEXR keeps 255");
     EXPECT_FALSE(fs::exists(file("long.exr")));
 }
+
+// Named layers and channels: handles in the order added, found by name, names unique.
+TEST(ImageLayers, AddedLayersAreFoundByNameInTheirOrder)
+{
+    nebula::Image img(3, 2);
+    const nebula::LayerId a = img.addLayer("star.a");
+    const nebula::LayerId t = img.addLayer("transmittance", 1.0f);
+    const nebula::ChannelId v = img.addChannel("variance.Y");
+    ASSERT_EQ(img.layers.size(), 2u);
+    EXPECT_EQ(img.layers[0].name, "star.a");
+    EXPECT_EQ(img.layers[1].name, "transmittance");
+    EXPECT_EQ(img.rgb(a).size(), 3u * 2u * 3u);
+    EXPECT_EQ(img.rgb(t), std::vector<float>(18, 1.0f)); // filled as asked
+    EXPECT_EQ(img.values(v).size(), 6u);
+    EXPECT_EQ(img.layerId("transmittance").index, t.index);
+    EXPECT_EQ(img.channelId("variance.Y").index, v.index);
+    EXPECT_FALSE(img.findLayer("variance"));
+    EXPECT_FALSE(img.findChannel("transmittance")); // layers and channels apart
+    img.rgb(t)[4] = 0.5f;
+    EXPECT_EQ(img.rgb("transmittance")[4], 0.5f);
+}
+
+TEST(ImageLayers, DuplicateOrMissingNamesAreRefusedNamingThem)
+{
+    nebula::Image img(2, 2);
+    img.addLayer("field");
+    img.addChannel("S0.400,00nm");
+    const auto message = [](const auto& f) {
+        try {
+            f();
+        } catch (const nebula::Error& e) {
+            return std::string(e.what());
+        }
+        return std::string("no error");
+    };
+    EXPECT_NE(message([&] { img.addLayer("field"); }).find("\"field\""), std::string::npos);
+    EXPECT_NE(message([&] { img.addChannel("S0.400,00nm"); }).find("S0.400,00nm"),
+              std::string::npos);
+    EXPECT_NE(message([&] { img.layerId("direct"); }).find("no layer \"direct\""),
+              std::string::npos);
+    EXPECT_NE(message([&] { img.channelId("x"); }).find("no channel \"x\""), std::string::npos);
+}
+
+TEST(ImageLayers, RemovedLayersLeaveTheOthersInOrder)
+{
+    nebula::Image img(1, 1);
+    for (const char* name : {"star.a", "transmittance", "field", "emission", "direct"})
+        img.addLayer(name);
+    img.removeLayers({"field", "direct", "absent"});
+    ASSERT_EQ(img.layers.size(), 3u);
+    EXPECT_EQ(img.layers[0].name, "star.a");
+    EXPECT_EQ(img.layers[1].name, "transmittance");
+    EXPECT_EQ(img.layers[2].name, "emission");
+    EXPECT_EQ(img.layerId("emission").index, 2u);
+}

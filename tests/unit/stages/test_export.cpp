@@ -73,17 +73,18 @@ TEST_F(Export, BoxesAndUnits)
     // holds (FITS the file and a z plane, HDF5 the file twice and an x plane, .npy a z plane).
     const std::array<std::int64_t, 3> dims{100, 200, 300};
     const double data = 4.0 * 100 * 200 * 300, header = 1000.0;
-    const auto fits = nebula::cubeCost(nebula::CubeFormat::Fits, dims, header);
+    const auto fits = nebula::cubeCost(nebula::cubeFormat("fits", "--format"), dims, header);
     EXPECT_EQ(fits.voxels, 100.0 * 200 * 300);
     EXPECT_EQ(fits.fileBytes, data + header);
     EXPECT_EQ(fits.memoryBytes, data + header + 4.0 * 100 * 200);
-    const auto h5 = nebula::cubeCost(nebula::CubeFormat::Hdf5, dims, header);
+    const auto h5 = nebula::cubeCost(nebula::cubeFormat("hdf5", "--format"), dims, header);
     EXPECT_EQ(h5.memoryBytes, 2.0 * (data + header) + 4.0 * 200 * 300);
-    const auto npy = nebula::cubeCost(nebula::CubeFormat::Npy, dims, header);
+    const auto npy = nebula::cubeCost(nebula::cubeFormat("npy", "--format"), dims, header);
     EXPECT_EQ(npy.fileBytes, data + header);
     EXPECT_EQ(npy.memoryBytes, 4.0 * 100 * 200);
     // No wrap-around: 2^31 on a side is a finite double, far above any limit.
-    const auto huge = nebula::cubeCost(nebula::CubeFormat::Npy, {1LL << 31, 1LL << 31, 1LL << 31});
+    const auto huge =
+        nebula::cubeCost(nebula::cubeFormat("npy", "--format"), {1LL << 31, 1LL << 31, 1LL << 31});
     EXPECT_EQ(huge.voxels, std::ldexp(1.0, 93));
 
     EXPECT_EQ(nebula::cubeUnit(*grid("density")), "cm-3");

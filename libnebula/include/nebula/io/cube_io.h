@@ -26,21 +26,30 @@
 
 namespace nebula {
 
-/// The formats a cube is read from or written to.
-enum class CubeFormat { Fits, Hdf5, Npy, Radmc };
+/// A format a cube is read from or written to: a registered type, defined below (CubeFormat).
+struct CubeFormat;
 
-/// "fits", "hdf5", "npy", "radmc".
-std::string cubeFormatName(CubeFormat format);
+/// Every registered cube format, in the order --help lists them: FITS, HDF5, NumPy .npy,
+/// RADMC-3D (src/io/cube_fits.cpp, cube_hdf5.cpp, cube_npy.cpp, cube_radmc.cpp).
+const std::vector<const CubeFormat*>& cubeFormats();
+
 /// The format named @p name ("fits", "hdf5", "npy", "radmc"); throws UsageError naming
-/// @p option otherwise.
-CubeFormat parseCubeFormat(const std::string& name, const std::string& option);
+/// @p option and the known names otherwise.
+const CubeFormat& cubeFormat(const std::string& name, const std::string& option);
 
-/// The file format a cube writer writes for @p format (core/file_format.h: its names), or
-/// nullopt for RADMC-3D, which nebula only reads.
-std::optional<FileFormat> cubeFileFormat(CubeFormat format);
-/// The format of @p path from its extension (.fits .fit .fts, with .gz; .h5 .hdf5 .he5; .npy;
-/// a folder, amr_grid.inp, dust_density.inp/.binp: RADMC-3D), or nullopt.
-std::optional<CubeFormat> cubeFormatOf(const std::string& path);
+/// The format of @p path from its name (its endings, its whole name: .fits .fit .fts, with
+/// .gz; .h5 .hdf5 .he5 .hdf; .npy; amr_grid.inp, dust_density.inp/.binp: RADMC-3D), or else a
+/// folder's format (RADMC-3D); null if none.
+const CubeFormat* cubeFormatOf(const std::string& path);
+
+/// The names of the formats nebula reads (@p written false) or writes (true), as a list for
+/// --help and messages: "fits, hdf5, npy or radmc".
+std::string cubeFormatList(bool written);
+/// The names of the formats nebula reads (@p written false) or writes (true).
+std::vector<std::string> cubeFormatNames(bool written);
+/// How the files of every format are named (each one's doc), for --help: ".fits/.fit/.fts,
+/// .h5/.hdf5, .npy, or a RADMC-3D folder or its amr_grid.inp".
+std::string cubeFileNamesDoc();
 
 /// A cube's geometry as a file states it: the signed step along each axis and the world
 /// position of voxel (0, 0, 0)'s centre, in pc.
@@ -104,10 +113,10 @@ inline constexpr std::int64_t MAX_CUBE_VOXELS = std::int64_t(1) << 36;
 /// Which cube of a file to read.
 struct CubeSelect
 {
-    std::optional<CubeFormat> format; ///< nullopt: from the name (cubeFormatOf())
-    std::string hdu;                  ///< FITS: HDU number (0 = primary) or EXTNAME; "" first cube
-    std::string dataset;              ///< HDF5: dataset path; "" the file's only 3-D dataset
-    int species = 1;                  ///< RADMC-3D: dust species (1 = first)
+    const CubeFormat* format = nullptr; ///< null: from the name (cubeFormatOf())
+    std::string hdu;     ///< FITS: HDU number (0 = primary) or EXTNAME; "" first cube
+    std::string dataset; ///< HDF5: dataset path; "" the file's only 3-D dataset
+    int species = 1;     ///< RADMC-3D: dust species (1 = first)
     /// A 4-D array one of whose end axes has 3 entries (a vector field): the component to
     /// read (0, 1, 2); -1: the array must be 3-D.
     int component = -1;
@@ -209,9 +218,47 @@ using PlaneFunction = std::function<void(const PlaneOrder& order, std::int64_t k
 /// AtomicFile: FITS (primary image, WCS, BUNIT, HISTORY), .npy (Fortran order: the planes
 /// are z planes, streamed straight to the file) or HDF5 (dataset @p dataset, C order, with
 /// attributes voxel_size_pc, origin_pc, units; x planes). FITS and HDF5 are built in memory
-/// first, so their size is checked against the machine's memory (requireMemory()).
-void writeCube(CubeFormat format, const std::string& path, const CubeHeader& header,
+/// first, so their size is checked against the machine's memory (requireMemory()). Throws
+/// UsageError for a format nebula does not write, or a name that says another format.
+void writeCube(const CubeFormat& format, const std::string& path, const CubeHeader& header,
                const std::string& dataset, const PlaneFunction& plane);
+
+/// The memory a cube's writer holds, and why.
+struct WriterMemory
+{
+    double bytes = 0.0;   ///< [bytes]
+    const char* use = ""; ///< "the FITS file is built in memory"
+};
+
+/// A cube format (DESIGN §18): its names, how its files are named, its documentation, its
+/// reader and writer. Each is defined in its own src/io/cube_<name>.cpp and listed once in
+/// cube_io.cpp's cubeFormats(); the tools and stages look formats up there and name none.
+struct CubeFormat
+{
+    std::string name;  ///< --format's value: "fits"
+    std::string title; ///< for messages: "FITS", "RADMC-3D"
+    /// How its files are named, for -i's --help: ".fits/.fit/.fts", "a RADMC-3D folder or
+    /// its amr_grid.inp".
+    std::string doc;
+    std::string hint;                   ///< the name to give, for messages: ".fits"
+    std::vector<std::string> endings;   ///< its names' endings, lower case: ".fits.gz"
+    std::vector<std::string> fileNames; ///< whole file names, lower case: "amr_grid.inp"
+    bool folder = false;                ///< a folder is a cube of this format
+    /// What a file's selector (nebimport's FILE:SELECTOR) chooses: &CubeSelect::hdu,
+    /// &CubeSelect::dataset; null: it has no choice.
+    std::string CubeSelect::*selector = nullptr;
+    /// Opens a cube (openCube()).
+    std::unique_ptr<CubeSource> (*open)(const std::string& path,
+                                        const CubeSelect& select) = nullptr;
+    /// What its writer writes (core/file_format.h: checkOutputName()); nullopt: not written.
+    std::optional<FileFormat> fileFormat;
+    /// Writes a cube (writeCube(), after the name's check); null: nebula only reads it.
+    void (*write)(const std::string& path, const CubeHeader& header, const std::string& dataset,
+                  const PlaneFunction& plane) = nullptr;
+    /// The memory its writer holds for a cube of @p dims in a file of @p fileBytes.
+    WriterMemory (*writerMemory)(const std::array<std::int64_t, 3>& dims,
+                                 double fileBytes) = nullptr;
+};
 
 // Density units (DESIGN §10).
 

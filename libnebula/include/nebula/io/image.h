@@ -9,6 +9,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <map>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -28,7 +29,21 @@ struct ImageChannel
     std::vector<float> values; ///< width * height, row-major, top row first
 };
 
-/// A frame: premultiplied linear RGBA (A = 1 - transmittance) plus extra layers.
+/// A layer of an Image, as addLayer() or findLayer() returns it: what a renderer holds
+/// instead of the layer's position, looked up once per frame and used per pixel.
+struct LayerId
+{
+    std::size_t index = 0; ///< its place in Image::layers
+};
+
+/// A single channel of an Image, as addChannel() or findChannel() returns it.
+struct ChannelId
+{
+    std::size_t index = 0; ///< its place in Image::channels
+};
+
+/// A frame: premultiplied linear RGBA (A = 1 - transmittance) plus extra layers. Layers and
+/// channels are written in the order they were added, and are found by name.
 struct Image
 {
     int width = 0;
@@ -42,6 +57,33 @@ struct Image
 
     Image() = default;
     Image(int w, int h) : width(w), height(h), rgba(std::size_t(w) * h * 4, 0.0f) {}
+
+    /// Adds the RGB layer @p name after the others, every value @p fill. Throws Error if the
+    /// image has a layer of that name already.
+    LayerId addLayer(const std::string& name, float fill = 0.0f);
+    /// Adds the single channel @p name after the others, every value 0. Throws Error if the
+    /// image has a channel of that name already.
+    ChannelId addChannel(const std::string& name);
+    /// The layer named @p name, or nullopt.
+    std::optional<LayerId> findLayer(const std::string& name) const;
+    /// The channel named @p name, or nullopt.
+    std::optional<ChannelId> findChannel(const std::string& name) const;
+    /// The layer named @p name; throws Error naming it if the image has none.
+    LayerId layerId(const std::string& name) const;
+    /// The channel named @p name; throws Error naming it if the image has none.
+    ChannelId channelId(const std::string& name) const;
+    /// Removes the layers named in @p names (those it has); the others keep their order. Ids
+    /// taken before are then stale.
+    void removeLayers(const std::vector<std::string>& names);
+
+    /// Layer @p id's values (width * height * 3).
+    std::vector<float>& rgb(LayerId id) { return layers[id.index].rgb; }
+    const std::vector<float>& rgb(LayerId id) const { return layers[id.index].rgb; }
+    /// The values of the layer named @p name; throws Error naming it if the image has none.
+    const std::vector<float>& rgb(const std::string& name) const { return rgb(layerId(name)); }
+    /// Channel @p id's values (width * height).
+    std::vector<float>& values(ChannelId id) { return channels[id.index].values; }
+    const std::vector<float>& values(ChannelId id) const { return channels[id.index].values; }
 };
 
 /// The longest EXR channel name OpenEXR keeps (longer ones are truncated); writeExr() refuses

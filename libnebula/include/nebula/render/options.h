@@ -13,9 +13,14 @@
 
 namespace nebula {
 
-/// nebrender's integrators: the fast ray caster (DESIGN §3-5) or the reference path tracer
-/// (DESIGN §6).
-enum class Integrator { Fast, Path };
+/// The names of the fast ray caster (DESIGN §3-5) and the reference path tracer (DESIGN §6),
+/// for RenderOptions::integrator. Transitional: code above render/ is to choose an
+/// integrator by its name (render/integrator.h's registry) and name none of them itself.
+struct Integrator
+{
+    static inline const std::string Fast = "fast";
+    static inline const std::string Path = "path";
+};
 
 /// How the fast integrator uses a phase table (DESIGN §4-5):
 ///  - Replace: the scattered source is k Phi(t, mu) E (Phi replaces a p(mu)); Phi includes the
@@ -63,7 +68,9 @@ struct SpectralOptions
 /// Every render parameter; defaults give the README's example picture.
 struct RenderOptions
 {
-    Integrator integrator = Integrator::Fast;
+    /// The integrator's name (render/integrator.h: integratorType()); with spectral.enabled,
+    /// the spectral renderer (chosenIntegrator()).
+    std::string integrator = "fast";
     std::string densityGrid = "density"; ///< the dust density grid (n_H [cm^-3])
     int spp = 64;                        ///< path tracer: samples per pixel (per channel)
     std::uint64_t seed = 1; ///< path tracer: same seed, same image whatever the threads

@@ -34,6 +34,11 @@ inline constexpr double SPECTRAL_MAX_NM = 830.0;
 /// once (nebscatter --spectral's field), the gas's emission (lines and black body).
 inline constexpr const char* SPECTRAL_COMPONENTS[] = {"direct", "single", "field", "emission"};
 inline constexpr std::size_t SPECTRAL_COMPONENT_COUNT = 4;
+/// The image channel of spectral layer @p band of @p bands (equal bands over 360-830 nm):
+/// "S0.<centre>nm" with ',' for the decimal point ("S0.364,95nm"); with @p component (one of
+/// SPECTRAL_COMPONENTS), that component's: "<component>.S0.<centre>nm".
+std::string spectralChannelName(std::size_t band, std::size_t bands,
+                                const std::string& component = "");
 
 /// One emission grid as the spectral renderer sees it.
 struct SpectralEmitter

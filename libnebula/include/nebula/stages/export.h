@@ -15,9 +15,9 @@ namespace nebula {
 
 struct ExportOptions
 {
-    std::string grid = "density";     ///< the FloatGrid written
-    std::string output;               ///< the file ("-" stdout, with --format)
-    std::optional<CubeFormat> format; ///< nullopt: from the output's extension
+    std::string grid = "density";       ///< the FloatGrid written
+    std::string output;                 ///< the file ("-" stdout, with --format)
+    const CubeFormat* format = nullptr; ///< null: from the output's extension
     /// The index box written: "auto" (the cube the grid was imported from, else "active"),
     /// "active" (the active voxels' bounding box), or "I0,J0,K0,I1,J1,K1" (inclusive).
     std::string bbox = "auto";
@@ -43,7 +43,7 @@ inline constexpr double CUBE_HEADER_BYTES = 1 << 20;
 /// The cost of writing a float32 cube of @p dims as @p format with a header of at most
 /// @p headerBytes: FITS and HDF5 are built in memory (the whole file; HDF5's is copied out
 /// once more), .npy is streamed a z plane at a time.
-CubeCost cubeCost(CubeFormat format, const std::array<std::int64_t, 3>& dims,
+CubeCost cubeCost(const CubeFormat& format, const std::array<std::int64_t, 3>& dims,
                   double headerBytes = CUBE_HEADER_BYTES);
 
 /// Throws UsageError naming --bbox unless @p text is "auto", "active" or six integers
