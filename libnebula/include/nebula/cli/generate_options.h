@@ -48,7 +48,7 @@ namespace cli {
 std::string generateDescription();
 
 /// Declares nebgen's own options on @p app (after addCommon()), with @p opts' values as
-/// their defaults.
+/// their defaults. The options write into @p opts: it must stay in place while @p app parses.
 void addGenerate(CLI::App& app, GenerateOptions& opts);
 
 } // namespace cli

@@ -37,7 +37,8 @@ struct OptionRow
     bool showDefault = true;
 };
 
-/// Declares @p rows on @p app, in order. Returns the options declared, in the same order.
+/// Declares @p rows on @p app (or an option group), in order. Returns the options declared,
+/// in the same order.
 std::vector<CLI::Option*> addOptions(CLI::App& app, const std::vector<OptionRow>& rows);
 
 /// The value of @p option ("--preset") on the command line @p argv (as "--preset NAME" or
