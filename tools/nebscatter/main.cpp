@@ -18,6 +18,7 @@
 
 int main(int argc, char** argv)
 {
+    namespace cli = nebula::cli;
     nebula::CommonOptions common;
     nebula::ScatterStageOptions opts; // every default lives here
     bool noEmission = false, interpolatedTau = false;
@@ -57,11 +58,8 @@ int main(int argc, char** argv)
         "\"nebscatter over MPI\"):\n"
         "  mpirun -np 4 nebscatter -i lit.vdb -o scattered.vdb --threads 8",
         "nebscatter"};
-    nebula::cli::addCommon(app, common,
-                           nebula::cli::INPUT | nebula::cli::OUTPUT | nebula::cli::PASS_THROUGH |
-                               nebula::cli::DENSITY_GRID);
+    cli::addCommon(app, common, cli::INPUT | cli::OUTPUT | cli::PASS_THROUGH | cli::DENSITY_GRID);
     auto& f = opts.field;
-    namespace cli = nebula::cli;
     std::string fieldLevel = "auto";
     cli::addOptions(
         app,

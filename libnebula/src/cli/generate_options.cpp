@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "nebula/cli/generate_options.h"
 
 #include "nebula/cli/cli.h"

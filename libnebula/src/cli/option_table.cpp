@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "nebula/cli/option_table.h"
 
 #include "nebula/cli/cli.h"

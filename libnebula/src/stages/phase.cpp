@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "nebula/stages/phase.h"
 
 #include "nebula/core/atomic_file.h"

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 /// @file test_option_table.cpp
 /// cli/option_table.h: options declared as rows (addOptions: the target's type, the default
 /// shown, the check, the group, the mode list) and argumentOf (an option's value before

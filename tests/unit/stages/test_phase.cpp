@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 /// @file test_phase.cpp
 /// stages/phase.h: nebphase's table and slab runs: the slab's JSON (energy balance, the
 /// bins' cosines, the given dust), the table's outputs written both or neither, and the

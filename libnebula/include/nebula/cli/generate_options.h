@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// @file generate_options.h
 /// nebgen's command line (tools/nebgen): its options as a table over NebulaParams, its

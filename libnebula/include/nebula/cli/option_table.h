@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// @file option_table.h
 /// Options declared as data: a tool lists its options as rows (name, where the value goes,

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// @file phase.h
 /// nebphase's entry points: the effective phase function Phi(t, mu) of a dust voxel as a
