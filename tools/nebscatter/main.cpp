@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
 // nebscatter - the field of multiply scattered light, computed once per scene (DESIGN §5b).
 #include "nebula/cli/cli.h"
+#include "nebula/cli/option_table.h"
 #include "nebula/cli/options.h"
 #include "nebula/cli/process_ranks.h"
 #include "nebula/core/error.h"
@@ -17,6 +18,7 @@
 
 int main(int argc, char** argv)
 {
+    namespace cli = nebula::cli;
     nebula::CommonOptions common;
     nebula::ScatterStageOptions opts; // every default lives here
     bool noEmission = false, interpolatedTau = false;
@@ -56,83 +58,62 @@ int main(int argc, char** argv)
         "\"nebscatter over MPI\"):\n"
         "  mpirun -np 4 nebscatter -i lit.vdb -o scattered.vdb --threads 8",
         "nebscatter"};
-    nebula::cli::addCommon(app, common,
-                           nebula::cli::INPUT | nebula::cli::OUTPUT | nebula::cli::PASS_THROUGH |
-                               nebula::cli::DENSITY_GRID);
+    cli::addCommon(app, common, cli::INPUT | cli::OUTPUT | cli::PASS_THROUGH | cli::DENSITY_GRID);
     auto& f = opts.field;
-    app.add_option("--packets", f.packets,
-                   "Packets per source (all stars, each star with --per-star, the emission);\n"
-                   "the field's noise falls as 1/sqrt(N); at most 1e9 (hours per star), a\n"
-                   "work bound refused with its estimate")
-        ->capture_default_str()
-        ->check(nebula::cli::integerIn(1, std::int64_t(1) << 40));
-    app.add_option("--order", f.order, "Degree L of the spherical harmonics, 0..4")
-        ->capture_default_str()
-        ->check(nebula::cli::integerIn(0, 4));
     std::string fieldLevel = "auto";
-    const CLI::Validator levelNumber =
-        nebula::cli::integerIn(nebula::MIN_FIELD_LEVEL, nebula::MAX_FIELD_LEVEL);
-    const std::string levelRange =
-        std::to_string(nebula::MIN_FIELD_LEVEL) + ", " + std::to_string(nebula::MAX_FIELD_LEVEL);
-    app.add_option("--field-level", fieldLevel,
-                   "Field cells of 2^k x 2^k x 2^k voxels (0: full resolution; -1: half a\n"
-                   "voxel, for optically thick voxels), not larger than the grid; auto: about\n"
-                   "64 cells across the grid, finer (down to -1) while cells of the densest\n"
-                   "dust are optically thick (tau_V > 1 across) and the tallies (at -1 the\n"
-                   "field too) fit in 1 GiB; -v says why")
-        ->capture_default_str()
-        ->check(CLI::Validator(
-            [levelNumber, levelRange](std::string& s) {
-                if (s == "auto") return std::string();
-                std::string v = s;
-                const std::string e = levelNumber(v);
-                return e.empty() ? e
-                                 : "expected auto or an integer in [" + levelRange + "], got " + s;
-            },
-            "auto|" + std::to_string(nebula::MIN_FIELD_LEVEL) + ".." +
-                std::to_string(nebula::MAX_FIELD_LEVEL)));
-    app.add_option("--refine-tau", f.refineTau,
-                   "Adaptive cells: a block of 2x2x2 field cells is tallied as one (its cells\n"
-                   "from the block's value and slopes: fewer, fuller tallies) unless its\n"
-                   "densest voxel makes it optically thicker than this across (tau_V), a star\n"
-                   "is in or next to it, or it borders such a block; 0: every cell on its own")
-        ->capture_default_str()
-        ->check(CLI::Range(0.0, nebula::MAX_REFINE_TAU));
-    app.add_option("--seed", f.seed, "Random seed (same seed, same field)")
-        ->capture_default_str()
-        ->check(nebula::cli::integerIn(0, UINT64_MAX));
-    app.add_flag("--per-star", f.perStar,
-                 "One field per star (scatter.star_<name>.*) instead of their sum: nebrender\n"
-                 "then scales each by the star's luminosity, for animating a star");
-    app.add_flag("--no-emission", noEmission, "Leave out the gas emission's scattered light");
-    app.add_option("--emission-grid", opts.scene.emissionGrid, "Gas emission grid")
-        ->capture_default_str();
-    auto* wavelengthsOpt = nebula::cli::addVec3(
-        app, "--wavelengths", opts.wavelengths,
-        "R,G,B channel wavelengths [nm] for the extinction curve (as nebrender's)");
+    cli::addOptions(
+        app,
+        {{"--packets", &f.packets,
+          "Packets per source (all stars, each star with --per-star, the emission);\n"
+          "the field's noise falls as 1/sqrt(N); at most 1e9 (hours per star), a\n"
+          "work bound refused with its estimate",
+          cli::integerIn(1, std::int64_t(1) << 40)},
+         {"--order", &f.order, "Degree L of the spherical harmonics, 0..4", cli::integerIn(0, 4)},
+         {"--field-level", &fieldLevel,
+          "Field cells of 2^k x 2^k x 2^k voxels (0: full resolution; -1: half a\n"
+          "voxel, for optically thick voxels), not larger than the grid; auto: about\n"
+          "64 cells across the grid, finer (down to -1) while cells of the densest\n"
+          "dust are optically thick (tau_V > 1 across) and the tallies (at -1 the\n"
+          "field too) fit in 1 GiB; -v says why",
+          cli::autoOrIntegerIn(nebula::MIN_FIELD_LEVEL, nebula::MAX_FIELD_LEVEL)},
+         {"--refine-tau", &f.refineTau,
+          "Adaptive cells: a block of 2x2x2 field cells is tallied as one (its cells\n"
+          "from the block's value and slopes: fewer, fuller tallies) unless its\n"
+          "densest voxel makes it optically thicker than this across (tau_V), a star\n"
+          "is in or next to it, or it borders such a block; 0: every cell on its own",
+          CLI::Range(0.0, nebula::MAX_REFINE_TAU)},
+         {"--seed", &f.seed, "Random seed (same seed, same field)", cli::integerIn(0, UINT64_MAX)},
+         {"--per-star", &f.perStar,
+          "One field per star (scatter.star_<name>.*) instead of their sum: nebrender\n"
+          "then scales each by the star's luminosity, for animating a star"},
+         {"--no-emission", &noEmission, "Leave out the gas emission's scattered light"},
+         {"--emission-grid", &opts.scene.emissionGrid, "Gas emission grid"},
+         {"--wavelengths", &opts.wavelengths,
+          "R,G,B channel wavelengths [nm] for the extinction curve (as nebrender's)"}});
+    auto* wavelengthsOpt = app.get_option("--wavelengths");
     nebula::FilterOptions filterOpts;
-    nebula::cli::addFilter(app, filterOpts,
-                           "the field at its three quadrature wavelengths, for nebrender --filter");
-    app.add_option("--spectral", opts.spectral,
-                   "The starlight's field for nebrender --spectral at N wavelengths evenly\n"
-                   "spaced over 380-780 nm, 2..64 (6 keep colours within Delta E 2000 < 0.4 of\n"
-                   "a dense field); one walk carries them all")
-        ->check(nebula::cli::integerIn(2, 64));
-    app.add_flag("--interpolated-tau", interpolatedTau,
-                 "Start packets with each star's optical depth from the trilinear tau grid\n"
-                 "everywhere (as nebrender --interpolated-tau), not exact where it bends");
-    app.add_option("--min-star-distance", opts.scene.minStarDistance,
-                   "Distance below which 1/r^2 is clamped [voxels] (as nebrender's)")
-        ->capture_default_str()
-        ->check(nebula::cli::positive());
+    cli::addFilter(app, filterOpts,
+                   "the field at its three quadrature wavelengths, for nebrender --filter");
+    cli::addOptions(
+        app,
+        {{"--spectral", &opts.spectral,
+          "The starlight's field for nebrender --spectral at N wavelengths evenly\n"
+          "spaced over 380-780 nm, 2..64 (6 keep colours within Delta E 2000 < 0.4 of\n"
+          "a dense field); one walk carries them all",
+          cli::integerIn(2, 64), "", nullptr, false},
+         {"--interpolated-tau", &interpolatedTau,
+          "Start packets with each star's optical depth from the trilinear tau grid\n"
+          "everywhere (as nebrender --interpolated-tau), not exact where it bends"},
+         {"--min-star-distance", &opts.scene.minStarDistance,
+          "Distance below which 1/r^2 is clamped [voxels] (as nebrender's)", cli::positive()}});
 
     std::unique_ptr<nebula::Ranks> ranks; // MPI's, when mpirun or srun started this process
-    const int rc = nebula::cli::run(app, "nebscatter", common, argc, argv, [&](nebula::Run& run) {
+    const int rc = cli::run(app, "nebscatter", common, argc, argv, [&](nebula::Run& run) {
         nebula::refuseBinaryToTerminal(common.output, "-o");
-        if (const auto band = nebula::cli::loadFilter(filterOpts)) {
-            opts.wavelengths = nebula::cli::filterWavelengths(*band, wavelengthsOpt->count() > 0);
+        if (const auto band = cli::loadFilter(filterOpts)) {
+            opts.wavelengths = cli::filterWavelengths(*band, wavelengthsOpt->count() > 0);
         }
-        ranks = nebula::cli::processRanks("nebscatter");
+        ranks = cli::processRanks("nebscatter");
         if (ranks->size() > 1 && common.input == "-") {
             throw nebula::UsageError(
                 "-i -: with " + std::to_string(ranks->size()) +
@@ -148,20 +129,20 @@ int main(int argc, char** argv)
         opts.scene.exactStarDepth = !interpolatedTau;
         auto grids = nebula::readGrids(common.input, say);
         if (ranks->size() > 1) { // every rank must compute the same field's share
-            std::vector<nebula::cli::RunPart> parts{{"the version", NEBULA_VERSION_STRING}};
-            for (auto& [name, value] : nebula::cli::optionValues(
+            std::vector<cli::RunPart> parts{{"the version", NEBULA_VERSION_STRING}};
+            for (auto& [name, value] : cli::optionValues(
                      app, {"--threads", "--quiet", "--verbose", "--config", "--help", "--version"}))
                 parts.push_back({name, value});
             parts.push_back({"the wavelengths (--wavelengths, --filter, --filter-file)",
                              fmt::format("{}", fmt::join(opts.wavelengths, ","))});
             parts.push_back({"the input -i " + common.input + " (another file's grids)",
                              nebula::contentDigest(grids)});
-            nebula::cli::requireSameRun(*ranks, parts);
+            cli::requireSameRun(*ranks, parts);
         }
         opts.scene.densityGrid = common.densityGrid;
         opts.onlyNew = common.onlyNew;
         nebula::scatter(grids, opts, say);
         if (ranks->root()) nebula::writeGrids(common.output, std::move(grids), run);
     });
-    return nebula::cli::finishRanks(ranks, rc);
+    return cli::finishRanks(ranks, rc);
 }

@@ -433,6 +433,20 @@ CLI::Validator integerIn(std::int64_t lo, std::uint64_t hi)
         range, "nebula-integer");
 }
 
+CLI::Validator autoOrIntegerIn(int lo, int hi)
+{
+    const CLI::Validator number = integerIn(lo, hi);
+    const std::string range = std::to_string(lo) + ", " + std::to_string(hi);
+    return CLI::Validator(
+        [number, range](std::string& s) {
+            if (s == "auto") return std::string();
+            std::string v = s;
+            const std::string e = number(v);
+            return e.empty() ? e : "expected auto or an integer in [" + range + "], got " + s;
+        },
+        "auto|" + std::to_string(lo) + ".." + std::to_string(hi));
+}
+
 CLI::Validator numberIn(double lo, double hi, bool loOpen, bool hiOpen)
 {
     const std::string range = rangeText(lo, hi, loOpen, hiOpen);

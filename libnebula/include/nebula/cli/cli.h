@@ -150,6 +150,9 @@ inline constexpr double MAX_VEC3_COMPONENT = 1e150;
 /// [@p lo, @p hi]. A negative value for an unsigned option, or one that overflows, is refused
 /// before CLI11 converts it (CLI11 would wrap "-1" round to the largest unsigned value).
 CLI::Validator integerIn(std::int64_t lo, std::uint64_t hi);
+/// "auto" or a whole number in [@p lo, @p hi] (integerIn(); the text is left as given);
+/// --help shows "auto|LO..HI" (nebscatter's --field-level).
+CLI::Validator autoOrIntegerIn(int lo, int hi);
 
 /// A finite number in [@p lo, @p hi]; @p loOpen / @p hiOpen make that end open. An infinite
 /// @p hi (or -infinite @p lo) is no limit: the message then says "> 0", ">= 0", ... (and
