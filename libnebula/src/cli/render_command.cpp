@@ -42,9 +42,11 @@ std::shared_ptr<CameraPath> readCameraPathOption(const std::string& file, const 
         parseCameraPath(readInput(file, spec), inputName(file), defaults));
 }
 
-void addRenderCommand(CLI::App& app, RenderCommand& c)
+namespace {
+
+/// The outputs: -o, --png, --fits and --sed, and how they are written.
+void addOutputOptions(CLI::App& app, RenderCommand& c)
 {
-    addCommon(app, c.common, INPUT | DENSITY_GRID);
     outputFile(app.add_option("-o,--output", c.out.exr, "Output EXR file")->required(),
                FileFormat::Exr);
     outputFile(app.add_option("--png", c.out.png, "Output PNG (default: the EXR name with .png)"),
@@ -88,6 +90,11 @@ void addRenderCommand(CLI::App& app, RenderCommand& c)
     app.add_option("--png-bits", c.out.pngBits, "PNG bit depth: 8 or 16")
         ->check(CLI::IsMember({8, 16}))
         ->capture_default_str();
+}
+
+/// The camera, frames, ray march, light, dust, phase table and integrator.
+void addSceneOptions(CLI::App& app, RenderCommand& c)
+{
     addCamera(app, c.camera);
     inputFile(app.add_option("--camera-path", c.pathFile,
                              "Keyframed camera path (JSON: fps, keyframes of time, eye,\n"
@@ -161,6 +168,11 @@ void addRenderCommand(CLI::App& app, RenderCommand& c)
     app.add_flag(
         "--phase-ignore-dust", c.opts.phaseIgnoreDust,
         "Use the --phase table even if its albedo, g or phase model differ from the dust's");
+}
+
+/// --spectral and the options of the spectral integrator.
+void addSpectralOptions(CLI::App& app, RenderCommand& c)
+{
     auto& sp = c.opts.spectral;
     auto* spectral = app.add_option_group("Spectral", "Spectral rendering (DESIGN section 7)");
     spectral->add_flag("--spectral", sp.enabled,
@@ -222,6 +234,16 @@ void addRenderCommand(CLI::App& app, RenderCommand& c)
                      "With --count-pieces: also count the pieces left after merging\n"
                      "neighbours under this relative tolerance (Spectrum::merge)")
         ->check(numberIn(0.0, 1.0));
+}
+
+} // namespace
+
+void addRenderCommand(CLI::App& app, RenderCommand& c)
+{
+    addCommon(app, c.common, INPUT | DENSITY_GRID);
+    addOutputOptions(app, c);
+    addSceneOptions(app, c);
+    addSpectralOptions(app, c);
     addTone(app, c.out.tone, c.tone, "PNG: ");
     // The options of one integrator (or --spectral), from the registry: each is refused
     // with another (OptionScopes::check() in runRenderCommand()).
