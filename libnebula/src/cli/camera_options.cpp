@@ -94,15 +94,11 @@ Camera makeCamera(const CameraOptions& opts)
     } else {
         model.defaultSize(c.width, c.height);
     }
-    const auto reads = model.parameters();
     for (int pass = 0; pass < 2; ++pass) { // the parsers that read others' values last
         for (const CameraParameter& p : cameraParameters()) {
             const auto it = opts.parameters.find(p.name);
             if (it == opts.parameters.end() || (p.parse != nullptr) != (pass == 1)) continue;
-            if (std::find(reads.begin(), reads.end(), p.name) == reads.end()) {
-                throw UsageError("--" + p.name + " is for --camera " + cameraModelsReading(p.name) +
-                                 " (--camera is " + model.name() + ")");
-            }
+            model.requireReads(p.name);
             p.set(c, parseCameraParameter(p, it->second, c));
         }
     }

@@ -219,14 +219,8 @@ void validateCamera(const Camera& c)
         throw UsageError("--roll must be in [-360, 360] degrees, got " +
                          detail::numberText(c.rollDeg));
     }
-    const auto reads = model.parameters();
-    for (const auto& p : cameraParameters()) {
-        if (!p.given(c)) continue;
-        if (std::find(reads.begin(), reads.end(), p.name) == reads.end()) {
-            throw UsageError("--" + p.name + " is for --camera " + cameraModelsReading(p.name) +
-                             " (--camera is " + model.name() + ")");
-        }
-    }
+    for (const auto& p : cameraParameters())
+        if (p.given(c)) model.requireReads(p.name);
     model.validate(c);
 }
 
@@ -267,10 +261,8 @@ std::string cameraModelNames(const std::string& last)
 std::string cameraModelsReading(const std::string& name)
 {
     std::vector<std::string> names;
-    for (const CameraModel* m : cameraModels()) {
-        const auto reads = m->parameters();
-        if (std::find(reads.begin(), reads.end(), name) != reads.end()) names.push_back(m->name());
-    }
+    for (const CameraModel* m : cameraModels())
+        if (m->reads(name)) names.push_back(m->name());
     std::string s;
     for (std::size_t i = 0; i < names.size(); ++i)
         s += (i == 0 ? "" : i + 1 == names.size() ? " or " : ", ") + names[i];
@@ -407,6 +399,19 @@ const CameraParameter& cameraParameter(const std::string& name)
 }
 
 // ---- Defaults of the model interface ----
+
+bool CameraModel::reads(const std::string& name) const
+{
+    const auto names = parameters();
+    return std::find(names.begin(), names.end(), name) != names.end();
+}
+
+void CameraModel::requireReads(const std::string& name) const
+{
+    if (reads(name)) return;
+    throw UsageError("--" + name + " is for --camera " + cameraModelsReading(name) +
+                     " (--camera is " + this->name() + ")");
+}
 
 void CameraModel::describe(const Camera& c, nlohmann::json& j) const
 {

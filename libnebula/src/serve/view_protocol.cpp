@@ -61,10 +61,9 @@ Camera viewCameraFromJson(const json& j, const Camera& base, const std::string& 
 {
     Camera c = cameraFromJson(j, base, where);
     // The page switches models: the base's parameters that the new model does not read go.
-    const auto reads = cameraModel(c.model).parameters();
+    const CameraModel& model = cameraModel(c.model);
     for (const CameraParameter& p : cameraParameters()) {
-        if (std::find(reads.begin(), reads.end(), p.name) == reads.end() && !j.contains(p.json))
-            p.set(c, {});
+        if (!model.reads(p.name) && !j.contains(p.json)) p.set(c, {});
     }
     try {
         (void)Projection(c); // a created camera is valid

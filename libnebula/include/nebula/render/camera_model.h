@@ -107,6 +107,11 @@ public:
     virtual std::string help() const = 0;
     /// The cameraParameters() it reads, by name.
     virtual std::vector<std::string> parameters() const { return {}; }
+    /// Whether it reads parameter @p name.
+    bool reads(const std::string& name) const;
+    /// Throws UsageError unless it reads parameter @p name: "--ipd is for --camera ods or
+    /// fisheye-stereo (--camera is perspective)" (validateCamera(), cli::makeCamera()).
+    void requireReads(const std::string& name) const;
     /// The mono model whose stereo form this is (--camera MONO --stereo), or "".
     virtual std::string stereoOf() const { return {}; }
     /// --fov when it is not given (36 degrees; fisheye 180).
