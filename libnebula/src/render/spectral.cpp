@@ -278,6 +278,10 @@ public:
         sc.stats.rays += mLevel0.marchFrom(
             mLevel0.w2i.apply(ray.oW), ray.dW, mOpts.step,
             [&](const Vec3& pI, double tm, double seg) { return step(pI, tm, seg, ray, sc); });
+        if (mAbsorption.active()) {
+            mAbsorption.finishRay(
+                {sc.Cstar.data(), mField ? sc.Cfield.data() : nullptr, sc.Cgas.data()}, sc.abs);
+        }
         writePixel(std::size_t(py) * img.width + px, ray, sc, img, ids);
     }
 
@@ -288,17 +292,23 @@ public:
         const std::size_t S = mRs.stars.size(), J = mNodes.size();
         const int NL = mSo.layers;
         std::vector<double> att(S * J);
+        const bool absorbs = mAbsorption.active();
+        // What the absorption lines take of each sprite, per layer: [s][b].
+        std::vector<double> lost(absorbs ? S * std::size_t(NL) : 0);
+        SpectralScratch sc = absorbs ? scratch() : SpectralScratch();
         drawStarSprites(
             img, mRs, mOpts,
             [&](std::size_t s, double tauV) {
                 for (std::size_t j = 0; j < J; ++j) {
                     att[s * J + j] = mStarSpec[s * J + j] * std::exp(-tauV * mNodes.lamExt[j]);
                 }
-                return xyzToLinearSRGB(nodesToXYZ(&att[s * J], mNodes.weight));
+                XYZ xyz = nodesToXYZ(&att[s * J], mNodes.weight);
+                if (absorbs) spriteAbsorption(s, &att[s * J], sc, xyz, &lost[s * std::size_t(NL)]);
+                return xyzToLinearSRGB(xyz);
             },
             [&](std::size_t s, std::size_t pix, double factor) {
                 for (int b = 0; b < NL; ++b) {
-                    double v = 0.0;
+                    double v = absorbs ? -lost[s * std::size_t(NL) + std::size_t(b)] : 0.0;
                     const auto [j0, j1] = mLayerNodes[std::size_t(b)];
                     for (std::size_t j = j0; j < j1; ++j) {
                         v += mLayerOfNode[std::size_t(b) * J + j] * att[s * J + j];
@@ -311,6 +321,42 @@ public:
     }
 
 private:
+    /// The absorption lines between the eye and star @p s (DESIGN §7.6): marched from the
+    /// camera's origin towards the star up to the step that holds it; what they take of its
+    /// spectrum @p att (at the nodes) is subtracted from @p xyz and put per spectral layer
+    /// in @p lost.
+    void spriteAbsorption(std::size_t s, const double* att, SpectralScratch& sc, XYZ& xyz,
+                          double* lost) const
+    {
+        const Vec3 o = mCam.originTowards(mStarPos[s]);
+        const Vec3 d = mStarPos[s] - o;
+        const double dist = d.length();
+        mAbsorption.startRay(sc.abs);
+        if (dist > 0.0) {
+            SpectralRay ray;
+            ray.oW = o;
+            ray.dW = d * (1.0 / dist);
+            ray.dI = mLevel0.w2i.applyLinear(ray.dW);
+            mLevel0.marchFrom(mLevel0.w2i.apply(o), ray.dW, mOpts.step,
+                              [&](const Vec3& pI, double tm, double seg) {
+                                  if (tm > dist) return false;
+                                  mRs.fields.sample(pI, sc.f.data());
+                                  if (!(sc.f[1] > 0.0f)) return true;
+                                  double dA = 1.0, dB = 1.0;
+                                  segmentDoppler(pI, tm, seg, ray, dA, dB);
+                                  mAbsorption.stepProfiles(sc.f.data(), dA, dB, seg, sc.abs);
+                                  mAbsorption.endStep(sc.abs);
+                                  return true;
+                              });
+        }
+        mAbsorption.absorbSpectrum(s, att, sc.abs);
+        const XYZ taken = mAbsorption.deficitXYZ(sc.abs, s);
+        for (std::size_t c = 0; c < 3; ++c)
+            xyz[c] -= taken[c];
+        std::fill(lost, lost + mSo.layers, 0.0);
+        mAbsorption.addDeficitLayers(sc.abs, s, lost);
+    }
+
     /// The spectral scattered-light field (nebscatter --spectral), if the scene has one: the
     /// weights a p_l of its moments and, per continuum node, the two field wavelengths it
     /// lies between (the end ones beyond the field's range).
@@ -586,7 +632,7 @@ private:
                                        sc.Cgas.data()};
         if (absorbs) {
             if (em > 0.0) mAbsorption.stepProfiles(sc.f.data(), dA, dB, seg, sc.abs);
-            mAbsorption.snapshot(cont, sc.abs);
+            mAbsorption.beforeSources(cont, sc.abs);
         }
         if (n > 0.0) {
             // The fraction of the segment's source function that leaves it (1 - e^-x Lambda);
@@ -598,7 +644,7 @@ private:
             if (mField) scatterField(xW, ray, sc);
             blackbodyEmission(pI, ray, sc);
         }
-        if (absorbs) mAbsorption.absorbContinuum(cont, sc.abs);
+        if (absorbs) mAbsorption.afterSources(cont, sc.abs);
         if (em > 0.0) lineEmission(dA, dB, seg, x, ray, sc);
         if (absorbs) mAbsorption.endStep(sc.abs);
         ray.tau += x;

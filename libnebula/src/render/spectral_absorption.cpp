@@ -159,6 +159,7 @@ void LineAbsorption::startRay(AbsorptionScratch& sc) const
         sc.stepHi[k] = 0;
     }
     sc.met = false;
+    sc.armed = false;
     sc.stepAbsorbs = false;
 }
 
@@ -200,39 +201,59 @@ void LineAbsorption::stepProfiles(const float* f, double dA, double dB, double s
     }
 }
 
-void LineAbsorption::snapshot(const ContinuumAt& c, AbsorptionScratch& sc) const
+void LineAbsorption::remember(const ContinuumAt& c, AbsorptionScratch& sc) const
 {
-    if (!sc.met) return;
     const std::size_t Wn = mWatched.size();
-    for (std::size_t q = 0; q < Wn; ++q) {
-        const std::size_t j = mWatched[q];
-        for (std::size_t s = 0; s < mStars; ++s)
-            sc.before[s * Wn + q] = c.star[s * mNodes + j];
-        sc.before[mStars * Wn + q] = c.field ? c.field[j] : 0.0;
-        sc.before[(mStars + 1) * Wn + q] = c.gas[j];
-    }
+    for (std::size_t comp = 0; comp < components(); ++comp)
+        for (std::size_t q = 0; q < Wn; ++q)
+            sc.before[comp * Wn + q] = continuum(c, comp, mWatched[q]);
+    sc.armed = true;
 }
 
-void LineAbsorption::absorbContinuum(const ContinuumAt& c, AbsorptionScratch& sc) const
+void LineAbsorption::bookSince(const ContinuumAt& c, bool own, AbsorptionScratch& sc) const
 {
-    if (!sc.met) return;
     const std::size_t Wn = mWatched.size();
-    std::vector<double>& delta = sc.delta;
     for (std::size_t comp = 0; comp < components(); ++comp) {
         bool any = false;
         for (std::size_t q = 0; q < Wn; ++q) {
-            const std::size_t j = mWatched[q];
-            const double now = comp < mStars    ? c.star[comp * mNodes + j]
-                               : comp == mStars ? (c.field ? c.field[j] : 0.0)
-                                                : c.gas[j];
-            delta[q] = now - sc.before[comp * Wn + q];
-            any = any || delta[q] != 0.0;
+            const double now = continuum(c, comp, mWatched[q]);
+            sc.delta[q] = now - sc.before[comp * Wn + q];
+            sc.before[comp * Wn + q] = now;
+            any = any || sc.delta[q] != 0.0;
         }
-        if (any) bookSource(comp, delta.data(), sc);
+        if (any) bookSource(comp, sc.delta.data(), own, sc);
     }
 }
 
-void LineAbsorption::bookSource(std::size_t comp, const double* delta, AbsorptionScratch& sc) const
+void LineAbsorption::beforeSources(const ContinuumAt& c, AbsorptionScratch& sc) const
+{
+    if (!sc.stepAbsorbs) return; // the losses stay as they are: nothing to book yet
+    // What came since the last absorbing step lost 1 - e^-T at the T before this step.
+    if (sc.armed) bookSince(c, false, sc);
+    remember(c, sc);
+}
+
+void LineAbsorption::afterSources(const ContinuumAt& c, AbsorptionScratch& sc) const
+{
+    if (sc.stepAbsorbs) bookSince(c, true, sc);
+}
+
+void LineAbsorption::finishRay(const ContinuumAt& c, AbsorptionScratch& sc) const
+{
+    if (sc.armed) bookSince(c, false, sc);
+}
+
+void LineAbsorption::absorbSpectrum(std::size_t comp, const double* values,
+                                    AbsorptionScratch& sc) const
+{
+    if (!sc.met) return;
+    for (std::size_t q = 0; q < mWatched.size(); ++q)
+        sc.delta[q] = values[mWatched[q]];
+    bookSource(comp, sc.delta.data(), false, sc);
+}
+
+void LineAbsorption::bookSource(std::size_t comp, const double* delta, bool own,
+                                AbsorptionScratch& sc) const
 {
     double* deficit = &sc.deficit[comp * mBins.size()];
     for (std::size_t k = 0; k < mWindows.size(); ++k) {
@@ -243,7 +264,7 @@ void LineAbsorption::bookSource(std::size_t comp, const double* delta, Absorptio
             // The increment is linear between nodes: its bin integral is h times its value at
             // the bin's centre.
             const double s = delta[bin.w0] + bin.frac * (delta[bin.w0 + 1] - delta[bin.w0]);
-            deficit[i] += s * w.h * (1.0 - sc.keep[i] * sc.esc[i]);
+            deficit[i] += s * w.h * (1.0 - sc.keep[i] * (own ? sc.esc[i] : 1.0));
         }
     }
 }

@@ -35,6 +35,7 @@ struct AbsorptionScratch
     std::vector<int> lo, hi;         ///< [window] the bins touched on this ray: [lo, hi)
     std::vector<int> stepLo, stepHi; ///< [window] the bins of this step's profiles
     bool met = false;                ///< the ray has met an absorber
+    bool armed = false;              ///< `before` holds the continuum at the last absorbing step
     bool stepAbsorbs = false;        ///< this step has
 };
 
@@ -74,12 +75,20 @@ public:
     /// step's sources.
     void stepProfiles(const float* f, double dA, double dB, double seg,
                       AbsorptionScratch& sc) const;
-    /// The continuum at the watched nodes before the step's sources (only once sc.met).
-    void snapshot(const ContinuumAt& c, AbsorptionScratch& sc) const;
-    /// Books the absorbed part of the continuum the step added since snapshot().
-    void absorbContinuum(const ContinuumAt& c, AbsorptionScratch& sc) const;
+    /// Before the step's sources: on an absorbing step, books what the continuum gained
+    /// since the last one (it lost 1 - e^-T at the T it saw, constant since) and remembers
+    /// the continuum. Between absorbing steps nothing is done.
+    void beforeSources(const ContinuumAt& c, AbsorptionScratch& sc) const;
+    /// After the step's sources: on an absorbing step, books what they added, with the
+    /// step's own escape fraction.
+    void afterSources(const ContinuumAt& c, AbsorptionScratch& sc) const;
+    /// At the ray's end: books what the continuum gained since the last absorbing step.
+    void finishRay(const ContinuumAt& c, AbsorptionScratch& sc) const;
     /// Books the absorbed part of the emission-line piece @p p of this step.
     void absorbPiece(const Piece& p, AbsorptionScratch& sc) const;
+    /// Books the absorbed part of the spectrum @p values (at the nodes, linear between them)
+    /// seen through the whole ray's lines, to component @p comp (a star's sprite).
+    void absorbSpectrum(std::size_t comp, const double* values, AbsorptionScratch& sc) const;
     /// Folds the step's profiles into the ray's optical depth.
     void endStep(AbsorptionScratch& sc) const;
 
@@ -116,7 +125,20 @@ private:
     void makeWindows(const SpectralScene& scene, double dMin, double dMax);
     void makeBins(const std::vector<double>& nodes);
     void addProfile(std::size_t w, const LineTrapezoid& t, AbsorptionScratch& sc) const;
-    void bookSource(std::size_t c, const double* delta, AbsorptionScratch& sc) const;
+    /// Books @p delta (at the watched nodes) to component @p c: in each touched bin its
+    /// integral times 1 - e^-T, times the step's escape fraction if @p own.
+    void bookSource(std::size_t c, const double* delta, bool own, AbsorptionScratch& sc) const;
+    /// sc.before := the continuum at the watched nodes.
+    void remember(const ContinuumAt& c, AbsorptionScratch& sc) const;
+    /// Books the continuum's gain since sc.before (@p own as bookSource()) and remembers it.
+    void bookSince(const ContinuumAt& c, bool own, AbsorptionScratch& sc) const;
+    /// Component @p comp of the continuum at node @p j.
+    double continuum(const ContinuumAt& c, std::size_t comp, std::size_t j) const
+    {
+        return comp < mStars    ? c.star[comp * mNodes + j]
+               : comp == mStars ? (c.field ? c.field[j] : 0.0)
+                                : c.gas[j];
+    }
     double edge(const Window& w, int b) const { return w.lo + w.h * b; }
 
     std::size_t mStars = 0;
