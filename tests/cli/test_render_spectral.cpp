@@ -131,10 +131,16 @@ TEST_F(RenderSpectral, AbsorptionGridDimsItsLinesOnly)
     const std::string common =
         " --spectral --res 12x12 --spectral-layers 470 --exaggerate-velocity 100 --no-png ";
     ASSERT_EQ(run("nebrender -i spec.vdb" + common + "-o plain.exr").code, 0);
-    const Result r = run("nebrender -i abs.vdb" + common + "-o dim.exr");
+    const Result r = run("nebrender -i abs.vdb" + common + "-o dim.exr -v");
     ASSERT_EQ(r.code, 0) << r.err;
+    EXPECT_NE(r.err.find("absorption grid \"absorption.nai\" absorbs Na I D2:20,Na I D1:10"),
+              std::string::npos)
+        << r.err;
+    std::map<std::string, std::string> attrs;
     const nebula::Image plain = nebula::readExr(path("plain.exr"), nullptr);
-    const nebula::Image dim = nebula::readExr(path("dim.exr"), nullptr);
+    const nebula::Image dim = nebula::readExr(path("dim.exr"), &attrs);
+    EXPECT_NE(attrs["nebula:integrator"].find("absorption lines of 1 grid(s)"), std::string::npos)
+        << attrs["nebula:integrator"];
     const auto band = [](const nebula::Image& img, std::size_t b) {
         double s = 0.0;
         for (float v : img.channels[b].values)

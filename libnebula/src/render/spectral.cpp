@@ -902,7 +902,10 @@ std::string describeSpectral(const RenderOptions& opts, const SpectralScene& sce
                          : std::string("spectral, piecewise-linear")) +
            ", exaggerate-velocity " + std::to_string(so.exaggerateVelocity) +
            (so.relativistic ? ", relativistic Doppler" : ", first-order Doppler") +
-           (field.empty() ? std::string() : ", single scattering + " + field);
+           (field.empty() ? std::string() : ", single scattering + " + field) +
+           (scene.absorbers.empty()
+                ? std::string()
+                : ", absorption lines of " + std::to_string(scene.absorbers.size()) + " grid(s)");
 }
 
 void reportSpectral(const RenderOptions& opts, const SpectralScene& scene, const RenderStats& stats,
@@ -915,6 +918,10 @@ void reportSpectral(const RenderOptions& opts, const SpectralScene& scene, const
                          so.bands > 0 ? fmt::format("{} fixed bands", so.bands)
                                       : std::string("piecewise-linear"),
                          scene.emitters.size(), stats.pieces, double(stats.pieces) / rays));
+    for (const auto& a : scene.absorbers) {
+        run.info(fmt::format("spectral: absorption grid \"{}\" absorbs {}", a.grid,
+                             lineListToString(a.lines)));
+    }
     if (so.countPieces && so.bands == 0) {
         run.info(fmt::format("spectral: the rays' spectra have {:.6g} pieces on average "
                              "(largest {}), {:.6g} after merging at tolerance {}",
