@@ -166,8 +166,7 @@ void LineAbsorption::startRay(AbsorptionScratch& sc) const
 void LineAbsorption::addProfile(std::size_t k, const LineTrapezoid& t, AbsorptionScratch& sc) const
 {
     const Window& w = mWindows[k];
-    const int b0 = std::clamp(int(std::floor((t.x[0] - w.lo) / w.h)), 0, w.bins);
-    const int b1 = std::clamp(int(std::ceil((t.x[3] - w.lo) / w.h)), 0, w.bins);
+    const int b0 = binEdge(w, t.x[0], false), b1 = binEdge(w, t.x[3], true);
     if (b0 >= b1) return;
     double prev = t.integralTo(edge(w, b0));
     for (int b = b0; b < b1; ++b) {
@@ -275,8 +274,8 @@ void LineAbsorption::absorbPiece(const Piece& p, AbsorptionScratch& sc) const
     double* deficit = &sc.deficit[gasComponent() * mBins.size()];
     for (std::size_t k = 0; k < mWindows.size(); ++k) {
         const Window& w = mWindows[k];
-        const int b0 = std::max(sc.lo[k], int(std::floor((p.x0 - w.lo) / w.h)));
-        const int b1 = std::min(sc.hi[k], int(std::ceil((p.x1 - w.lo) / w.h)));
+        const int b0 = std::max(sc.lo[k], binEdge(w, p.x0, false));
+        const int b1 = std::min(sc.hi[k], binEdge(w, p.x1, true));
         for (int b = b0; b < b1; ++b) {
             const std::size_t i = w.offset + std::size_t(b);
             deficit[i] +=

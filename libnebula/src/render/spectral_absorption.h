@@ -17,6 +17,8 @@
 #include "nebula/physics/spectrum.h"
 #include "nebula/render/spectral.h"
 
+#include <algorithm>
+#include <cmath>
 #include <cstddef>
 #include <vector>
 
@@ -140,6 +142,12 @@ private:
                                 : c.gas[j];
     }
     double edge(const Window& w, int b) const { return w.lo + w.h * b; }
+    /// The bin edge at or below (@p up: at or above) wavelength @p x, in [0, w.bins].
+    static int binEdge(const Window& w, double x, bool up)
+    {
+        const double u = (x - w.lo) / w.h;
+        return int(std::clamp(up ? std::ceil(u) : std::floor(u), 0.0, double(w.bins)));
+    }
 
     std::size_t mStars = 0;
     int mLayers = 0;
