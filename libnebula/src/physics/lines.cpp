@@ -41,6 +41,8 @@ constexpr CatalogueLine CATALOGUE[] = {
     {"[S II]6716", 671.64},  // 6716.44 A
     {"[S II]6731", 673.08},  // 6730.82 A
     {"He I 5876", 587.56},   // 5875.62 A
+    {"[O I]6300", 630.03},   // 6300.30 A
+    {"[O I]6363", 636.38},   // 6363.78 A
 };
 
 /// Lower-case letters and digits only: "[O III]5007" -> "oiii5007", "H-alpha" -> "halpha".
