@@ -566,14 +566,49 @@ std::vector<float> ionizationReference(const SparseVolume& density, const Ionizi
     for (int k = lo[2]; k < lo[2] + dims[2]; ++k)
         for (int j = lo[1]; j < lo[1] + dims[1]; ++j)
             for (int i = lo[0]; i < lo[0] + dims[0]; ++i) {
-                int inside = 0;
-                for (int c = 0; c < samples * samples * samples; ++c) {
-                    const Vec3 p(i - 0.5 + (c % samples + 0.5) / samples,
-                                 j - 0.5 + (c / samples % samples + 0.5) / samples,
-                                 k - 0.5 + (c / (samples * samples) + 0.5) / samples);
-                    inside += ionised(p) ? 1 : 0;
+                // Voxels whose 27 points (corners, edge and face centres, centre) agree are
+                // whole (the fronts of the reference's uses are smooth on a voxel's scale);
+                // the others are sampled.
+                int agree = 0;
+                for (int c = 0; c < 27; ++c) {
+                    const Vec3 q(i + 0.499 * (c % 3 - 1), j + 0.499 * (c / 3 % 3 - 1),
+                                 k + 0.499 * (c / 9 - 1));
+                    agree += ionised(q) ? 1 : 0;
                 }
-                out[density.index(i, j, k)] = float(inside) / float(samples * samples * samples);
+                if (agree == 0 || agree == 27) {
+                    out[density.index(i, j, k)] = agree ? 1.0f : 0.0f;
+                    continue;
+                }
+                // Columns along the axis nearest the direction from the star: each crosses
+                // the front at most once there; bisection finds where.
+                const Vec3 c(i, j, k), radial = c - star.position;
+                const int axis = std::fabs(radial.x) >= std::fabs(radial.y) &&
+                                         std::fabs(radial.x) >= std::fabs(radial.z)
+                                     ? 0
+                                     : (std::fabs(radial.y) >= std::fabs(radial.z) ? 1 : 2);
+                double length = 0.0;
+                for (int a = 0; a < samples; ++a)
+                    for (int b = 0; b < samples; ++b) {
+                        Vec3 lo = c - Vec3(0.5, 0.5, 0.5), hi;
+                        lo[(axis + 1) % 3] += (a + 0.5) / samples;
+                        lo[(axis + 2) % 3] += (b + 0.5) / samples;
+                        hi = lo;
+                        hi[axis] += 1.0;
+                        const bool inLo = ionised(lo), inHi = ionised(hi);
+                        if (inLo == inHi) {
+                            length += inLo ? 1.0 : 0.0;
+                            continue;
+                        }
+                        double t0 = 0.0, t1 = 1.0; // ionised(t0) == inLo
+                        for (int it = 0; it < 30; ++it) {
+                            const double t = 0.5 * (t0 + t1);
+                            Vec3 m = lo;
+                            m[axis] += t;
+                            (ionised(m) == inLo ? t0 : t1) = t;
+                        }
+                        length += inLo ? t0 : 1.0 - t0;
+                    }
+                out[density.index(i, j, k)] = float(length / (samples * samples));
             }
     return out;
 }

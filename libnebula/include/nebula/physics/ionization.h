@@ -115,7 +115,9 @@ private:
 };
 
 /// Reference for tests (a few thousand voxels): the H+ fraction of every lattice point by the
-/// definition, brute force: @p samples^3 points spread over each voxel, each ionised if the
+/// definition, brute force: in each voxel whose corners disagree (the others are wholly
+/// ionised or neutral), @p samples^2 lines along the axis nearest the star's direction, each
+/// cut by bisection where its points stop being ionised; a point is ionised if the
 /// recombinations alpha_B n_H^2 r^2 dr of the voxels on the straight line from the star to it
 /// use up less than Q / 4 pi (a long characteristic per point). One star, no dust, no helium.
 std::vector<float> ionizationReference(const SparseVolume& density, const IonizingStar& star,
