@@ -10,6 +10,7 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <array>
 #include <atomic>
 #include <cmath>
 #include <cstdint>
@@ -21,6 +22,9 @@ namespace {
 
 /// Rays start from BASE x BASE pixels per cube face (384 tasks) and split from there.
 constexpr int BASE = 8;
+/// The cube maps of the fronts (the overlap's shares) are at most BASE << MAP_LEVELS = 512
+/// pixels a face edge: 6 MiB a map.
+constexpr int MAP_LEVELS = 6;
 /// The front of a ray that misses the lattice: beyond everything.
 constexpr float MISS = 1e30f;
 
@@ -159,8 +163,8 @@ private:
 /// from the star [voxels] along each pixel's centre direction.
 struct IonizationSolver::Maps
 {
-    int M = BASE;
-    int levels = 0; ///< the finest level: M = BASE << levels
+    int M = BASE;   ///< the maps' pixels a face edge: BASE << min(levels, MAP_LEVELS)
+    int levels = 0; ///< the rays' finest level (BASE << levels rays a face edge)
     std::vector<float> h, he;
     double reach = 0.0; ///< the largest front distance short of MISS [voxels]
 
@@ -194,6 +198,77 @@ struct IonizationSolver::Maps
 
 namespace {
 
+/// How wide a ray may grow through empty space before it splits [voxels].
+constexpr double DEFER = 8.0;
+
+/// Bricks of 8^3 voxels of the lattice with gas in them or in a neighbouring brick.
+class BrickOccupancy
+{
+public:
+    explicit BrickOccupancy(const SparseVolume& n) : mLo(n.lo())
+    {
+        const auto dims = n.dims();
+        for (int a = 0; a < 3; ++a)
+            mBricks[a] = (dims[a] + 7) / 8;
+        std::vector<std::uint8_t> gas(std::size_t(mBricks[0]) * mBricks[1] * mBricks[2], 0);
+        tbb::parallel_for(0, mBricks[2], [&](int bz) {
+            for (int by = 0; by < mBricks[1]; ++by)
+                for (int bx = 0; bx < mBricks[0]; ++bx) {
+                    bool any = false;
+                    for (int k = bz * 8; k < std::min(bz * 8 + 8, dims[2]) && !any; ++k)
+                        for (int j = by * 8; j < std::min(by * 8 + 8, dims[1]) && !any; ++j)
+                            for (int i = bx * 8; i < std::min(bx * 8 + 8, dims[0]); ++i) {
+                                const std::size_t idx = n.index(i + mLo[0], j + mLo[1], k + mLo[2]);
+                                if (n.stored(idx) && n.voxel(idx)[0] > 0.0f) {
+                                    any = true;
+                                    break;
+                                }
+                            }
+                    gas[brick(bx, by, bz)] = any;
+                }
+        });
+        mNear.assign(gas.size(), 0);
+        for (int bz = 0; bz < mBricks[2]; ++bz)
+            for (int by = 0; by < mBricks[1]; ++by)
+                for (int bx = 0; bx < mBricks[0]; ++bx) {
+                    if (!gas[brick(bx, by, bz)]) continue;
+                    for (int dz = -1; dz <= 1; ++dz)
+                        for (int dy = -1; dy <= 1; ++dy)
+                            for (int dx = -1; dx <= 1; ++dx) {
+                                const int x = bx + dx, y = by + dy, z = bz + dz;
+                                if (x < 0 || y < 0 || z < 0 || x >= mBricks[0] || y >= mBricks[1] ||
+                                    z >= mBricks[2])
+                                    continue;
+                                mNear[brick(x, y, z)] = 1;
+                            }
+                }
+    }
+    /// Whether the voxel at index-space point @p p is near gas.
+    bool near(const Vec3& p) const
+    {
+        return near(int(std::floor(p.x + 0.5)), int(std::floor(p.y + 0.5)),
+                    int(std::floor(p.z + 0.5)));
+    }
+    /// Whether voxel (i, j, k) is in or next to a brick with gas (false off the lattice).
+    bool near(int i, int j, int k) const
+    {
+        const int x = (i - mLo[0]) >> 3, y = (j - mLo[1]) >> 3, z = (k - mLo[2]) >> 3;
+        if (i < mLo[0] || j < mLo[1] || k < mLo[2] || x >= mBricks[0] || y >= mBricks[1] ||
+            z >= mBricks[2])
+            return false;
+        return mNear[brick(x, y, z)] != 0;
+    }
+
+private:
+    std::size_t brick(int x, int y, int z) const
+    {
+        return (std::size_t(z) * mBricks[1] + y) * mBricks[0] + x;
+    }
+    std::array<int, 3> mLo;
+    int mBricks[3];
+    std::vector<std::uint8_t> mNear;
+};
+
 /// The photons' tally of one base ray and its children.
 struct RayTally
 {
@@ -214,8 +289,10 @@ class StarMarch
 public:
     StarMarch(const SparseVolume& n, const std::vector<IonizingStar>& stars, std::size_t s,
               const IonizationParams& p, const std::vector<IonizationSolver::Maps*>& previous,
-              IonizationSolver::Maps& out, IonizationSolver::Tally& tally)
-        : mN(n), mStars(stars), mS(s), mP(p), mPrevious(previous), mOut(out), mTally(tally)
+              IonizationSolver::Maps& out, IonizationSolver::Tally& tally,
+              const BrickOccupancy& occupied)
+        : mN(n), mStars(stars), mS(s), mP(p), mPrevious(previous), mOut(out), mTally(tally),
+          mOccupied(occupied)
     {
         const auto lo = n.lo(), dims = n.dims();
         mLo = Vec3(lo[0] - 0.5, lo[1] - 0.5, lo[2] - 0.5);
@@ -245,10 +322,14 @@ public:
             if (!miss) tally.volume += omega * exit * exit * exit / 3;
             return tally;
         }
+        // The ray splits once wider than raySpacing where gas is near; through empty space it
+        // may widen to DEFER voxels first (its children, within DEFER / 2 of its line, are
+        // in empty bricks too while it is).
         const double split = level < mOut.levels ? mP.raySpacing * Ml / 2.0 : exit;
+        const double hard = level < mOut.levels ? std::max(split, DEFER * Ml / 2.0) : exit;
         double rEnd = std::min(exit, std::max(split, r));
         double rFront = -1.0;
-        walkVoxels(o, d, std::max(r, enter), rEnd, [&](int ci, int cj, int ck, double a, double b) {
+        const auto pay = [&](int ci, int cj, int ck, double a, double b) {
             const double n = density(ci, cj, ck);
             if (n <= 0.0) return true;
             const std::size_t idx = mN.index(ci, cj, ck);
@@ -292,7 +373,19 @@ public:
                 qHe *= keep;
             }
             return true;
-        });
+        };
+        walkVoxels(o, d, std::max(r, enter), rEnd, pay);
+        if (rFront < 0.0 && rEnd < exit && rEnd < hard &&
+            !mOccupied.near(o + d * rEnd)) { // empty space: widen on to the next gas
+            double stop = -1.0;
+            walkVoxels(o, d, rEnd, std::min(exit, hard),
+                       [&](int ci, int cj, int ck, double a, double) {
+                           if (!mOccupied.near(ci, cj, ck)) return true;
+                           stop = a;
+                           return false;
+                       });
+            rEnd = stop >= 0.0 ? stop : std::min(exit, hard);
+        }
         if (rFront >= 0) {
             // The ray's volume beyond its front, out of the lattice (it splits no more), so
             // that a voxel other rays ionise counts this ray's part of it as neutral.
@@ -351,9 +444,19 @@ private:
         return own / all;
     }
 
+    /// Writes a finished ray's fronts into the maps: over its pixels, or, for a ray finer than
+    /// the maps, into the one pixel it starts (the first of the pixel's rays writes it).
     void record(int face, int level, int i, int j, float rH, float rHe) const
     {
-        const int M = mOut.M, s = 1 << (mOut.levels - level);
+        const int M = mOut.M, Ml = BASE << level;
+        if (Ml > M) {
+            const int ratio = Ml / M;
+            if (i % ratio || j % ratio) return;
+            i /= ratio;
+            j /= ratio;
+            level -= __builtin_ctz(unsigned(ratio));
+        }
+        const int s = M / (BASE << level);
         for (int a = i * s; a < (i + 1) * s; ++a) {
             float* row = &mOut.h[(std::size_t(face) * M + a) * M];
             float* rowHe = &mOut.he[(std::size_t(face) * M + a) * M];
@@ -371,6 +474,7 @@ private:
     const std::vector<IonizationSolver::Maps*>& mPrevious;
     IonizationSolver::Maps& mOut;
     IonizationSolver::Tally& mTally;
+    const BrickOccupancy& mOccupied;
     Vec3 mLo, mHi;
     double mAlphaH = 0, mAlphaHe = 0, mDust = 0;
 };
@@ -434,6 +538,7 @@ void IonizationSolver::solve(const Run* run)
     std::vector<Maps*> previous;
     std::vector<Maps> saved(S);
     std::vector<double> lastVolume(S, -1.0);
+    const BrickOccupancy occupied(mDensity);
     mIterations = 0;
     for (int it = 0; it < std::max(1, mParams.maxIterations); ++it) {
         ++mIterations;
@@ -441,13 +546,14 @@ void IonizationSolver::solve(const Run* run)
         for (std::size_t s = 0; s < S; ++s) {
             Maps& maps = *mMaps[s];
             maps.levels = finestLevel(mDensity, mStars[s].position, mParams.raySpacing);
-            maps.M = BASE << maps.levels;
+            maps.M = BASE << std::min(maps.levels, MAP_LEVELS);
             maps.h.assign(std::size_t(6) * maps.M * maps.M, 0.0f);
             maps.he.assign(maps.h.size(), 0.0f);
             delete mTallies[s];
             mTallies[s] = nullptr;
             mTallies[s] = new Tally(mDensity.voxelCount());
-            const StarMarch march(mDensity, mStars, s, mParams, previous, maps, *mTallies[s]);
+            const StarMarch march(mDensity, mStars, s, mParams, previous, maps, *mTallies[s],
+                                  occupied);
             const double q = mStars[s].rates.h * INV_FOUR_PI,
                          qHe = mStars[s].rates.he * INV_FOUR_PI;
             std::vector<RayTally> tallies(std::size_t(6) * BASE * BASE);

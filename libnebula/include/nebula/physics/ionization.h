@@ -48,9 +48,9 @@ struct IonizationParams
     double dustCrossSection = 0.0;    ///< dust absorption per H atom of ionising photons [cm^2]
     Abundances abundances;            ///< He, N, O, S
     double voxelSizeCm = 0.0;         ///< edge of a (cubic) voxel [cm], > 0
-    double raySpacing = 1.0;          ///< largest footprint of a ray before it splits [voxels]
+    double raySpacing = 0.5;          ///< largest footprint of a ray before it splits [voxels]
     int maxIterations = 12;           ///< overlap iterations at most
-    double tolerance = 1e-4;          ///< relative change of the ionised volume that stops them
+    double tolerance = 1e-3;          ///< relative change of the ionised volume that stops them
     double oiiCrossSection = 8.0e-18; ///< O+ photoionisation cross-section above 35.1 eV [cm^2]
 };
 

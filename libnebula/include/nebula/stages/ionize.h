@@ -18,7 +18,7 @@ struct IonizeOptions
     std::string densityGrid = "density"; ///< the gas density grid (n_H [cm^-3])
     double electronTemperature = 8000.0; ///< T_e of the ionised gas [K]
     Abundances abundances;               ///< He, N, O, S relative to H
-    double raySpacing = 1.0;             ///< rays split when wider than this [voxels]
+    double raySpacing = 0.5;             ///< rays split when wider than this [voxels]
     bool onlyNew = false;                ///< write only the new grids
 };
 
