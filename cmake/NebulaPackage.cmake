@@ -14,7 +14,7 @@ include(CMakePackageConfigHelpers)
 
 set(NEBULA_CMAKE_DIR ${CMAKE_INSTALL_LIBDIR}/cmake/nebula)
 
-install(TARGETS nebgen nebillum nebscatter nebphase nebpyramid nebrender nebtone nebimport
+install(TARGETS nebgen nebillum nebionize nebscatter nebphase nebpyramid nebrender nebtone nebimport
                 nebexport nebstats nebview
         RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR} COMPONENT tools)
 foreach(tool IN LISTS NEBULA_TOOLS)
@@ -87,7 +87,7 @@ set(CPACK_PACKAGE_DESCRIPTION_SUMMARY
 # Lines of at most 80 characters (Debian policy 5.6.13).
 set(CPACK_PACKAGE_DESCRIPTION
     "Command-line tools (nebgen, nebillum, nebscatter, nebphase, nebpyramid,
-nebrender, nebtone, nebimport, nebexport, nebstats, nebview) that generate,
+nebrender, nebtone, nebimport, nebexport, nebstats, nebview, nebionize) that generate,
 light, render, measure and show live nebulae from OpenVDB grids, with
 multiple scattering, spectral rendering and calibrated FITS output; and
 libnebula, the static library they are built on, with its CMake and

@@ -41,6 +41,8 @@ constexpr CatalogueLine CATALOGUE[] = {
     {"[S II]6716", 671.64},  // 6716.44 A
     {"[S II]6731", 673.08},  // 6730.82 A
     {"He I 5876", 587.56},   // 5875.62 A
+    {"[O I]6300", 630.03},   // 6300.30 A
+    {"[O I]6363", 636.38},   // 6363.78 A
     // Absorption lines of the interstellar medium (DESIGN §7.6), resonance lines from the
     // ground state, to 0.001 nm: NIST ASD air wavelengths (Kramida et al.), as in Morton
     // 2003, ApJS 149, 205 (vacuum 5897.558, 5891.583, 3934.777, 3969.591 A).

@@ -247,6 +247,22 @@ double spectralClassTemperature(const std::string& spectralClass)
     return lo->second + t * (hi->second - lo->second);
 }
 
+namespace {
+
+/// An optional photon rate [s^-1]: finite and > 0 (at most 1e60), or 0 when absent.
+double photonRate(const nlohmann::json& item, const char* field, const std::string& where)
+{
+    const auto it = item.find(field);
+    if (it == item.end()) return 0.0;
+    if (!it->is_number() || !(it->get<double>() > 0.0) || !(it->get<double>() <= 1e60)) {
+        throw Error(where + ": \"" + field + "\" must be a number of photons per second, > 0 " +
+                    "and at most 1e60 [s^-1], got " + shown(*it));
+    }
+    return it->get<double>();
+}
+
+} // namespace
+
 std::vector<Star> parseStars(const std::string& json, const std::string& source)
 {
     const nlohmann::json root = detail::parseJson(json, source);
@@ -364,8 +380,19 @@ std::vector<Star> parseStars(const std::string& json, const std::string& source)
             } catch (const Error& e) {
                 throw Error(where + ": \"class\": " + e.what());
             }
+        } else if (item.contains("Q") || item.contains("Q_OIII")) {
+            throw Error(where + ": \"Q\" needs the star's \"temperature\" (or a spectral "
+                                "\"class\"): it sets how many of the ionising photons are hard "
+                                "enough for He and O++");
         } else {
             throw Error(where + ": missing \"temperature\" (or a spectral \"class\")");
+        }
+        star.ionizingRate = photonRate(item, "Q", where);
+        star.oiiiRate = photonRate(item, "Q_OIII", where);
+        if (star.oiiiRate > 0 && star.ionizingRate > 0 && star.oiiiRate > star.ionizingRate) {
+            throw Error(where + ": \"Q_OIII\" " + numberText(star.oiiiRate) +
+                        " must be at most \"Q\" " + numberText(star.ionizingRate) +
+                        " (photons above 35.1 eV are also above 13.6 eV)");
         }
 
         stars.push_back(std::move(star));
@@ -378,10 +405,13 @@ std::string starsToJson(const std::vector<Star>& stars)
     // nlohmann::json writes doubles with the fewest digits that read back exactly.
     nlohmann::json root = nlohmann::json::array();
     for (const Star& star : stars) {
-        root.push_back({{"name", star.name},
-                        {"position", {star.position[0], star.position[1], star.position[2]}},
-                        {"luminosity", star.luminosity},
-                        {"temperature", star.temperature}});
+        nlohmann::json item = {{"name", star.name},
+                               {"position", {star.position[0], star.position[1], star.position[2]}},
+                               {"luminosity", star.luminosity},
+                               {"temperature", star.temperature}};
+        if (star.ionizingRate > 0) item["Q"] = star.ionizingRate;
+        if (star.oiiiRate > 0) item["Q_OIII"] = star.oiiiRate;
+        root.push_back(std::move(item));
     }
     return root.dump();
 }

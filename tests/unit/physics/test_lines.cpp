@@ -42,6 +42,8 @@ TEST(LineCatalogue, AirWavelengthsOfNistAsd)
         {"[S II]6716", 671.64},
         {"[S II]6731", 673.08},
         {"He I 5876", 587.56},
+        {"[O I]6300", 630.03},
+        {"[O I]6363", 636.38},
         // Absorption lines, to 0.001 nm.
         {"Na I D1", 589.592},
         {"Na I D2", 588.995},

@@ -21,6 +21,12 @@ struct Star
     std::array<double, 3> position{0, 0, 0}; ///< world position [pc]
     double luminosity = 1.0;                 ///< bolometric-free scale [L_sun], > 0
     double temperature = 5772.0;             ///< effective temperature [K], > 0
+    /// Hydrogen-ionising photons per second Q(H0) [s^-1] ("Q"); 0: from the black body of
+    /// the luminosity and temperature (physics/photoionization.h).
+    double ionizingRate = 0.0;
+    /// Photons per second above 35.1 eV (O+ -> O++) [s^-1] ("Q_OIII"); 0: in the black body's
+    /// proportion to Q(H0).
+    double oiiiRate = 0.0;
 };
 
 /// Limits parseStars() enforces on every star, so that nothing derived from a star
@@ -32,7 +38,9 @@ inline constexpr double MAX_STAR_LUMINOSITY = 1e30;
 inline constexpr double MAX_STAR_TEMPERATURE = 1e9;
 
 /// Parses a JSON array of {"name", "position":[x,y,z], "luminosity", "temperature"} where a
-/// "class" (e.g. "B3V") may stand in for "temperature". @p source names the file (or
+/// "class" (e.g. "B3V") may stand in for "temperature", with optional ionising photon rates
+/// "Q" and "Q_OIII" [s^-1] (finite, > 0, "Q_OIII" at most "Q"; they need the temperature,
+/// which sets how hard the photons are). @p source names the file (or
 /// "nebula:stars metadata") in error messages. Throws Error on a parse error, a missing or
 /// mistyped field, a non-positive luminosity or temperature, a value above the limits
 /// above, a bad or duplicate name, or a star with both "temperature" and "class". Messages start

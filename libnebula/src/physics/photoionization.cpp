@@ -1,0 +1,246 @@
+// SPDX-License-Identifier: Apache-2.0
+/// @file photoionization.cpp
+/// Recombination, ionising photon rates and nebular line emissivities: see photoionization.h.
+
+#include "nebula/physics/photoionization.h"
+
+#include "nebula/core/error.h"
+#include "nebula/core/units.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+
+namespace nebula {
+
+namespace {
+
+/// hc [erg nm]; the lines' energies use vacuum wavelengths (air times 1.00028).
+constexpr double HC_ERG_NM = 1.98644586e-9;
+constexpr double AIR_TO_VACUUM = 1.00028;
+/// kT [eV] per K.
+constexpr double K_EV = 8.617333262e-5;
+/// The collision rate constant of q_12 = 8.629e-6 Omega / (g sqrt(T)) [cm^3 s^-1 K^1/2].
+constexpr double COLLISION_CONSTANT = 8.629e-6;
+
+/// A quantity tabulated at 5000, 10^4 and 20000 K, a power law in T through the nearest pair
+/// (and beyond the ends).
+double powerLawTable(double T, double v5000, double v10000, double v20000)
+{
+    if (!(T > 0.0) || !std::isfinite(T)) {
+        throw Error("photoionisation: temperature must be finite and > 0 [K], got " +
+                    std::to_string(T));
+    }
+    const bool low = T < 1e4;
+    const double a = low ? v5000 : v10000, b = low ? v10000 : v20000;
+    const double t0 = low ? 5000.0 : 1e4;
+    const double slope = std::log(b / a) / std::log(2.0);
+    return a * std::pow(T / t0, slope);
+}
+
+double photonEnergyErg(double airNm)
+{
+    return HC_ERG_NM / (airNm * AIR_TO_VACUUM);
+}
+
+/// integral_x0^inf x^2 / (e^x - 1) dx = sum_k e^{-k x0} (x0^2/k + 2 x0/k^2 + 2/k^3).
+double planckPhotonTail(double x0)
+{
+    if (x0 <= 0.0) return 2.0 * 1.2020569031595942;
+    double sum = 0.0;
+    for (int k = 1; k < 200; ++k) {
+        const double kd = k;
+        const double term =
+            std::exp(-kd * x0) * (x0 * x0 / kd + 2.0 * x0 / (kd * kd) + 2.0 / (kd * kd * kd));
+        sum += term;
+        if (term < 1e-17 * sum) break;
+    }
+    return sum;
+}
+
+} // namespace
+
+double caseBRecombinationH(double T)
+{
+    return powerLawTable(T, 4.54e-13, 2.59e-13, 1.43e-13);
+}
+
+double caseBRecombinationHe(double T)
+{
+    powerLawTable(T, 1, 1, 1); // the check of T
+    return 2.73e-13 * std::pow(T / 1e4, -0.79);
+}
+
+double recombinationOIII(double T)
+{
+    powerLawTable(T, 1, 1, 1);
+    return 2.0e-12 * std::pow(T / 1e4, -0.65) + 1.0e-12;
+}
+
+double hBetaEmissivity(double T)
+{
+    return powerLawTable(T, 2.20e-25, 1.24e-25, 6.59e-26);
+}
+
+double balmerDecrement(double T)
+{
+    return powerLawTable(T, 3.04, 2.86, 2.75);
+}
+
+double hBetaEffectiveRecombination(double T)
+{
+    return hBetaEmissivity(T) / photonEnergyErg(486.13);
+}
+
+double blackbodyPhotonFraction(double T, double thresholdEv)
+{
+    return planckPhotonTail(thresholdEv / (K_EV * T)) / (2.0 * 1.2020569031595942);
+}
+
+double blackbodyPhotonRate(double luminosity, double T, double thresholdEv)
+{
+    // N(>x0) = L / kT * 15 / pi^4 * integral_x0 x^2 / (e^x - 1) dx.
+    const double kT = K_EV * T * 1.602176634e-12; // [erg]
+    return luminosity * L_SUN_CGS / kT * 15.0 / std::pow(PI, 4) *
+           planckPhotonTail(thresholdEv / (K_EV * T));
+}
+
+double meanHydrogenCrossSection(double T)
+{
+    // Photon-weighted mean of 6.3e-18 (x0/x)^3 over x^2 / (e^x - 1), x > x0: Simpson's rule
+    // over x0 .. x0 + 40 (the rest is below 1e-17).
+    const double x0 = H_IONIZATION_EV / (K_EV * T);
+    const int n = 4000;
+    const double h = 40.0 / n;
+    double num = 0.0, den = 0.0;
+    for (int i = 0; i <= n; ++i) {
+        const double x = x0 + h * i;
+        const double w = (i == 0 || i == n) ? 1.0 : (i % 2 ? 4.0 : 2.0);
+        const double photons = x * x / std::expm1(x);
+        den += w * photons;
+        num += w * photons * std::pow(x0 / x, 3.0);
+    }
+    return 6.30e-18 * num / den;
+}
+
+IonizingRates ionizingRates(double luminosity, double T, double q, double qOIII)
+{
+    IonizingRates r;
+    r.h = blackbodyPhotonRate(luminosity, T, H_IONIZATION_EV);
+    r.he = blackbodyPhotonRate(luminosity, T, HE_IONIZATION_EV);
+    r.oiii = blackbodyPhotonRate(luminosity, T, OII_IONIZATION_EV);
+    if (q > 0.0) {
+        const double scale = r.h > 0.0 ? q / r.h : 0.0;
+        r.he *= scale;
+        r.oiii *= scale;
+        r.h = q;
+    }
+    if (qOIII > 0.0) r.oiii = qOIII;
+    return r;
+}
+
+Abundances parseAbundances(const std::string& text, const std::string& source, Abundances base)
+{
+    std::size_t start = 0;
+    while (start <= text.size()) {
+        const std::size_t end = std::min(text.find(',', start), text.size());
+        const std::string item = text.substr(start, end - start);
+        const std::size_t eq = item.find('=');
+        const std::string key = item.substr(0, eq);
+        double* field = key == "he"  ? &base.he
+                        : key == "n" ? &base.n
+                        : key == "o" ? &base.o
+                        : key == "s" ? &base.s
+                                     : nullptr;
+        if (eq == std::string::npos || !field) {
+            throw Error(source + ": \"" + item +
+                        "\": expected ELEMENT=VALUE with ELEMENT he, n, o or s (number "
+                        "abundances relative to H), e.g. he=0.1,o=3.3e-4");
+        }
+        char* stop = nullptr;
+        const std::string value = item.substr(eq + 1);
+        const double v = std::strtod(value.c_str(), &stop);
+        if (value.empty() || *stop != '\0' || !(v >= 0.0) || !(v <= 1.0)) {
+            throw Error(source + ": \"" + item + "\": the abundance must be a number from 0 to 1");
+        }
+        *field = v;
+        start = end + 1;
+    }
+    return base;
+}
+
+namespace {
+
+// Energies over k from the levels' term values [cm^-1] times hc/k = 1.438777 cm K.
+const std::vector<ForbiddenLevel> OIII = {
+    {"[O III]5007", 500.684, 2.29, 9, 5, 20273.27 * 1.438777, 1.960e-2, 2.617e-2},
+    {"[O III]4959", 495.891, 2.29, 9, 5, 20273.27 * 1.438777, 6.520e-3, 2.617e-2},
+};
+const std::vector<ForbiddenLevel> NII = {
+    {"[N II]6583", 658.345, 2.64, 9, 5, 15316.2 * 1.438777, 2.920e-3, 3.904e-3},
+    {"[N II]6548", 654.805, 2.64, 9, 5, 15316.2 * 1.438777, 9.840e-4, 3.904e-3},
+};
+const std::vector<ForbiddenLevel> SII = {
+    {"[S II]6716", 671.644, 4.14, 4, 6, 14884.7 * 1.438777, 2.60e-4, 2.60e-4},
+    {"[S II]6731", 673.082, 2.76, 4, 4, 14852.9 * 1.438777, 8.82e-4, 8.82e-4},
+};
+const std::vector<ForbiddenLevel> OI = {
+    {"[O I]6300", 630.030, 0.266, 9, 5, 15867.86 * 1.438777, 5.63e-3, 7.45e-3},
+    {"[O I]6363", 636.378, 0.266, 9, 5, 15867.86 * 1.438777, 1.82e-3, 7.45e-3},
+};
+
+} // namespace
+
+const std::vector<ForbiddenLevel>& oiiiLevels()
+{
+    return OIII;
+}
+const std::vector<ForbiddenLevel>& niiLevels()
+{
+    return NII;
+}
+const std::vector<ForbiddenLevel>& siiLevels()
+{
+    return SII;
+}
+const std::vector<ForbiddenLevel>& oiLevels()
+{
+    return OI;
+}
+
+double forbiddenEmissivity(const ForbiddenLevel& level, double T, double ne)
+{
+    powerLawTable(T, 1, 1, 1);
+    const double rootT = std::sqrt(T);
+    const double q12 =
+        COLLISION_CONSTANT * level.omega / (level.gLower * rootT) * std::exp(-level.energyK / T);
+    const double q21 = COLLISION_CONSTANT * level.omega / (level.gUpper * rootT);
+    const double nc = level.einsteinSum / q21;
+    const double branching = level.einsteinA / level.einsteinSum;
+    return q12 * branching * photonEnergyErg(level.wavelength) / (1.0 + std::max(ne, 0.0) / nc);
+}
+
+double forbiddenEmissivitySum(const std::vector<ForbiddenLevel>& levels, double T, double ne)
+{
+    double sum = 0.0;
+    for (const auto& l : levels)
+        sum += forbiddenEmissivity(l, T, ne);
+    return sum;
+}
+
+std::string forbiddenLineList(const std::vector<ForbiddenLevel>& levels, double T, double ne)
+{
+    double strongest = 0.0;
+    for (const auto& l : levels)
+        strongest = std::max(strongest, forbiddenEmissivity(l, T, ne));
+    std::string out;
+    for (const auto& l : levels) {
+        char buf[64];
+        std::snprintf(buf, sizeof buf, "%.4g", forbiddenEmissivity(l, T, ne) / strongest);
+        out += (out.empty() ? "" : ",") + std::string(l.line) + ":" + buf;
+    }
+    return out;
+}
+
+} // namespace nebula
