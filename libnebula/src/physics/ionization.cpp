@@ -273,8 +273,10 @@ private:
 struct RayTally
 {
     double recombined = 0, dust = 0, escaped = 0, open = 0, volume = 0;
+    double spared = 0; ///< recombinations other stars paid for, by their shares [s^-1]
     void add(const RayTally& o)
     {
+        spared += o.spared;
         recombined += o.recombined;
         dust += o.dust;
         escaped += o.escaped;
@@ -358,6 +360,7 @@ public:
                 mTally.add(idx, 1, tube(a, rFront));
                 mTally.add(idx, 2, tube(a, std::min(heEnd, rFront)));
                 tally.recombined += qH * omega;
+                tally.spared += qH * omega * (1.0 / share - 1.0);
                 qH = 0;
                 return false;
             }
@@ -366,6 +369,7 @@ public:
             mTally.add(idx, 2, tube(a, heEnd));
             qH -= need;
             tally.recombined += need * omega;
+            tally.spared += need * omega * (1.0 / share - 1.0);
             if (mDust > 0) {
                 const double keep = std::exp(-mDust * n * (b - a));
                 tally.dust += qH * (1 - keep) * omega;
@@ -543,6 +547,7 @@ void IonizationSolver::solve(const Run* run)
     for (int it = 0; it < std::max(1, mParams.maxIterations); ++it) {
         ++mIterations;
         bool moved = false;
+        double spared = 0.0, photons = 0.0;
         for (std::size_t s = 0; s < S; ++s) {
             Maps& maps = *mMaps[s];
             maps.levels = finestLevel(mDensity, mStars[s].position, mParams.raySpacing);
@@ -569,6 +574,8 @@ void IonizationSolver::solve(const Run* run)
             RayTally total;
             for (const auto& t : tallies)
                 total.add(t);
+            spared += total.spared;
+            photons += mStars[s].rates.h;
             mPhotons[s] = {mStars[s].rates.h, total.recombined, total.dust, total.escaped,
                            total.open};
             double reach = 0.0;
@@ -581,7 +588,10 @@ void IonizationSolver::solve(const Run* run)
             }
             lastVolume[s] = total.volume;
         }
+        // Done when the fronts stop moving, or when the overlap's shares moved fewer photons
+        // than the tolerance (another pass would change less).
         if (S < 2 || !moved || !overlapping(mStars, mMaps)) break;
+        if (!previous.empty() && spared < mParams.tolerance * photons) break;
         for (std::size_t s = 0; s < S; ++s)
             saved[s] = *mMaps[s];
         previous.clear();
