@@ -604,6 +604,10 @@ void IonizationSolver::solve(const Run* run)
             }
             lastVolume[s] = total.volume;
         }
+        if (run && S > 1) {
+            run->info("pass " + std::to_string(mIterations) + ": the overlap's shares moved " +
+                      std::to_string(spared / photons) + " of the stars' photons");
+        }
         // Done when the fronts stop moving, or when the overlap's shares moved fewer photons
         // than the tolerance (another pass would change less).
         if (S < 2 || !moved || !overlapping(mStars, mMaps)) break;
