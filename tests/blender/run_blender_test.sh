@@ -1,12 +1,12 @@
 #!/usr/bin/env bash
 # SPDX-License-Identifier: Apache-2.0
-# Opens nebgen's (also --spectral) and nebillum's output in headless Blender and checks the grid
+# Opens nebgen's (also --spectral), nebionize's and nebillum's output in headless Blender and checks the grid
 # names, voxel size, transform, active-voxel bounding box and value range that
 # Blender sees against `vdb_print -l -m` (OpenVDB's own numbers).
 #
 #   run_blender_test.sh TOOLS_DIR WORK_DIR
 #
-# TOOLS_DIR holds nebgen and nebillum; WORK_DIR is created if needed and this
+# TOOLS_DIR holds nebgen, nebillum and nebionize; WORK_DIR is created if needed and this
 # script's files in it are replaced. BLENDER and VDB_PRINT may name other
 # executables. Exit 0 only if every check passed. A missing blender is a
 # failure, not a skip.
@@ -34,14 +34,14 @@ command -v "$BLENDER" >/dev/null 2>&1 ||
 command -v "$VDB_PRINT" >/dev/null 2>&1 ||
     fail "vdb_print not found (VDB_PRINT=$VDB_PRINT): install libopenvdb-tools."
 command -v python3 >/dev/null 2>&1 || fail "python3 not found (needed to parse vdb_print)."
-for t in nebgen nebillum; do
+for t in nebgen nebillum nebionize; do
     [ -x "$TOOLS/$t" ] || fail "$TOOLS/$t is missing or not executable."
 done
 
 mkdir -p "$WORK" || fail "cannot create $WORK"
 WORK=$(cd "$WORK" && pwd)
 rm -rf "$WORK/blender-user"
-rm -f "$WORK"/nebula.* "$WORK"/lit.* "$WORK"/spectral.* "$WORK"/wrong_*
+rm -f "$WORK"/nebula.* "$WORK"/lit.* "$WORK"/spectral.* "$WORK"/ionised.* "$WORK"/wrong_*
 # Keep Blender away from the user's own configuration and scripts.
 export BLENDER_USER_CONFIG=$WORK/blender-user/config
 export BLENDER_USER_SCRIPTS=$WORK/blender-user/scripts
@@ -56,6 +56,9 @@ SIZE=10
 echo "== generating a small nebula in $WORK (nebgen --res $RES --size $SIZE, nebillum)"
 "$TOOLS/nebgen" --res $RES --size $SIZE -q -o "$WORK/nebula.vdb" || fail "nebgen failed"
 "$TOOLS/nebillum" -q -i "$WORK/nebula.vdb" -o "$WORK/lit.vdb" || fail "nebillum failed"
+# nebionize's grids: ionisation fractions and line emissivities (an O star in the cloud).
+"$TOOLS/nebionize" -q -i "$WORK/nebula.vdb" --star o:0,0,0:2e5:40000 -o "$WORK/ionised.vdb" ||
+    fail "nebionize failed"
 # The spectral grids: temperature (float), velocity (vec3s, world space), emission.oiii.
 "$TOOLS/nebgen" --res $RES --size $SIZE -q --spectral --rotation 20 --turbulence 5 --oiii 0.5 \
     -o "$WORK/spectral.vdb" || fail "nebgen --spectral failed"
@@ -180,12 +183,14 @@ run_blender() {
 }
 
 failures=0
-for f in nebula lit spectral; do
+for f in nebula lit spectral ionised; do
     vdb=$WORK/$f.vdb
     case $f in
         nebula) required=(density emission) ;;
         lit) required=(density emission 'tau.*') ;;
         spectral) required=(density emission emission.oiii temperature velocity) ;;
+        ionised) required=(density emission ionization.hii ionization.oiii emission.oiii
+                           emission.nii emission.sii) ;;
     esac
     echo "== $f.vdb: OpenVDB (vdb_print -l -m) says"
     expected_json "$vdb" "$WORK/$f.expected.json" "$(python3 -c "print($SIZE / $RES)")" "${required[@]}"

@@ -8,7 +8,7 @@
 #   test_manual.sh BUILD_DIR
 set -euo pipefail
 build=$1
-tools=(nebgen nebillum nebrender nebphase nebpyramid nebscatter nebtone nebimport nebexport nebstats nebview)
+tools=(nebgen nebillum nebionize nebrender nebphase nebpyramid nebscatter nebtone nebimport nebexport nebstats nebview)
 command -v man > /dev/null || { echo "SKIP: man (man-db) is not installed" >&2; exit 77; }
 fail=0
 for t in "${tools[@]}"; do

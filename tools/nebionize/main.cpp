@@ -42,6 +42,10 @@ int main(int argc, char** argv)
                     "forbidden lines)")
         ->check(nebula::cli::numberIn(1000.0, 1e5))
         ->capture_default_str();
+    gas->add_option("--temperature-grid", opts.temperatureGrid,
+                    "a grid of the gas's electron temperature [K] (a simulation's), used where "
+                    "it is > 0 instead of --electron-temperature (not nebgen's temperature: "
+                    "that is the dust's)");
     gas->add_option("--abundances", abundances,
                     "number abundances relative to H, e.g. he=0.1,n=4e-5,o=3.3e-4,s=9e-6 (the "
                     "default: the Lexington benchmark's H II region); he=0 for pure hydrogen");

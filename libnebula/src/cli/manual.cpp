@@ -129,8 +129,8 @@ std::string manPage(CLI::App& app, const std::string& tool, const std::string& d
       << ".TP\n.B 2\na usage error: an option or its value (the message names it); nothing is "
          "written\n"
       << ".SH SEE ALSO\n";
-    const char* tools[] = {"nebgen",     "nebimport", "nebillum", "nebscatter", "nebphase",
-                           "nebpyramid", "nebrender", "nebtone",  "nebexport"};
+    const char* tools[] = {"nebgen",   "nebimport",  "nebionize", "nebillum", "nebscatter",
+                           "nebphase", "nebpyramid", "nebrender", "nebtone",  "nebexport"};
     std::string see;
     for (const char* t : tools)
         if (tool != t) see += std::string(see.empty() ? "" : ",\n") + "\\fB" + t + "\\fR(1)";

@@ -198,6 +198,15 @@ struct IonizationSolver::Maps
 
 namespace {
 
+/// The electron temperature of voxel @p idx [K]: channel 1 of the volume where it has one and
+/// the value is > 0, else the parameters' (one value for the whole gas).
+double electronTemperature(const SparseVolume& n, std::size_t idx, const IonizationParams& p)
+{
+    if (n.channels() < 2) return p.electronTemperature;
+    const double t = n.voxel(idx)[1];
+    return t > 0.0 ? t : p.electronTemperature;
+}
+
 /// How wide a ray may grow through empty space before it splits [voxels].
 constexpr double DEFER = 8.0;
 
@@ -273,8 +282,10 @@ private:
 struct RayTally
 {
     double recombined = 0, dust = 0, escaped = 0, open = 0, volume = 0;
+    double spared = 0; ///< recombinations other stars paid for, by their shares [s^-1]
     void add(const RayTally& o)
     {
+        spared += o.spared;
         recombined += o.recombined;
         dust += o.dust;
         escaped += o.escaped;
@@ -298,6 +309,7 @@ public:
         mLo = Vec3(lo[0] - 0.5, lo[1] - 0.5, lo[2] - 0.5);
         mHi = Vec3(lo[0] + dims[0] - 0.5, lo[1] + dims[1] - 0.5, lo[2] + dims[2] - 0.5);
         const double dx3 = p.voxelSizeCm * p.voxelSizeCm * p.voxelSizeCm;
+        mDx3 = dx3;
         mAlphaH = caseBRecombinationH(p.electronTemperature) * dx3;
         mAlphaHe = caseBRecombinationHe(p.electronTemperature) * dx3 * p.abundances.he;
         mDust = p.dustCrossSection * p.voxelSizeCm;
@@ -339,10 +351,16 @@ public:
             const double share = shareAt(ci, cj, ck);
             const bool heZone = rHe < 0 && qHe > 0;
             const double ne = n * (1.0 + (heZone ? mP.abundances.he : 0.0));
-            const double kH = mAlphaH * ne * n * share, need = kH * (b * b * b - a * a * a) / 3.0;
+            double alphaH = mAlphaH, alphaHe = mAlphaHe;
+            const double Te = electronTemperature(mN, idx, mP);
+            if (Te != mP.electronTemperature) { // a temperature grid's value
+                alphaH = caseBRecombinationH(Te) * mDx3;
+                alphaHe = caseBRecombinationHe(Te) * mDx3 * mP.abundances.he;
+            }
+            const double kH = alphaH * ne * n * share, need = kH * (b * b * b - a * a * a) / 3.0;
             double heEnd = heZone ? b : a; // the He+ zone's part of this voxel ends here
             if (heZone) {
-                const double kHe = mAlphaHe * ne * n * share;
+                const double kHe = alphaHe * ne * n * share;
                 const double needHe = kHe * (b * b * b - a * a * a) / 3.0;
                 if (qHe <= needHe) {
                     rHe = std::cbrt(a * a * a + 3.0 * qHe / kHe);
@@ -358,6 +376,7 @@ public:
                 mTally.add(idx, 1, tube(a, rFront));
                 mTally.add(idx, 2, tube(a, std::min(heEnd, rFront)));
                 tally.recombined += qH * omega;
+                tally.spared += qH * omega * (1.0 / share - 1.0);
                 qH = 0;
                 return false;
             }
@@ -366,6 +385,7 @@ public:
             mTally.add(idx, 2, tube(a, heEnd));
             qH -= need;
             tally.recombined += need * omega;
+            tally.spared += need * omega * (1.0 / share - 1.0);
             if (mDust > 0) {
                 const double keep = std::exp(-mDust * n * (b - a));
                 tally.dust += qH * (1 - keep) * omega;
@@ -476,7 +496,7 @@ private:
     IonizationSolver::Tally& mTally;
     const BrickOccupancy& mOccupied;
     Vec3 mLo, mHi;
-    double mAlphaH = 0, mAlphaHe = 0, mDust = 0;
+    double mAlphaH = 0, mAlphaHe = 0, mDust = 0, mDx3 = 0;
 };
 
 /// The finest level a star's rays need: footprints of at most raySpacing at the lattice's
@@ -543,6 +563,7 @@ void IonizationSolver::solve(const Run* run)
     for (int it = 0; it < std::max(1, mParams.maxIterations); ++it) {
         ++mIterations;
         bool moved = false;
+        double spared = 0.0, photons = 0.0;
         for (std::size_t s = 0; s < S; ++s) {
             Maps& maps = *mMaps[s];
             maps.levels = finestLevel(mDensity, mStars[s].position, mParams.raySpacing);
@@ -569,6 +590,8 @@ void IonizationSolver::solve(const Run* run)
             RayTally total;
             for (const auto& t : tallies)
                 total.add(t);
+            spared += total.spared;
+            photons += mStars[s].rates.h;
             mPhotons[s] = {mStars[s].rates.h, total.recombined, total.dust, total.escaped,
                            total.open};
             double reach = 0.0;
@@ -581,7 +604,14 @@ void IonizationSolver::solve(const Run* run)
             }
             lastVolume[s] = total.volume;
         }
+        if (run && S > 1) {
+            run->info("pass " + std::to_string(mIterations) + ": the overlap's shares moved " +
+                      std::to_string(spared / photons) + " of the stars' photons");
+        }
+        // Done when the fronts stop moving, or when the overlap's shares moved fewer photons
+        // than the tolerance (another pass would change less).
         if (S < 2 || !moved || !overlapping(mStars, mMaps)) break;
+        if (!previous.empty() && spared < mParams.tolerance * photons) break;
         for (std::size_t s = 0; s < S; ++s)
             saved[s] = *mMaps[s];
         previous.clear();
@@ -602,7 +632,8 @@ VoxelIonization IonizationSolver::at(int i, int j, int k) const
     const double n = mDensity.voxel(mDensity.index(i, j, k))[0];
     if (!(n > 0.0)) return out;
     const Vec3 c(i, j, k);
-    const double T = mParams.electronTemperature;
+    const double T = electronTemperature(mDensity, mDensity.index(i, j, k), mParams);
+    out.te = T;
     double gammaO = 0.0, layer = 0.0;
     for (std::size_t s = 0; s < mStars.size(); ++s) {
         const Vec3 d = c - mStars[s].position;

@@ -8,6 +8,7 @@
 #include "nebula/core/format.h"
 #include "nebula/core/units.h"
 #include "nebula/io/grid_names.h"
+#include "nebula/io/spectral_grids.h"
 #include "nebula/io/volume_vdb.h"
 #include "nebula/physics/lines.h"
 
@@ -33,9 +34,9 @@ const std::array<const char*, OUTPUTS> NAMES = {
     EMISSION_NII_GRID, EMISSION_SII_GRID,  EMISSION_OI_GRID};
 
 /// The emissivities of one voxel [L_sun pc^-3 sr^-1] and its fractions.
-std::array<float, OUTPUTS> voxelOutputs(const VoxelIonization& v, double n, double T,
-                                        const Abundances& ab)
+std::array<float, OUTPUTS> voxelOutputs(const VoxelIonization& v, double n, const Abundances& ab)
 {
+    const double T = v.te;
     std::array<float, OUTPUTS> out{};
     out[HII] = float(v.hii);
     out[OIII_FRACTION] = float(v.oiii);
@@ -147,8 +148,13 @@ IonizeReport ionize(GridSet& grids, const IonizeOptions& opts, const Run& run)
     opts.dust.validate();
     const double voxelPc = cubicVoxelSize(*density, grids.source);
 
-    const openvdb::FloatGrid::ConstPtr source = density->copy();
-    const SparseVolume n = volumeFromGrids({source}, activeBounds({source}, 1), grids.source);
+    std::vector<openvdb::FloatGrid::ConstPtr> sources{density->copy()};
+    if (!opts.temperatureGrid.empty()) { // the gas's electron temperature, channel 1
+        const auto t = grids.floatGrid(opts.temperatureGrid, "--temperature-grid");
+        requireValidTemperature(*t, grids.source);
+        sources.push_back(t);
+    }
+    const SparseVolume n = volumeFromGrids(sources, activeBounds({sources[0]}, 1), grids.source);
     const auto ionizing = ionizingStars(stars, n.indexToWorld.inverse());
     IonizationParams params;
     params.electronTemperature = opts.electronTemperature;
@@ -166,26 +172,26 @@ IonizeReport ionize(GridSet& grids, const IonizeOptions& opts, const Run& run)
     report.iterations = solver.iterations();
 
     // Every output leaf from the density's leaves, in parallel; only leaves with a value.
-    const double T = opts.electronTemperature;
     const double voxelCm3 = std::pow(params.voxelSizeCm, 3);
     openvdb::tree::LeafManager<const openvdb::FloatTree> leaves(density->tree());
     using Leaf = openvdb::FloatTree::LeafNodeType;
     std::vector<std::array<Leaf*, OUTPUTS>> made(leaves.leafCount());
     std::mutex sumMutex;
-    double recombinations = 0.0, neWeight = 0.0, neSum = 0.0;
+    double recombinations = 0.0, neWeight = 0.0, neSum = 0.0, teSum = 0.0;
     leaves.foreach ([&](const Leaf& leaf, std::size_t l) {
         std::array<Leaf*, OUTPUTS>& mine = made[l];
         mine.fill(nullptr);
-        double rec = 0.0, w = 0.0, wne = 0.0;
+        double rec = 0.0, w = 0.0, wne = 0.0, wte = 0.0;
         for (auto it = leaf.cbeginValueOn(); it; ++it) {
             const auto c = it.getCoord();
             const double nH = *it;
             if (!(nH > 0.0)) continue;
             const VoxelIonization v = solver.at(c.x(), c.y(), c.z());
-            const auto values = voxelOutputs(v, nH, T, opts.abundances);
-            rec += caseBRecombinationH(T) * v.ne * nH * v.hii * voxelCm3;
+            const auto values = voxelOutputs(v, nH, opts.abundances);
+            rec += caseBRecombinationH(v.te) * v.ne * nH * v.hii * voxelCm3;
             w += v.ne * nH * v.hii;
             wne += v.ne * v.ne * nH * v.hii;
+            wte += v.te * v.ne * nH * v.hii;
             for (int g = 0; g < OUTPUTS; ++g) {
                 if (values[g] == 0.0f) continue;
                 if (!mine[g]) mine[g] = new Leaf(leaf.origin(), 0.0f, false);
@@ -196,9 +202,12 @@ IonizeReport ionize(GridSet& grids, const IonizeOptions& opts, const Run& run)
         recombinations += rec;
         neWeight += w;
         neSum += wne;
+        teSum += wte;
     });
     report.recombinations = recombinations;
+    // The lines' ratios at the emission-weighted mean n_e and T_e of the ionised gas.
     const double neMean = neWeight > 0.0 ? neSum / neWeight : 100.0;
+    const double T = neWeight > 0.0 ? teSum / neWeight : opts.electronTemperature;
 
     char decrement[32];
     std::snprintf(decrement, sizeof decrement, "%.4g", balmerDecrement(T));

@@ -210,6 +210,33 @@ TEST(Ionization, StromgrenSphere)
     EXPECT_NEAR(solver.photons()[0].recombined / 1e49, 1.0, 1e-9);
 }
 
+// An electron temperature per voxel (channel 1) replaces the parameter: at 20000 K alpha_B is
+// 1.43e-13, and the Strömgren sphere is (2.59 / 1.43)^(1/3) = 1.22 times larger.
+TEST(Ionization, TemperatureChannelSetsRecombination)
+{
+    const int N = 48;
+    SparseVolume n({0, 0, 0}, {N, N, N}, 2);
+    for (int k = 0; k < N; ++k)
+        for (int j = 0; j < N; ++j)
+            for (int i = 0; i < N; ++i) {
+                float* v = n.writable(n.index(i, j, k));
+                v[0] = 100.0f;
+                v[1] = 20000.0f;
+            }
+    const double RS = std::cbrt(3 * 1e49 / (4 * PI * 1e4 * 1.43e-13)) / PC_CM;
+    const double h = RS / 20.0;
+    const auto p = hydrogen(h);
+    IonizationSolver solver(n, {star(Vec3(23.5, 23.5, 23.5), 1e49)}, p);
+    solver.solve();
+    double volume = 0;
+    for (int k = 0; k < N; ++k)
+        for (int j = 0; j < N; ++j)
+            for (int i = 0; i < N; ++i)
+                volume += solver.at(i, j, k).hii;
+    EXPECT_NEAR(std::cbrt(3 * volume / (4 * PI)) * h / RS, 1.0, 0.01);
+    EXPECT_EQ(solver.at(23, 23, 23).te, 20000.0);
+}
+
 // Photon conservation in a clumpy lognormal field whose front stays inside the grid: the
 // grid's recombinations equal Q within 1 %.
 TEST(Ionization, PhotonConservationClumpy)

@@ -72,10 +72,12 @@ struct VoxelIonization
     double oiii = 0.0;  ///< O++ / O
     double front = 0.0; ///< the volume fraction of the partly ionised layer at a front
     double ne = 0.0;    ///< mean electron density of the ionised part [cm^-3]
+    double te = 0.0;    ///< electron temperature [K]
 };
 
-/// The solver. The density volume (channel 0: n_H [cm^-3], index space, cubic voxels) must
-/// outlive it.
+/// The solver. The density volume (channel 0: n_H [cm^-3], index space, cubic voxels; an
+/// optional channel 1: the electron temperature [K], where > 0, else
+/// IonizationParams::electronTemperature) must outlive it.
 class IonizationSolver
 {
 public:

@@ -17,9 +17,12 @@ struct IonizeOptions
     bool dustAbsorbs = true;             ///< whether dust absorbs ionising photons
     std::string densityGrid = "density"; ///< the gas density grid (n_H [cm^-3])
     double electronTemperature = 8000.0; ///< T_e of the ionised gas [K]
-    Abundances abundances;               ///< He, N, O, S relative to H
-    double raySpacing = 0.5;             ///< rays split when wider than this [voxels]
-    bool onlyNew = false;                ///< write only the new grids
+    /// A grid of the gas's electron temperature [K] ("": none); where it is 0 or inactive,
+    /// electronTemperature. Not nebgen's `temperature`, the dust's.
+    std::string temperatureGrid;
+    Abundances abundances;   ///< He, N, O, S relative to H
+    double raySpacing = 0.5; ///< rays split when wider than this [voxels]
+    bool onlyNew = false;    ///< write only the new grids
 };
 
 /// Dust absorption cross-section per H atom for ionising photons [cm^2]: twice the V-band
