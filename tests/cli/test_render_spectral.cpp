@@ -33,6 +33,23 @@ protected:
         ASSERT_EQ(run("nebillum -i s.vdb -o spec.vdb").code, 0);
     }
 
+    /// Copies spec.vdb to @p out with an absorption grid "absorption.nai" (1 wherever the
+    /// density is active) whose nebula:absorption-lines is @p lines (none if empty).
+    void withAbsorber(const std::string& out, const std::string& lines)
+    {
+        nebula::GridSet g = read(path("spec.vdb"));
+        auto a = openvdb::gridPtrCast<openvdb::FloatGrid>(g.find("density"))->deepCopy();
+        a->clearMetadata(); // the density's, and its name
+        a->setName("absorption.nai");
+        for (auto it = a->beginValueOn(); it; ++it)
+            it.setValue(1.0f);
+        if (!lines.empty()) {
+            a->insertMeta(nebula::META_ABSORPTION_LINES, openvdb::StringMetadata(lines));
+        }
+        g.grids.push_back(a);
+        writeVdb(path(out), g.grids, g.meta);
+    }
+
     /// Copies spec.vdb to @p out with grid @p name replaced by @p grid.
     void replaceGrid(const std::string& out, openvdb::GridBase::Ptr grid)
     {
@@ -103,6 +120,50 @@ TEST_F(RenderSpectral, FixedBandsApproachPiecewiseLinear)
     const double b2000 = sumY(nebula::readExr(path("b2000.exr"), nullptr));
     EXPECT_LT(std::abs(b2000 - pl), std::abs(b20 - pl));
     EXPECT_NEAR(b2000, pl, 0.01 * pl);
+}
+
+// An absorption grid dims the spectrum around its lines (here Na I D, the lines 100 times
+// wider and faster, so reaching 579-600 nm) and nowhere else; its bad forms are refused.
+TEST_F(RenderSpectral, AbsorptionGridDimsItsLinesOnly)
+{
+    makeSpectral();
+    withAbsorber("abs.vdb", "Na I D2:20,Na I D1:10");
+    const std::string common =
+        " --spectral --res 12x12 --spectral-layers 470 --exaggerate-velocity 100 --no-png ";
+    ASSERT_EQ(run("nebrender -i spec.vdb" + common + "-o plain.exr").code, 0);
+    const Result r = run("nebrender -i abs.vdb" + common + "-o dim.exr -v");
+    ASSERT_EQ(r.code, 0) << r.err;
+    EXPECT_NE(r.err.find("absorption grid \"absorption.nai\" absorbs Na I D2:20,Na I D1:10"),
+              std::string::npos)
+        << r.err;
+    std::map<std::string, std::string> attrs;
+    const nebula::Image plain = nebula::readExr(path("plain.exr"), nullptr);
+    const nebula::Image dim = nebula::readExr(path("dim.exr"), &attrs);
+    EXPECT_NE(attrs["nebula:integrator"].find("absorption lines of 1 grid(s)"), std::string::npos)
+        << attrs["nebula:integrator"];
+    const auto band = [](const nebula::Image& img, std::size_t b) {
+        double s = 0.0;
+        for (float v : img.channels[b].values)
+            s += v;
+        return s;
+    };
+    // Layer b covers [360 + b, 361 + b] nm.
+    EXPECT_LT(band(dim, 229), 0.9 * band(plain, 229)); // 589-590 nm
+    for (const std::size_t b : {100u, 200u, 250u, 400u})
+        EXPECT_EQ(band(dim, b), band(plain, b)) << b;
+    EXPECT_LT(sumY(dim), sumY(plain));
+
+    // RGB mode cannot draw lines; fixed bands cannot resolve them.
+    expectFailure("nebrender -i abs.vdb -o f.exr", 2, "\"absorption.nai\"");
+    expectFailure("nebrender -i abs.vdb -o f.exr", 2, "--spectral");
+    expectFailure("nebrender -i abs.vdb --bands 20 -o f.exr", 2, "absorption.nai");
+    // No line list, or one that does not parse: refused, naming file and grid.
+    withAbsorber("bare.vdb", "");
+    expectFailure("nebrender -i bare.vdb --spectral -o f.exr", 1,
+                  "bare.vdb: absorption grid \"absorption.nai\" has no nebula:absorption-lines");
+    withAbsorber("bad.vdb", "Na I D2:-1");
+    expectFailure("nebrender -i bad.vdb --spectral -o f.exr", 1,
+                  "absorption grid \"absorption.nai\" metadata nebula:absorption-lines");
 }
 
 TEST_F(RenderSpectral, BadInputIsAClearErrorWithNoOutput)

@@ -176,7 +176,9 @@ void addSpectralOptions(CLI::App& app, RenderCommand& c)
     auto& sp = c.opts.spectral;
     auto* spectral = app.add_option_group("Spectral", "Spectral rendering (DESIGN section 7)");
     spectral->add_flag("--spectral", sp.enabled,
-                       "Render spectra: piecewise-linear (exact Doppler trapezoids) by default");
+                       "Render spectra: piecewise-linear (exact Doppler trapezoids) by default;\n"
+                       "emission grids (nebula:lines) emit, absorption.<species> grids\n"
+                       "(nebula:absorption-lines) absorb, at their Doppler-shifted lines");
     c.bandsOption =
         spectral
             ->add_option("--bands", sp.bands,

@@ -29,6 +29,30 @@ std::vector<SpectralLine> gridLines(const openvdb::GridBase& grid, const std::st
     return parseLineList(str->value(), where);
 }
 
+std::vector<SpectralLine> gridAbsorptionLines(const openvdb::GridBase& grid,
+                                              const std::string& source)
+{
+    const std::string where = source + ": absorption grid " + inQuotes(grid.getName());
+    const auto meta = grid[META_ABSORPTION_LINES];
+    if (!meta) {
+        throw Error(where + " has no " + std::string(META_ABSORPTION_LINES) +
+                    " metadata; expected the lines it absorbs, NAME:STRENGTH,... such as "
+                    "\"Na I D2:1,Na I D1:0.5\" (STRENGTH in nm pc^-1 per unit of the grid)");
+    }
+    const auto str = grid.getMetadata<openvdb::StringMetadata>(META_ABSORPTION_LINES);
+    const std::string key = where + " metadata " + META_ABSORPTION_LINES;
+    if (!str) throw Error(key + " is a " + meta->typeName() + ", expected a string");
+    return parseLineList(str->value(), key);
+}
+
+std::vector<std::string> absorptionGridNames(const GridSet& grids)
+{
+    std::vector<std::string> names;
+    for (const auto& g : grids.grids)
+        if (g && isAbsorptionGridName(g->getName())) names.push_back(g->getName());
+    return names;
+}
+
 void requireValidTemperature(const openvdb::FloatGrid& grid, const std::string& source)
 {
     for (auto it = grid.cbeginValueOn(); it; ++it) {

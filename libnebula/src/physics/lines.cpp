@@ -43,6 +43,13 @@ constexpr CatalogueLine CATALOGUE[] = {
     {"He I 5876", 587.56},   // 5875.62 A
     {"[O I]6300", 630.03},   // 6300.30 A
     {"[O I]6363", 636.38},   // 6363.78 A
+    // Absorption lines of the interstellar medium (DESIGN §7.6), resonance lines from the
+    // ground state, to 0.001 nm: NIST ASD air wavelengths (Kramida et al.), as in Morton
+    // 2003, ApJS 149, 205 (vacuum 5897.558, 5891.583, 3934.777, 3969.591 A).
+    {"Na I D1", 589.592}, // 3s 2S1/2 - 3p 2P1/2, 5895.924 A
+    {"Na I D2", 588.995}, // 3s 2S1/2 - 3p 2P3/2, 5889.950 A
+    {"Ca II K", 393.366}, // 4s 2S1/2 - 4p 2P3/2, 3933.663 A
+    {"Ca II H", 396.847}, // 4s 2S1/2 - 4p 2P1/2, 3968.468 A
 };
 
 /// Lower-case letters and digits only: "[O III]5007" -> "oiii5007", "H-alpha" -> "halpha".
@@ -231,6 +238,17 @@ std::string lineListToString(const std::vector<SpectralLine>& lines)
         out += (findLine(l.name) ? l.name : shortest(l.wavelength)) + ":" + shortest(l.strength);
     }
     return out;
+}
+
+double LineTrapezoid::integralTo(double lambda) const
+{
+    if (!(lambda > x[0])) return 0.0;
+    const double left = x[1] - x[0], right = x[3] - x[2];
+    const double whole = height * (0.5 * (left + right) + (x[2] - x[1]));
+    if (lambda >= x[3]) return whole;
+    if (lambda < x[1]) return 0.5 * height * (lambda - x[0]) * (lambda - x[0]) / left;
+    if (lambda <= x[2]) return height * (0.5 * left + (lambda - x[1]));
+    return whole - 0.5 * height * (x[3] - lambda) * (x[3] - lambda) / right;
 }
 
 double LineTrapezoid::at(double lambda) const

@@ -19,6 +19,7 @@
 #include "nebula/render/spectral.h"
 
 #include "frame.h"
+#include "spectral_absorption.h"
 
 #include "nebula/core/error.h"
 #include "nebula/core/format.h"
@@ -153,18 +154,43 @@ struct SpectralLayers
 /// What one band of rows keeps (reused from pixel to pixel).
 struct SpectralScratch
 {
-    std::vector<float> f;         ///< field sample
-    std::vector<double> Cstar;    ///< per star and node: scattered starlight
-    std::vector<double> Cgas;     ///< per node: black-body and (fixed bands) line emission
-    std::vector<double> Cfield;   ///< per node: the scattered-light field's (nebscatter)
-    std::vector<double> Ctotal;   ///< per node: the whole continuum
-    std::vector<double> A;        ///< per node: 1 - e^-x Lambda of the current segment
-    std::vector<double> layerAcc; ///< per spectral layer: the lines' share
-    std::vector<Piece> rayPieces; ///< with countPieces: the ray's pieces
-    std::vector<float> fs;        ///< the field's moments at a sample
-    std::vector<double> Sfield;   ///< per field wavelength: its source function towards the eye
+    std::vector<float> f;             ///< field sample
+    std::vector<double> Cstar;        ///< per star and node: scattered starlight
+    std::vector<double> Cgas;         ///< per node: black-body and (fixed bands) line emission
+    std::vector<double> Cfield;       ///< per node: the scattered-light field's (nebscatter)
+    std::vector<double> Ctotal;       ///< per node: the whole continuum
+    std::vector<double> A;            ///< per node: 1 - e^-x Lambda of the current segment
+    std::vector<double> layerAcc;     ///< per spectral layer: the lines' share
+    std::vector<Piece> rayPieces;     ///< with countPieces: the ray's pieces
+    std::vector<float> fs;            ///< the field's moments at a sample
+    std::vector<double> Sfield;       ///< per field wavelength: its source function towards the eye
+    std::vector<double> layerDeficit; ///< [component][layer]: what the absorption lines took
+    detail::AbsorptionScratch abs;    ///< the absorption lines' state (none without them)
     RenderStats stats;
 };
+
+/// The range of Doppler factors of @p scene's gas under @p so (1, 1 without a velocity
+/// grid): the speeds up to maxSpeed in any direction, first order or relativistic.
+std::pair<double, double> dopplerRange(const SpectralScene& scene, const SpectralOptions& so)
+{
+    if (scene.velocityChannel < 0) return {1.0, 1.0};
+    const double beta = scene.maxSpeed * so.exaggerateVelocity / SPEED_OF_LIGHT_KMS;
+    if (!so.relativistic) return {1.0 - beta, 1.0 + beta};
+    return {std::sqrt((1.0 - beta) / (1.0 + beta)), std::sqrt((1.0 + beta) / (1.0 - beta))};
+}
+
+/// The absorption lines of @p scene (DESIGN §7.6); UsageError with fixed bands.
+detail::LineAbsorption lineAbsorption(const SpectralScene& scene, const SpectralOptions& so,
+                                      const std::vector<double>& nodes)
+{
+    if (!scene.absorbers.empty() && so.bands > 0) {
+        throw UsageError("--bands: absorption grid \"" + scene.absorbers.front().grid +
+                         "\" needs the piecewise-linear spectra (leave out --bands)");
+    }
+    const auto [dMin, dMax] = dopplerRange(scene, so);
+    return detail::LineAbsorption(scene, nodes, so.layers, so.lineWidth * so.exaggerateVelocity,
+                                  dMin, dMax, scene.base.stars.size());
+}
 
 /// One ray: direction, V optical depth from the eye, the lines' colour, and the Doppler
 /// factor at the end of the previous segment (shared with the next).
@@ -184,7 +210,8 @@ public:
     SpectralIntegrator(const SpectralScene& scene, const RenderOptions& opts)
         : mScene(scene), mRs(scene.base), mOpts(opts), mSo(opts.spectral), mDust(scene.dust),
           mLambda(mDust), mNodes(mSo, mLambda), mCam(opts.camera),
-          mLevel0(mRs.fields, mRs.blocks, mRs.occupied, mCam.eye())
+          mLevel0(mRs.fields, mRs.blocks, mRs.occupied, mCam.eye()),
+          mAbsorption(lineAbsorption(scene, mSo, mNodes.lam))
     {
         starSpectra();
         layerWeights();
@@ -220,6 +247,10 @@ public:
         }
         sc.A.resize(J);
         sc.layerAcc.resize(std::size_t(mSo.layers));
+        if (mAbsorption.active()) {
+            sc.abs = mAbsorption.scratch();
+            sc.layerDeficit.resize(mAbsorption.components() * std::size_t(mSo.layers));
+        }
         return sc;
     }
 
@@ -243,9 +274,14 @@ public:
         std::fill(sc.Cfield.begin(), sc.Cfield.end(), 0.0);
         std::fill(sc.layerAcc.begin(), sc.layerAcc.end(), 0.0);
         sc.rayPieces.clear();
+        if (mAbsorption.active()) mAbsorption.startRay(sc.abs);
         sc.stats.rays += mLevel0.marchFrom(
             mLevel0.w2i.apply(ray.oW), ray.dW, mOpts.step,
             [&](const Vec3& pI, double tm, double seg) { return step(pI, tm, seg, ray, sc); });
+        if (mAbsorption.active()) {
+            mAbsorption.finishRay(
+                {sc.Cstar.data(), mField ? sc.Cfield.data() : nullptr, sc.Cgas.data()}, sc.abs);
+        }
         writePixel(std::size_t(py) * img.width + px, ray, sc, img, ids);
     }
 
@@ -256,17 +292,23 @@ public:
         const std::size_t S = mRs.stars.size(), J = mNodes.size();
         const int NL = mSo.layers;
         std::vector<double> att(S * J);
+        const bool absorbs = mAbsorption.active();
+        // What the absorption lines take of each sprite, per layer: [s][b].
+        std::vector<double> lost(absorbs ? S * std::size_t(NL) : 0);
+        SpectralScratch sc = absorbs ? scratch() : SpectralScratch();
         drawStarSprites(
             img, mRs, mOpts,
             [&](std::size_t s, double tauV) {
                 for (std::size_t j = 0; j < J; ++j) {
                     att[s * J + j] = mStarSpec[s * J + j] * std::exp(-tauV * mNodes.lamExt[j]);
                 }
-                return xyzToLinearSRGB(nodesToXYZ(&att[s * J], mNodes.weight));
+                XYZ xyz = nodesToXYZ(&att[s * J], mNodes.weight);
+                if (absorbs) spriteAbsorption(s, &att[s * J], sc, xyz, &lost[s * std::size_t(NL)]);
+                return xyzToLinearSRGB(xyz);
             },
             [&](std::size_t s, std::size_t pix, double factor) {
                 for (int b = 0; b < NL; ++b) {
-                    double v = 0.0;
+                    double v = absorbs ? -lost[s * std::size_t(NL) + std::size_t(b)] : 0.0;
                     const auto [j0, j1] = mLayerNodes[std::size_t(b)];
                     for (std::size_t j = j0; j < j1; ++j) {
                         v += mLayerOfNode[std::size_t(b) * J + j] * att[s * J + j];
@@ -279,6 +321,42 @@ public:
     }
 
 private:
+    /// The absorption lines between the eye and star @p s (DESIGN §7.6): marched from the
+    /// camera's origin towards the star up to the step that holds it; what they take of its
+    /// spectrum @p att (at the nodes) is subtracted from @p xyz and put per spectral layer
+    /// in @p lost.
+    void spriteAbsorption(std::size_t s, const double* att, SpectralScratch& sc, XYZ& xyz,
+                          double* lost) const
+    {
+        const Vec3 o = mCam.originTowards(mStarPos[s]);
+        const Vec3 d = mStarPos[s] - o;
+        const double dist = d.length();
+        mAbsorption.startRay(sc.abs);
+        if (dist > 0.0) {
+            SpectralRay ray;
+            ray.oW = o;
+            ray.dW = d * (1.0 / dist);
+            ray.dI = mLevel0.w2i.applyLinear(ray.dW);
+            mLevel0.marchFrom(mLevel0.w2i.apply(o), ray.dW, mOpts.step,
+                              [&](const Vec3& pI, double tm, double seg) {
+                                  if (tm > dist) return false;
+                                  mRs.fields.sample(pI, sc.f.data());
+                                  if (!(sc.f[1] > 0.0f)) return true;
+                                  double dA = 1.0, dB = 1.0;
+                                  segmentDoppler(pI, tm, seg, ray, dA, dB);
+                                  mAbsorption.stepProfiles(sc.f.data(), dA, dB, seg, sc.abs);
+                                  mAbsorption.endStep(sc.abs);
+                                  return true;
+                              });
+        }
+        mAbsorption.absorbSpectrum(s, att, sc.abs);
+        const XYZ taken = mAbsorption.deficitXYZ(sc.abs, s);
+        for (std::size_t c = 0; c < 3; ++c)
+            xyz[c] -= taken[c];
+        std::fill(lost, lost + mSo.layers, 0.0);
+        mAbsorption.addDeficitLayers(sc.abs, s, lost);
+    }
+
     /// The spectral scattered-light field (nebscatter --spectral), if the scene has one: the
     /// weights a p_l of its moments and, per continuum node, the two field wavelengths it
     /// lies between (the end ones beyond the field's range).
@@ -404,6 +482,7 @@ private:
         }
         if (mSo.countPieces) sc.rayPieces.push_back(p);
         ++sc.stats.pieces;
+        if (mAbsorption.active()) mAbsorption.absorbPiece(p, sc.abs);
     }
 
     /// Every star's light scattered at world point xW towards the eye, at each node: the
@@ -470,22 +549,29 @@ private:
         }
     }
 
-    /// Line emission of the segment [tm - seg/2, tm + seg/2] (V optical depth @p x): each
-    /// line of each emitter as an exact Doppler trapezoid (DESIGN §7.2), attenuated at its
-    /// breakpoints (piecewise-linear mode) or at the band centres (fixed bands).
-    void lineEmission(const Vec3& pI, double tm, double seg, double x, SpectralRay& ray,
+    /// The Doppler factors @p dA, @p dB at the ends of the segment [tm - seg/2, tm + seg/2]
+    /// (1 without a velocity grid); the end one is kept for the next segment.
+    void segmentDoppler(const Vec3& pI, double tm, double seg, SpectralRay& ray, double& dA,
+                        double& dB) const
+    {
+        dA = dB = 1.0;
+        if (mScene.velocityChannel < 0) return;
+        const double tA = tm - 0.5 * seg, tB = tm + 0.5 * seg;
+        dA = std::abs(tA - ray.lastEndT) <= 1e-9 * seg
+                 ? ray.lastEndD
+                 : dopplerAt(pI - ray.dI * (0.5 * seg), ray.dW);
+        dB = dopplerAt(pI + ray.dI * (0.5 * seg), ray.dW);
+        ray.lastEndT = tB;
+        ray.lastEndD = dB;
+    }
+
+    /// Line emission of the segment [tm - seg/2, tm + seg/2] (V optical depth @p x, Doppler
+    /// factors @p dA, @p dB at its ends): each line of each emitter as an exact Doppler
+    /// trapezoid (DESIGN §7.2), attenuated at its breakpoints (piecewise-linear mode) or at
+    /// the band centres (fixed bands).
+    void lineEmission(double dA, double dB, double seg, double x, SpectralRay& ray,
                       SpectralScratch& sc) const
     {
-        double dA = 1.0, dB = 1.0; // Doppler factors at the segment's ends
-        if (mScene.velocityChannel >= 0) {
-            const double tA = tm - 0.5 * seg, tB = tm + 0.5 * seg;
-            dA = std::abs(tA - ray.lastEndT) <= 1e-9 * seg
-                     ? ray.lastEndD
-                     : dopplerAt(pI - ray.dI * (0.5 * seg), ray.dW);
-            dB = dopplerAt(pI + ray.dI * (0.5 * seg), ray.dW);
-            ray.lastEndT = tB;
-            ray.lastEndD = dB;
-        }
         // The segment's transmittance factor at wavelength lambda: e^-tau L (1 - e^-x L) /
         // (x L) times its length.
         const auto factor = [&](double ext) {
@@ -537,6 +623,17 @@ private:
                 if (mDepth->curved(s, pI)) sc.f[2 + s] = float(mDepth->march(s, pI));
         }
         const double x = mDust.kappa_V * n * seg; // the segment's V optical depth
+        double dA = 1.0, dB = 1.0;                // Doppler factors at the segment's ends
+        if (em > 0.0) segmentDoppler(pI, tm, seg, ray, dA, dB);
+        // Absorption lines (DESIGN §7.6): profiles only where channel 1, which holds them, is
+        // not 0; the sources' losses everywhere behind the first.
+        const bool absorbs = mAbsorption.active();
+        const detail::ContinuumAt cont{sc.Cstar.data(), mField ? sc.Cfield.data() : nullptr,
+                                       sc.Cgas.data()};
+        if (absorbs) {
+            if (em > 0.0) mAbsorption.stepProfiles(sc.f.data(), dA, dB, seg, sc.abs);
+            mAbsorption.beforeSources(cont, sc.abs);
+        }
         if (n > 0.0) {
             // The fraction of the segment's source function that leaves it (1 - e^-x Lambda);
             // the eye's attenuation e^-tau Lambda is folded into each source's.
@@ -547,7 +644,9 @@ private:
             if (mField) scatterField(xW, ray, sc);
             blackbodyEmission(pI, ray, sc);
         }
-        if (em > 0.0) lineEmission(pI, tm, seg, x, ray, sc);
+        if (absorbs) mAbsorption.afterSources(cont, sc.abs);
+        if (em > 0.0) lineEmission(dA, dB, seg, x, ray, sc);
+        if (absorbs) mAbsorption.endStep(sc.abs);
         ray.tau += x;
         return std::exp(-ray.tau * mNodes.LambdaMin) >= mOpts.minTransmittance;
     }
@@ -560,16 +659,26 @@ private:
         const std::size_t S = mRs.stars.size(), J = mNodes.size();
         const int NL = mSo.layers;
         XYZ total = ray.lineXYZ;
+        const bool absorbs = mAbsorption.active();
+        // Less what the absorption lines took from each component (DESIGN §7.6).
+        const auto less = [&](XYZ xyz, std::size_t component) {
+            if (!absorbs) return xyz;
+            const XYZ d = mAbsorption.deficitXYZ(sc.abs, component);
+            for (std::size_t c = 0; c < 3; ++c)
+                xyz[c] -= d[c];
+            return xyz;
+        };
         for (std::size_t s = 0; s < S; ++s) {
-            const XYZ xyz = nodesToXYZ(&sc.Cstar[s * J], mNodes.weight);
+            const XYZ xyz = less(nodesToXYZ(&sc.Cstar[s * J], mNodes.weight), s);
             const auto rgb = xyzToLinearSRGB(xyz);
             for (int c = 0; c < 3; ++c) {
                 total[std::size_t(c)] += xyz[std::size_t(c)];
                 img.rgb(ids.frame.stars[s])[pix * 3 + std::size_t(c)] = float(rgb[std::size_t(c)]);
             }
         }
-        const XYZ gas = nodesToXYZ(sc.Cgas.data(), mNodes.weight);
-        const XYZ field = mField ? nodesToXYZ(sc.Cfield.data(), mNodes.weight) : XYZ{0, 0, 0};
+        const XYZ gas = less(nodesToXYZ(sc.Cgas.data(), mNodes.weight), mAbsorption.gasComponent());
+        const XYZ field = less(mField ? nodesToXYZ(sc.Cfield.data(), mNodes.weight) : XYZ{0, 0, 0},
+                               mAbsorption.fieldComponent());
         for (int c = 0; c < 3; ++c)
             total[std::size_t(c)] += gas[std::size_t(c)] + field[std::size_t(c)];
         const auto rgb = xyzToLinearSRGB(total);
@@ -587,16 +696,26 @@ private:
                     sc.Ctotal[j] += sc.Cstar[s * J + j];
             }
         }
+        if (absorbs && NL > 0) layerDeficits(sc);
         for (int b = 0; b < NL; ++b) {
             const double* weight = &mLayerOfNode[std::size_t(b) * J];
             const auto [j0, j1] = mLayerNodes[std::size_t(b)];
             double v = sc.layerAcc[std::size_t(b)];
             for (std::size_t j = j0; j < j1; ++j)
                 v += weight[j] * sc.Ctotal[j];
+            // The lines' losses: [stars][field][gas] per layer.
+            double lost[3] = {0.0, 0.0, 0.0};
+            if (absorbs) {
+                for (std::size_t c = 0; c < mAbsorption.components(); ++c)
+                    lost[std::min<std::size_t>(c < S ? 0 : c - S + 1, 2)] +=
+                        sc.layerDeficit[c * std::size_t(NL) + std::size_t(b)];
+                v -= lost[0] + lost[1] + lost[2];
+            }
             img.values(ids.bands[std::size_t(b)])[pix] = float(v);
             if (!mOpts.componentLayers) continue;
             // The components besides the sprites' "direct".
-            double single = 0.0, field = 0.0, emission = sc.layerAcc[std::size_t(b)];
+            double single = -lost[0], field = -lost[1],
+                   emission = sc.layerAcc[std::size_t(b)] - lost[2];
             for (std::size_t j = j0; j < j1; ++j) {
                 single += weight[j] * (sc.Ctotal[j] - sc.Cgas[j] - sc.Cfield[j]); // the stars'
                 field += weight[j] * sc.Cfield[j];
@@ -610,10 +729,23 @@ private:
         sc.stats.pieces += mNodes.bandsMode ? 0 : J - 1;
     }
 
-    /// The ray's whole spectrum (continuum pieces between nodes plus the lines), assembled
-    /// to count its pieces before and after merging.
+    /// Each component's absorption-line losses per spectral layer (sc.layerDeficit).
+    void layerDeficits(SpectralScratch& sc) const
+    {
+        const std::size_t NL = std::size_t(mSo.layers);
+        std::fill(sc.layerDeficit.begin(), sc.layerDeficit.end(), 0.0);
+        for (std::size_t c = 0; c < mAbsorption.components(); ++c)
+            mAbsorption.addDeficitLayers(sc.abs, c, &sc.layerDeficit[c * NL]);
+    }
+
+    /// The ray's whole spectrum (continuum pieces between nodes plus the lines, less the
+    /// absorption lines' losses), assembled to count its pieces before and after merging.
     void countPieces(SpectralScratch& sc) const
     {
+        if (mAbsorption.active()) {
+            for (std::size_t c = 0; c < mAbsorption.components(); ++c)
+                mAbsorption.deficitPieces(sc.abs, c, sc.rayPieces);
+        }
         const auto& lam = mNodes.lam;
         for (std::size_t j = 0; j + 1 < mNodes.size(); ++j) {
             if (sc.Ctotal[j] != 0.0 || sc.Ctotal[j + 1] != 0.0) {
@@ -638,9 +770,10 @@ private:
     const ContinuumNodes mNodes;
     const Projection mCam;
     const Marcher mLevel0;
-    std::vector<double> mStarSpec;    ///< [s][j]
-    double mLayerWidth = 0.0;         ///< [nm]
-    std::vector<double> mLayerOfNode; ///< [b][j]
+    const detail::LineAbsorption mAbsorption; ///< inactive without absorption grids
+    std::vector<double> mStarSpec;            ///< [s][j]
+    double mLayerWidth = 0.0;                 ///< [nm]
+    std::vector<double> mLayerOfNode;         ///< [b][j]
     /// Per layer b: the nodes [first, second) whose weight in it is not 0 (a few).
     std::vector<std::pair<std::size_t, std::size_t>> mLayerNodes;
     double mRmin2 = 0.0;
@@ -769,7 +902,10 @@ std::string describeSpectral(const RenderOptions& opts, const SpectralScene& sce
                          : std::string("spectral, piecewise-linear")) +
            ", exaggerate-velocity " + std::to_string(so.exaggerateVelocity) +
            (so.relativistic ? ", relativistic Doppler" : ", first-order Doppler") +
-           (field.empty() ? std::string() : ", single scattering + " + field);
+           (field.empty() ? std::string() : ", single scattering + " + field) +
+           (scene.absorbers.empty()
+                ? std::string()
+                : ", absorption lines of " + std::to_string(scene.absorbers.size()) + " grid(s)");
 }
 
 void reportSpectral(const RenderOptions& opts, const SpectralScene& scene, const RenderStats& stats,
@@ -782,6 +918,10 @@ void reportSpectral(const RenderOptions& opts, const SpectralScene& scene, const
                          so.bands > 0 ? fmt::format("{} fixed bands", so.bands)
                                       : std::string("piecewise-linear"),
                          scene.emitters.size(), stats.pieces, double(stats.pieces) / rays));
+    for (const auto& a : scene.absorbers) {
+        run.info(fmt::format("spectral: absorption grid \"{}\" absorbs {}", a.grid,
+                             lineListToString(a.lines)));
+    }
     if (so.countPieces && so.bands == 0) {
         run.info(fmt::format("spectral: the rays' spectra have {:.6g} pieces on average "
                              "(largest {}), {:.6g} after merging at tolerance {}",

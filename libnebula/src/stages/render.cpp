@@ -344,6 +344,7 @@ void renderToFiles(const GridSet& grids, const RenderOptions& given, const DustP
     if (opts.spectral.enabled) {
         sscene = buildSpectralScene(grids, opts, dust);
     } else {
+        refuseAbsorptionGrids(grids);
         sscene.base = buildScene(grids, opts, dust);
     }
     const double tBuild =

@@ -75,10 +75,29 @@ emissionGrids(const GridSet& grids, const RenderOptions& opts, SpectralScene& sc
     return emitGrids;
 }
 
-/// The velocity grid's three components as FloatGrids (empty without one); UsageError if
-/// --exaggerate-velocity makes any gas as fast as light.
+/// The absorption grids (`absorption.<species>`, DESIGN §7.6), each with its lines: a
+/// FloatGrid of finite values >= 0 with a `nebula:absorption-lines` list (Error otherwise).
+std::vector<openvdb::FloatGrid::ConstPtr> absorptionGrids(const GridSet& grids,
+                                                          SpectralScene& scene)
+{
+    std::vector<openvdb::FloatGrid::ConstPtr> out;
+    for (const std::string& name : absorptionGridNames(grids)) {
+        const auto g = grids.floatGrid(name, "");
+        requireFiniteNonNegative(*g, grids.source);
+        SpectralAbsorber a;
+        a.grid = name;
+        a.lines = gridAbsorptionLines(*g, grids.source);
+        scene.absorbers.push_back(a);
+        out.push_back(g);
+    }
+    return out;
+}
+
+/// The velocity grid's three components as FloatGrids (empty without one), its fastest
+/// speed in @p maxSpeed [km/s]; UsageError if --exaggerate-velocity makes any gas as fast as
+/// light.
 std::vector<openvdb::FloatGrid::Ptr> velocityComponents(const GridSet& grids,
-                                                        const SpectralOptions& so)
+                                                        const SpectralOptions& so, double& maxSpeed)
 {
     std::vector<openvdb::FloatGrid::Ptr> velocity;
     if (grids.find(so.velocityGrid)) {
@@ -103,7 +122,8 @@ std::vector<openvdb::FloatGrid::Ptr> velocityComponents(const GridSet& grids,
         double vmax2 = 0.0;
         for (auto it = v->cbeginValueOn(); it; ++it)
             vmax2 = std::max(vmax2, double((*it).lengthSqr()));
-        const double vmax = std::sqrt(vmax2) * std::abs(so.exaggerateVelocity);
+        maxSpeed = std::sqrt(vmax2);
+        const double vmax = maxSpeed * std::abs(so.exaggerateVelocity);
         if (vmax >= SPEED_OF_LIGHT_KMS) {
             throw UsageError("--exaggerate-velocity " + std::to_string(so.exaggerateVelocity) +
                              " makes the fastest gas of grid \"" + so.velocityGrid + "\" move at " +
@@ -117,6 +137,15 @@ std::vector<openvdb::FloatGrid::Ptr> velocityComponents(const GridSet& grids,
 
 } // namespace
 
+void refuseAbsorptionGrids(const GridSet& grids)
+{
+    const auto names = absorptionGridNames(grids);
+    if (names.empty()) return;
+    throw UsageError(grids.source + ": grid \"" + names.front() +
+                     "\" holds absorption lines, which only the spectral renderer draws; "
+                     "render with --spectral");
+}
+
 SpectralScene buildSpectralScene(const GridSet& grids, const RenderOptions& opts,
                                  const DustParams& dust)
 {
@@ -128,6 +157,7 @@ SpectralScene buildSpectralScene(const GridSet& grids, const RenderOptions& opts
     base.levels = 0;
     scene.base = buildScene(grids, base, dust);
     const auto emitGrids = emissionGrids(grids, opts, scene);
+    const auto absorbGrids = absorptionGrids(grids, scene);
     openvdb::FloatGrid::Ptr temperature;
     if (grids.find(so.temperatureGrid)) {
         temperature = grids.floatGrid(so.temperatureGrid, "--temperature-grid");
@@ -144,12 +174,14 @@ SpectralScene buildSpectralScene(const GridSet& grids, const RenderOptions& opts
                              " K, beyond any dust or star; use a smaller --temperature-scale");
         }
     }
-    const auto velocity = velocityComponents(grids, so);
+    const auto velocity = velocityComponents(grids, so, scene.maxSpeed);
 
     // One lattice for everything: channels as documented in SpectralScene.
     const auto density = grids.floatGrid(opts.densityGrid, "--density-grid");
     std::vector<openvdb::FloatGrid::ConstPtr> boundsGrids{density};
     for (const auto& g : emitGrids)
+        boundsGrids.push_back(g);
+    for (const auto& g : absorbGrids)
         boundsGrids.push_back(g);
     std::vector<openvdb::FloatGrid::ConstPtr> fields{density};
     auto empty = openvdb::FloatGrid::create(0.0f);
@@ -161,6 +193,10 @@ SpectralScene buildSpectralScene(const GridSet& grids, const RenderOptions& opts
     for (std::size_t k = 0; k < emitGrids.size(); ++k) {
         scene.emitters[k].channel = ch++;
         fields.push_back(emitGrids[k]);
+    }
+    for (std::size_t k = 0; k < absorbGrids.size(); ++k) {
+        scene.absorbers[k].channel = ch++;
+        fields.push_back(absorbGrids[k]);
     }
     if (temperature) {
         scene.temperatureChannel = ch++;
@@ -179,6 +215,8 @@ SpectralScene buildSpectralScene(const GridSet& grids, const RenderOptions& opts
             float sum = 0.0f;
             for (const auto& e : scene.emitters)
                 sum += q[e.channel];
+            for (const auto& a : scene.absorbers)
+                sum += q[a.channel];
             q[1] = sum;
         }
     });

@@ -26,6 +26,14 @@ TEST(GridNames, LevelGridName)
     EXPECT_EQ(nebula::levelGridName(nebula::tauGridName("beta"), 3), "tau.beta.L3");
 }
 
+TEST(GridNames, AbsorptionGridName)
+{
+    EXPECT_EQ(nebula::absorptionGridName("nai"), "absorption.nai");
+    EXPECT_TRUE(nebula::isAbsorptionGridName("absorption.caii"));
+    EXPECT_FALSE(nebula::isAbsorptionGridName("emission.oiii"));
+    EXPECT_FALSE(nebula::isAbsorptionGridName("absorption"));
+}
+
 TEST(GridNames, MetadataKeysAreTheDocumentedOnes)
 {
     // DESIGN §2's table of file metadata.
@@ -36,6 +44,7 @@ TEST(GridNames, MetadataKeysAreTheDocumentedOnes)
     EXPECT_STREQ(nebula::META_STARS, "nebula:stars");
     EXPECT_STREQ(nebula::META_DUST, "nebula:dust");
     EXPECT_STREQ(nebula::META_LINES, "nebula:lines");
+    EXPECT_STREQ(nebula::META_ABSORPTION_LINES, "nebula:absorption-lines");
 }
 
 } // namespace

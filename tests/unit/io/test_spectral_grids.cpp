@@ -54,6 +54,41 @@ TEST(GridLines, MetadataOrFallback)
         << msg;
 }
 
+TEST(GridAbsorptionLines, RequiredParsedAndNamed)
+{
+    auto grid = openvdb::FloatGrid::create(0.0f);
+    grid->setName("absorption.nai");
+    // No metadata: refused (an absorption grid has no default lines), naming file and grid.
+    std::string msg = errorMessage([&] { nebula::gridAbsorptionLines(*grid, "a.vdb"); });
+    EXPECT_EQ(msg.rfind("a.vdb: absorption grid \"absorption.nai\" has no "
+                        "nebula:absorption-lines metadata",
+                        0),
+              0u)
+        << msg;
+
+    grid->insertMeta(nebula::META_ABSORPTION_LINES, openvdb::StringMetadata("Na I D2:2,Na I D1"));
+    const auto lines = nebula::gridAbsorptionLines(*grid, "a.vdb");
+    ASSERT_EQ(lines.size(), 2u);
+    EXPECT_EQ(lines[0].name, "Na I D2");
+    EXPECT_DOUBLE_EQ(lines[0].wavelength, 588.995);
+    EXPECT_DOUBLE_EQ(lines[0].strength, 2.0);
+    EXPECT_DOUBLE_EQ(lines[1].wavelength, 589.592);
+
+    grid->removeMeta(nebula::META_ABSORPTION_LINES);
+    grid->insertMeta(nebula::META_ABSORPTION_LINES, openvdb::StringMetadata("Na I D3:1"));
+    msg = errorMessage([&] { nebula::gridAbsorptionLines(*grid, "a.vdb"); });
+    EXPECT_EQ(msg.rfind("a.vdb: absorption grid \"absorption.nai\" metadata "
+                        "nebula:absorption-lines \"Na I D3:1\": ",
+                        0),
+              0u)
+        << msg;
+
+    grid->removeMeta(nebula::META_ABSORPTION_LINES);
+    grid->insertMeta(nebula::META_ABSORPTION_LINES, openvdb::FloatMetadata(1.0f));
+    msg = errorMessage([&] { nebula::gridAbsorptionLines(*grid, "a.vdb"); });
+    EXPECT_TRUE(contains(msg, "nebula:absorption-lines is a float, expected a string")) << msg;
+}
+
 // ---- temperature -----------------------------------------------------------------------
 
 TEST(TemperatureGrid, RejectsNegativeNanAndInfinite)

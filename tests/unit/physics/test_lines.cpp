@@ -31,10 +31,24 @@ TEST(LineCatalogue, AirWavelengthsOfNistAsd)
 {
     // Air wavelengths [nm] (NIST ASD; Osterbrock & Ferland 2006), to 0.01 nm.
     const std::pair<const char*, double> expected[] = {
-        {"H-alpha", 656.28},    {"H-beta", 486.13},      {"H-gamma", 434.05},
-        {"H-delta", 410.17},    {"[O III]5007", 500.68}, {"[O III]4959", 495.89},
-        {"[N II]6583", 658.35}, {"[N II]6548", 654.80},  {"[S II]6716", 671.64},
-        {"[S II]6731", 673.08}, {"He I 5876", 587.56},
+        {"H-alpha", 656.28},
+        {"H-beta", 486.13},
+        {"H-gamma", 434.05},
+        {"H-delta", 410.17},
+        {"[O III]5007", 500.68},
+        {"[O III]4959", 495.89},
+        {"[N II]6583", 658.35},
+        {"[N II]6548", 654.80},
+        {"[S II]6716", 671.64},
+        {"[S II]6731", 673.08},
+        {"He I 5876", 587.56},
+        {"[O I]6300", 630.03},
+        {"[O I]6363", 636.38},
+        // Absorption lines, to 0.001 nm.
+        {"Na I D1", 589.592},
+        {"Na I D2", 588.995},
+        {"Ca II K", 393.366},
+        {"Ca II H", 396.847},
     };
     for (const auto& [name, nm] : expected) {
         EXPECT_DOUBLE_EQ(nebula::lineWavelength(name), nm) << name;
@@ -263,6 +277,30 @@ TEST(SpectralLine, TrapezoidValueAndTheFactorsForm)
         for (int k = 0; k < 4; ++k)
             EXPECT_NEAR(p.x[k], q.x[k], 1e-12 * 486.13) << a << " " << b;
         EXPECT_NEAR(p.height, q.height, 1e-9 * p.height) << a << " " << b;
+    }
+}
+
+TEST(SpectralLine, IntegralToAgreesWithFineQuadratureAndTheEnergy)
+{
+    // integralTo(): 0 below x0, the energy above x3, and in between the midpoint rule's
+    // sum (1e5 cells; a box's edge may fall inside a cell: one cell's height at most), for a
+    // trapezoid, a box and a triangle.
+    const double lambda0 = 589.0, width = 10.0, E = 2.5;
+    const double dv[] = {40.0, 0.0, 2.0 * width};
+    for (const double v : dv) {
+        const auto t = lineTrapezoid(lambda0, -0.5 * v, 0.5 * v, width, E);
+        EXPECT_EQ(t.integralTo(t.x[0] - 1e-3), 0.0);
+        EXPECT_NEAR(t.integralTo(t.x[3] + 1e-3), E, 1e-10 * E) << v;
+        const int n = 100000;
+        const double a = t.x[0] - 0.01, h = (t.x[3] + 0.01 - a) / n;
+        double sum = 0.0;
+        for (int i = 0; i < n; ++i) {
+            sum += t.at(a + (i + 0.5) * h) * h;
+            if (i % 9973 == 0) {
+                EXPECT_NEAR(t.integralTo(a + (i + 1) * h), sum, 2.0 * h * t.height)
+                    << v << " " << i;
+            }
+        }
     }
 }
 

@@ -28,6 +28,26 @@ inline constexpr const char* META_SCATTER_SPECTRAL = "nebula:scatter_spectral";
 /// Grid metadata: the spectral lines an emission grid emits ("NAME:STRENGTH,...").
 inline constexpr const char* META_LINES = "nebula:lines";
 
+/// Grid metadata: the absorption lines of an `absorption.<species>` grid ("NAME:STRENGTH,...";
+/// the grid's value times STRENGTH is the line's opacity integrated over wavelength per unit
+/// length [nm pc^-1], DESIGN §7.6).
+inline constexpr const char* META_ABSORPTION_LINES = "nebula:absorption-lines";
+
+/// The prefix of the absorbing species' grids: "absorption.<species>" (DESIGN §2, §7.6).
+inline constexpr const char* ABSORPTION_GRID_PREFIX = "absorption.";
+
+/// The absorption grid of species @p species ("nai", "caii"): "absorption.<species>".
+inline std::string absorptionGridName(const std::string& species)
+{
+    return ABSORPTION_GRID_PREFIX + species;
+}
+
+/// Whether @p name is an absorption grid's name (starts with ABSORPTION_GRID_PREFIX).
+inline bool isAbsorptionGridName(const std::string& name)
+{
+    return name.rfind(ABSORPTION_GRID_PREFIX, 0) == 0;
+}
+
 /// nebillum's optical depth grid for star @p star: "tau.<star>".
 inline std::string tauGridName(const std::string& star)
 {

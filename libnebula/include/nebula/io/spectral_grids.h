@@ -1,8 +1,8 @@
 // SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// @file spectral_grids.h
-/// Reading the spectral grids (DESIGN §2, §7): an emission grid's lines, the temperature
-/// grid and the velocity grid, with errors that name the file and grid.
+/// Reading the spectral grids (DESIGN §2, §7): an emission grid's lines, an absorption grid's
+/// lines, the temperature grid and the velocity grid, with errors that name the file and grid.
 
 #include "nebula/io/grid_io.h"
 #include "nebula/physics/lines.h"
@@ -17,6 +17,15 @@ namespace nebula {
 /// is not a string or does not parse.
 std::vector<SpectralLine> gridLines(const openvdb::GridBase& grid, const std::string& source,
                                     const std::vector<SpectralLine>& fallback);
+
+/// The absorption lines of the absorption grid @p grid (its `nebula:absorption-lines`
+/// metadata parsed, DESIGN §7.6). Throws Error naming @p source and the grid if it has no
+/// such metadata, if it is not a string, or if it does not parse.
+std::vector<SpectralLine> gridAbsorptionLines(const openvdb::GridBase& grid,
+                                              const std::string& source);
+
+/// The names of @p grids' absorption grids (isAbsorptionGridName()), in the file's order.
+std::vector<std::string> absorptionGridNames(const GridSet& grids);
 
 /// Throws Error naming @p source and the grid if any active temperature value is negative,
 /// NaN or infinite.

@@ -38,9 +38,10 @@ inline constexpr const char* OIII_EMISSION_LINES = "[O III]5007:1,[O III]4959:0.
 
 /// Rest wavelength [nm] in air of a catalogue line. Names are case-sensitive:
 /// "H-alpha", "H-beta", "H-gamma", "H-delta", "[O III]5007", "[O III]4959", "[N II]6583",
-/// "[N II]6548", "[S II]6716", "[S II]6731", "He I 5876", "[O I]6300", "[O I]6363". Throws Error
-/// listing the known names (with a "did you mean" hint for a name that differs only in case,
-/// spaces, brackets or hyphens, e.g. "Halpha" or "OIII") otherwise.
+/// "[N II]6548", "[S II]6716", "[S II]6731", "He I 5876", "[O I]6300", "[O I]6363", and the
+/// interstellar absorption lines "Na I D1", "Na I D2", "Ca II K", "Ca II H" (DESIGN §7.6).
+/// Throws Error listing the known names (with a "did you mean" hint for a name that differs
+/// only in case, spaces, brackets or hyphens, e.g. "Halpha" or "OIII") otherwise.
 double lineWavelength(const std::string& name);
 
 /// All catalogue names, in the catalogue's order (for --help and messages).
@@ -84,6 +85,9 @@ struct LineTrapezoid
 
     /// Value at @p lambda [nm] (0 outside [x[0], x[3]]).
     double at(double lambda) const;
+    /// Integral from x[0] to @p lambda [energy]: 0 below x[0], the whole area above x[3].
+    /// The integral over [a, b] is integralTo(b) - integralTo(a), exact for any a, b.
+    double integralTo(double lambda) const;
 };
 
 /// The profile of a line of rest wavelength @p lambda0 [nm] and energy @p energy emitted

@@ -54,15 +54,30 @@ struct SpectralEmitter
     double unit = 1.0;
 };
 
+/// One absorption grid (`absorption.<species>`, DESIGN §7.6) as the spectral renderer sees it.
+struct SpectralAbsorber
+{
+    std::string grid; ///< grid name
+    int channel = -1; ///< its channel in RenderScene::fields
+    /// What it absorbs: line l's opacity integrated over wavelength per unit length is the
+    /// grid's value times lines[l].strength [nm pc^-1].
+    std::vector<SpectralLine> lines;
+};
+
 /// The scene of a spectral render (assembled by buildSpectralScene(),
 /// stages/scene_assembly.h): the RGB scene's fields (channels 0 density, 1 the sum of
-/// every emission grid (occupancy only), 2 + s tau_V of star s) followed by the emission
-/// grids, the temperature and the velocity (3 channels), each where present.
+/// every emission and absorption grid (occupancy only), 2 + s tau_V of star s) followed by
+/// the emission grids, the absorption grids, the temperature and the velocity (3 channels),
+/// each where present.
 struct SpectralScene
 {
     RenderScene base;
     DustParams dust;
     std::vector<SpectralEmitter> emitters;
+    std::vector<SpectralAbsorber> absorbers;
+    /// The fastest gas speed of the velocity grid [km/s] (before --exaggerate-velocity): the
+    /// Doppler range the absorption lines' wavelength windows cover. 0 without one.
+    double maxSpeed = 0.0;
     int temperatureChannel = -1; ///< -1: no temperature grid
     int velocityChannel = -1;    ///< vx; vy, vz follow. -1: no velocity grid
 };

@@ -39,11 +39,17 @@ RenderScene buildScene(const GridSet& grids, const RenderOptions& opts, const Du
 /// emission grid (opts.emissionGrid and each FloatGrid with nebula:lines metadata), the
 /// temperature grid (opts.spectral.temperatureGrid, optional; Error if a value is negative, NaN
 /// or infinite) and the velocity grid (opts.spectral.velocityGrid, optional; Error unless a
-/// Vec3fGrid of finite values). The emission grid's lines: opts.spectral.lines if given, else
+/// Vec3fGrid of finite values), and every absorption grid (`absorption.<species>`, DESIGN
+/// §7.6; Error unless a FloatGrid of finite values >= 0 with a parsable
+/// `nebula:absorption-lines`). The emission grid's lines: opts.spectral.lines if given, else
 /// its nebula:lines metadata, else "H-alpha:1,H-beta:0.35" (Case B Balmer ratio). UsageError
 /// for an --exaggerate-velocity that makes gas move at the speed of light, or a
 /// --temperature-scale that makes a voxel hotter than any star.
 SpectralScene buildSpectralScene(const GridSet& grids, const RenderOptions& opts,
                                  const DustParams& dust);
+
+/// Throws UsageError naming the file and its first absorption grid (`absorption.<species>`)
+/// if @p grids has one: the RGB integrators cannot draw lines; nebrender --spectral can.
+void refuseAbsorptionGrids(const GridSet& grids);
 
 } // namespace nebula
