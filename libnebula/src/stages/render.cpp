@@ -48,6 +48,22 @@ std::string pngPath(const RenderOutput& out)
 
 namespace {
 
+/// RGB mode draws one emission grid, in --emission-color; the lines of the others (nebgen's
+/// emission.oiii, nebionize's [O III], [N II], [S II], [O I]) only --spectral draws: say which.
+void warnUndrawnLineGrids(const GridSet& grids, const RenderOptions& opts, const Run& run)
+{
+    std::string names;
+    for (const auto& g : grids.grids) {
+        if (g->getName() != opts.emissionGrid && (*g)[META_LINES]) {
+            names += (names.empty() ? "\"" : ", \"") + g->getName() + "\"";
+        }
+    }
+    if (!names.empty()) {
+        run.warn("RGB mode draws only the emission grid \"" + opts.emissionGrid +
+                 "\", in --emission-color; the lines of " + names + " are drawn by --spectral");
+    }
+}
+
 /// Refuses what @p integrator cannot honour, and has it warn about what in the input it
 /// will not use.
 void checkIntegrator(const IntegratorType& integrator, const GridSet& grids,
@@ -345,6 +361,7 @@ void renderToFiles(const GridSet& grids, const RenderOptions& given, const DustP
         sscene = buildSpectralScene(grids, opts, dust);
     } else {
         refuseAbsorptionGrids(grids);
+        warnUndrawnLineGrids(grids, opts, run);
         sscene.base = buildScene(grids, opts, dust);
     }
     const double tBuild =
