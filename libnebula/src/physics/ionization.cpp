@@ -629,10 +629,11 @@ VoxelIonization IonizationSolver::at(int i, int j, int k) const
 {
     VoxelIonization out;
     if (!mDensity.contains(i, j, k)) return out;
-    const double n = mDensity.voxel(mDensity.index(i, j, k))[0];
+    const std::size_t idx = mDensity.index(i, j, k);
+    const double n = mDensity.voxel(idx)[0];
     if (!(n > 0.0)) return out;
     const Vec3 c(i, j, k);
-    const double T = electronTemperature(mDensity, mDensity.index(i, j, k), mParams);
+    const double T = electronTemperature(mDensity, idx, mParams);
     out.te = T;
     double gammaO = 0.0, layer = 0.0;
     for (std::size_t s = 0; s < mStars.size(); ++s) {
@@ -644,7 +645,6 @@ VoxelIonization IonizationSolver::at(int i, int j, int k) const
             h = 0.5 * (std::fabs(u.x) + std::fabs(u.y) + std::fabs(u.z));
             // The rays' ionised share of the volume they cross here (none crossed: neutral).
             const auto& tally = *mTallies[s];
-            const std::size_t idx = mDensity.index(i, j, k);
             const double tube = tally.get(idx, 0);
             xH = tube > 0 ? std::min(1.0, tally.get(idx, 1) / tube) : 0.0;
             xHe = tube > 0 ? std::min(xH, tally.get(idx, 2) / tube) : 0.0;

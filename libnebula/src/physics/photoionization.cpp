@@ -24,14 +24,20 @@ constexpr double K_EV = 8.617333262e-5;
 /// The collision rate constant of q_12 = 8.629e-6 Omega / (g sqrt(T)) [cm^3 s^-1 K^1/2].
 constexpr double COLLISION_CONSTANT = 8.629e-6;
 
-/// A quantity tabulated at 5000, 10^4 and 20000 K, a power law in T through the nearest pair
-/// (and beyond the ends).
-double powerLawTable(double T, double v5000, double v10000, double v20000)
+/// Throws Error unless @p T [K] is finite and > 0.
+void requireTemperature(double T)
 {
     if (!(T > 0.0) || !std::isfinite(T)) {
         throw Error("photoionisation: temperature must be finite and > 0 [K], got " +
                     std::to_string(T));
     }
+}
+
+/// A quantity tabulated at 5000, 10^4 and 20000 K, a power law in T through the nearest pair
+/// (and beyond the ends).
+double powerLawTable(double T, double v5000, double v10000, double v20000)
+{
+    requireTemperature(T);
     const bool low = T < 1e4;
     const double a = low ? v5000 : v10000, b = low ? v10000 : v20000;
     const double t0 = low ? 5000.0 : 1e4;
@@ -68,13 +74,13 @@ double caseBRecombinationH(double T)
 
 double caseBRecombinationHe(double T)
 {
-    powerLawTable(T, 1, 1, 1); // the check of T
+    requireTemperature(T);
     return 2.73e-13 * std::pow(T / 1e4, -0.79);
 }
 
 double recombinationOIII(double T)
 {
-    powerLawTable(T, 1, 1, 1);
+    requireTemperature(T);
     return 2.0e-12 * std::pow(T / 1e4, -0.65) + 1.0e-12;
 }
 
@@ -211,7 +217,7 @@ const std::vector<ForbiddenLevel>& oiLevels()
 
 double forbiddenEmissivity(const ForbiddenLevel& level, double T, double ne)
 {
-    powerLawTable(T, 1, 1, 1);
+    requireTemperature(T);
     const double rootT = std::sqrt(T);
     const double q12 =
         COLLISION_CONSTANT * level.omega / (level.gLower * rootT) * std::exp(-level.energyK / T);

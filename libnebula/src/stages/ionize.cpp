@@ -114,14 +114,12 @@ void describe(const Run& run, const std::vector<IonizingStar>& stars, const Ioni
                      numberText(p.escaped / p.emitted));
         }
     }
+    double photons = 0.0;
+    for (const auto& r : report.rates)
+        photons += r.h;
     run.info("overlap iterations: " + std::to_string(report.iterations) +
              "; recombinations in the grid / photons: " +
-             numberText(report.recombinations / std::max(1e-300, [&] {
-                            double q = 0;
-                            for (const auto& r : report.rates)
-                                q += r.h;
-                            return q;
-                        }())));
+             numberText(report.recombinations / std::max(1e-300, photons)));
 }
 
 } // namespace
