@@ -6,7 +6,7 @@ import json
 import pathlib
 import sys
 
-PRESETS = ["reflection", "external", "pillars", "bubble", "globule", "bipolar"]
+PRESETS = ["reflection", "external", "pillars", "bubble", "hii", "globule", "bipolar"]
 OBSERVED = {"sigma": (0.3, 0.6), "slope": (-3.2, -2.5), "dimension": (1.25, 1.45)}
 
 

@@ -14,13 +14,23 @@ work=${1:-$(mktemp -d)}
 mkdir -p "$work" "$here/presets"
 cd "$work"
 
-for preset in ${PRESETS:-reflection external pillars bubble globule bipolar}; do
-    # The picture: 128^3, as make -f Makefile.data PRESET=<preset> renders it.
+for preset in ${PRESETS:-reflection external pillars bubble hii globule bipolar}; do
+    # The picture: 128^3, as make -f Makefile.data PRESET=<preset> renders it (the presets
+    # whose glow is ionised gas pass through nebionize, and their lines are raised by 40
+    # beside the O stars' light: Makefile.data's EMISSION_SCALE).
     "$bin/nebgen" --preset "$preset" --res 128 -o "$preset.vdb" -q
+    scale=1
+    case $preset in
+    pillars | bubble | hii)
+        "$bin/nebionize" -i "$preset.vdb" -o "$preset-ionised.vdb" -q
+        mv "$preset-ionised.vdb" "$preset.vdb"
+        scale=40
+        ;;
+    esac
     "$bin/nebillum" -i "$preset.vdb" -o "$preset-lit.vdb" -q
     "$bin/nebscatter" -i "$preset-lit.vdb" -o "$preset-scattered.vdb" -q
     "$bin/nebrender" -i "$preset-scattered.vdb" --res 512x512 --gamma 0.6 -q \
-        -o "$preset.exr" --png "$here/presets/$preset.png"
+        --emission-scale "$scale" -o "$preset.exr" --png "$here/presets/$preset.png"
     # The statistics, projected along z (the default camera's line of sight, nearly).
     for res in 128 256; do
         "$bin/nebgen" --preset "$preset" --res "$res" -o "$preset-$res.vdb" -q

@@ -5,10 +5,13 @@
 
 #include "nebula/io/grid_io.h"
 
+#include <openvdb/openvdb.h>
+
 #include <nlohmann/json.hpp>
 
 #include <gtest/gtest.h>
 
+#include <filesystem>
 #include <fstream>
 #include <sstream>
 
@@ -37,7 +40,7 @@ TEST_F(Cli, PresetUnknownListsTheKnownOnes)
     EXPECT_EQ(r.code, 2);
     EXPECT_TRUE(contains(r.err, "unknown preset 'm42'")) << r.err;
     for (const char* name :
-         {"fbm", "box", "reflection", "external", "pillars", "bubble", "globule", "bipolar"})
+         {"fbm", "box", "reflection", "external", "pillars", "bubble", "globule", "bipolar", "hii"})
         EXPECT_TRUE(contains(r.err, name)) << name << ": " << r.err;
     EXPECT_FALSE(std::filesystem::exists(path("x.vdb")));
 }
@@ -134,4 +137,58 @@ TEST_F(Cli, NebstatsRefusesBadRequests)
     const auto r = run("nebstats -i missing.vdb");
     EXPECT_NE(r.code, 0);
     EXPECT_TRUE(contains(r.err, "missing.vdb")) << r.err;
+}
+
+TEST_F(Cli, IonisedPresetsGetTheirGlowFromNebionize)
+{
+    // nebgen paints no glow for pillars, bubble and hii, and refuses --emission, naming
+    // nebionize.
+    const auto r = run("nebgen --preset pillars --res 16 --emission 5 -o x.vdb");
+    EXPECT_EQ(r.code, 2);
+    EXPECT_TRUE(contains(r.err, "--emission") && contains(r.err, "nebionize")) << r.err;
+    EXPECT_FALSE(std::filesystem::exists(path("x.vdb")));
+    for (const std::string preset : {"pillars", "bubble", "hii"}) {
+        ASSERT_EQ(run("nebgen --preset " + preset + " --res 48 -o g.vdb").code, 0) << preset;
+        const auto g = nebula::readGrids(path("g.vdb"));
+        EXPECT_TRUE(!g.find("emission") || g.floatGrid("emission", "")->activeVoxelCount() == 0)
+            << preset;
+        const auto ionise = run("nebionize -i g.vdb -v -o i.vdb");
+        ASSERT_EQ(ionise.code, 0) << preset << ": " << ionise.err;
+        const auto i = nebula::readGrids(path("i.vdb"));
+        const auto density = i.floatGrid("density", "");
+        const auto hii = i.floatGrid("ionization.hii", "");
+        const auto ha = i.floatGrid("emission", ""), oiii = i.floatGrid("emission.oiii", "");
+        const auto hAcc = hii->getConstAccessor();
+        const auto haAcc = ha->getConstAccessor();
+        const auto oAcc = oiii->getConstAccessor();
+        // The brightest star (the first): [O III] sits nearer it than H-alpha.
+        const auto& star = i.stars().front().position;
+        const auto starIndex =
+            density->transform().worldToIndex(openvdb::Vec3d(star[0], star[1], star[2]));
+        int ionised = 0, front = 0, neutral = 0;
+        double haSum = 0.0, haR = 0.0, oSum = 0.0, oR = 0.0;
+        for (auto it = density->cbeginValueOn(); it; ++it) {
+            if (!(*it > 0.0f)) continue;
+            const float x = hAcc.getValue(it.getCoord());
+            ionised += x > 0.99f ? 1 : 0;
+            front += (x > 0.01f && x <= 0.99f) ? 1 : 0;
+            neutral += x <= 0.01f ? 1 : 0;
+            const double d = (it.getCoord().asVec3d() - starIndex).length();
+            haSum += haAcc.getValue(it.getCoord());
+            haR += haAcc.getValue(it.getCoord()) * d;
+            oSum += oAcc.getValue(it.getCoord());
+            oR += oAcc.getValue(it.getCoord()) * d;
+        }
+        // Ionised gas, fronts partly ionised, and neutral gas behind them (clumps, shadows).
+        EXPECT_GT(ionised, 100) << preset;
+        EXPECT_GT(front, 100) << preset;
+        EXPECT_GT(neutral, 100) << preset;
+        ASSERT_GT(haSum, 0.0) << preset;
+        ASSERT_GT(oSum, 0.0) << preset;
+        // In the pillars' open cavity the O++ zone is well inside the H+ one; in the bubble's
+        // shell and the blister's face the zones are squeezed into one layer, [O III] on its
+        // inner side.
+        const double inner = preset == "pillars" ? 0.9 : 0.99;
+        EXPECT_LT(oR / oSum, inner * (haR / haSum)) << preset << ": [O III] nearer the star";
+    }
 }

@@ -5,6 +5,7 @@
 #include "nebula/cli/generate_options.h"
 #include "nebula/cli/option_table.h"
 #include "nebula/stages/generate.h"
+#include "nebula/stages/presets.h"
 
 #include <cstdint>
 #include <string>
@@ -26,6 +27,13 @@ int main(int argc, char** argv)
                  " nebula, seed " + std::to_string(params.seed) + ", " +
                  std::to_string(params.stars.size()) + " stars" +
                  (params.spectral.enabled ? ", spectral grids" : ""));
+        for (const auto& info : nebula::nebulaPresets()) {
+            if (info.id == params.preset && info.ionised) {
+                run.info("the " + opts.presetName +
+                         " preset's glow is the gas its stars ionise: run nebionize on this "
+                         "file for it (nebgen paints none)");
+            }
+        }
         auto grids = nebula::generateNebula(params, [&](std::size_t n) { bar.add(n); });
         nebula::writeGrids(common.output, std::move(grids), run);
     });

@@ -68,10 +68,12 @@ struct Ball
 };
 
 /// One voxel's geometry: the dust factor G and emission factor E (before the lognormal
-/// turbulence and the peaks).
+/// turbulence and the peaks), and the diffuse gas of an H II region's warm phase, in units of
+/// the density scale: not cut at the cloud's edge, its turbulence half as strong (sqrt of the
+/// turbulent density: warm gas moves at about its sound speed).
 struct Shape
 {
-    double dust = 0.0, emission = 0.0;
+    double dust = 0.0, emission = 0.0, gas = 0.0;
 };
 
 /// What the geometry sees at a point: the point, two unit-variance noise values of large
@@ -103,6 +105,8 @@ struct PresetDef
     Shape (*shape)(const Where&, const std::vector<Vec3>& stars);
     /// Balls that hold every point where shape() may be non-zero (empty: everywhere).
     std::vector<Ball> (*support)();
+    /// Its glow is the gas its stars ionise (nebionize), not painted (PresetInfo::ionised).
+    bool ionised = false;
 };
 
 Star makeStar(const char* name, Vec3 cube, double luminosity, const char* cls)
@@ -253,9 +257,14 @@ const Pillar PILLARS[] = {
     {{0.0, -0.32, -0.02}, 0.46, 0.06, 0.04},
     {{0.17, -0.32, 0.04}, 0.28, 0.05, 0.032},
 };
-const Vec3 PILLARS_STAR{0.0, 0.3, 0.3};
-/// The H II region the star has ionised: behind and above the columns, bounded by the dust.
-const Vec3 PILLARS_HII_CENTRE{0.0, 0.08, 0.24}, PILLARS_HII_RADII{0.36, 0.34, 0.18};
+/// The cluster's brightest star (NGC 6611): the columns point at it.
+const Vec3 PILLARS_STAR{0.0, 0.26, 0.12};
+/// The far wall of the cavity the cluster has cleared in the molecular cloud: a slab behind
+/// the star, facing the viewer, whose face the stars ionise behind the columns.
+const Slab PILLARS_BACK{0.4, 0.4, 0.4, 0.05};
+/// The H II region's warm diffuse gas [density scale]: 30 cm^-3 at the default density.
+constexpr double PILLARS_GAS = 0.02;
+const Vec3 PILLARS_HII_CENTRE{0.0, 0.06, 0.12}, PILLARS_HII_RADII{0.36, 0.32, 0.26};
 constexpr double PILLARS_CORE_PEAK = 60.0, PILLARS_CORE_RADIUS = 0.012;
 const Vec3 PILLARS_WALL_CENTRE{0.0, -0.34, 0.06}, PILLARS_WALL_RADII{0.36, 0.1, 0.28};
 
@@ -264,12 +273,14 @@ void pillarsDefaults(NebulaParams& p)
     turbulent(p, 6.0, 0.4, 1500.0);
     p.turbulence.outerScale = 0.25; // the columns' width, a few driving scales across
     p.turbulence.index = 3.3;
-    p.emissionPeak = 15.0;
     p.emissionRadius = 0.45;
 }
 std::vector<Star> pillarsStars()
 {
-    return {makeStar("star", PILLARS_STAR, 300000.0, "O5V")};
+    // Three of NGC 6611's O stars: 2.4 x 10^49 ionising photons a second between them.
+    return {makeStar("star", PILLARS_STAR, 300000.0, "O5V"),
+            makeStar("star2", PILLARS_STAR + Vec3{0.06, 0.03, -0.04}, 120000.0, "O7V"),
+            makeStar("star3", PILLARS_STAR + Vec3{-0.05, 0.05, 0.03}, 60000.0, "O9V")};
 }
 Shape pillarsShape(const Where& w, const std::vector<Vec3>& stars)
 {
@@ -279,7 +290,6 @@ Shape pillarsShape(const Where& w, const std::vector<Vec3>& stars)
     const double wall = ellipsoidRadius(w.p, PILLARS_WALL_CENTRE, PILLARS_WALL_RADII) /
                         (1.0 + 0.25 * clampNoise(w.u1));
     s.dust = softInside(wall, 0.3);
-    double rim = 0.0;
     for (const Pillar& c : PILLARS) {
         const Vec3 axis = (star - c.base).normalized();
         const Vec3 head = c.base + axis * c.length;
@@ -287,29 +297,23 @@ Shape pillarsShape(const Where& w, const std::vector<Vec3>& stars)
         const double d = segmentDistance(w.p, c.base, head, t);
         const double r = (c.rBase + (c.rHead - c.rBase) * t) * (1.0 + 0.25 * clampNoise(w.u2));
         s.dust = std::max(s.dust, softInside(d / r, 0.35) * (1.0 + 0.8 * t));
-        // The dense head, and its ionised skin facing the star.
+        // The dense head.
         const double rh = 1.25 * c.rHead;
-        const Vec3 dh = w.p - head;
-        const double lh = dh.length();
-        s.dust = std::max(s.dust, 3.0 * softInside(lh / rh, 0.4));
+        s.dust = std::max(s.dust, 3.0 * softInside((w.p - head).length() / rh, 0.4));
         // A core forming a star in each head (the evaporating gaseous globules of M16).
         s.dust += PILLARS_CORE_PEAK * core(w.p, head - axis * (0.3 * rh), PILLARS_CORE_RADIUS);
-        const double facing = lh > 0.0 ? smoothstep(-0.2, 0.7, dh.dot(axis) / lh) : 0.0;
-        rim = std::max(rim, facing * bump(lh - rh - 0.006, 0.012));
-        // The columns' sides glow faintly too: light grazes them.
-        rim = std::max(rim, 0.3 * bump(d - r - 0.006, 0.01) * smoothstep(0.3, 0.9, t));
     }
-    // The H II region: behind the columns and around the star, no gas inside the dust.
-    const double hii = (1.0 - std::min(s.dust, 1.0)) * 0.2 *
-                       softInside(ellipsoidRadius(w.p, PILLARS_HII_CENTRE, PILLARS_HII_RADII) /
-                                      (1.0 + 0.15 * clampNoise(w.u1)),
-                                  0.4);
-    s.emission = std::max(rim, hii);
+    // The cavity's far wall.
+    s.dust = std::max(s.dust, 1.5 * PILLARS_BACK(w, {0.0, 0.0, PILLARS_BACK.zc}));
+    // The warm gas filling the cavity, which the stars ionise (nebionize).
+    s.gas = PILLARS_GAS * softInside(ellipsoidRadius(w.p, PILLARS_HII_CENTRE, PILLARS_HII_RADII) /
+                                         (1.0 + 0.15 * clampNoise(w.u1)),
+                                     0.4);
     return s;
 }
 std::vector<Ball> pillarsSupport()
 {
-    return {}; // the H II region fills most of the cube
+    return {}; // the cavity and its walls fill most of the cube
 }
 
 // ---- bubble: NGC 7635. ----
@@ -324,14 +328,13 @@ const Vec3 BUBBLE_CORES[] = {
 void bubbleDefaults(NebulaParams& p)
 {
     turbulent(p, 8.0, 0.4, 150.0);
-    p.emissionPeak = 30.0;
     p.emissionRadius = BUBBLE_RADIUS;
 }
 std::vector<Star> bubbleStars()
 {
     return {makeStar("star", {-0.06, 0.03, 0.0}, 200000.0, "O6V")};
 }
-Shape bubbleShape(const Where& w, const std::vector<Vec3>& stars)
+Shape bubbleShape(const Where& w, const std::vector<Vec3>&)
 {
     Shape s;
     const Vec3 d = w.p - BUBBLE_CENTRE;
@@ -351,26 +354,8 @@ Shape bubbleShape(const Where& w, const std::vector<Vec3>& stars)
     // Cores the shell collected and that now collapse, on the cloud's side.
     for (const Vec3& dir : BUBBLE_CORES)
         s.dust += 40.0 * core(w.p, BUBBLE_CENTRE + dir.normalized() * BUBBLE_RADIUS, 0.012);
-    // Ionised gas: the shell's inner face, faint gas inside, and the gas streaming out of the
-    // break.
-    const double inner = intact * bump(r - (R - 0.6 * width), 0.6 * width);
-    const double inside = 0.12 * (1.0 - smoothstep(R - width, R, r));
-    const double outflow =
-        0.25 * (1.0 - intact) * (1.0 - smoothstep(R, 1.5 * R, r)) * smoothstep(0.5 * R, R, r);
-    s.emission = std::max({inner, inside, outflow});
-    if (!stars.empty()) {
-        // The cloud's face lit by the star: where the ellipsoid's normal points at it.
-        const Vec3 d = w.p - BUBBLE_CLOUD_CENTRE;
-        const Vec3 normal = Vec3{d.x / (BUBBLE_CLOUD_RADII.x * BUBBLE_CLOUD_RADII.x),
-                                 d.y / (BUBBLE_CLOUD_RADII.y * BUBBLE_CLOUD_RADII.y),
-                                 d.z / (BUBBLE_CLOUD_RADII.z * BUBBLE_CLOUD_RADII.z)};
-        const Vec3 toStar = stars.front() - w.p;
-        const double cosine = normal.length() > 0.0 && toStar.length() > 0.0
-                                  ? normal.dot(toStar) / (normal.length() * toStar.length())
-                                  : 0.0;
-        s.emission =
-            std::max(s.emission, 0.4 * smoothstep(0.0, 0.5, cosine) * bump(cloud - 1.0, 0.03));
-    }
+    // No gas to speak of inside: the shocked wind is too thin (< 1 cm^-3) to glow. The star
+    // ionises the shell's inner face, or all of it where it is thin (nebionize).
     return s;
 }
 std::vector<Ball> bubbleSupport()
@@ -472,6 +457,60 @@ std::vector<Ball> bipolarSupport()
     return {{Vec3{0.0, 0.0, 0.0}, 0.4 * (1.0 + 0.1 * NOISE_CLAMP) + 0.05}};
 }
 
+// ---- hii: M42, M8. ----
+
+/// The molecular cloud behind the blister: a slab facing the viewer (-z).
+const Slab HII_CLOUD{0.38, 0.36, 0.3, 0.15};
+/// The cluster's brightest star (theta-1 Ori C in M42, Herschel 36 in M8).
+const Vec3 HII_CLUSTER{-0.04, 0.03, 0.16};
+/// The cloud's face: z = HII_FACE + HII_BOWL exp(-(rho / HII_BOWL_RADIUS)^2), rho the distance
+/// from the cluster across the sky: the concave cavity the cluster has eaten into it.
+constexpr double HII_FACE = 0.14, HII_BOWL = 0.1, HII_BOWL_RADIUS = 0.2;
+/// The blister's gas [density scale] at the face (300 cm^-3 at the default density), falling
+/// towards the viewer over HII_SCALE (0.8 pc), ending at 4 of them: the gas flowing off the
+/// face.
+constexpr double HII_GAS = 0.15, HII_SCALE = 0.08;
+
+void hiiDefaults(NebulaParams& p)
+{
+    turbulent(p, 5.0, 0.4, 2000.0);
+    p.turbulence.outerScale = 0.3;
+    p.turbulence.index = 3.3;
+    p.emissionRadius = 0.4;
+}
+std::vector<Star> hiiStars()
+{
+    // A Trapezium: an O7 star and its three B companions, 0.1-0.3 pc apart.
+    return {makeStar("star", HII_CLUSTER, 200000.0, "O7V"),
+            makeStar("star2", HII_CLUSTER + Vec3{0.025, -0.01, 0.005}, 30000.0, "B0V"),
+            makeStar("star3", HII_CLUSTER + Vec3{-0.015, 0.02, -0.01}, 20000.0, "B0.5V"),
+            makeStar("star4", HII_CLUSTER + Vec3{0.01, 0.03, 0.01}, 10000.0, "B1V")};
+}
+Shape hiiShape(const Where& w, const std::vector<Vec3>&)
+{
+    Shape s;
+    const double rho2 = (w.p.x - HII_CLUSTER.x) * (w.p.x - HII_CLUSTER.x) +
+                        (w.p.y - HII_CLUSTER.y) * (w.p.y - HII_CLUSTER.y);
+    const double face = HII_FACE +
+                        HII_BOWL * std::exp(-rho2 / (HII_BOWL_RADIUS * HII_BOWL_RADIUS)) +
+                        0.03 * clampNoise(w.u2);
+    const double cloud = HII_CLOUD(w, {0.0, 0.0, HII_CLOUD.zc});
+    s.dust = cloud * smoothstep(face - 0.01, face + 0.02, w.p.z);
+    // The blister's ionised gas, in front of the face and across the cavity.
+    if (w.p.z < face) {
+        const double across =
+            softInside(std::sqrt(rho2) / (0.32 * (1.0 + 0.15 * clampNoise(w.u1))), 0.5);
+        const double depth = face - w.p.z;
+        s.gas = HII_GAS * std::exp(-depth / HII_SCALE) *
+                (1.0 - smoothstep(3.0 * HII_SCALE, 4.0 * HII_SCALE, depth)) * across;
+    }
+    return s;
+}
+std::vector<Ball> hiiSupport()
+{
+    return {}; // the cloud fills the cube's far half
+}
+
 // ---- fbm: the seeds' model, built in generate.cpp. ----
 
 void fbmDefaults(NebulaParams&) {}
@@ -496,17 +535,21 @@ const std::vector<PresetDef>& presetTable()
          "a striated cloud lit by a star outside it (Merope nebula, IC 2118)", externalDefaults,
          externalStars, externalShape, externalSupport},
         {NebulaPreset::Pillars, "pillars",
-         "dense columns pointing at an O star, with ionised rims (M16)", pillarsDefaults,
-         pillarsStars, pillarsShape, pillarsSupport},
+         "dense columns pointing at O stars in the cavity they ionise (M16)", pillarsDefaults,
+         pillarsStars, pillarsShape, pillarsSupport, true},
         {NebulaPreset::Bubble, "bubble",
-         "a wind-blown shell broken on one side around an O star (NGC 7635)", bubbleDefaults,
-         bubbleStars, bubbleShape, bubbleSupport},
+         "an O star's H II region in the wind-blown shell around it, broken on one side "
+         "(NGC 7635)",
+         bubbleDefaults, bubbleStars, bubbleShape, bubbleSupport, true},
         {NebulaPreset::Globule, "globule",
          "a Bok globule with a dark core, a bright rim and a tail (IC 1396A, B68)", globuleDefaults,
          globuleStars, globuleShape, globuleSupport},
         {NebulaPreset::Bipolar, "bipolar",
          "a young star's outflow cavities in a flattened envelope (NGC 2261, Cep A)",
          bipolarDefaults, bipolarStars, bipolarShape, bipolarSupport},
+        {NebulaPreset::Hii, "hii",
+         "an O cluster's H II region on the near face of a molecular cloud (M42, M8)", hiiDefaults,
+         hiiStars, hiiShape, hiiSupport, true},
     };
     return table;
 }
@@ -526,7 +569,7 @@ const std::vector<PresetInfo>& nebulaPresets()
     static const std::vector<PresetInfo> infos = [] {
         std::vector<PresetInfo> v;
         for (const auto& d : presetTable())
-            v.push_back({d.id, d.name, d.summary});
+            v.push_back({d.id, d.name, d.summary, d.ionised});
         return v;
     }();
     return infos;
@@ -627,6 +670,10 @@ public:
             const double x = w.turbulence * shape.dust;
             const double c = mP.edgeCut;
             v.density = mP.densityPeak * x * (c > 0.0 ? smoothstep(c, 2.0 * c, x) : 1.0);
+        }
+        if (shape.gas > 0.0 && mP.densityPeak > 0.0)
+            v.density += mP.densityPeak * shape.gas * std::sqrt(w.turbulence);
+        if (v.density > 0.0) {
             clearStarCavities(v.density, {p.x * mP.size, p.y * mP.size, p.z * mP.size}, mP.stars,
                               mP.cavity);
         }

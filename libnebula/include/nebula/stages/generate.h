@@ -42,6 +42,7 @@ enum class NebulaPreset {
     Bubble,     ///< a wind-blown shell broken on one side around an O star (NGC 7635)
     Globule,    ///< a Bok globule with a dark core, a bright rim and a tail (IC 1396A, B68)
     Bipolar,    ///< a young star's outflow cavities in a flattened envelope (NGC 2261)
+    Hii,        ///< an O cluster's blister on the near face of a molecular cloud (M42, M8)
 };
 
 /// The spectral grids of nebgen --spectral.

@@ -19,6 +19,9 @@ struct PresetInfo
     NebulaPreset id;
     const char* name;    ///< what --preset takes
     const char* summary; ///< one line: the type and its real models
+    /// Its glow is the gas its stars ionise: nebgen paints none (`--emission` is refused) and
+    /// nebionize computes it (Makefile.data runs it for these).
+    bool ionised = false;
 };
 
 /// Every preset, in the order the docs list them; fbm (the procedural cloud of the seeds, the
