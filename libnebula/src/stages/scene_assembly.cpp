@@ -448,10 +448,11 @@ std::vector<RgbEmitter> rgbEmitters(const GridSet& grids, const RenderOptions& o
     return out;
 }
 
-/// Fills scene.emission (DESIGN §3.4) from @p emitters, whose grids are already in the
-/// fields: one grid stays in channel 1 with its colour; several are summed, coloured, into
-/// the channels from @p rgb on, their plain sum into channel 1.
-void colourEmission(RenderScene& scene, const std::vector<RgbEmitter>& emitters, int rgb)
+/// Fills scene.emission (DESIGN §3.4) from @p emitters: one grid, already channel 1, keeps
+/// its colour; several are summed, coloured, into the channels from @p rgb on, their plain
+/// sum into channel 1. Error naming @p grids' file if one is not on @p density's voxels.
+void colourEmission(RenderScene& scene, const std::vector<RgbEmitter>& emitters, int rgb,
+                    const openvdb::FloatGrid& density, const std::string& source)
 {
     for (const auto& e : emitters)
         scene.emission.grids.emplace_back(e.grid->getName(), e.colour);
@@ -462,6 +463,11 @@ void colourEmission(RenderScene& scene, const std::vector<RgbEmitter>& emitters,
     if (emitters.size() < 2) return;
     scene.emission.rgbChannel = rgb;
     for (const auto& e : emitters) {
+        if (e.grid->transform() != density.transform()) {
+            throw Error(source + ": grid \"" + e.grid->getName() +
+                        "\" does not share the transform of grid \"" + density.getName() +
+                        "\"; resample it onto the same voxels first");
+        }
         addGridToVolume(scene.fields, *e.grid, 1, 1.0);
         for (int c = 0; c < 3; ++c)
             addGridToVolume(scene.fields, *e.grid, rgb + c, e.colour[std::size_t(c)]);
@@ -506,7 +512,7 @@ RenderScene buildScene(const GridSet& grids, const RenderOptions& opts, const Du
     requireFiniteEmission(*emission, opts.emissionScale, scene.fields, grids.source);
     for (std::size_t k = 0; k < emitters.size() && emitters.size() > 1; ++k)
         requireFiniteEmission(*emitters[k].grid, opts.emissionScale, scene.fields, grids.source);
-    colourEmission(scene, emitters, rgb);
+    colourEmission(scene, emitters, rgb, *density, grids.source);
 
     scene.starColor = starColors(scene.stars, opts);
     scene.dust = channelDust(dust, opts.wavelengths);
