@@ -133,14 +133,21 @@ std::vector<Star> loadStars(const StarOptions& opts)
 
 void addEmissionAndStars(CLI::App& app, RenderOptions& opts, bool& noStars)
 {
-    app.add_option("--emission-grid", opts.emissionGrid, "Gas emission grid")
+    app.add_option("--emission-grid", opts.emissionGrid,
+                   "Gas emission grid; RGB mode adds every other grid with nebula:lines, each\n"
+                   "in its lines' colour")
         ->capture_default_str();
     app.add_option("--emission-scale", opts.emissionScale,
                    "Emission multiplier [L_sun pc^-3 sr^-1 per grid unit]")
         ->capture_default_str()
         ->check(nonNegative());
+    // Given, it paints the emission grid in it as before line colours (DESIGN §3.4).
     addVec3(app, "--emission-color", opts.emissionColor,
-            "Emission colour, linear sRGB R,G,B (H-alpha with some H-beta)");
+            "Colour of an emission grid without nebula:lines, linear sRGB R,G,B (H-alpha\n"
+            "with some H-beta); its luminance sets a line grid's brightness. Given, it paints\n"
+            "the emission grid in it and leaves out the other line grids (true line colours\n"
+            "otherwise)")
+        ->each([&opts](const std::string&) { opts.lineColours = false; });
     app.add_flag("--no-stars", noStars, "Do not draw the stars themselves");
     app.add_option("--sprite-radius", opts.spriteRadius,
                    "Star sprite radius [pixels], as far as its footprint fits in memory")

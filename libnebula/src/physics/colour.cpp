@@ -350,6 +350,27 @@ XYZ linearSRGBToXYZ(const std::array<double, 3>& rgb)
     return matrixTimes(srgbMatrices().rgbToXyz, rgb);
 }
 
+XYZ linesXYZ(const std::vector<SpectralLine>& lines)
+{
+    XYZ xyz{0.0, 0.0, 0.0};
+    for (const auto& l : lines) {
+        const XYZ c = cmfAt(l.wavelength);
+        for (std::size_t i = 0; i < 3; ++i)
+            xyz[i] += l.strength * c[i];
+    }
+    return xyz;
+}
+
+std::array<double, 3> linesLinearSRGB(const std::vector<SpectralLine>& lines, double luminance)
+{
+    XYZ xyz = linesXYZ(lines);
+    if (!(xyz[1] > 0.0)) return {0.0, 0.0, 0.0};
+    const double f = luminance / xyz[1];
+    for (auto& v : xyz)
+        v *= f;
+    return xyzToLinearSRGB(xyz);
+}
+
 std::array<double, 2> chromaticity(const XYZ& xyz)
 {
     const double sum = xyz[0] + xyz[1] + xyz[2];

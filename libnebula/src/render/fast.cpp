@@ -81,7 +81,8 @@ public:
     FastIntegrator(const RenderScene& scene, const RenderOptions& opts)
         : mScene(scene), mOpts(opts), mDust(scene.dust), mCam(opts.camera),
           mLevel0(scene.fields, scene.blocks, scene.occupied, mCam.eye()),
-          mTable(opts.phaseTable.get())
+          mTable(opts.phaseTable.get()),
+          mEmitColour(scene.emission.colour.value_or(opts.emissionColor))
     {
         for (const auto& lv : scene.levels) {
             mLevels.push_back(
@@ -260,15 +261,20 @@ private:
         }
     }
 
-    /// Emission of a segment of length @p seg [pc] with gas @p em and optical depths @p x
-    /// (per channel): the fraction (1 - e^-x)/x of it reaches the segment's front, dimmed by
-    /// the transmittance in front of it.
-    void emit(double em, const double* x, const double* oneMinus, double seg, RayState& ray) const
+    /// Emission of a segment of length @p seg [pc] with gas @p em (channel 1 of the sample
+    /// @p f) and optical depths @p x (per channel): the fraction (1 - e^-x)/x of it reaches
+    /// the segment's front, dimmed by the transmittance in front of it. With per-channel
+    /// emission (SceneEmission::rgbChannel), channel c's own emissivity instead of em times
+    /// a colour.
+    void emit(double em, const float* f, const double* x, const double* oneMinus, double seg,
+              RayState& ray) const
     {
+        const int rgb = mScene.emission.rgbChannel;
         for (int c = 0; c < 3; ++c) {
             const double emitLen = x[c] > 1e-7 ? oneMinus[c] / x[c] * seg : seg;
-            const double add =
-                ray.T[c] * em * mOpts.emissionScale * mOpts.emissionColor[c] * emitLen;
+            const double add = rgb < 0
+                                   ? ray.T[c] * em * mOpts.emissionScale * mEmitColour[c] * emitLen
+                                   : ray.T[c] * double(f[rgb + c]) * mOpts.emissionScale * emitLen;
             ray.L[c] += add;
             ray.Lemission[c] += add;
         }
@@ -403,7 +409,7 @@ private:
             x[c] = mDust.kappa_V * mDust.r[c] * n * seg;
             oneMinus[c] = -std::expm1(-x[c]);
         }
-        emit(em, x, oneMinus, seg, ray);
+        emit(em, sc.f.data(), x, oneMinus, seg, ray);
         if (n > 0.0) {
             PhaseLookup::Pos tPos[3];
             const Vec3 xW = ray.oW + ray.dW * tm;
@@ -433,6 +439,8 @@ private:
     double mRmin2 = 0.0;
     std::vector<Vec3> mStarPos;
     const PhaseTable* mTable;
+    /// The colour of channel 1's emission (SceneEmission::colour, or --emission-color).
+    const std::array<double, 3> mEmitColour;
     std::optional<PhaseTable> mGainTable;
     std::optional<PhaseLookup> mLookup;
     bool mGain = false;

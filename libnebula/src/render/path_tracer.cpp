@@ -28,11 +28,11 @@ namespace {
 constexpr double INF = std::numeric_limits<double>::infinity();
 constexpr double RATIO_TRACKING_SCALE = 2.0; ///< majorant multiple for transmittance
 
-/// What a walk needs: density and emission only (2 channels), the majorant per occupancy
-/// block and channel, and the stars.
+/// What a walk needs: density and emission only (2 channels, or 5 with per-channel emission:
+/// then 2 + c holds channel c's), the majorant per occupancy block and channel, and the stars.
 struct PathScene
 {
-    SparseVolume fields; ///< 0 density n_H, 1 emission
+    SparseVolume fields; ///< 0 density n_H, 1 emission, [2 + c emission of channel c]
     Affine w2i;
     std::array<int, 3> blocks{0, 0, 0};
     std::vector<std::array<float, 3>> majorant; ///< per block: per channel [1/pc]
@@ -48,20 +48,23 @@ PathScene buildPathScene(const RenderScene& scene, const RenderOptions& opts)
     PathScene ps;
     ps.scene = &scene;
     const SparseVolume& v = scene.fields;
-    ps.fields = SparseVolume(v.lo(), v.dims(), 2);
+    const int rgb = scene.emission.rgbChannel;
+    ps.fields = SparseVolume(v.lo(), v.dims(), rgb < 0 ? 2 : 5);
     ps.fields.indexToWorld = v.indexToWorld;
     v.forEachStoredBrick([&](std::size_t first) {
         for (std::size_t i = first; i < first + SparseVolume::BRICK_VOXELS; ++i) {
             float* q = ps.fields.writable(i);
             q[0] = v.voxel(i)[0];
             q[1] = v.voxel(i)[1];
+            for (int c = 0; c < 3 && rgb >= 0; ++c)
+                q[2 + c] = v.voxel(i)[rgb + c];
         }
     });
     ps.w2i = v.indexToWorld.inverse();
     const double voxelWorld = voxelSize(v.indexToWorld);
     ps.rmin2 = std::pow(opts.minStarDistance * voxelWorld, 2);
     ps.emissionScale = opts.emissionScale;
-    ps.emissionColor = opts.emissionColor;
+    ps.emissionColor = scene.emission.colour.value_or(opts.emissionColor);
     for (const auto& s : scene.stars)
         ps.starPos.emplace_back(s.position[0], s.position[1], s.position[2]);
 
@@ -174,6 +177,7 @@ void walk(const PathScene& ps, int cmax, bool grey, const Vec3& eye, const Vec3&
           double* L, double* Ls, double* Tprim, std::uint64_t& collisions)
 {
     const auto& dust = ps.scene->dust;
+    const bool perChannel = ps.fields.channels() == 5;
     double emitC[3], k0[3];
     for (int c = 0; c < 3; ++c) {
         emitC[c] = ps.emissionScale * ps.emissionColor[c];
@@ -187,13 +191,14 @@ void walk(const PathScene& ps, int cmax, bool grey, const Vec3& eye, const Vec3&
         const Tracker tr(ps, x, d, INF);
         bool scattered = false;
         double tHit = 0.0;
-        float f[2];
+        float f[5];
         tr.track(cmax, rng, collisions, [&](double t, double mu) {
             ps.fields.sample(tr.ray.oI + tr.ray.dI * t, f);
             // Collision estimator of emission: j / majorant at every tentative collision.
             if (f[1] > 0.0f) {
                 for (int c = 0; c < 3; ++c)
-                    L[c] += beta[c] * emitC[c] * f[1] / mu;
+                    L[c] += perChannel ? beta[c] * ps.emissionScale * f[2 + c] / mu
+                                       : beta[c] * emitC[c] * f[1] / mu;
             }
             if (grey) {
                 if (rng.uniformDouble() * mu < k0[cmax] * f[0]) {

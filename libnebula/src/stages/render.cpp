@@ -48,19 +48,36 @@ std::string pngPath(const RenderOutput& out)
 
 namespace {
 
-/// RGB mode draws one emission grid, in --emission-color; the lines of the others (nebgen's
-/// emission.oiii, nebionize's [O III], [N II], [S II], [O I]) only --spectral draws: say which.
-void warnUndrawnLineGrids(const GridSet& grids, const RenderOptions& opts, const Run& run)
+/// What RGB mode makes of the emission grids (DESIGN §3.4), said before the render: with
+/// --emission-color given (RenderOptions::lineColours false), a warning naming the line
+/// grids it leaves out; else, with -v, each grid drawn and its colour, and a warning if
+/// nebscatter's field scatters the glow of --emission-grid only while others glow too.
+void reportEmission(const GridSet& grids, const RenderScene& scene, const RenderOptions& opts,
+                    const Run& run)
 {
     std::string names;
-    for (const auto& g : grids.grids) {
-        if (g->getName() != opts.emissionGrid && (*g)[META_LINES]) {
-            names += (names.empty() ? "\"" : ", \"") + g->getName() + "\"";
+    if (!opts.lineColours) {
+        for (const auto& g : grids.grids) {
+            if (g->getName() != opts.emissionGrid && (*g)[META_LINES]) {
+                names += (names.empty() ? "\"" : ", \"") + g->getName() + "\"";
+            }
         }
+        if (!names.empty()) {
+            run.warn("--emission-color paints only the emission grid \"" + opts.emissionGrid +
+                     "\"; the lines of " + names +
+                     " are drawn in their colours without --emission-color, and by --spectral");
+        }
+        return;
     }
-    if (!names.empty()) {
-        run.warn("RGB mode draws only the emission grid \"" + opts.emissionGrid +
-                 "\", in --emission-color; the lines of " + names + " are drawn by --spectral");
+    for (const auto& [name, c] : scene.emission.grids) {
+        run.info(fmt::format("emission grid \"{}\": linear sRGB {:.4g}, {:.4g}, {:.4g} per unit "
+                             "(times --emission-scale)",
+                             name, c[0], c[1], c[2]));
+        if (name != opts.emissionGrid) names += (names.empty() ? "\"" : ", \"") + name + "\"";
+    }
+    if (scene.scatter.emissionSource && !names.empty()) {
+        run.warn("the scattered-light field (nebscatter) holds the scattered glow of \"" +
+                 opts.emissionGrid + "\" only; that of " + names + " is left out");
     }
 }
 
@@ -361,8 +378,8 @@ void renderToFiles(const GridSet& grids, const RenderOptions& given, const DustP
         sscene = buildSpectralScene(grids, opts, dust);
     } else {
         refuseAbsorptionGrids(grids);
-        warnUndrawnLineGrids(grids, opts, run);
         sscene.base = buildScene(grids, opts, dust);
+        reportEmission(grids, sscene.base, opts, run);
     }
     const double tBuild =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();

@@ -2,6 +2,7 @@
 #include "nebula/stages/scatter.h"
 
 #include "nebula/core/error.h"
+#include "nebula/io/grid_names.h"
 #include "nebula/io/scatter_field_vdb.h"
 #include "nebula/physics/spherical_harmonics.h"
 #include "nebula/render/scene.h"
@@ -29,7 +30,25 @@ RenderOptions sceneOptions(const ScatterStageOptions& opts)
     ropts.minStarDistance = opts.scene.minStarDistance;
     ropts.exactStarDepth = opts.scene.exactStarDepth;
     ropts.levels = 0;
+    ropts.lineColours = false; // the emission source is --emission-grid alone (DESIGN §3.4)
     return ropts;
+}
+
+/// Warns if the emission is scattered and @p grids hold line grids (nebula:lines) besides
+/// --emission-grid: their glow is not in the field (DESIGN §3.4).
+void warnUnscatteredLineGrids(const GridSet& grids, const ScatterStageOptions& opts, const Run& run)
+{
+    if (!opts.field.emission || opts.spectral > 0 || !grids.find(opts.scene.emissionGrid)) return;
+    std::string names;
+    for (const auto& g : grids.grids) {
+        if (g->getName() != opts.scene.emissionGrid && (*g)[META_LINES]) {
+            names += (names.empty() ? "\"" : ", \"") + g->getName() + "\"";
+        }
+    }
+    if (!names.empty()) {
+        run.warn("the field scatters the glow of the emission grid \"" + opts.scene.emissionGrid +
+                 "\" only; that of " + names + " is left out");
+    }
 }
 
 } // namespace
@@ -43,6 +62,7 @@ ScatterField scatter(GridSet& grids, const ScatterStageOptions& opts, const Run&
     auto built = std::make_unique<const RenderScene>(buildScene(grids, ropts, dust));
     const RenderScene& scene = *built;
     const bool spectral = opts.spectral > 0;
+    warnUnscatteredLineGrids(grids, opts, run);
     ScatterOptions fopts = opts.field;
     if (fopts.fieldLevel == AUTO_FIELD_LEVEL) {
         const FieldLevelChoice c =

@@ -11,6 +11,7 @@
 #include "nebula/core/units.h"
 #include "nebula/io/grid_names.h"
 #include "nebula/io/scatter_field_vdb.h"
+#include "nebula/io/spectral_grids.h"
 #include "nebula/io/volume_vdb.h"
 #include "nebula/physics/blackbody.h"
 #include "nebula/physics/colour.h"
@@ -276,10 +277,15 @@ std::vector<double> sourceFactor(const ScatterSource& source, const ScatterField
 {
     std::vector<double> factor(meta.wavelengths.size(), 1.0);
     switch (source.kind) {
-    case ScatterSource::Kind::Emission:
+    case ScatterSource::Kind::Emission: {
+        // The field holds the glow of --emission-grid (colour 1): its colour in this scene.
+        std::array<double, 3> colour = opts.emissionColor;
+        for (const auto& [name, c] : scene.emission.grids)
+            if (name == opts.emissionGrid) colour = c;
         for (std::size_t c = 0; c < 3 && c < factor.size(); ++c)
-            factor[c] = opts.monochromatic ? 0.0 : opts.emissionScale * opts.emissionColor[c];
+            factor[c] = opts.monochromatic ? 0.0 : opts.emissionScale * colour[c];
         break;
+    }
     case ScatterSource::Kind::Stars:
         // All stars in one field, each made with luminance Y = L (spectral) or its sRGB colour:
         // one factor (per channel) scales it to the stars' spectral luminosities only if it is
@@ -350,6 +356,9 @@ void readScatterField(const GridSet& grids, const RenderOptions& opts, const Dus
     }
     const ScatterSettings& made = meta.settings;
     SceneScatterField& out = scene.scatter;
+    for (const auto& source : meta.sources)
+        out.emissionSource =
+            out.emissionSource || source.source.kind == ScatterSource::Kind::Emission;
     out.moments =
         readScatterMoments(grids, meta, spectral, factors,
                            fieldLevelMap(scene.fields.indexToWorld, made.fieldLevel), what, rerun);
@@ -398,6 +407,73 @@ void requireFiniteEmission(const openvdb::FloatGrid& emission, double scale,
     }
 }
 
+/// An emission grid RGB mode draws and its colour per grid unit (linear sRGB).
+struct RgbEmitter
+{
+    openvdb::FloatGrid::Ptr grid;
+    std::array<double, 3> colour;
+};
+
+/// The emission grids RGB mode draws (DESIGN §3.4): opts.emissionGrid (if the file has it)
+/// and, with opts.lineColours, every other FloatGrid with nebula:lines, as
+/// buildSpectralScene() takes them. A grid with lines gets their colour at the luminance of
+/// --emission-color (linesLinearSRGB()), the spectral renderer's brightness; a grid without,
+/// or every grid without opts.lineColours, --emission-color. None when calibrated
+/// (RenderOptions::monochromatic). Error for values that are negative or not finite, lines
+/// that do not parse, or lines that are all outside 360-830 nm.
+std::vector<RgbEmitter> rgbEmitters(const GridSet& grids, const RenderOptions& opts)
+{
+    std::vector<RgbEmitter> out;
+    if (opts.monochromatic) return out;
+    const double luminance = linearSRGBToXYZ(opts.emissionColor)[1];
+    const auto add = [&](const openvdb::FloatGrid::Ptr& g) {
+        requireFiniteNonNegative(*g, grids.source);
+        RgbEmitter e{g, opts.emissionColor};
+        if (opts.lineColours && (*g)[META_LINES]) {
+            const auto lines = gridLines(*g, grids.source, {});
+            if (!(linesXYZ(lines)[1] > 0.0)) {
+                throw Error(grids.source + ": grid \"" + g->getName() + "\" emits only lines " +
+                            "outside 360-830 nm (" + lineListToString(lines) + "): nothing to see");
+            }
+            e.colour = linesLinearSRGB(lines, luminance);
+        }
+        out.push_back(e);
+    };
+    if (grids.find(opts.emissionGrid)) add(grids.floatGrid(opts.emissionGrid, "--emission-grid"));
+    for (const auto& g : grids.grids) {
+        if (!opts.lineColours || !g || g->getName() == opts.emissionGrid) continue;
+        if (!g->getMetadata<openvdb::StringMetadata>(META_LINES)) continue;
+        add(grids.floatGrid(g->getName(), ""));
+    }
+    return out;
+}
+
+/// Fills scene.emission (DESIGN §3.4) from @p emitters: one grid, already channel 1, keeps
+/// its colour; several are summed, coloured, into the channels from @p rgb on, their plain
+/// sum into channel 1. Error naming @p grids' file if one is not on @p density's voxels.
+void colourEmission(RenderScene& scene, const std::vector<RgbEmitter>& emitters, int rgb,
+                    const openvdb::FloatGrid& density, const std::string& source)
+{
+    for (const auto& e : emitters)
+        scene.emission.grids.emplace_back(e.grid->getName(), e.colour);
+    if (emitters.size() == 1) {
+        scene.emission.colour = emitters.front().colour;
+        return;
+    }
+    if (emitters.size() < 2) return;
+    scene.emission.rgbChannel = rgb;
+    for (const auto& e : emitters) {
+        if (e.grid->transform() != density.transform()) {
+            throw Error(source + ": grid \"" + e.grid->getName() +
+                        "\" does not share the transform of grid \"" + density.getName() +
+                        "\"; resample it onto the same voxels first");
+        }
+        addGridToVolume(scene.fields, *e.grid, 1, 1.0);
+        for (int c = 0; c < 3; ++c)
+            addGridToVolume(scene.fields, *e.grid, rgb + c, e.colour[std::size_t(c)]);
+    }
+}
+
 } // namespace
 
 RenderScene buildScene(const GridSet& grids, const RenderOptions& opts, const DustParams& dust)
@@ -405,11 +481,10 @@ RenderScene buildScene(const GridSet& grids, const RenderOptions& opts, const Du
     RenderScene scene;
     const auto density = grids.floatGrid(opts.densityGrid, "--density-grid");
     requireFiniteNonNegative(*density, grids.source);
+    const auto emitters = rgbEmitters(grids, opts);
+    // One emitter: channel 1 itself (the layout of old scenes); several: summed below.
     openvdb::FloatGrid::Ptr emission;
-    if (grids.find(opts.emissionGrid) && !opts.monochromatic) {
-        emission = grids.floatGrid(opts.emissionGrid, "--emission-grid");
-        requireFiniteNonNegative(*emission, grids.source);
-    }
+    if (emitters.size() == 1) emission = emitters.front().grid;
     scene.stars = grids.stars();
     if (scene.stars.empty()) {
         throw Error(grids.source + ": no stars: the file has no " + std::string(META_STARS) +
@@ -425,8 +500,19 @@ RenderScene buildScene(const GridSet& grids, const RenderOptions& opts, const Du
         requireSameKappa(grids, *tau, dust);
         fields.push_back(tau);
     }
-    scene.fields = volumeFromGrids(fields, activeBounds({density, fields[1]}, 1), grids.source);
+    std::vector<openvdb::FloatGrid::ConstPtr> bounds{density, fields[1]};
+    const int rgb = int(fields.size());
+    if (emitters.size() > 1) {
+        for (int c = 0; c < 3; ++c)
+            fields.push_back(fields[1]); // empty: filled by colourEmission()
+        for (const auto& e : emitters)
+            bounds.push_back(e.grid);
+    }
+    scene.fields = volumeFromGrids(fields, activeBounds(bounds, 1), grids.source);
     requireFiniteEmission(*emission, opts.emissionScale, scene.fields, grids.source);
+    for (std::size_t k = 0; k < emitters.size() && emitters.size() > 1; ++k)
+        requireFiniteEmission(*emitters[k].grid, opts.emissionScale, scene.fields, grids.source);
+    colourEmission(scene, emitters, rgb, *density, grids.source);
 
     scene.starColor = starColors(scene.stars, opts);
     scene.dust = channelDust(dust, opts.wavelengths);

@@ -155,6 +155,7 @@ SpectralScene buildSpectralScene(const GridSet& grids, const RenderOptions& opts
     scene.dust = dust;
     RenderOptions base = opts;
     base.levels = 0;
+    base.lineColours = false; // the emission grids are read below, with their spectra
     scene.base = buildScene(grids, base, dust);
     const auto emitGrids = emissionGrids(grids, opts, scene);
     const auto absorbGrids = absorptionGrids(grids, scene);

@@ -479,6 +479,90 @@ TEST(ColourSRGB, Chromaticity)
 }
 
 // ---------------------------------------------------------------------------------------------
+// Line colours (RGB mode's emission, DESIGN §3.4)
+
+/// The 4-digit IEC 61966-2-1 matrix times @p xyz: an independent XYZ -> linear sRGB.
+std::array<double, 3> iecSRGB(const XYZ& xyz)
+{
+    const double M[3][3] = {
+        {3.2406, -1.5372, -0.4986}, {-0.9689, 1.8758, 0.0415}, {0.0557, -0.2040, 1.0570}};
+    std::array<double, 3> rgb{};
+    for (int r = 0; r < 3; ++r)
+        for (int c = 0; c < 3; ++c)
+            rgb[std::size_t(r)] += M[r][c] * xyz[std::size_t(c)];
+    return rgb;
+}
+
+TEST(ColourLines, XYZIsTheCmfsAtTheLines)
+{
+    // Lines at table nodes that the CIE's 5 nm table also lists (CIE 15, Table T.4):
+    // 500 nm (0.004900, 0.323000, 0.272000), 650 nm (0.283500, 0.107000, 0.000000). A mix
+    // is their strength-weighted sum; a line beyond 830 nm adds nothing.
+    using nebula::SpectralLine;
+    const XYZ a = nebula::linesXYZ({SpectralLine{"500", 500.0, 1.0}});
+    const XYZ b = nebula::linesXYZ({SpectralLine{"650", 650.0, 1.0}});
+    const XYZ want500{0.0049, 0.323, 0.272}, want650{0.2835, 0.107, 0.0};
+    for (std::size_t c = 0; c < 3; ++c) {
+        EXPECT_NEAR(a[c], want500[c], 1e-6) << c;
+        EXPECT_NEAR(b[c], want650[c], 1e-6) << c;
+    }
+    const XYZ mix =
+        nebula::linesXYZ({SpectralLine{"500", 500.0, 2.0}, SpectralLine{"650", 650.0, 0.5},
+                          SpectralLine{"1083", 1083.0, 7.0}});
+    for (std::size_t c = 0; c < 3; ++c)
+        EXPECT_NEAR(mix[c], 2.0 * want500[c] + 0.5 * want650[c], 1e-6) << c;
+    // Between nodes, linear: [O III] 500.68 nm is 0.68 of the way from 500 to 501 nm.
+    const XYZ o3 = nebula::linesXYZ(nebula::parseLineList("[O III]5007:1", "test"));
+    const XYZ n0 = nebula::cmfAt(500.0), n1 = nebula::cmfAt(501.0);
+    for (std::size_t c = 0; c < 3; ++c)
+        EXPECT_NEAR(o3[c], n0[c] + 0.68 * (n1[c] - n0[c]), 1e-12) << c;
+}
+
+TEST(ColourLines, SRGBAtTheGivenLuminance)
+{
+    // Independent check: the IEC matrix on the published CMF values, scaled to Y = 0.3
+    // (within 1e-3 of the largest channel: the matrix's 4-digit rounding).
+    using nebula::SpectralLine;
+    const auto rgb = nebula::linesLinearSRGB({SpectralLine{"500", 500.0, 3.0}}, 0.3);
+    const XYZ xyz{0.0049 * 0.3 / 0.323, 0.3, 0.272 * 0.3 / 0.323};
+    const auto want = iecSRGB(xyz);
+    for (std::size_t c = 0; c < 3; ++c)
+        EXPECT_NEAR(rgb[c], want[c], 1e-3) << c;
+    // Its luminance is the one asked for (the matrices' second row), whatever the strengths.
+    for (const char* lines : {"H-alpha:1,H-beta:0.35", "[O III]5007:1,[O III]4959:0.34",
+                              "[S II]6716:1,[S II]6731:0.7", "[O I]6300:3"}) {
+        const auto c = nebula::linesLinearSRGB(nebula::parseLineList(lines, "test"), 0.25);
+        EXPECT_NEAR(nebula::linearSRGBToXYZ(c)[1], 0.25, 1e-12) << lines;
+    }
+    // All lines outside 360-830 nm: no colour.
+    EXPECT_EQ(nebula::linesLinearSRGB({SpectralLine{"1083", 1083.0, 1.0}}, 1.0),
+              (std::array<double, 3>{0.0, 0.0, 0.0}));
+}
+
+TEST(ColourLines, HueOfTheNebularLines)
+{
+    // Monochromatic lines lie outside the sRGB gamut: unclipped, a channel is negative.
+    const auto of = [](const char* lines) {
+        return nebula::linesLinearSRGB(nebula::parseLineList(lines, "test"), 1.0);
+    };
+    const auto ha = of("H-alpha:1");
+    EXPECT_GT(ha[0], 0.0);
+    EXPECT_LT(ha[1], 0.0); // deep red: beyond the sRGB red primary
+    EXPECT_GT(ha[0], 10.0 * std::abs(ha[2]));
+    const auto o3 = of("[O III]5007:1");
+    EXPECT_GT(o3[1], 0.0);
+    EXPECT_GT(o3[2], 0.0);
+    EXPECT_LT(o3[0], 0.0); // teal-green: R negative, G > B > 0
+    EXPECT_GT(o3[1], o3[2]);
+    const auto hb = of("H-beta:1");
+    EXPECT_GT(hb[1], 0.0);
+    EXPECT_GT(hb[2], hb[1]); // blue-green, bluer than [O III]
+    EXPECT_LT(hb[0], 0.0);
+    for (const char* red : {"[N II]6583:1", "[S II]6716:1", "[O I]6300:1"})
+        EXPECT_GT(of(red)[0], 0.0) << red;
+}
+
+// ---------------------------------------------------------------------------------------------
 // L*a*b* and CIEDE2000
 
 /// XYZ (Y = 1) of the chromaticity (x, y).

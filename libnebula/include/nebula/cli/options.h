@@ -115,8 +115,9 @@ Star parseStarOption(const std::string& text);
 void addDust(CLI::App& app, DustOptions& opts, bool withKappa = true);
 
 /// The gas's emission and the stars as a render shows them (nebrender, nebview):
-/// --emission-grid, --emission-scale, --emission-color, --no-stars (into @p noStars: the
-/// caller sets opts.drawStars = !noStars), --sprite-radius, --min-star-distance.
+/// --emission-grid, --emission-scale, --emission-color (given, it sets opts.lineColours
+/// false: DESIGN §3.4), --no-stars (into @p noStars: the caller sets opts.drawStars =
+/// !noStars), --sprite-radius, --min-star-distance.
 void addEmissionAndStars(CLI::App& app, RenderOptions& opts, bool& noStars);
 /// --exposure, --gamma and --percentile into @p tone and @p opts (ToneOptions::apply() after
 /// parsing); @p prefix starts each help text ("PNG: ", "Starting tone: ").

@@ -10,6 +10,7 @@
 /// 360-830 nm, so the XYZ of a piecewise-linear spectrum is an exact integral (Alghamdi et
 /// al. 2023, DESIGN §7.1): no sampling, no quadrature error.
 
+#include "nebula/physics/lines.h"
 #include "nebula/physics/spectrum.h"
 
 #include <array>
@@ -78,6 +79,20 @@ std::array<double, 3> xyzToLinearSRGB(const XYZ& xyz);
 /// matrices is the identity to 1e-15). Its second row, (0.2126729, 0.7151522, 0.0721750),
 /// gives the luminance Y of a linear sRGB colour.
 XYZ linearSRGBToXYZ(const std::array<double, 3>& rgb);
+
+/// XYZ of a mix of emission lines, each as narrow as a line is (DESIGN §3.4): the sum of its
+/// strengths times the CMFs at its wavelength, sum_l s_l cmfAt(lambda_l). A line outside
+/// 360-830 nm adds nothing. Unit: the strengths' (the CMFs are dimensionless; a line's
+/// energy is its strength).
+XYZ linesXYZ(const std::vector<SpectralLine>& lines);
+
+/// The linear sRGB colour of the line mix @p lines at luminance Y = @p luminance: its
+/// linesXYZ() times luminance / Y, then xyzToLinearSRGB(). Not clipped: a monochromatic
+/// line lies outside the sRGB gamut, so a channel is negative (H-alpha's G and B, [O III]'s
+/// R); the sum of mixes is then the colour the spectral renderer gives their sum, and the
+/// PNG clips the pixel's negative channels as it clips the spectral renderer's. Returns
+/// zeros if the mix has Y = 0 (every line outside 360-830 nm).
+std::array<double, 3> linesLinearSRGB(const std::vector<SpectralLine>& lines, double luminance);
 
 /// Chromaticity (x, y) = (X, Y) / (X + Y + Z). Throws Error unless X + Y + Z > 0.
 std::array<double, 2> chromaticity(const XYZ& xyz);

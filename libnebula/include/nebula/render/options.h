@@ -98,9 +98,16 @@ struct RenderOptions
     /// scattering. Spectral renderer: after the N spectral layers, N more channels per
     /// component of SPECTRAL_COMPONENTS (render/spectral.h), "<component>.S0.<centre>nm".
     bool componentLayers = false;
-    double emissionScale = 1.0;                          ///< multiplies the emission grid
-    std::array<double, 3> emissionColor{1.0, 0.15, 0.2}; ///< linear sRGB (H-alpha + H-beta pink)
+    double emissionScale = 1.0; ///< multiplies the emission grid
+    /// Linear sRGB (H-alpha + H-beta pink): the colour of an emission grid that does not say
+    /// what it emits (no nebula:lines), and, through its luminance Y, the brightness of a
+    /// unit of a line grid in both modes (DESIGN §3.4).
+    std::array<double, 3> emissionColor{1.0, 0.15, 0.2};
     std::string emissionGrid = "emission";
+    /// RGB mode (DESIGN §3.4): draw emissionGrid and every grid with nebula:lines, each line
+    /// grid in the true colour of its lines. false (nebrender --emission-color given, and
+    /// nebscatter): only emissionGrid, in emissionColor.
+    bool lineColours = true;
     bool drawStars = true;          ///< star sprites
     double spriteRadius = 2.5;      ///< sprite radius [pixels]
     double minStarDistance = 0.5;   ///< 1/r^2 clamp radius [voxels]

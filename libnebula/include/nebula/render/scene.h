@@ -16,7 +16,9 @@
 #include <cstdint>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace nebula {
@@ -49,7 +51,8 @@ struct SceneScatterField
     int level = 0;
     std::vector<double> wavelengths; ///< a spectral field's [nm]; empty: R, G, B
     SparseVolume moments;
-    std::string description; ///< what it is, for -v and the EXR
+    std::string description;     ///< what it is, for -v and the EXR
+    bool emissionSource = false; ///< it holds the glow of the emission grid (DESIGN §5b)
 };
 
 /// Coarser copies of a scene's fields for the level of detail (RenderOptions::lod): level L
@@ -102,14 +105,31 @@ private:
     mutable std::unique_ptr<ColumnIntegrator> mColumn;
 };
 
+/// The gas's glow as the RGB integrators draw it (DESIGN §3.4), times --emission-scale:
+/// with rgbChannel < 0, channel 1 of the fields times `colour` (unset: RenderOptions::
+/// emissionColor), the old single-emitter layout; with rgbChannel >= 0, the channels
+/// rgbChannel + c (c = R, G, B) hold the emissivity of each channel, every grid's values
+/// times its colour summed (a channel may be negative: line colours lie outside the sRGB
+/// gamut), and channel 1 the grids' plain sum (> 0 wherever any grid glows: occupancy,
+/// majorants, the test for an empty sample).
+struct SceneEmission
+{
+    std::optional<std::array<double, 3>> colour;
+    int rgbChannel = -1;
+    /// The grids drawn, each with its colour (linear sRGB per grid unit), for -v and the EXR.
+    std::vector<std::pair<std::string, std::array<double, 3>>> grids;
+};
+
 /// What the kernel renders: compact fields plus the stars and dust.
 struct RenderScene
 {
     /// The coarsest level of detail the fast integrator samples (8 voxels on a side).
     static constexpr int MAX_DETAIL_LEVEL = 3;
 
-    /// Channels: 0 density n_H, 1 emission, 2 + s: tau_V of star s.
+    /// Channels: 0 density n_H, 1 emission, 2 + s: tau_V of star s; then, with
+    /// emission.rgbChannel >= 0, the emission's R, G, B.
     SparseVolume fields;
+    SceneEmission emission;
     std::vector<Star> stars;
     /// L_s * linear sRGB (Y = 1) [L_sun]; with RenderOptions::monochromatic, the star's
     /// spectral luminosity at each channel's wavelength [L_sun nm^-1]
