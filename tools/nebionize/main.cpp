@@ -25,11 +25,15 @@ int main(int argc, char** argv)
         "13.6 eV) ionise the gas out to a front along every direction, where the Case B\n"
         "recombinations (alpha_B n_e n_p) have used them up; dense clumps cast neutral\n"
         "shadows, dust absorbs ionising photons (--no-dust-absorption to switch off), and\n"
-        "overlapping H II regions share their recombinations. Writes ionization.hii (H+/H,\n"
+        "overlapping H II regions share their recombinations. The photons above 35.1 eV\n"
+        "make O++ until they run out. The electron temperature is each voxel's thermal\n"
+        "balance of photoheating and cooling (lines, recombination, free-free) unless\n"
+        "--electron-temperature or --temperature-grid sets it. Writes ionization.hii (H+/H,\n"
         "a front voxel partly ionised), ionization.oiii (O++/O), and the line emissivities\n"
         "[L_sun pc^-3 sr^-1] emission (H-alpha, H-beta), emission.oiii, emission.nii,\n"
         "emission.sii, emission.oi with their nebula:lines, replacing a painted emission.\n"
-        "-v reports each star's photon budget and the fraction escaping the grid.\n"
+        "-v reports each star's photon budget, the fraction escaping the grid and the mean\n"
+        "electron temperature.\n"
         "Next step: nebillum, then nebrender (--spectral shows the lines' own colours).",
         "nebionize"};
     nebula::cli::addCommon(app, common,

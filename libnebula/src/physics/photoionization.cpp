@@ -24,6 +24,11 @@ constexpr double K_EV = 8.617333262e-5;
 /// k [erg K^-1] and the electronvolt [erg].
 constexpr double K_BOLTZMANN_ERG = BOLTZMANN_K * 1e7;
 constexpr double EV_ERG = 1.602176634e-12;
+/// He I recombination photons that ionise H on the spot, per He recombination, and their mean
+/// energy above 13.6 eV [eV]: about 3/4 of the recombinations end in 2 3S (19.8 eV), the
+/// rest mostly 21.2 eV and two-photon decays (AGN2 §2.4).
+constexpr double HE_DIFFUSE_FRACTION = 0.96;
+constexpr double HE_DIFFUSE_EXCESS_EV = 6.3;
 /// The collision rate constant of q_12 = 8.629e-6 Omega / (g sqrt(T)) [cm^3 s^-1 K^1/2].
 constexpr double COLLISION_CONSTANT = 8.629e-6;
 
@@ -396,8 +401,12 @@ double heatingRate(double T, const IonisedGas& gas, const Abundances& ab, const 
 {
     const double ne = electronDensity(gas, ab);
     const double heii = ab.he * std::clamp(gas.heii, 0.0, 1.0);
+    // Of the H photoionisations, as many as He recombines are by the He I recombination
+    // photons (19.8 eV from 2 3S, 21.2 eV from 2 1P, 2 1S's two photons; AGN2 §2.4): 0.96 of
+    // them ionise H, leaving 6.3 eV on average instead of the star's heat.h.
+    const double diffuse = HE_DIFFUSE_FRACTION * (HE_DIFFUSE_EXCESS_EV * EV_ERG - heat.h);
     return ne * gas.nH *
-           (caseBRecombinationH(T) * heat.h + heii * caseBRecombinationHe(T) * heat.he);
+           (caseBRecombinationH(T) * heat.h + heii * caseBRecombinationHe(T) * (heat.he + diffuse));
 }
 
 double thermalBalanceTemperature(const IonisedGas& gas, const Abundances& ab,

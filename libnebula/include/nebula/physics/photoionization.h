@@ -205,7 +205,9 @@ double transitionCooling(const CoolingTransition& t, double T, double ne);
 double coolingRate(double T, const IonisedGas& gas, const Abundances& ab);
 
 /// The photoheating [erg cm^-3 s^-1] at @p T: every recombination (alpha_B of H, of He)
-/// balanced by a photoionisation that leaves @p heat.
+/// balanced by a photoionisation that leaves @p heat, except that as many H photoionisations
+/// as He recombinations are by the He I recombination photons (0.96 of them, 6.3 eV above
+/// 13.6 eV on average; AGN2 §2.4).
 double heatingRate(double T, const IonisedGas& gas, const Abundances& ab, const PhotoHeating& heat);
 
 /// The electron temperature [K] where heatingRate equals coolingRate, by bisection in log T
