@@ -281,6 +281,16 @@ double oiiiBalance(double gammaO, double gammaH, double ne, double nH, const Coe
     return gammaO / (gammaO + c.o * ne + c.exchange * nH * xH0);
 }
 
+/// He+ recombination straight to the ground level 1 1S [cm^3 s^-1] (AGN2 Table 2.4, 10^4 K;
+/// its weak T-dependence left out), and the H0 and He0 cross-sections at 24.6 eV [cm^2]:
+/// the photon it emits ionises H0 instead of He0 with probability y = n_H0 sigma_H /
+/// (n_H0 sigma_H + n_He0 sigma_He) (AGN2 §2.4), so He0 recombines at alpha_B + y alpha_1.
+constexpr double ALPHA_HE_GROUND = 1.59e-13;
+constexpr double SIGMA_H_24 = 6.30e-18 * (H_IONIZATION_EV / HE_IONIZATION_EV) *
+                              (H_IONIZATION_EV / HE_IONIZATION_EV) *
+                              (H_IONIZATION_EV / HE_IONIZATION_EV);
+constexpr double SIGMA_HE_24 = 7.83e-18;
+
 /// How wide a ray may grow through empty space before it splits [voxels].
 constexpr double DEFER = 8.0;
 
@@ -489,11 +499,18 @@ private:
         const double need = c.h * ne * volume;
         double heEnd = heZone ? b : a; // the He+ zone's part of this voxel ends here
         if (heZone) {
-            const double needHe = c.he * ne * mP.abundances.he * volume;
-            // The hard photons' share of the He0 and H0 photoionisations (by sigma q), and
-            // the O++ recombinations they balance.
             const double soft = mBands.heSoft * std::max(st.qHe - st.qO, 0.0),
                          hardHe = mBands.heHard * st.qO;
+            // The residual neutrals from the local balances; the share y of the He ground
+            // recombinations' photons that H0 takes.
+            const double xH0 = c.h * ne / (gammaH + c.h * ne);
+            const double xHe0 = c.he * ne / ((soft + hardHe) * perQ + c.he * ne);
+            const double hAbsorbs = xH0 * SIGMA_H_24,
+                         heAbsorbs = mP.abundances.he * xHe0 * SIGMA_HE_24;
+            const double y = hAbsorbs / std::max(hAbsorbs + heAbsorbs, 1e-300);
+            const double needHe = (c.he + y * ALPHA_HE_GROUND) * ne * mP.abundances.he * volume;
+            // The hard photons' share of the He0 and H0 photoionisations (by sigma q), and
+            // the O++ recombinations they balance.
             const double needO =
                 needHe * hardHe / std::max(soft + hardHe, 1e-300) +
                 need * mBands.hHard * st.qO / std::max(mBands.hAll * st.qH, 1e-300) +

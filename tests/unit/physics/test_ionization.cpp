@@ -468,10 +468,12 @@ TEST(Photoionization, BandCrossSectionsAndChargeExchange)
 }
 
 // A star whose He-ionising photons all lie above 35.1 eV (Q_OIII = Q_He): they pay all the
-// He0 photoionisations, so O++ ends where He+ does, at (3 Q_He / (4 pi n_e n_He alpha_He))^(1/3)
-// (n_e = n_H (1 + y)), well inside the H front; inside, O+ is photoionised (O++ > 0.5 near the
-// star), beyond it O++ is 0. Half the hard photons: the O++ zone still ends there (they
-// outlast the softer ones), but O++/O is lower.
+// He0 photoionisations, so O++ ends where He+ does, well inside the H front. The He+ front
+// lies between (3 Q_He / (4 pi n_e n_He alpha))^(1/3) (n_e = n_H (1 + y)) with alpha = alpha_B
+// (the He ground recombinations' photons all reabsorbed by He0, deep inside) and alpha_B +
+// alpha_1 (all taken by H0, at the front). Inside, O+ is photoionised (O++ > 0.5 near the
+// star), beyond it O++ is 0. Half the hard photons: the O++ zone still ends at the He+ front
+// (they outlast the softer ones), but O++/O is lower.
 TEST(Ionization, OiiiZoneEndsWhereHardPhotonsRunOut)
 {
     const int N = 48;
@@ -491,6 +493,8 @@ TEST(Ionization, OiiiZoneEndsWhereHardPhotonsRunOut)
         std::cbrt(3 * s.rates.he / (4 * PI * ne * nHe * caseBRecombinationHe(1e4))) / p.voxelSizeCm;
     const double RH =
         std::cbrt(3 * Q / (4 * PI * 100.0 * 100.0 * caseBRecombinationH(1e4))) / p.voxelSizeCm;
+    const double RHeA =
+        RHe * std::cbrt(caseBRecombinationHe(1e4) / (caseBRecombinationHe(1e4) + 1.59e-13));
     ASSERT_LT(RHe, 0.8 * RH);
     ASSERT_LT(RH, 23.0);
     const auto profile = [&](double hard, double r) {
@@ -505,7 +509,8 @@ TEST(Ionization, OiiiZoneEndsWhereHardPhotonsRunOut)
         EXPECT_GT(profile(hard, 0.3 * RHe).oiii, hard * 0.5) << hard;
         EXPECT_EQ(profile(hard, RHe + 1.5).oiii, 0.0) << hard;
         EXPECT_GT(profile(hard, RHe + 1.5).hii, 0.99) << hard; // inside the H front
-        EXPECT_GT(profile(hard, RHe - 2.5).oiii, 0.0) << hard;
+        EXPECT_GT(profile(hard, RHeA - 1.5).heii, 0.99) << hard;
+        EXPECT_GT(profile(hard, RHeA - 1.5).oiii, 0.0) << hard;
     }
     EXPECT_LT(profile(0.5, 0.6 * RHe).oiii, profile(1.0, 0.6 * RHe).oiii);
 }
