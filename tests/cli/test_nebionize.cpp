@@ -6,11 +6,13 @@
 #include "nebula/io/grid_io.h"
 #include "nebula/io/grid_names.h"
 #include "nebula/physics/lines.h"
+#include "nebula/physics/photoionization.h"
 
 #include <openvdb/openvdb.h>
 
 #include <gtest/gtest.h>
 
+#include <cstdio>
 #include <fstream>
 
 using namespace nebula::clitest;
@@ -58,8 +60,17 @@ TEST_F(Cli, NebionizeWritesFrontsAndLines)
         EXPECT_EQ(e->template metaValue<std::string>("units"), "L_sun pc^-3 sr^-1");
         EXPECT_GT(maxValue(*e), 0.0) << name;
     }
-    EXPECT_EQ(g.floatGrid("emission", "")->template metaValue<std::string>(nebula::META_LINES),
-              "H-alpha:2.917,H-beta:1"); // Case B at 8000 K
+    // T_e from the thermal balance (no --electron-temperature): a nebular temperature, and
+    // the Balmer decrement is Case B's at its mean.
+    const auto h = g.floatGrid("emission", "");
+    const double te = h->template metaValue<double>("electron_temperature");
+    EXPECT_GT(te, 6000.0);
+    EXPECT_LT(te, 10000.0);
+    char decrement[64];
+    std::snprintf(decrement, sizeof decrement, "H-alpha:%.4g,H-beta:1",
+                  nebula::balmerDecrement(te));
+    EXPECT_EQ(h->template metaValue<std::string>(nebula::META_LINES), decrement);
+    EXPECT_NE(r.err.find("electron temperature: mean"), std::string::npos) << r.err;
     // The lines render, at their wavelengths.
     ASSERT_EQ(run("nebillum -i ion.vdb -o lit.vdb").code, 0);
     const Result s = run("nebrender -i lit.vdb --spectral --res 32x32 -o s.exr");

@@ -25,11 +25,15 @@ int main(int argc, char** argv)
         "13.6 eV) ionise the gas out to a front along every direction, where the Case B\n"
         "recombinations (alpha_B n_e n_p) have used them up; dense clumps cast neutral\n"
         "shadows, dust absorbs ionising photons (--no-dust-absorption to switch off), and\n"
-        "overlapping H II regions share their recombinations. Writes ionization.hii (H+/H,\n"
+        "overlapping H II regions share their recombinations. The photons above 35.1 eV\n"
+        "make O++ until they run out. The electron temperature is each voxel's thermal\n"
+        "balance of photoheating and cooling (lines, recombination, free-free) unless\n"
+        "--electron-temperature or --temperature-grid sets it. Writes ionization.hii (H+/H,\n"
         "a front voxel partly ionised), ionization.oiii (O++/O), and the line emissivities\n"
         "[L_sun pc^-3 sr^-1] emission (H-alpha, H-beta), emission.oiii, emission.nii,\n"
         "emission.sii, emission.oi with their nebula:lines, replacing a painted emission.\n"
-        "-v reports each star's photon budget and the fraction escaping the grid.\n"
+        "-v reports each star's photon budget, the fraction escaping the grid and the mean\n"
+        "electron temperature.\n"
         "Next step: nebillum, then nebrender (--spectral shows the lines' own colours).",
         "nebionize"};
     nebula::cli::addCommon(app, common,
@@ -38,17 +42,18 @@ int main(int argc, char** argv)
     nebula::cli::addStars(app, starOpts);
     auto* gas = app.add_option_group("Gas");
     gas->add_option("--electron-temperature", opts.electronTemperature,
-                    "electron temperature of the ionised gas [K] (recombination and the "
-                    "forbidden lines)")
-        ->check(nebula::cli::numberIn(1000.0, 1e5))
-        ->capture_default_str();
+                    "one electron temperature for all the ionised gas [K] (recombination and "
+                    "the forbidden lines); default: each voxel's from the thermal balance of "
+                    "photoheating and cooling (lines, recombination, free-free)")
+        ->check(nebula::cli::numberIn(1000.0, 1e5));
     gas->add_option("--temperature-grid", opts.temperatureGrid,
                     "a grid of the gas's electron temperature [K] (a simulation's), used where "
-                    "it is > 0 instead of --electron-temperature (not nebgen's temperature: "
-                    "that is the dust's)");
-    gas->add_option("--abundances", abundances,
-                    "number abundances relative to H, e.g. he=0.1,n=4e-5,o=3.3e-4,s=9e-6 (the "
-                    "default: the Lexington benchmark's H II region); he=0 for pure hydrogen");
+                    "it is > 0 instead of --electron-temperature or the thermal balance (not "
+                    "nebgen's temperature: that is the dust's)");
+    gas->add_option(
+        "--abundances", abundances,
+        "number abundances relative to H, e.g. he=0.1,n=4e-5,o=3.3e-4,ne=5e-5,s=9e-6 (the "
+        "default: the Lexington benchmark's H II region); he=0 for pure hydrogen");
     gas->add_option("--ray-spacing", opts.raySpacing,
                     "largest width of a ray before it splits [voxels]; smaller is finer and slower")
         ->check(nebula::cli::numberIn(0.1, 4.0))

@@ -116,12 +116,13 @@ template <class F> void walkVoxels(const Vec3& o, const Vec3& d, double ra, doub
 
 } // namespace
 
-/// Per voxel: the volume of the rays' tubes that cross it (channel 0), and the parts of it in
-/// front of the H front (1) and the He+ front (2) [voxels^3], as fixed-point sums (2^-20)
-/// stored by bricks where a ray passes: exact, whatever order the threads add in.
+/// Per voxel: the volume of the rays' tubes that cross it (channel 0), the parts of it in
+/// front of the H front (1) and the He+ front (2), and the O++ fraction times the volume (3)
+/// [voxels^3], as fixed-point sums (2^-20) stored by bricks where a ray passes: exact,
+/// whatever order the threads add in.
 struct IonizationSolver::Tally
 {
-    static constexpr int CH = 3;
+    static constexpr int CH = 4;
     static constexpr std::size_t BRICK = SparseVolume::BRICK_VOXELS;
     static constexpr double SCALE = 1048576.0;
 
@@ -198,14 +199,97 @@ struct IonizationSolver::Maps
 
 namespace {
 
-/// The electron temperature of voxel @p idx [K]: channel 1 of the volume where it has one and
-/// the value is > 0, else the parameters' (one value for the whole gas).
-double electronTemperature(const SparseVolume& n, std::size_t idx, const IonizationParams& p)
+/// The recombination and charge-exchange coefficients at one temperature [cm^3 s^-1].
+struct Coefficients
 {
-    if (n.channels() < 2) return p.electronTemperature;
+    double h = 0, he = 0, o = 0, exchange = 0, T = 0;
+    Coefficients() = default;
+    explicit Coefficients(double t)
+        : h(caseBRecombinationH(t)), he(caseBRecombinationHe(t)), o(recombinationOIII(t)),
+          exchange(chargeExchangeOIII(t)), T(t)
+    {}
+};
+
+} // namespace
+
+/// The thermal balance's temperature as a table over log n_e, He+/He and O++/O of the ionised
+/// gas (thermalBalanceTemperature at the nodes, trilinear between them): a few thousand
+/// balances once per solve instead of one per voxel and ray.
+struct IonizationSolver::Thermal
+{
+    static constexpr int NF = 21, NH = 5, NN = 37; ///< O++/O, He+/He, log10 n_e nodes
+    static constexpr double LOG_NE0 = -2.0, LOG_NE_STEP = 0.25;
+
+    Thermal(const Abundances& ab, const PhotoHeating& heat) : table(std::size_t(NF) * NH * NN)
+    {
+        tbb::parallel_for(0, NN, [&](int c) {
+            for (int b = 0; b < NH; ++b)
+                for (int a = 0; a < NF; ++a) {
+                    const double heii = double(b) / (NH - 1),
+                                 ne = std::pow(10.0, LOG_NE0 + LOG_NE_STEP * c);
+                    const IonisedGas gas{ne / (1.0 + ab.he * heii), heii, double(a) / (NF - 1)};
+                    table[(std::size_t(c) * NH + b) * NF + a] =
+                        Coefficients(thermalBalanceTemperature(gas, ab, heat));
+                }
+        });
+    }
+    /// T_e [K] and its coefficients for ionised gas of electron density @p ne [cm^-3], He+/He
+    /// @p heii and O++/O @p oiii (each interpolated between the nodes).
+    Coefficients operator()(double ne, double heii, double oiii) const
+    {
+        const double fc =
+            std::clamp((std::log10(std::max(ne, 1e-30)) - LOG_NE0) / LOG_NE_STEP, 0.0, NN - 1.0);
+        const double fb = std::clamp(heii, 0.0, 1.0) * (NH - 1);
+        const double fa = std::clamp(oiii, 0.0, 1.0) * (NF - 1);
+        const int c = std::min(int(fc), NN - 2), b = std::min(int(fb), NH - 2),
+                  a = std::min(int(fa), NF - 2);
+        const double wc = fc - c, wb = fb - b, wa = fa - a;
+        Coefficients out;
+        out.T = 0.0;
+        for (int k = 0; k < 8; ++k) {
+            const int dc = k >> 2, db = (k >> 1) & 1, da = k & 1;
+            const double w = (dc ? wc : 1 - wc) * (db ? wb : 1 - wb) * (da ? wa : 1 - wa);
+            if (w == 0.0) continue;
+            const Coefficients& n = table[(std::size_t(c + dc) * NH + b + db) * NF + a + da];
+            out.T += w * n.T;
+            out.h += w * n.h;
+            out.he += w * n.he;
+            out.o += w * n.o;
+            out.exchange += w * n.exchange;
+        }
+        return out;
+    }
+    std::vector<Coefficients> table;
+};
+
+namespace {
+
+/// The grid's electron temperature of voxel @p idx [K] (channel 1 where > 0), else 0.
+double gridTemperature(const SparseVolume& n, std::size_t idx)
+{
+    if (n.channels() < 2) return 0.0;
     const double t = n.voxel(idx)[1];
-    return t > 0.0 ? t : p.electronTemperature;
+    return t > 0.0 ? t : 0.0;
 }
+
+/// O++/O where O+ is photoionised at @p gammaO [s^-1] against recombination and charge
+/// exchange with the residual H0 (its fraction from H's balance at @p gammaH [s^-1]).
+double oiiiBalance(double gammaO, double gammaH, double ne, double nH, const Coefficients& c)
+{
+    if (!(gammaO > 0.0)) return 0.0;
+    const double xH0 = c.h * ne / (gammaH + c.h * ne);
+    return gammaO / (gammaO + c.o * ne + c.exchange * nH * xH0);
+}
+
+/// He+ recombination straight to the ground level 1 1S [cm^3 s^-1] (AGN2 Table 2.4, 10^4 K;
+/// its weak T-dependence left out), and the H0 and He0 cross-sections at 24.6 eV [cm^2]:
+/// the photon it emits ionises H0 instead of He0 with probability y = n_H0 sigma_H /
+/// (n_H0 sigma_H + n_He0 sigma_He) (AGN2 §2.4), so He0 recombines at alpha_B + y alpha_1.
+constexpr double ALPHA_HE_GROUND = 1.59e-13;
+constexpr double SIGMA_H_24 = 6.30e-18 * (H_IONIZATION_EV / HE_IONIZATION_EV) *
+                              (H_IONIZATION_EV / HE_IONIZATION_EV) *
+                              (H_IONIZATION_EV / HE_IONIZATION_EV);
+constexpr double SIGMA_HE_24 = 7.83e-18;
 
 /// How wide a ray may grow through empty space before it splits [voxels].
 constexpr double DEFER = 8.0;
@@ -294,6 +378,14 @@ struct RayTally
     }
 };
 
+/// What a ray carries [photons s^-1 sr^-1]: above 13.6 eV, above 24.6 eV and above 35.1 eV;
+/// where its He+ zone ended (< 0: not yet) [voxels]; the last voxel's coefficients.
+struct RayState
+{
+    double qH = 0, qHe = 0, qO = 0, rHe = -1;
+    Coefficients last; ///< at the last voxel's T_e (T = 0: none yet)
+};
+
 /// One star's march over its rays (one iteration).
 class StarMarch
 {
@@ -301,22 +393,19 @@ public:
     StarMarch(const SparseVolume& n, const std::vector<IonizingStar>& stars, std::size_t s,
               const IonizationParams& p, const std::vector<IonizationSolver::Maps*>& previous,
               IonizationSolver::Maps& out, IonizationSolver::Tally& tally,
-              const BrickOccupancy& occupied)
+              const BrickOccupancy& occupied, const IonizationSolver::Thermal* thermal)
         : mN(n), mStars(stars), mS(s), mP(p), mPrevious(previous), mOut(out), mTally(tally),
-          mOccupied(occupied)
+          mOccupied(occupied), mThermal(thermal), mFixed(p.electronTemperature),
+          mBands(bandCrossSections(stars[s].temperature))
     {
         const auto lo = n.lo(), dims = n.dims();
         mLo = Vec3(lo[0] - 0.5, lo[1] - 0.5, lo[2] - 0.5);
         mHi = Vec3(lo[0] + dims[0] - 0.5, lo[1] + dims[1] - 0.5, lo[2] + dims[2] - 0.5);
-        const double dx3 = p.voxelSizeCm * p.voxelSizeCm * p.voxelSizeCm;
-        mDx3 = dx3;
-        mAlphaH = caseBRecombinationH(p.electronTemperature) * dx3;
-        mAlphaHe = caseBRecombinationHe(p.electronTemperature) * dx3 * p.abundances.he;
+        mDx3 = p.voxelSizeCm * p.voxelSizeCm * p.voxelSizeCm;
         mDust = p.dustCrossSection * p.voxelSizeCm;
     }
 
-    RayTally trace(int face, int level, int i, int j, double r, double qH, double qHe,
-                   double rHe) const
+    RayTally trace(int face, int level, int i, int j, double r, RayState st) const
     {
         const int Ml = BASE << level;
         const double u0 = -1.0 + 2.0 * i / Ml, v0 = -1.0 + 2.0 * j / Ml, w = 2.0 / Ml;
@@ -328,9 +417,9 @@ public:
         if (!(exit > enter) || exit <= r) { // misses the lattice, or has left it
             const bool miss = !(exit > enter);
             const float far = miss ? MISS : float(exit + 2.0);
-            tally.escaped += qH * omega;
+            tally.escaped += st.qH * omega;
             tally.open += omega;
-            record(face, level, i, j, far, rHe >= 0 ? float(rHe) : far);
+            record(face, level, i, j, far, st.rHe >= 0 ? float(st.rHe) : far);
             if (!miss) tally.volume += omega * exit * exit * exit / 3;
             return tally;
         }
@@ -341,60 +430,9 @@ public:
         const double hard = level < mOut.levels ? std::max(split, DEFER * Ml / 2.0) : exit;
         double rEnd = std::min(exit, std::max(split, r));
         double rFront = -1.0;
-        const auto pay = [&](int ci, int cj, int ck, double a, double b) {
-            const double n = density(ci, cj, ck);
-            if (n <= 0.0) return true;
-            const std::size_t idx = mN.index(ci, cj, ck);
-            const auto tube = [&](double r0, double r1) {
-                return omega * (r1 * r1 * r1 - r0 * r0 * r0) / 3.0;
-            };
-            const double share = shareAt(ci, cj, ck);
-            const bool heZone = rHe < 0 && qHe > 0;
-            const double ne = n * (1.0 + (heZone ? mP.abundances.he : 0.0));
-            double alphaH = mAlphaH, alphaHe = mAlphaHe;
-            const double Te = electronTemperature(mN, idx, mP);
-            if (Te != mP.electronTemperature) { // a temperature grid's value
-                alphaH = caseBRecombinationH(Te) * mDx3;
-                alphaHe = caseBRecombinationHe(Te) * mDx3 * mP.abundances.he;
-            }
-            const double kH = alphaH * ne * n * share, need = kH * (b * b * b - a * a * a) / 3.0;
-            double heEnd = heZone ? b : a; // the He+ zone's part of this voxel ends here
-            if (heZone) {
-                const double kHe = alphaHe * ne * n * share;
-                const double needHe = kHe * (b * b * b - a * a * a) / 3.0;
-                if (qHe <= needHe) {
-                    rHe = std::cbrt(a * a * a + 3.0 * qHe / kHe);
-                    heEnd = rHe;
-                    qHe = 0;
-                } else {
-                    qHe -= needHe;
-                }
-            }
-            if (qH <= need) {
-                rFront = std::cbrt(a * a * a + 3.0 * qH / kH);
-                mTally.add(idx, 0, tube(a, rFront)); // the rest: the walk beyond the front
-                mTally.add(idx, 1, tube(a, rFront));
-                mTally.add(idx, 2, tube(a, std::min(heEnd, rFront)));
-                tally.recombined += qH * omega;
-                tally.spared += qH * omega * (1.0 / share - 1.0);
-                qH = 0;
-                return false;
-            }
-            mTally.add(idx, 0, tube(a, b));
-            mTally.add(idx, 1, tube(a, b));
-            mTally.add(idx, 2, tube(a, heEnd));
-            qH -= need;
-            tally.recombined += need * omega;
-            tally.spared += need * omega * (1.0 / share - 1.0);
-            if (mDust > 0) {
-                const double keep = std::exp(-mDust * n * (b - a));
-                tally.dust += qH * (1 - keep) * omega;
-                qH *= keep;
-                qHe *= keep;
-            }
-            return true;
-        };
-        walkVoxels(o, d, std::max(r, enter), rEnd, pay);
+        walkVoxels(o, d, std::max(r, enter), rEnd, [&](int ci, int cj, int ck, double a, double b) {
+            return pay(ci, cj, ck, a, b, omega, st, tally, rFront);
+        });
         if (rFront < 0.0 && rEnd < exit && rEnd < hard &&
             !mOccupied.near(o + d * rEnd)) { // empty space: widen on to the next gas
             double stop = -1.0;
@@ -415,27 +453,122 @@ public:
                 }
                 return true;
             });
-            const double he = rHe >= 0 ? std::min(rHe, rFront) : rFront;
+            const double he = st.rHe >= 0 ? std::min(st.rHe, rFront) : rFront;
             record(face, level, i, j, float(rFront), float(he));
             tally.volume += omega * rFront * rFront * rFront / 3;
             return tally;
         }
         if (rEnd >= exit) { // photons leave the grid
             const float far = float(exit + 2.0);
-            tally.escaped += qH * omega;
+            tally.escaped += st.qH * omega;
             tally.open += omega;
-            record(face, level, i, j, far, rHe >= 0 ? float(rHe) : far);
+            record(face, level, i, j, far, st.rHe >= 0 ? float(st.rHe) : far);
             tally.volume += omega * exit * exit * exit / 3;
             return tally;
         }
-        for (int c = 0; c < 4; ++c) {
-            tally.add(
-                trace(face, level + 1, 2 * i + (c & 1), 2 * j + (c >> 1), rEnd, qH, qHe, rHe));
-        }
+        for (int c = 0; c < 4; ++c)
+            tally.add(trace(face, level + 1, 2 * i + (c & 1), 2 * j + (c >> 1), rEnd, st));
         return tally;
     }
 
 private:
+    /// The ray's stretch [a, b] through voxel (ci, cj, ck) of a ray of solid angle @p omega:
+    /// pays its recombinations from @p st, tallies its ionised volume, and sets @p rFront
+    /// where the H-ionising photons run out. Returns false there.
+    bool pay(int ci, int cj, int ck, double a, double b, double omega, RayState& st,
+             RayTally& tally, double& rFront) const
+    {
+        const double n = density(ci, cj, ck);
+        if (n <= 0.0) return true;
+        const std::size_t idx = mN.index(ci, cj, ck);
+        const auto tube = [&](double r0, double r1) {
+            return omega * (r1 * r1 * r1 - r0 * r0 * r0) / 3.0;
+        };
+        const double share = shareAt(ci, cj, ck);
+        const bool heZone = st.rHe < 0 && st.qHe > 0;
+        const double ne = n * (1.0 + (heZone ? mP.abundances.he : 0.0));
+        // The local fluxes [cm^-2 s^-1] per photon of q, at the stretch's middle.
+        const double rMid = std::max(0.5 * (a + b), 0.5) * mP.voxelSizeCm;
+        const double perQ = 1.0 / (rMid * rMid);
+        const double gammaH = mBands.hAll * st.qH * perQ;
+        const double gammaO = heZone ? mBands.oHard * st.qO * perQ : 0.0;
+        double oiii = 0.0;
+        const Coefficients c = coefficients(idx, ne, n, heZone, gammaH, gammaO, st.last, oiii);
+        st.last = c;
+        const double volume = mDx3 * n * share * (b * b * b - a * a * a) / 3.0; // per ne, alpha
+        const double need = c.h * ne * volume;
+        double heEnd = heZone ? b : a; // the He+ zone's part of this voxel ends here
+        if (heZone) {
+            const double soft = mBands.heSoft * std::max(st.qHe - st.qO, 0.0),
+                         hardHe = mBands.heHard * st.qO;
+            // The residual neutrals from the local balances; the share y of the He ground
+            // recombinations' photons that H0 takes.
+            const double xH0 = c.h * ne / (gammaH + c.h * ne);
+            const double xHe0 = c.he * ne / ((soft + hardHe) * perQ + c.he * ne);
+            const double hAbsorbs = xH0 * SIGMA_H_24,
+                         heAbsorbs = mP.abundances.he * xHe0 * SIGMA_HE_24;
+            const double y = hAbsorbs / std::max(hAbsorbs + heAbsorbs, 1e-300);
+            const double needHe = (c.he + y * ALPHA_HE_GROUND) * ne * mP.abundances.he * volume;
+            // The hard photons' share of the He0 and H0 photoionisations (by sigma q), and
+            // the O++ recombinations they balance.
+            const double needO =
+                needHe * hardHe / std::max(soft + hardHe, 1e-300) +
+                need * mBands.hHard * st.qO / std::max(mBands.hAll * st.qH, 1e-300) +
+                c.o * ne * mP.abundances.o * oiii * volume;
+            if (st.qHe <= needHe) {
+                st.rHe = std::cbrt(a * a * a + (b * b * b - a * a * a) * st.qHe / needHe);
+                heEnd = st.rHe;
+                st.qHe = 0;
+                st.qO = 0;
+            } else {
+                st.qHe -= needHe;
+                st.qO = std::min(std::max(st.qO - needO, 0.0), st.qHe);
+            }
+        }
+        if (st.qH <= need) {
+            rFront = std::cbrt(a * a * a + (b * b * b - a * a * a) * st.qH / need);
+            mTally.add(idx, 0, tube(a, rFront)); // the rest: the walk beyond the front
+            mTally.add(idx, 1, tube(a, rFront));
+            mTally.add(idx, 2, tube(a, std::min(heEnd, rFront)));
+            mTally.add(idx, 3, oiii * tube(a, std::min(heEnd, rFront)));
+            tally.recombined += st.qH * omega;
+            tally.spared += st.qH * omega * (1.0 / share - 1.0);
+            st.qH = 0;
+            return false;
+        }
+        mTally.add(idx, 0, tube(a, b));
+        mTally.add(idx, 1, tube(a, b));
+        mTally.add(idx, 2, tube(a, heEnd));
+        mTally.add(idx, 3, oiii * tube(a, heEnd));
+        st.qH -= need;
+        tally.recombined += need * omega;
+        tally.spared += need * omega * (1.0 / share - 1.0);
+        if (mDust > 0) {
+            const double keep = std::exp(-mDust * n * (b - a));
+            tally.dust += st.qH * (1 - keep) * omega;
+            st.qH *= keep;
+            st.qHe *= keep;
+            st.qO *= keep;
+        }
+        return true;
+    }
+
+    /// The coefficients at the voxel's T_e, and its O++/O (@p oiii): the grid's T_e, else the
+    /// fixed one, else the thermal balance's at the O++/O found at the ray's last T_e @p last.
+    Coefficients coefficients(std::size_t idx, double ne, double n, bool heZone, double gammaH,
+                              double gammaO, const Coefficients& last, double& oiii) const
+    {
+        const double grid = gridTemperature(mN, idx);
+        if (grid > 0.0 || !mThermal) {
+            const Coefficients c = grid > 0.0 ? Coefficients(grid) : mFixed;
+            oiii = oiiiBalance(gammaO, gammaH, ne, n, c);
+            return c;
+        }
+        oiii = oiiiBalance(gammaO, gammaH, ne, n, last.T > 0.0 ? last : mFixed);
+        const Coefficients c = (*mThermal)(ne, heZone ? 1.0 : 0.0, oiii);
+        if (gammaO > 0.0) oiii = oiiiBalance(gammaO, gammaH, ne, n, c);
+        return c;
+    }
     double density(int i, int j, int k) const
     {
         return mN.contains(i, j, k) ? double(mN.voxel(mN.index(i, j, k))[0]) : 0.0;
@@ -501,8 +634,11 @@ private:
     IonizationSolver::Maps& mOut;
     IonizationSolver::Tally& mTally;
     const BrickOccupancy& mOccupied;
+    const IonizationSolver::Thermal* mThermal; ///< null: no thermal balance
+    Coefficients mFixed;                       ///< at IonizationParams::electronTemperature
+    BandCrossSections mBands;                  ///< the star's
     Vec3 mLo, mHi;
-    double mAlphaH = 0, mAlphaHe = 0, mDust = 0, mDx3 = 0;
+    double mDust = 0, mDx3 = 0;
 };
 
 /// The finest level a star's rays need: footprints of at most raySpacing at the lattice's
@@ -542,10 +678,22 @@ IonizationSolver::IonizationSolver(const SparseVolume& density, std::vector<Ioni
 {
     if (!(params.voxelSizeCm > 0.0)) throw Error("ionisation: the voxel size must be > 0");
     if (!(params.raySpacing > 0.0)) throw Error("ionisation: the ray spacing must be > 0");
+    PhotoHeating heat;
+    double photons = 0.0;
     for (const auto& star : mStars) {
         mMaps.push_back(new Maps);
         mTallies.push_back(nullptr);
         mFrontCrossSection.push_back(meanHydrogenCrossSection(star.temperature));
+        if (!params.thermalBalance || !(star.rates.h > 0.0)) continue;
+        const PhotoHeating h = blackbodyHeating(star.temperature);
+        heat.h += h.h * star.rates.h;
+        heat.he += h.he * star.rates.h;
+        photons += star.rates.h;
+    }
+    if (params.thermalBalance) { // the stars' photoheating, weighted by their Q(H0)
+        heat.h /= std::max(photons, 1e-300);
+        heat.he /= std::max(photons, 1e-300);
+        mThermal = new Thermal(params.abundances, heat);
     }
 }
 
@@ -555,6 +703,7 @@ IonizationSolver::~IonizationSolver()
         delete m;
     for (auto* t : mTallies)
         delete t;
+    delete mThermal;
 }
 
 void IonizationSolver::solve(const Run* run)
@@ -581,9 +730,11 @@ void IonizationSolver::solve(const Run* run)
             mTallies[s] = nullptr;
             mTallies[s] = new Tally(mDensity.voxelCount());
             const StarMarch march(mDensity, mStars, s, mParams, previous, maps, *mTallies[s],
-                                  occupied);
-            const double q = mStars[s].rates.h * INV_FOUR_PI,
-                         qHe = mStars[s].rates.he * INV_FOUR_PI;
+                                  occupied, mThermal);
+            RayState start;
+            start.qH = mStars[s].rates.h * INV_FOUR_PI;
+            start.qHe = mStars[s].rates.he * INV_FOUR_PI;
+            start.qO = std::min(mStars[s].rates.oiii, mStars[s].rates.he) * INV_FOUR_PI;
             std::vector<RayTally> tallies(std::size_t(6) * BASE * BASE);
             Progress bar(run, (run ? run->tool() + " " : std::string()) + mStars[s].name,
                          tallies.size());
@@ -591,7 +742,7 @@ void IonizationSolver::solve(const Run* run)
                 if (run) run->checkCancel();
                 const int face = int(t / (BASE * BASE)), i = int(t / BASE % BASE),
                           j = int(t % BASE);
-                tallies[t] = march.trace(face, 0, i, j, 0.0, q, qHe, -1.0);
+                tallies[t] = march.trace(face, 0, i, j, 0.0, start);
                 bar.add(1);
             });
             RayTally total;
@@ -649,13 +800,12 @@ VoxelIonization IonizationSolver::at(int i, int j, int k) const
     const double n = mDensity.voxel(idx)[0];
     if (!(n > 0.0)) return out;
     const Vec3 c(i, j, k);
-    const double T = electronTemperature(mDensity, idx, mParams);
-    out.te = T;
-    double gammaO = 0.0, layer = 0.0;
+    const double grid = gridTemperature(mDensity, idx), y = mParams.abundances.he;
+    double layer = 0.0, tSum = 0.0, tWeight = 0.0;
     for (std::size_t s = 0; s < mStars.size(); ++s) {
         const Vec3 d = c - mStars[s].position;
         const double r = d.length();
-        double xH = 1.0, xHe = 1.0, h = 0.5;
+        double xH = 1.0, xHe = 1.0, xO = 0.0, h = 0.5;
         if (r > 1e-9) {
             const Vec3 u = d * (1.0 / r);
             h = 0.5 * (std::fabs(u.x) + std::fabs(u.y) + std::fabs(u.z));
@@ -664,6 +814,7 @@ VoxelIonization IonizationSolver::at(int i, int j, int k) const
             const double tube = tally.get(idx, 0);
             xH = tube > 0 ? std::min(1.0, tally.get(idx, 1) / tube) : 0.0;
             xHe = tube > 0 ? std::min(xH, tally.get(idx, 2) / tube) : 0.0;
+            xO = tube > 0 ? std::min(xHe, tally.get(idx, 3) / tube) : 0.0;
         }
         if (xH > 0.0 && xH < 1.0 && xH > out.hii) {
             // The partly ionised layer, one photon mean free path thick, in the voxel's slab
@@ -673,17 +824,19 @@ VoxelIonization IonizationSolver::at(int i, int j, int k) const
         }
         out.hii = std::max(out.hii, xH);
         out.heii = std::max(out.heii, xHe);
-        const double rCm = std::max(r, 0.5) * mParams.voxelSizeCm;
-        gammaO += xHe * mStars[s].rates.oiii / (4.0 * PI * rCm * rCm) * mParams.oiiCrossSection;
+        out.oiii = std::max(out.oiii, xO);
+        if (mThermal && grid <= 0.0 && xH > 0.0) {
+            // Each star's rays found the balance at their own He+ and O++; where H II regions
+            // overlap, T_e is the mean of theirs weighted as the recombinations are shared
+            // (by Q / r^2), so that the grid's recombinations stay the ones the rays paid.
+            const double w = mStars[s].rates.h / std::max(r * r, 0.25);
+            tSum += w * (*mThermal)(n * (1.0 + y * xHe / xH), xHe / xH, xO / xH).T;
+            tWeight += w;
+        }
     }
     out.front = out.hii < 1.0 ? std::min(layer, 1.0 - out.hii) : 0.0;
-    const double y = mParams.abundances.he;
     out.ne = n * (1.0 + (out.hii > 0.0 ? y * out.heii / out.hii : 0.0));
-    if (out.heii > 0.0) {
-        const double xHe = out.heii;
-        const double gamma = gammaO / xHe; // the flux where He is ionised
-        out.oiii = xHe * gamma / (gamma + recombinationOIII(T) * out.ne);
-    }
+    out.te = grid > 0.0 ? grid : (tWeight > 0.0 ? tSum / tWeight : mParams.electronTemperature);
     return out;
 }
 

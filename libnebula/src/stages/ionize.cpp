@@ -117,6 +117,8 @@ void describe(const Run& run, const std::vector<IonizingStar>& stars, const Ioni
     double photons = 0.0;
     for (const auto& r : report.rates)
         photons += r.h;
+    run.info("electron temperature: mean " + numberText(report.meanTemperature) +
+             " K (weighted by n_e n_p)");
     run.info("overlap iterations: " + std::to_string(report.iterations) +
              "; recombinations in the grid / photons: " +
              numberText(report.recombinations / std::max(1e-300, photons)));
@@ -155,7 +157,9 @@ IonizeReport ionize(GridSet& grids, const IonizeOptions& opts, const Run& run)
     const SparseVolume n = volumeFromGrids(sources, activeBounds({sources[0]}, 1), grids.source);
     const auto ionizing = ionizingStars(stars, n.indexToWorld.inverse());
     IonizationParams params;
-    params.electronTemperature = opts.electronTemperature;
+    // Without a fixed T_e the thermal balance sets it; 8000 K only starts each ray's march.
+    params.thermalBalance = !(opts.electronTemperature > 0.0);
+    params.electronTemperature = params.thermalBalance ? 8000.0 : opts.electronTemperature;
     params.abundances = opts.abundances;
     params.voxelSizeCm = voxelPc * PC_CM;
     params.raySpacing = opts.raySpacing;
@@ -205,7 +209,8 @@ IonizeReport ionize(GridSet& grids, const IonizeOptions& opts, const Run& run)
     report.recombinations = recombinations;
     // The lines' ratios at the emission-weighted mean n_e and T_e of the ionised gas.
     const double neMean = neWeight > 0.0 ? neSum / neWeight : 100.0;
-    const double T = neWeight > 0.0 ? teSum / neWeight : opts.electronTemperature;
+    const double T = neWeight > 0.0 ? teSum / neWeight : params.electronTemperature;
+    report.meanTemperature = T;
 
     char decrement[32];
     std::snprintf(decrement, sizeof decrement, "%.4g", balmerDecrement(T));

@@ -386,3 +386,168 @@ TEST(Stars, IonizingRatesParse)
                             "x"),
                  Error);
 }
+
+// One collisionally excited line at low density cools by n_e n_ion q_12 k E, q_12 = 8.629e-6
+// Omega / (g_1 sqrt(T)) exp(-E / kT) (AGN2 eq. 3.20); at the critical density n_c = A / q_21
+// half of that.
+TEST(Photoionization, LineCoolingAgainstTheTwoLevelClosedForm)
+{
+    const auto& lines = coolingTransitions();
+    ASSERT_GE(lines.size(), 10u);
+    const double k = 1.380649e-16;
+    for (const auto& t : lines) {
+        for (double T : {6000.0, 8000.0, 12000.0}) {
+            const double q12 =
+                8.629e-6 * t.omega / (t.gLower * std::sqrt(T)) * std::exp(-t.energyK / T);
+            EXPECT_NEAR(transitionCooling(t, T, 1e-6) / (q12 * k * t.energyK), 1.0, 1e-6) << t.name;
+            const double nc = t.einsteinA / (8.629e-6 * t.omega / (t.gUpper * std::sqrt(T)));
+            EXPECT_NEAR(transitionCooling(t, T, nc) / (q12 * k * t.energyK), 0.5, 1e-9) << t.name;
+        }
+    }
+    // [O III] 88 um: E / k = 163 K, so q_12 k E barely depends on T (1 / sqrt(T)), while the
+    // optical 5007 (E / k = 29170 K) grows as exp(-E / kT) / sqrt(T).
+    const auto find = [&](const std::string& name) {
+        for (const auto& t : lines)
+            if (name == t.name) return t;
+        ADD_FAILURE() << name;
+        return lines[0];
+    };
+    const auto ir = find("[O III] 88 um"), optical = find("[O III] 4959/5007");
+    EXPECT_NEAR(transitionCooling(ir, 16000, 1) / transitionCooling(ir, 8000, 1),
+                std::sqrt(0.5) * std::exp(-163.0 / 16000 + 163.0 / 8000), 1e-3);
+    EXPECT_NEAR(transitionCooling(optical, 10000, 1) / transitionCooling(optical, 8000, 1),
+                std::sqrt(0.8) * std::exp(optical.energyK / 8000 - optical.energyK / 10000), 1e-4);
+}
+
+// A pure hydrogen gas heated by eps per recombination balances where eps alpha_B = alpha_B k T
+// (0.684 - 0.0416 ln(T / 10^4 K)) + 1.42e-27 g_ff sqrt(T): with eps chosen for 7000 K, the
+// balance is 7000 K. Metals cool: the same heating gives a cooler gas, O++ (its 88/52 um and
+// optical lines) cooler still than O+.
+TEST(Photoionization, ThermalBalanceOfAKnownHeating)
+{
+    const double k = 1.380649e-16, T0 = 7000.0;
+    const double eps = k * T0 * (0.684 - 0.0416 * std::log(T0 / 1e4)) +
+                       1.42e-27 * 1.3 * std::sqrt(T0) / caseBRecombinationH(T0);
+    Abundances none;
+    none.he = none.n = none.o = none.s = none.ne = 0.0;
+    const PhotoHeating heat{eps, 0.0};
+    const IonisedGas gas{100.0, 0.0, 0.0};
+    EXPECT_NEAR(thermalBalanceTemperature(gas, none, heat) / T0, 1.0, 1e-6);
+    const double pure = heatingRate(T0, gas, none, heat) / coolingRate(T0, gas, none);
+    EXPECT_NEAR(pure, 1.0, 1e-9);
+
+    const Abundances lexington; // the defaults
+    const PhotoHeating star = blackbodyHeating(40000.0);
+    EXPECT_NEAR(star.h / 1.602176634e-12, 3.78, 0.02); // mean excess of 13.6-24.6 eV photons
+    const double oii = thermalBalanceTemperature({100.0, 1.0, 0.0}, lexington, star);
+    const double oiii = thermalBalanceTemperature({100.0, 1.0, 1.0}, lexington, star);
+    EXPECT_LT(oiii, oii);
+    EXPECT_GT(oiii, 5000.0);
+    EXPECT_LT(oii, 11000.0);
+    // Dense gas: the IR lines are collisionally de-excited (n_c of [O III] 88 um ~ 500 cm^-3),
+    // so it cools less and is warmer.
+    EXPECT_GT(thermalBalanceTemperature({1e5, 1.0, 1.0}, lexington, star), oiii + 500.0);
+}
+
+// Cross-sections in AGN2's power-law form: a_T at the threshold, none below; a black body's
+// photons above 35.1 eV meet a smaller He0 cross-section than those from 24.6 to 35.1 eV.
+TEST(Photoionization, BandCrossSectionsAndChargeExchange)
+{
+    EXPECT_DOUBLE_EQ(HE0_CROSS_SECTION.at(HE_IONIZATION_EV), 7.83e-18);
+    EXPECT_EQ(HE0_CROSS_SECTION.at(24.0), 0.0);
+    EXPECT_DOUBLE_EQ(OII_CROSS_SECTION.at(OII_IONIZATION_EV), 7.32e-18);
+    const auto b = bandCrossSections(40000.0);
+    EXPECT_LT(b.heHard, b.heSoft);
+    EXPECT_GT(b.heSoft, 5e-18);
+    EXPECT_LT(b.heSoft, 7.83e-18);
+    // H0 above 35.1 eV: 6.3e-18 (13.6 / E)^3 is below its value at 35.1 eV.
+    EXPECT_LT(b.hHard, 6.30e-18 * std::pow(H_IONIZATION_EV / OII_IONIZATION_EV, 3));
+    EXPECT_NEAR(b.hAll, meanHydrogenCrossSection(40000.0), 1e-30);
+    // Kingdon & Ferland 1996 at 10^4 K: 1.04e-9 (1 - 0.61 e^-9.73).
+    EXPECT_NEAR(chargeExchangeOIII(1e4), 1.04e-9 * (1 - 0.61 * std::exp(-9.73)), 1e-15);
+}
+
+// A star whose He-ionising photons all lie above 35.1 eV (Q_OIII = Q_He): they pay all the
+// He0 photoionisations, so O++ ends where He+ does, well inside the H front. The He+ front
+// lies between (3 Q_He / (4 pi n_e n_He alpha))^(1/3) (n_e = n_H (1 + y)) with alpha = alpha_B
+// (the He ground recombinations' photons all reabsorbed by He0, deep inside) and alpha_B +
+// alpha_1 (all taken by H0, at the front). Inside, O+ is photoionised (O++ > 0.5 near the
+// star), beyond it O++ is 0. Half the hard photons: the O++ zone still ends at the He+ front
+// (they outlast the softer ones), but O++/O is lower.
+TEST(Ionization, OiiiZoneEndsWhereHardPhotonsRunOut)
+{
+    const int N = 48;
+    const auto n = makeVolume(N, [](int, int, int) { return 100.0; });
+    IonizationParams p;
+    p.electronTemperature = 1e4;
+    p.abundances.he = 0.1;
+    p.abundances.o = 1e-12; // no O++ recombinations to pay
+    p.voxelSizeCm = 0.15 * PC_CM;
+    p.raySpacing = 0.5;
+    const double Q = 1e49;
+    IonizingStar s = star(Vec3(23.5, 23.5, 23.5), Q);
+    s.rates.he = 0.03 * Q;
+    s.rates.oiii = s.rates.he;
+    const double ne = 100.0 * 1.1, nHe = 10.0;
+    const double RHe =
+        std::cbrt(3 * s.rates.he / (4 * PI * ne * nHe * caseBRecombinationHe(1e4))) / p.voxelSizeCm;
+    const double RH =
+        std::cbrt(3 * Q / (4 * PI * 100.0 * 100.0 * caseBRecombinationH(1e4))) / p.voxelSizeCm;
+    const double RHeA =
+        RHe * std::cbrt(caseBRecombinationHe(1e4) / (caseBRecombinationHe(1e4) + 1.59e-13));
+    ASSERT_LT(RHe, 0.8 * RH);
+    ASSERT_LT(RH, 23.0);
+    const auto profile = [&](double hard, double r) {
+        IonizingStar t = s;
+        t.rates.oiii = hard * s.rates.he;
+        IonizationSolver solver(n, {t}, p);
+        solver.solve();
+        const int i = int(std::lround(23.5 + r));
+        return solver.at(i, 23, 23);
+    };
+    for (double hard : {1.0, 0.5}) {
+        EXPECT_GT(profile(hard, 0.3 * RHe).oiii, hard * 0.5) << hard;
+        EXPECT_EQ(profile(hard, RHe + 1.5).oiii, 0.0) << hard;
+        EXPECT_GT(profile(hard, RHe + 1.5).hii, 0.99) << hard; // inside the H front
+        EXPECT_GT(profile(hard, RHeA - 1.5).heii, 0.99) << hard;
+        EXPECT_GT(profile(hard, RHeA - 1.5).oiii, 0.0) << hard;
+    }
+    EXPECT_LT(profile(0.5, 0.6 * RHe).oiii, profile(1.0, 0.6 * RHe).oiii);
+}
+
+// With the thermal balance the rays pay recombinations at each voxel's own T_e; the grid's
+// recombinations at the voxels' T_e still equal the photons, for one star in clumpy gas and
+// for two overlapping H II regions (T_e there the mean of the stars', as they share).
+TEST(Ionization, ThermalBalanceConservesPhotons)
+{
+    const auto check = [](const SparseVolume& n, std::vector<IonizingStar> stars, double voxelPc) {
+        IonizationParams p;
+        p.thermalBalance = true;
+        p.voxelSizeCm = voxelPc * PC_CM;
+        p.raySpacing = 0.5;
+        double Q = 0;
+        for (const auto& s : stars)
+            Q += s.rates.h;
+        IonizationSolver solver(n, std::move(stars), p);
+        solver.solve();
+        const auto d = n.dims();
+        double rec = 0, tMin = 1e9, tMax = 0;
+        for (int k = 0; k < d[2]; ++k)
+            for (int j = 0; j < d[1]; ++j)
+                for (int i = 0; i < d[0]; ++i) {
+                    const auto v = solver.at(i, j, k);
+                    if (v.hii <= 0) continue;
+                    rec += caseBRecombinationH(v.te) * v.ne * n.voxel(n.index(i, j, k))[0] * v.hii *
+                           std::pow(p.voxelSizeCm, 3);
+                    tMin = std::min(tMin, v.te);
+                    tMax = std::max(tMax, v.te);
+                }
+        EXPECT_NEAR(rec / Q, 1.0, 0.01);
+        EXPECT_GT(tMin, 5000.0);
+        EXPECT_LT(tMax, 12000.0);
+        EXPECT_GT(tMax, tMin); // the O++ zone is cooler than the O+ zone
+    };
+    check(clumpy(48, 7), {star(Vec3(20.2, 25.7, 23.1), 1e47)}, 0.15);
+    const auto flat = makeVolume(56, [](int, int, int) { return 100.0; });
+    check(flat, {star(Vec3(20, 27.5, 27.5), 1.5e48), star(Vec3(35, 27.5, 27.5), 1e48)}, 0.12);
+}

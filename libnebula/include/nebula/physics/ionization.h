@@ -21,7 +21,17 @@
 /// proportion to the stars' unattenuated fluxes Q / r^2 there; the fronts are iterated until
 /// they stop moving, and at convergence the recombinations of the grid equal the photons the
 /// stars spent on them. The He+ zone is the same march of the photons above 24.6 eV paying the
-/// helium recombinations; O++ (above 35.1 eV) is in local balance in the He+ zone.
+/// helium recombinations. The photons above 35.1 eV (O+ -> O++) are marched too: they pay their
+/// share of the He0 photoionisations (in proportion to sigma_He q of the two He bands), of the
+/// residual H0's (sigma_H q) and the O++ recombinations, so the O++ zone ends where they run
+/// out; in each voxel O++/O is the local balance of O+ photoionisation by the marched hard
+/// photons against radiative and dielectronic recombination and O++ + H0 charge exchange (the
+/// H0 fraction from the local balance of H).
+///
+/// The electron temperature: a grid's (channel 1), else, with IonizationParams::thermalBalance,
+/// the temperature where photoheating balances the cooling of the ionised gas (lines,
+/// recombination, free-free: photoionization.h) at the voxel's n_e, He+/He and O++/O, from a
+/// table built once per solve; else one value for the whole gas.
 
 #include "nebula/core/run.h"
 #include "nebula/physics/photoionization.h"
@@ -45,13 +55,15 @@ struct IonizingStar
 struct IonizationParams
 {
     double electronTemperature = 1e4; ///< T_e of the ionised gas [K]
-    double dustCrossSection = 0.0;    ///< dust absorption per H atom of ionising photons [cm^2]
-    Abundances abundances;            ///< He, N, O, S
-    double voxelSizeCm = 0.0;         ///< edge of a (cubic) voxel [cm], > 0
-    double raySpacing = 0.5;          ///< largest footprint of a ray before it splits [voxels]
-    int maxIterations = 12;           ///< overlap iterations at most
-    double tolerance = 1e-3;          ///< relative change of the ionised volume that stops them
-    double oiiCrossSection = 8.0e-18; ///< O+ photoionisation cross-section above 35.1 eV [cm^2]
+    /// T_e from the thermal balance where the volume has no temperature (electronTemperature
+    /// then only starts each ray's march)
+    bool thermalBalance = false;
+    double dustCrossSection = 0.0; ///< dust absorption per H atom of ionising photons [cm^2]
+    Abundances abundances;         ///< He, N, O, S
+    double voxelSizeCm = 0.0;      ///< edge of a (cubic) voxel [cm], > 0
+    double raySpacing = 0.5;       ///< largest footprint of a ray before it splits [voxels]
+    int maxIterations = 12;        ///< overlap iterations at most
+    double tolerance = 1e-3;       ///< relative change of the ionised volume that stops them
 };
 
 /// What became of one star's ionising photons [s^-1], summed over its rays.
@@ -76,7 +88,7 @@ struct VoxelIonization
 };
 
 /// The solver. The density volume (channel 0: n_H [cm^-3], index space, cubic voxels; an
-/// optional channel 1: the electron temperature [K], where > 0, else
+/// optional channel 1: the electron temperature [K], where > 0, else the thermal balance or
 /// IonizationParams::electronTemperature) must outlive it.
 class IonizationSolver
 {
@@ -102,8 +114,9 @@ public:
     /// large value where photons escape.
     double frontDistance(std::size_t s, const Vec3& d) const;
 
-    struct Maps;  ///< the cube maps of the fronts (implementation)
-    struct Tally; ///< per voxel, the rays' volume and its ionised parts (implementation)
+    struct Maps;    ///< the cube maps of the fronts (implementation)
+    struct Tally;   ///< per voxel, the rays' volume and its ionised parts (implementation)
+    struct Thermal; ///< the thermal balance's table (implementation)
 
 private:
     const SparseVolume& mDensity;
@@ -113,6 +126,7 @@ private:
     std::vector<Maps*> mMaps;
     std::vector<Tally*> mTallies;
     std::vector<double> mFrontCrossSection; ///< per star, meanHydrogenCrossSection() [cm^2]
+    Thermal* mThermal = nullptr;            ///< with thermalBalance
     int mIterations = 0;
 };
 

@@ -16,9 +16,11 @@ struct IonizeOptions
     DustParams dust;                     ///< kappa_V: the dust's absorption of ionising photons
     bool dustAbsorbs = true;             ///< whether dust absorbs ionising photons
     std::string densityGrid = "density"; ///< the gas density grid (n_H [cm^-3])
-    double electronTemperature = 8000.0; ///< T_e of the ionised gas [K]
+    /// T_e of the ionised gas [K]; 0: each voxel's from the thermal balance (IonizationParams::
+    /// thermalBalance)
+    double electronTemperature = 0.0;
     /// A grid of the gas's electron temperature [K] ("": none); where it is 0 or inactive,
-    /// electronTemperature. Not nebgen's `temperature`, the dust's.
+    /// electronTemperature or the thermal balance. Not nebgen's `temperature`, the dust's.
     std::string temperatureGrid;
     Abundances abundances;   ///< He, N, O, S relative to H
     double raySpacing = 0.5; ///< rays split when wider than this [voxels]
@@ -45,7 +47,8 @@ struct IonizeReport
     std::vector<StarPhotons> photons; ///< per star
     std::vector<IonizingRates> rates; ///< per star
     int iterations = 0;
-    double recombinations = 0.0; ///< sum over voxels of alpha_B n_e n_p x V [s^-1]
+    double recombinations = 0.0;  ///< sum over voxels of alpha_B n_e n_p x V [s^-1]
+    double meanTemperature = 0.0; ///< T_e weighted by n_e n_p x V [K]
 };
 
 /// Ionises the density of @p grids by its stars and adds (or replaces) the grids above plus
