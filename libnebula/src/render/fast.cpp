@@ -63,6 +63,7 @@ struct RayState
     int fieldCell[3] = {INT_MIN, INT_MIN, INT_MIN};
     double fieldCorner[8][3] = {};
     double T[3] = {1, 1, 1};
+    double tauV = 0.0; ///< V optical depth from the eye (the line groups' extinction)
     double L[3] = {0, 0, 0};
     double Lfield[3] = {0, 0, 0};    ///< the part of L from the field (componentLayers)
     double Lemission[3] = {0, 0, 0}; ///< the part of L from the gas's glow (componentLayers)
@@ -263,20 +264,52 @@ private:
 
     /// Emission of a segment of length @p seg [pc] with gas @p em (channel 1 of the sample
     /// @p f) and optical depths @p x (per channel): the fraction (1 - e^-x)/x of it reaches
-    /// the segment's front, dimmed by the transmittance in front of it. With per-channel
-    /// emission (SceneEmission::rgbChannel), channel c's own emissivity instead of em times
-    /// a colour.
+    /// the segment's front, dimmed by the transmittance in front of it. With several
+    /// emission grids (SceneEmission::gridChannel), emitGrids() instead.
     void emit(double em, const float* f, const double* x, const double* oneMinus, double seg,
               RayState& ray) const
     {
-        const int rgb = mScene.emission.rgbChannel;
+        if (mScene.emission.gridChannel >= 0) {
+            if (em > 0.0) emitGrids(f, x, oneMinus, seg, ray);
+            return;
+        }
         for (int c = 0; c < 3; ++c) {
             const double emitLen = x[c] > 1e-7 ? oneMinus[c] / x[c] * seg : seg;
-            const double add = rgb < 0
-                                   ? ray.T[c] * em * mOpts.emissionScale * mEmitColour[c] * emitLen
-                                   : ray.T[c] * double(f[rgb + c]) * mOpts.emissionScale * emitLen;
+            const double add = ray.T[c] * em * mOpts.emissionScale * mEmitColour[c] * emitLen;
             ray.L[c] += add;
             ray.Lemission[c] += add;
+        }
+    }
+
+    /// The emission grids' line groups (DESIGN §3.4), each dimmed at its own wavelength:
+    /// by exp(-ratio tau_V) in front of the segment and (1 - e^-y)/y inside it, y = ratio
+    /// times the segment's V optical depth, as the spectral renderer dims a line; a painted
+    /// grid per channel, as emit() does.
+    void emitGrids(const float* f, const double* x, const double* oneMinus, double seg,
+                   RayState& ray) const
+    {
+        const SceneEmission& se = mScene.emission;
+        const double xV = mDust.kappa_V * double(f[0]) * seg; // V optical depth
+        for (const SceneEmission::Line& line : se.lines) {
+            const double e = f[se.gridChannel + line.grid];
+            if (e == 0.0) continue;
+            if (line.painted) {
+                for (int c = 0; c < 3; ++c) {
+                    const double emitLen = x[c] > 1e-7 ? oneMinus[c] / x[c] * seg : seg;
+                    const double add =
+                        ray.T[c] * e * mOpts.emissionScale * line.colour[c] * emitLen;
+                    ray.L[c] += add;
+                    ray.Lemission[c] += add;
+                }
+                continue;
+            }
+            const double y = line.ratio * xV;
+            const double emitLen = y > 1e-7 ? -std::expm1(-y) / y * seg : seg;
+            const double w = std::exp(-line.ratio * ray.tauV) * e * mOpts.emissionScale * emitLen;
+            for (int c = 0; c < 3; ++c) {
+                ray.L[c] += w * line.colour[c];
+                ray.Lemission[c] += w * line.colour[c];
+            }
         }
     }
 
@@ -426,6 +459,7 @@ private:
         }
         for (int c = 0; c < 3; ++c)
             ray.T[c] *= 1.0 - oneMinus[c];
+        ray.tauV += mDust.kappa_V * n * seg;
         return !(ray.T[0] < mOpts.minTransmittance && ray.T[1] < mOpts.minTransmittance &&
                  ray.T[2] < mOpts.minTransmittance);
     }

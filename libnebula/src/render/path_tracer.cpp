@@ -48,16 +48,24 @@ PathScene buildPathScene(const RenderScene& scene, const RenderOptions& opts)
     PathScene ps;
     ps.scene = &scene;
     const SparseVolume& v = scene.fields;
-    const int rgb = scene.emission.rgbChannel;
-    ps.fields = SparseVolume(v.lo(), v.dims(), rgb < 0 ? 2 : 5);
+    // Several emission grids (DESIGN §3.4): each channel's emissivity, every line group
+    // dimmed by the channels' extinction (a walk has no per-line transmittance).
+    const SceneEmission& se = scene.emission;
+    ps.fields = SparseVolume(v.lo(), v.dims(), se.gridChannel < 0 ? 2 : 5);
     ps.fields.indexToWorld = v.indexToWorld;
     v.forEachStoredBrick([&](std::size_t first) {
         for (std::size_t i = first; i < first + SparseVolume::BRICK_VOXELS; ++i) {
             float* q = ps.fields.writable(i);
-            q[0] = v.voxel(i)[0];
-            q[1] = v.voxel(i)[1];
-            for (int c = 0; c < 3 && rgb >= 0; ++c)
-                q[2 + c] = v.voxel(i)[rgb + c];
+            const float* p = v.voxel(i);
+            q[0] = p[0];
+            q[1] = p[1];
+            if (se.gridChannel < 0) continue;
+            for (int c = 0; c < 3; ++c) {
+                double sum = 0.0;
+                for (const auto& line : se.lines)
+                    sum += line.colour[std::size_t(c)] * double(p[se.gridChannel + line.grid]);
+                q[2 + c] = float(sum);
+            }
         }
     });
     ps.w2i = v.indexToWorld.inverse();

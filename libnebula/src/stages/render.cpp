@@ -69,10 +69,18 @@ void reportEmission(const GridSet& grids, const RenderScene& scene, const Render
         }
         return;
     }
-    for (const auto& [name, c] : scene.emission.grids) {
-        run.info(fmt::format("emission grid \"{}\": linear sRGB {:.4g}, {:.4g}, {:.4g} per unit "
-                             "(times --emission-scale)",
-                             name, c[0], c[1], c[2]));
+    const SceneEmission& se = scene.emission;
+    for (std::size_t k = 0; k < se.grids.size(); ++k) {
+        const auto& [name, c] = se.grids[k];
+        const auto groups = std::count_if(se.lines.begin(), se.lines.end(),
+                                          [&](const auto& l) { return l.grid == int(k); });
+        run.info(fmt::format(
+            "emission grid \"{}\": linear sRGB {:.4g}, {:.4g}, {:.4g} per unit "
+            "(times --emission-scale){}",
+            name, c[0], c[1], c[2],
+            se.gridChannel < 0
+                ? std::string()
+                : fmt::format(", {} line group(s) dimmed at their wavelengths", groups)));
         if (name != opts.emissionGrid) names += (names.empty() ? "\"" : ", \"") + name + "\"";
     }
     if (scene.scatter.emissionSource && !names.empty()) {

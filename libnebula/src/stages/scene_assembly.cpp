@@ -412,6 +412,8 @@ struct RgbEmitter
 {
     openvdb::FloatGrid::Ptr grid;
     std::array<double, 3> colour;
+    std::vector<SpectralLine> lines; ///< empty: painted in --emission-color
+    double luminance = 0.0;          ///< the luminance its lines are scaled to
 };
 
 /// The emission grids RGB mode draws (DESIGN §3.4): opts.emissionGrid (if the file has it)
@@ -428,7 +430,7 @@ std::vector<RgbEmitter> rgbEmitters(const GridSet& grids, const RenderOptions& o
     const double luminance = linearSRGBToXYZ(opts.emissionColor)[1];
     const auto add = [&](const openvdb::FloatGrid::Ptr& g) {
         requireFiniteNonNegative(*g, grids.source);
-        RgbEmitter e{g, opts.emissionColor};
+        RgbEmitter e{g, opts.emissionColor, {}, 0.0};
         if (opts.lineColours && (*g)[META_LINES]) {
             const auto lines = gridLines(*g, grids.source, {});
             if (!(linesXYZ(lines)[1] > 0.0)) {
@@ -436,6 +438,8 @@ std::vector<RgbEmitter> rgbEmitters(const GridSet& grids, const RenderOptions& o
                             "outside 360-830 nm (" + lineListToString(lines) + "): nothing to see");
             }
             e.colour = linesLinearSRGB(lines, luminance);
+            e.lines = lines;
+            e.luminance = luminance;
         }
         out.push_back(e);
     };
@@ -448,11 +452,51 @@ std::vector<RgbEmitter> rgbEmitters(const GridSet& grids, const RenderOptions& o
     return out;
 }
 
+/// The line groups of emitter @p k (DESIGN §3.4): its lines sorted by wavelength, neighbours
+/// whose extinction ratios differ by under 1 % (a doublet) in one group at their
+/// luminance-weighted ratio, each group's colour its share of the emitter's; one painted
+/// group for a grid without lines.
+std::vector<SceneEmission::Line> lineGroups(const RgbEmitter& e, int k, const DustParams& dust)
+{
+    if (e.lines.empty()) return {SceneEmission::Line{k, e.colour, 1.0, true}};
+    auto lines = e.lines;
+    std::sort(lines.begin(), lines.end(), [](const SpectralLine& a, const SpectralLine& b) {
+        return a.wavelength < b.wavelength;
+    });
+    const double unit = e.luminance / linesXYZ(lines)[1];
+    std::vector<SceneEmission::Line> out;
+    std::vector<SpectralLine> group;
+    double ratio0 = 0.0, weighted = 0.0, Y = 0.0;
+    const auto flush = [&] {
+        if (group.empty() || !(Y > 0.0)) return;
+        XYZ xyz = linesXYZ(group);
+        for (auto& v : xyz)
+            v *= unit;
+        out.push_back(SceneEmission::Line{k, xyzToLinearSRGB(xyz), weighted / Y, false});
+    };
+    for (const auto& l : lines) {
+        const double y = l.strength * cmfAt(l.wavelength)[1];
+        if (!(y > 0.0)) continue; // outside 360-830 nm: no colour
+        const double r = extinctionRatio(dust, l.wavelength);
+        if (!group.empty() && std::abs(r - ratio0) > 0.01 * ratio0) {
+            flush();
+            group.clear();
+            weighted = Y = 0.0;
+        }
+        if (group.empty()) ratio0 = r;
+        group.push_back(l);
+        weighted += y * r;
+        Y += y;
+    }
+    flush();
+    return out;
+}
+
 /// Fills scene.emission (DESIGN §3.4) from @p emitters: one grid, already channel 1, keeps
-/// its colour; several are summed, coloured, into the channels from @p rgb on, their plain
-/// sum into channel 1. Error naming @p grids' file if one is not on @p density's voxels.
-void colourEmission(RenderScene& scene, const std::vector<RgbEmitter>& emitters, int rgb,
-                    const openvdb::FloatGrid& density, const std::string& source)
+/// its colour; several go to the channels from @p first on, one each, with their line
+/// groups (extinction ratios from @p dust), and their plain sum into channel 1.
+void colourEmission(RenderScene& scene, const std::vector<RgbEmitter>& emitters, int first,
+                    const DustParams& dust)
 {
     for (const auto& e : emitters)
         scene.emission.grids.emplace_back(e.grid->getName(), e.colour);
@@ -461,16 +505,12 @@ void colourEmission(RenderScene& scene, const std::vector<RgbEmitter>& emitters,
         return;
     }
     if (emitters.size() < 2) return;
-    scene.emission.rgbChannel = rgb;
-    for (const auto& e : emitters) {
-        if (e.grid->transform() != density.transform()) {
-            throw Error(source + ": grid \"" + e.grid->getName() +
-                        "\" does not share the transform of grid \"" + density.getName() +
-                        "\"; resample it onto the same voxels first");
-        }
+    scene.emission.gridChannel = first;
+    for (std::size_t k = 0; k < emitters.size(); ++k) {
+        const RgbEmitter& e = emitters[k];
         addGridToVolume(scene.fields, *e.grid, 1, 1.0);
-        for (int c = 0; c < 3; ++c)
-            addGridToVolume(scene.fields, *e.grid, rgb + c, e.colour[std::size_t(c)]);
+        for (const auto& g : lineGroups(e, int(k), dust))
+            scene.emission.lines.push_back(g);
     }
 }
 
@@ -501,18 +541,16 @@ RenderScene buildScene(const GridSet& grids, const RenderOptions& opts, const Du
         fields.push_back(tau);
     }
     std::vector<openvdb::FloatGrid::ConstPtr> bounds{density, fields[1]};
-    const int rgb = int(fields.size());
-    if (emitters.size() > 1) {
-        for (int c = 0; c < 3; ++c)
-            fields.push_back(fields[1]); // empty: filled by colourEmission()
-        for (const auto& e : emitters)
-            bounds.push_back(e.grid);
+    const int first = int(fields.size());
+    for (std::size_t k = 0; k < emitters.size() && emitters.size() > 1; ++k) {
+        fields.push_back(emitters[k].grid); // volumeFromGrids() checks its transform
+        bounds.push_back(emitters[k].grid);
     }
     scene.fields = volumeFromGrids(fields, activeBounds(bounds, 1), grids.source);
     requireFiniteEmission(*emission, opts.emissionScale, scene.fields, grids.source);
     for (std::size_t k = 0; k < emitters.size() && emitters.size() > 1; ++k)
         requireFiniteEmission(*emitters[k].grid, opts.emissionScale, scene.fields, grids.source);
-    colourEmission(scene, emitters, rgb, *density, grids.source);
+    colourEmission(scene, emitters, first, dust);
 
     scene.starColor = starColors(scene.stars, opts);
     scene.dust = channelDust(dust, opts.wavelengths);

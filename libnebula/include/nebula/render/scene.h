@@ -106,18 +106,27 @@ private:
 };
 
 /// The gas's glow as the RGB integrators draw it (DESIGN §3.4), times --emission-scale:
-/// with rgbChannel < 0, channel 1 of the fields times `colour` (unset: RenderOptions::
-/// emissionColor), the old single-emitter layout; with rgbChannel >= 0, the channels
-/// rgbChannel + c (c = R, G, B) hold the emissivity of each channel, every grid's values
-/// times its colour summed (a channel may be negative: line colours lie outside the sRGB
-/// gamut), and channel 1 the grids' plain sum (> 0 wherever any grid glows: occupancy,
-/// majorants, the test for an empty sample).
+/// with gridChannel < 0, channel 1 of the fields times `colour` (unset: RenderOptions::
+/// emissionColor), the old single-emitter layout; with gridChannel >= 0, channel
+/// gridChannel + k holds grids[k] (each of several emission grids) and channel 1 their plain
+/// sum (> 0 wherever any grid glows: occupancy, majorants, the test for an empty sample).
 struct SceneEmission
 {
+    /// A group of a grid's lines of one extinction (a doublet), or a grid without lines.
+    struct Line
+    {
+        int grid = 0;                   ///< index into grids
+        std::array<double, 3> colour{}; ///< its share of the grid's colour (they sum to it)
+        /// A(lambda)/A_V at its wavelengths (the fast integrator dims it by exp(-ratio
+        /// tau_V)); painted (a grid without lines): dimmed per channel instead.
+        double ratio = 1.0;
+        bool painted = false;
+    };
     std::optional<std::array<double, 3>> colour;
-    int rgbChannel = -1;
-    /// The grids drawn, each with its colour (linear sRGB per grid unit), for -v and the EXR.
+    int gridChannel = -1;
+    /// The grids drawn, each with its colour (linear sRGB per grid unit, may be negative).
     std::vector<std::pair<std::string, std::array<double, 3>>> grids;
+    std::vector<Line> lines; ///< with gridChannel >= 0: every grid's line groups
 };
 
 /// What the kernel renders: compact fields plus the stars and dust.
@@ -127,7 +136,7 @@ struct RenderScene
     static constexpr int MAX_DETAIL_LEVEL = 3;
 
     /// Channels: 0 density n_H, 1 emission, 2 + s: tau_V of star s; then, with
-    /// emission.rgbChannel >= 0, the emission's R, G, B.
+    /// emission.gridChannel >= 0, each emission grid.
     SparseVolume fields;
     SceneEmission emission;
     std::vector<Star> stars;
