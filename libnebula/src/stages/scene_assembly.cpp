@@ -492,16 +492,21 @@ std::vector<SceneEmission::Line> lineGroups(const RgbEmitter& e, int k, const Du
     return out;
 }
 
-/// Fills scene.emission (DESIGN §3.4) from @p emitters: one grid, already channel 1, keeps
-/// its colour; several go to the channels from @p first on, one each, with their line
-/// groups (extinction ratios from @p dust), and their plain sum into channel 1.
+/// Fills scene.emission (DESIGN §3.4) from @p emitters: one grid is channel 1 already, with
+/// its colour and, if it has lines, its line groups (gridChannel 1); several go to the
+/// channels from @p first on, one each, with their line groups (extinction ratios from
+/// @p dust), and their plain sum into channel 1.
 void colourEmission(RenderScene& scene, const std::vector<RgbEmitter>& emitters, int first,
                     const DustParams& dust)
 {
     for (const auto& e : emitters)
         scene.emission.grids.emplace_back(e.grid->getName(), e.colour);
     if (emitters.size() == 1) {
-        scene.emission.colour = emitters.front().colour;
+        const RgbEmitter& e = emitters.front();
+        scene.emission.colour = e.colour;
+        if (e.lines.empty()) return;    // painted: channel 1 times the colour, per channel
+        scene.emission.gridChannel = 1; // the grid itself, dimmed at its lines' wavelengths
+        scene.emission.lines = lineGroups(e, 0, dust);
         return;
     }
     if (emitters.size() < 2) return;

@@ -107,9 +107,10 @@ private:
 
 /// The gas's glow as the RGB integrators draw it (DESIGN §3.4), times --emission-scale:
 /// with gridChannel < 0, channel 1 of the fields times `colour` (unset: RenderOptions::
-/// emissionColor), the old single-emitter layout; with gridChannel >= 0, channel
-/// gridChannel + k holds grids[k] (each of several emission grids) and channel 1 their plain
-/// sum (> 0 wherever any grid glows: occupancy, majorants, the test for an empty sample).
+/// emissionColor), per channel: a grid without lines, the old layout; with gridChannel >= 0,
+/// channel gridChannel + k holds grids[k], drawn by its line groups (`lines`), and channel 1
+/// their plain sum (> 0 wherever any grid glows: occupancy, majorants, the test for an empty
+/// sample); gridChannel 1: one grid with lines, channel 1 itself.
 struct SceneEmission
 {
     /// A group of a grid's lines of one extinction (a doublet), or a grid without lines.
