@@ -261,10 +261,7 @@ const Pillar PILLARS[] = {
 const Vec3 PILLARS_STAR{0.0, 0.26, 0.12};
 /// The far wall of the cavity the cluster has cleared in the molecular cloud: a slab behind
 /// the star, facing the viewer, whose face the stars ionise behind the columns.
-const Slab PILLARS_BACK{0.4, 0.4, 0.4, 0.05};
-/// The H II region's warm diffuse gas [density scale]: 30 cm^-3 at the default density.
-constexpr double PILLARS_GAS = 0.02;
-const Vec3 PILLARS_HII_CENTRE{0.0, 0.06, 0.12}, PILLARS_HII_RADII{0.36, 0.32, 0.26};
+const Slab PILLARS_BACK{0.4, 0.4, 0.4, 0.06};
 constexpr double PILLARS_CORE_PEAK = 60.0, PILLARS_CORE_RADIUS = 0.012;
 const Vec3 PILLARS_WALL_CENTRE{0.0, -0.34, 0.06}, PILLARS_WALL_RADII{0.36, 0.1, 0.28};
 
@@ -304,11 +301,10 @@ Shape pillarsShape(const Where& w, const std::vector<Vec3>& stars)
         s.dust += PILLARS_CORE_PEAK * core(w.p, head - axis * (0.3 * rh), PILLARS_CORE_RADIUS);
     }
     // The cavity's far wall.
-    s.dust = std::max(s.dust, 1.5 * PILLARS_BACK(w, {0.0, 0.0, PILLARS_BACK.zc}));
-    // The warm gas filling the cavity, which the stars ionise (nebionize).
-    s.gas = PILLARS_GAS * softInside(ellipsoidRadius(w.p, PILLARS_HII_CENTRE, PILLARS_HII_RADII) /
-                                         (1.0 + 0.15 * clampNoise(w.u1)),
-                                     0.4);
+    s.dust = std::max(s.dust, 0.6 * PILLARS_BACK(w, {0.0, 0.0, PILLARS_BACK.zc}));
+    // The cavity between holds little gas: what glows is the ionised skin of every surface
+    // the stars see (nebionize). (Warm gas filling it, 30 cm^-3, would glow too, but costs
+    // nebionize ten times the time at 512^3: docs/presets.md.)
     return s;
 }
 std::vector<Ball> pillarsSupport()
