@@ -13,6 +13,8 @@
 #              8000 K and at 10^4 K;
 #   lineflux   nebrender --spectral --fits of the Strömgren sphere at 1 kpc: the H-alpha band's
 #              flux against Q (alpha_eff(H-alpha) / alpha_B) h nu / (4 pi D^2);
+#   frontnoise a dense tilted plane front seen face-on: the sight lines' glow about their
+#              local mean, at ray spacings 0.5, 0.25, 0.125 (the front voxels' sampling noise);
 #   cost       wall time and peak memory of nebionize on the pillars preset (its 3 O stars) at
 #              128^3 and 512^3 (RES="128 512 1024" to add 1024^3).
 # Usage: bench/ionization.sh [BUILD] [PARTS...]   (BUILD defaults to build; PARTS to all)
@@ -23,7 +25,7 @@ cd "$(dirname "$0")/.."
 source bench/common.sh
 BUILD=$(realpath "${1:-build}")
 shift || true
-PARTS=${*:-stromgren photons lexington lineflux cost}
+PARTS=${*:-stromgren photons lexington lineflux frontnoise cost}
 T=$BUILD/tools
 PY=/usr/bin/python3
 bench_require "$T/nebionize" "$T/nebimport" "$T/nebexport" "$T/nebgen" "$T/nebillum" "$T/nebrender"
@@ -155,6 +157,30 @@ print(f"lineflux: H-alpha band {wave[i]*1e9:.1f} nm: {flux:.5g} W/m^2; Q (alpha_
       f"= {expected:.5g} ({100*(flux/expected-1):+.3f} %)")
 EOF
     ;;
+frontnoise)
+    # A dense front seen face-on: n_H 30 cm^-3 in front of a tilted plane face of 3000, 64^3,
+    # a 40 kK star 3 pc below. Each sight line's glow (the emission summed along z) against
+    # the mean of its 9 x 9 neighbours: their rms spread is the front voxels' sampling noise
+    # (plus the face's own voxel staircase), at three ray spacings.
+    $PY -c "import numpy as np; x = np.arange(64)[:, None, None]; z = np.arange(64)[None, None, :]
+np.save('tilt.npy', (np.where(z < 30 + 0.3 * (x - 32), 30.0, 3000.0) * np.ones((64, 64, 64))).astype(np.float32))"
+    "$T/nebimport" -i tilt.npy --unit cm-3 --voxel-size 0.05pc -o tilt.vdb -q
+    for sp in 0.5 0.25 0.125; do
+        "$T/nebionize" -i tilt.vdb --star s:0,0,-3:1e5:40000 --no-dust-absorption \
+            --electron-temperature 8000 --ray-spacing $sp -q -o t.vdb
+        "$T/nebexport" -i t.vdb --grid emission -o t.npy 2>/dev/null
+        SP=$sp $PY - <<'EOF2'
+import numpy as np, os
+m = np.load('t.npy').sum(axis=2)
+c = np.pad(m, 4, mode='edge').cumsum(0).cumsum(1)
+c = np.pad(c, ((1, 0), (1, 0)))
+local = (c[9:, 9:] - c[:-9, 9:] - c[9:, :-9] + c[:-9, :-9]) / 81.0
+r = (m / local)[8:-8, 8:-8]
+print(f"frontnoise: ray spacing {os.environ['SP']}: sight lines' glow {100 * r.std():.1f} % rms "
+      f"about their 9 x 9 mean")
+EOF2
+    done
+    ;;
 cost)
     # The preset's own three O stars (O5V, O7V, O9V: 2.5e49 photons a second) in the cavity
     # its warm gas fills.
@@ -166,6 +192,6 @@ cost)
         rm -f p.vdb
     done
     ;;
-*) echo "$SCRIPT: unknown part $part (stromgren photons lexington lineflux cost)" >&2; exit 2 ;;
+*) echo "$SCRIPT: unknown part $part (stromgren photons lexington lineflux frontnoise cost)" >&2; exit 2 ;;
 esac
 done
