@@ -162,7 +162,7 @@ TEST_F(Cli, IonisedPresetsGetTheirGlowFromNebionize)
         const auto haAcc = ha->getConstAccessor();
         const auto oAcc = oiii->getConstAccessor();
         // The brightest star (the first): [O III] sits nearer it than H-alpha.
-        const auto& star = i.stars().front().position;
+        const auto star = i.stars().front().position;
         const auto starIndex =
             density->transform().worldToIndex(openvdb::Vec3d(star[0], star[1], star[2]));
         int ionised = 0, front = 0, neutral = 0;
