@@ -75,6 +75,15 @@ protected:
         return nebula::readExr(path(exr), nullptr);
     }
 
+    /// An H-alpha-only and an [O III]-only scene rendered with @p extra (ha.exr, o3.exr): their
+    /// summed linear R, G, B.
+    std::array<std::array<double, 3>, 2> renderEachLine(const std::string& extra)
+    {
+        makeScene("ha.vdb", true, false);
+        makeScene("o3.vdb", false, true);
+        return {sum(render("ha.vdb", "ha.exr", extra)), sum(render("o3.vdb", "o3.exr", extra))};
+    }
+
     /// The beauty's summed linear R, G, B.
     static std::array<double, 3> sum(const nebula::Image& img)
     {
@@ -92,15 +101,12 @@ protected:
 
 TEST_F(LineColours, PixelsFollowTheLocalLineMix)
 {
-    makeScene("ha.vdb", true, false);
-    makeScene("o3.vdb", false, true);
     // Only H-alpha: deep red, beyond the sRGB red primary (G < 0 in the EXR, clipped in the
     // PNG); only [O III]: teal-green (R < 0, G > B > 0).
     // (--emission-scale 100: the starlight the thin dust scatters is 1e-3 of the glow.)
-    const auto ha = sum(render("ha.vdb", "ha.exr", "--emission-scale 100"));
+    const auto [ha, o3] = renderEachLine("--emission-scale 100");
     EXPECT_GT(ha[0], 0.0);
     EXPECT_LT(ha[1], 0.0);
-    const auto o3 = sum(render("o3.vdb", "o3.exr", "--emission-scale 100"));
     EXPECT_LT(o3[0], 0.0);
     EXPECT_GT(o3[1], o3[2]);
     EXPECT_GT(o3[2], 0.0);
@@ -237,12 +243,9 @@ TEST_F(LineColours, EmissionColorPaintsTheEmissionGridAsBefore)
 
 TEST_F(LineColours, PathTracerDrawsLineColours)
 {
-    makeScene("ha.vdb", true, false);
-    makeScene("o3.vdb", false, true);
-    const auto ha = sum(render("ha.vdb", "ha.exr", "--integrator path --spp 4"));
+    const auto [ha, o3] = renderEachLine("--integrator path --spp 4");
     EXPECT_GT(ha[0], 0.0);
     EXPECT_LT(ha[1], 0.0);
-    const auto o3 = sum(render("o3.vdb", "o3.exr", "--integrator path --spp 4"));
     EXPECT_LT(o3[0], 0.0);
     EXPECT_GT(o3[1], o3[2]);
     // Both grids, per channel: the ray caster's image within 5 % of the total (the

@@ -27,12 +27,10 @@ int main(int argc, char** argv)
                  " nebula, seed " + std::to_string(params.seed) + ", " +
                  std::to_string(params.stars.size()) + " stars" +
                  (params.spectral.enabled ? ", spectral grids" : ""));
-        for (const auto& info : nebula::nebulaPresets()) {
-            if (info.id == params.preset && info.ionised) {
-                run.info("the " + opts.presetName +
-                         " preset's glow is the gas its stars ionise: run nebionize on this "
-                         "file for it (nebgen paints none)");
-            }
+        if (nebula::presetIonised(params.preset)) {
+            run.info("the " + opts.presetName +
+                     " preset's glow is the gas its stars ionise: run nebionize on this "
+                     "file for it (nebgen paints none)");
         }
         auto grids = nebula::generateNebula(params, [&](std::size_t n) { bar.add(n); });
         nebula::writeGrids(common.output, std::move(grids), run);

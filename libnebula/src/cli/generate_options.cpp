@@ -226,14 +226,11 @@ NebulaParams GenerateOptions::resolve() const
                          ": give it on the command line, not in a config file");
     }
     const bool fbm = p.preset == NebulaPreset::Fbm;
-    for (const auto& info : nebulaPresets()) {
-        if (info.id == p.preset && info.ionised && p.emissionPeak > 0.0) {
-            throw UsageError("--emission: the " + presetName +
-                             " preset's glow is the gas its stars ionise, which nebionize "
-                             "computes (nebgen --preset " +
-                             presetName +
-                             " -o - | nebionize -i - -o ionised.vdb); nebgen paints none");
-        }
+    if (presetIonised(p.preset) && p.emissionPeak > 0.0) {
+        throw UsageError("--emission: the " + presetName +
+                         " preset's glow is the gas its stars ionise, which nebionize "
+                         "computes (nebgen --preset " +
+                         presetName + " -o - | nebionize -i - -o ionised.vdb); nebgen paints none");
     }
     cli::requireMode(fbmOnly, fbm, "--preset fbm (the default)");
     cli::requireMode(turbulenceOnly, !fbm, "a turbulent --preset (not fbm)");

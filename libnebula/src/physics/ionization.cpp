@@ -718,7 +718,6 @@ void IonizationSolver::solve(const Run* run)
     mIterations = 0;
     for (int it = 0; it < std::max(1, mParams.maxIterations); ++it) {
         ++mIterations;
-        bool moved = false;
         double spared = 0.0, photons = 0.0, change = 0.0;
         for (std::size_t s = 0; s < S; ++s) {
             Maps& maps = *mMaps[s];
@@ -756,11 +755,11 @@ void IonizationSolver::solve(const Run* run)
             for (float r : maps.h)
                 if (r < MISS) reach = std::max(reach, double(r));
             maps.reach = reach + 2.0;
-            if (lastVolume[s] > 0)
-                change = std::max(change, std::fabs(total.volume / lastVolume[s] - 1.0));
-            if (lastVolume[s] < 0 ||
-                std::fabs(total.volume - lastVolume[s]) > mParams.tolerance * lastVolume[s]) {
-                moved = true;
+            // The largest relative change of a star's ionised volume (from none: infinite).
+            if (lastVolume[s] >= 0.0 && total.volume != lastVolume[s]) {
+                change = std::max(change, lastVolume[s] > 0.0
+                                              ? std::fabs(total.volume / lastVolume[s] - 1.0)
+                                              : std::numeric_limits<double>::infinity());
             }
             lastVolume[s] = total.volume;
         }
@@ -774,8 +773,9 @@ void IonizationSolver::solve(const Run* run)
         // than the tolerance (another pass would change less), or when the fronts do not
         // overlap and did not before (the shares were then all 1: exact). The first pass took
         // every star to reach everywhere: a second always follows it.
-        const bool overlap = overlapping(mStars, mMaps);
+        const bool moved = mIterations == 1 || change > mParams.tolerance;
         if (S < 2 || !moved) break;
+        const bool overlap = overlapping(mStars, mMaps);
         if (!overlap && !previous.empty() && !overlapBefore) break;
         overlapBefore = overlap;
         if (!previous.empty() && spared < mParams.tolerance * photons) break;

@@ -274,7 +274,7 @@ void pillarsDefaults(NebulaParams& p)
 }
 std::vector<Star> pillarsStars()
 {
-    // Three of NGC 6611's O stars: 2.4 x 10^49 ionising photons a second between them.
+    // Three of NGC 6611's O stars: 2.5 x 10^49 ionising photons a second between them.
     return {makeStar("star", PILLARS_STAR, 300000.0, "O5V"),
             makeStar("star2", PILLARS_STAR + Vec3{0.06, 0.03, -0.04}, 120000.0, "O7V"),
             makeStar("star3", PILLARS_STAR + Vec3{-0.05, 0.05, 0.03}, 60000.0, "O9V")};
@@ -304,7 +304,7 @@ Shape pillarsShape(const Where& w, const std::vector<Vec3>& stars)
     s.dust = std::max(s.dust, 0.6 * PILLARS_BACK(w, {0.0, 0.0, PILLARS_BACK.zc}));
     // The cavity between holds little gas: what glows is the ionised skin of every surface
     // the stars see (nebionize). (Warm gas filling it, 30 cm^-3, would glow too, but costs
-    // nebionize ten times the time at 512^3: docs/presets.md.)
+    // nebionize 14 times the time at 512^3: docs/presets.md.)
     return s;
 }
 std::vector<Ball> pillarsSupport()
@@ -584,6 +584,11 @@ NebulaPreset parsePreset(const std::string& name)
 const char* presetName(NebulaPreset preset)
 {
     return presetDef(preset).name;
+}
+
+bool presetIonised(NebulaPreset preset)
+{
+    return presetDef(preset).ionised;
 }
 
 NebulaParams presetParams(NebulaPreset preset)

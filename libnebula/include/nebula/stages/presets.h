@@ -34,6 +34,9 @@ NebulaPreset parsePreset(const std::string& name);
 /// The preset's name.
 const char* presetName(NebulaPreset preset);
 
+/// Whether the preset's glow is the gas its stars ionise (PresetInfo::ionised).
+bool presetIonised(NebulaPreset preset);
+
 /// The parameters of @p preset: NebulaParams' defaults with the preset's own (size, density,
 /// turbulence, emission, cavity, dust, stars). Options the user gives then override them.
 NebulaParams presetParams(NebulaPreset preset);
