@@ -3,6 +3,7 @@
 /// Compares two nebrender EXRs of the same view: a reference and a test image.
 ///
 ///     build/bench/exr_compare REF.exr TEST.exr [--ratio-png FILE] [--threshold 0.01] [--block N]
+///                              [--percentile P] [--max]
 ///                              [--second-reference REF2.exr]
 ///
 /// Prints, per channel R, G, B and for luminance Y (Rec. 709 weights of linear sRGB):
@@ -25,6 +26,9 @@
 /// --block N first sums both images (and the variance) over blocks of N x N pixels (the
 /// right and bottom edges' partial blocks are dropped), so the figures are per block: the
 /// error of the image smoothed on that scale, with N times less noise.
+/// --percentile P takes the threshold as a fraction of REF's P-th percentile (of its non-zero
+/// pixels or blocks) instead of its maximum (a star's sprite is the maximum of most frames);
+/// --max adds the largest relative error among the pixels or blocks counted.
 /// Also prints the optical depth -ln T of REF's centre pixel (its transmittance layer).
 /// --ratio-png writes a map of TEST_Y / REF_Y: white where equal, red where TEST is brighter,
 /// blue where it is darker, full colour at a factor of 2 (log scale); black where REF_Y is
@@ -39,6 +43,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <string>
+#include <vector>
 
 namespace {
 
@@ -93,7 +98,8 @@ nebula::Image blockSums(const nebula::Image& img, int b)
 int main(int argc, char** argv)
 {
     std::string refPath, testPath, ratioPng, ref2Path;
-    double threshold = 0.01;
+    double threshold = 0.01, percentile = 100.0;
+    bool showMax = false;
     int block = 1;
     for (int i = 1; i < argc; ++i) {
         const std::string a = argv[i];
@@ -103,6 +109,10 @@ int main(int argc, char** argv)
             ref2Path = argv[++i];
         } else if (a == "--block" && i + 1 < argc) {
             block = std::atoi(argv[++i]);
+        } else if (a == "--percentile" && i + 1 < argc) {
+            percentile = std::atof(argv[++i]);
+        } else if (a == "--max") {
+            showMax = true;
         } else if (a == "--threshold" && i + 1 < argc) {
             threshold = std::atof(argv[++i]);
         } else if (refPath.empty()) {
@@ -170,13 +180,24 @@ int main(int argc, char** argv)
                 sumTest += channel(test, i, c);
                 maxRef = std::max(maxRef, channel(ref, i, c));
             }
-            double sq = 0.0, noise = 0.0;
+            if (percentile < 100.0) { // the threshold's scale: a percentile, not the maximum
+                std::vector<double> v;
+                for (std::size_t i = 0; i < n; ++i)
+                    if (channel(ref, i, c) > 0.0) v.push_back(channel(ref, i, c));
+                if (!v.empty()) {
+                    const auto k = std::size_t(percentile / 100.0 * double(v.size() - 1));
+                    std::nth_element(v.begin(), v.begin() + std::ptrdiff_t(k), v.end());
+                    maxRef = v[k];
+                }
+            }
+            double sq = 0.0, noise = 0.0, worst = 0.0;
             std::size_t count = 0;
             for (std::size_t i = 0; i < n; ++i) {
                 const double r = channel(ref, i, c);
                 if (r <= threshold * maxRef) continue;
                 const double d = (channel(test, i, c) - r) / r;
                 sq += d * d;
+                worst = std::max(worst, std::abs(d));
                 if (variance) {
                     const float* v = &variance->rgb[i * 3];
                     // Luminance: its own variance where REF has it (the channels' noise is
@@ -191,6 +212,7 @@ int main(int argc, char** argv)
             const double rms = count ? std::sqrt(sq / double(count)) : 0.0;
             std::printf("%-8s %-13.6g %-13.6g %+10.4f  %9.4f  %-6zu", names[c], sumRef, sumTest,
                         sumTest / sumRef - 1.0, rms, count);
+            if (showMax) std::printf("  max %.5f", worst);
             if (variance && count) {
                 const double rn = std::sqrt(noise / double(count));
                 std::printf("  %9.4f  %13.4f", rn, std::sqrt(std::max(0.0, rms * rms - rn * rn)));
