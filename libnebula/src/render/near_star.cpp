@@ -64,15 +64,13 @@ RayStar rayStar(const Vec3& o, const Vec3& dir, const Vec3& star, const PixelFoo
         ev = ev - dir * ev.dot(dir);
         const double eLen = eu.length();
         const double w = std::sqrt(eu.cross(ev).length());
-        if (w > 0.0 && eLen > 0.0) {
-            if (bLen < 16.0 * w) {
-                const Vec3 u = eu * (1.0 / eLen), uv = dir.cross(u);
-                rs.d = 1.0 / meanInverseDistance(b.dot(u), b.dot(uv), w);
-            } else {
-                // Far from the star's image: the mean's series, 1/b + w^2 / (24 b^3) (the
-                // next term is below 1e-7 of 1/b here).
-                rs.d = bLen / (1.0 + w * w / (24.0 * b2));
-            }
+        if (w > 0.0 && eLen > 0.0 && bLen < FOOTPRINT_REACH * w) {
+            const Vec3 u = eu * (1.0 / eLen), uv = dir.cross(u);
+            const double mean = meanInverseDistance(b.dot(u), b.dot(uv), w);
+            // Tapered to 1/b from FOOTPRINT_REACH / 2 to FOOTPRINT_REACH footprints.
+            const double x = std::clamp(2.0 * bLen / (FOOTPRINT_REACH * w) - 1.0, 0.0, 1.0);
+            const double taper = 0.5 * (1.0 + std::cos(PI * x));
+            rs.d = 1.0 / (taper >= 1.0 ? mean : (1.0 - taper) / bLen + taper * mean);
         }
     }
     rs.d = std::max(rs.d, dFloor);

@@ -25,6 +25,12 @@ namespace nebula::detail {
 /// passes exactly through a star with a pixel of no extent (a pixel's mean of 1/b is finite).
 inline constexpr double NEAR_STAR_FLOOR = 1e-3;
 
+/// How far from a star's image the pixel's mean of 1/b replaces the centre ray's b
+/// [footprints]: fully within half of it, tapered (a half cosine) to none at it. The mean
+/// assumes the dust uniform across the pixel; far from the image the point sample's own
+/// error is small and the density's variation across the pixel matters more.
+inline constexpr double FOOTPRINT_REACH = 4.0;
+
 /// How one pixel's rays spread: their origin and direction change per pixel across the
 /// image (ou, du) and down it (ov, dv), so that the pixel's footprint at ray distance t is
 /// spanned by ou + t du and ov + t dv. Invalid where a neighbour is out of view.
@@ -42,7 +48,8 @@ PixelFootprint pixelFootprint(const Projection& cam, double px, double py);
 double meanInverseDistance(double x, double y, double w);
 
 /// One star as one ray sees it: the ray distance s0 of its closest approach and the
-/// effective distance d of that approach (the pixel's mean of 1/b, at least dFloor).
+/// effective distance d of that approach (near the star's image, 1 / the pixel's mean of 1/b:
+/// FOOTPRINT_REACH; at least dFloor).
 struct RayStar
 {
     double s0 = 0.0;
