@@ -154,7 +154,9 @@ void addEmissionAndStars(CLI::App& app, RenderOptions& opts, bool& noStars)
         ->capture_default_str()
         ->check(positive());
     app.add_option("--min-star-distance", opts.minStarDistance,
-                   "Distance below which 1/r^2 is clamped [voxels]")
+                   "Distance below which 1/r^2 is clamped in multiple scattering (nebscatter's "
+                   "field, the path tracer's later bounces); single scattering integrates it "
+                   "exactly [voxels]")
         ->capture_default_str()
         ->check(positive());
 }

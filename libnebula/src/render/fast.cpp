@@ -9,6 +9,7 @@
 #include "nebula/render/fast.h"
 
 #include "frame.h"
+#include "near_star.h"
 
 #include "nebula/core/error.h"
 #include "nebula/core/units.h"
@@ -47,6 +48,8 @@ struct Scratch
     std::vector<double> held;
     std::vector<double> nextT;   ///< per level: ray distance of its next resample [pc]
     std::vector<double> closest; ///< per star: ray distance of closest approach, its square
+    std::vector<detail::RayStar> rayStars; ///< per star: as the pixel's ray sees it
+    detail::StarNodes nodes;               ///< one step's, for one star
     RenderStats stats;
 };
 
@@ -89,7 +92,7 @@ public:
             mLevels.push_back(
                 {lv.fields.indexToWorld.inverse(), voxelSize(lv.fields.indexToWorld)});
         }
-        mRmin2 = std::pow(opts.minStarDistance * mLevel0.voxelWorld, 2);
+        mDFloor = detail::NEAR_STAR_FLOOR * mLevel0.voxelWorld;
         for (const auto& s : scene.stars) {
             mStarPos.emplace_back(s.position[0], s.position[1], s.position[2]);
         }
@@ -152,6 +155,7 @@ public:
         s.held.resize(mLevels.size() * S * 3);
         s.nextT.resize(mLevels.size());
         s.closest.resize(2 * S);
+        s.rayStars.resize(S);
         return s;
     }
 
@@ -170,6 +174,11 @@ public:
                 ray.fieldWeight[k] = mFieldPl[k] * Y[k];
         }
         std::fill(sc.starL.begin(), sc.starL.end(), 0.0);
+        if (S > 0) {
+            const auto fp = detail::pixelFootprint(mCam, px + 0.5, py + 0.5);
+            for (std::size_t s = 0; s < S; ++s)
+                sc.rayStars[s] = detail::rayStar(ray.oW, ray.dW, mStarPos[s], fp, mDFloor);
+        }
         std::fill(sc.nextT.begin(), sc.nextT.end(), -std::numeric_limits<double>::infinity());
         if (mMaxDetail > 0) {
             // A pixel's angular size spans this many pc per pc of distance. Near a star its
@@ -349,25 +358,32 @@ private:
         }
     }
 
-    /// Every star's light scattered towards the eye at xW (level-0 optical depths @p tauV):
-    /// the phase factors at level 0 times the star's irradiance, plus the held level terms,
-    /// times the geometric 1/(4 pi r^2) and the segment's 1 - e^-x.
-    void scatterStars(const Vec3& xW, const float* tauV, const double* oneMinus,
+    /// Every star's light scattered towards the eye from the step [tm - seg/2, tm + seg/2]
+    /// (level-0 optical depths @p tauV): the phase factors times the star's
+    /// irradiance, plus the held level terms, times the step's mean of 1/(4 pi r^2) and its
+    /// 1 - e^-x. Near the star the phase factors are averaged over the step's nodes at equal
+    /// angles (DESIGN §3.5).
+    void scatterStars(double tm, double seg, const float* tauV, const double* oneMinus,
                       const PhaseLookup::Pos* tPos, RayState& ray, Scratch& sc) const
     {
         const std::size_t S = mScene.stars.size();
+        detail::StarNodes& nodes = sc.nodes;
         for (std::size_t s = 0; s < S; ++s) {
-            double r2;
-            const double mu = cosToStar(xW, ray.dW, s, r2);
-            double phi[3], src[3];
-            phaseFactors(mu, tPos, nullptr, phi);
+            detail::starNodes(sc.rayStars[s], tm - 0.5 * seg, tm + 0.5 * seg, nodes);
+            double phi[3] = {0, 0, 0}, src[3];
+            for (int i = 0; i < nodes.n; ++i) {
+                double p[3];
+                phaseFactors(nodes.mu[i], tPos, nullptr, p);
+                for (int c = 0; c < 3; ++c)
+                    phi[c] += p[c] / nodes.n;
+            }
             for (int c = 0; c < 3; ++c)
                 src[c] = phi[c] * std::exp(-mDust.r[c] * tauV[s]);
             for (std::size_t k = 0; k < mLevels.size(); ++k) {
                 for (int c = 0; c < 3; ++c)
                     src[c] += sc.held[(k * S + s) * 3 + c];
             }
-            const double geom = 1.0 / (4.0 * PI * std::max(r2, mRmin2));
+            const double geom = nodes.total / (4.0 * PI * seg);
             for (int c = 0; c < 3; ++c) {
                 const double add = ray.T[c] * mScene.starColor[s][c] * geom * src[c] * oneMinus[c];
                 ray.L[c] += add;
@@ -454,7 +470,7 @@ private:
                 }
                 resampleLevels(xW, tm, ray.dW, sc);
             }
-            scatterStars(xW, &sc.f[2], oneMinus, tPos, ray, sc);
+            scatterStars(tm, seg, &sc.f[2], oneMinus, tPos, ray, sc);
             if (mField) scatterField(xW, oneMinus, ray);
         }
         for (int c = 0; c < 3; ++c)
@@ -470,7 +486,7 @@ private:
     const Projection mCam;
     const Marcher mLevel0;
     std::vector<LevelMap> mLevels;
-    double mRmin2 = 0.0;
+    double mDFloor = 0.0; ///< the least closest approach to a star [pc] (DESIGN §3.5)
     std::vector<Vec3> mStarPos;
     const PhaseTable* mTable;
     /// The colour of channel 1's emission (SceneEmission::colour, or --emission-color).

@@ -6,6 +6,7 @@
 #include "nebula/render/path_tracer.h"
 
 #include "frame.h"
+#include "near_star.h"
 
 #include "nebula/core/units.h"
 #include "nebula/physics/colour.h"
@@ -234,12 +235,14 @@ void walk(const PathScene& ps, int cmax, bool grey, const Vec3& eye, const Vec3&
             return true;
         });
         if (!scattered) return;
-        // Real collision: absorb (1 - albedo) of the weight, light it from every star.
+        // Real collision: absorb (1 - albedo) of the weight, light it from every star (next
+        // event estimation; from the second collision on).
         x = x + d * tHit;
         for (double& b : beta)
             b *= dust.albedo;
         if (!(beta[0] > 0.0 || beta[1] > 0.0 || beta[2] > 0.0)) return;
-        for (std::size_t s = 0; s < ps.starPos.size(); ++s) {
+        // The first collision's light from the stars is singleScattering()'s.
+        for (std::size_t s = 0; depth > 0 && s < ps.starPos.size(); ++s) {
             const Vec3 v = ps.starPos[s] - x;
             const double r2 = v.dot(v);
             const double r = std::sqrt(r2);
@@ -266,6 +269,129 @@ void walk(const PathScene& ps, int cmax, bool grey, const Vec3& eye, const Vec3&
             if (rng.uniformDouble() >= q) return;
             for (double& b : beta)
                 b /= q;
+        }
+    }
+}
+
+/// Bins of the phase function along the ray in singleScattering().
+constexpr int PHASE_BINS = 32;
+
+/// The measure of the rectangle [0, a] x [0, b] under dA / rho (rho = |(x, y)|).
+double inverseDistanceMeasure(double a, double b)
+{
+    return a > 0.0 && b > 0.0 ? a * std::asinh(b / a) + b * std::asinh(a / b) : 0.0;
+}
+
+/// A point (u, v) of pixel (px, py) [image coordinates] at which to sample a star's
+/// scattered light, and its weight 1 / pdf; false: a point outside the pixel, which counts
+/// nothing. The pixel's centre, as the walks and the fast integrator sample every pixel
+/// (singleScattering() then averages the star's 1/b over the pixel as the fast integrator
+/// does); but near the star's image (sx, sy) its light grows as 1/rho (rho the distance to
+/// the image) within the pixel: in a pixel within half a pixel of the image (@p near) the
+/// point is drawn with pdf
+/// proportional to 1/rho over the smallest rectangle holding the pixel and the image,
+/// exactly (the four rectangles with a corner at the image, each in polar coordinates:
+/// dA / rho = drho dphi), so that the estimate averages the pixel with bounded variance (a
+/// uniform point's would diverge).
+bool pixelPoint(double px, double py, bool near, double sx, double sy, Pcg32& rng, double& u,
+                double& v, double& weight)
+{
+    weight = 1.0;
+    if (!near) {
+        u = px + 0.5;
+        v = py + 0.5;
+        return true;
+    }
+    const double x0 = std::min(px, sx), x1 = std::max(px + 1.0, sx);
+    const double y0 = std::min(py, sy), y1 = std::max(py + 1.0, sy);
+    const double ext[4][2] = {
+        {x1 - sx, y1 - sy}, {sx - x0, y1 - sy}, {sx - x0, sy - y0}, {x1 - sx, sy - y0}};
+    const double sign[4][2] = {{1, 1}, {-1, 1}, {-1, -1}, {1, -1}};
+    double m[4], total = 0.0;
+    for (int q = 0; q < 4; ++q)
+        total += m[q] = inverseDistanceMeasure(ext[q][0], ext[q][1]);
+    double pick = rng.uniformDouble() * total;
+    int q = 0;
+    while (q < 3 && pick >= m[q])
+        pick -= m[q++];
+    const double a = ext[q][0], b = ext[q][1];
+    // Below the diagonal (phi < atan(b/a), rho up to a / cos phi): measure a asinh(b/a),
+    // tan phi = sinh of a uniform number in [0, asinh(b/a)]; above it the same with x, y swapped.
+    const bool below = rng.uniformDouble() * m[q] < a * std::asinh(b / a);
+    const double along = below ? a : b, across = below ? b : a;
+    const double phi = std::atan(std::sinh(rng.uniformDouble() * std::asinh(across / along)));
+    const double rho = rng.uniformDouble() * along / std::cos(phi);
+    const double x = rho * std::cos(phi), y = rho * std::sin(phi);
+    u = sx + sign[q][0] * (below ? x : y);
+    v = sy + sign[q][1] * (below ? y : x);
+    weight = rho * total;
+    return u >= px && u < px + 1.0 && v >= py && v < py + 1.0;
+}
+
+/// Every star's light scattered once towards the eye in pixel (@p px, @p py) (its corner),
+/// along the ray through pixelPoint(), by equiangular sampling about
+/// the star (Kulla & Fajardo 2012, DESIGN §6): a point at ray distance t = s0 + b tan(theta)
+/// with theta between the angles of the lattice box's entry and exit has ds / r^2 =
+/// dtheta / b, so the 1/r^2 of the star's irradiance cancels and the estimate is bounded
+/// along the ray, however close to the star it passes; theta is drawn from the phase
+/// function tabulated in equal bins of angle (its forward peak would otherwise dominate the
+/// noise). Both transmittances ratio tracked. Adds to @p L[c] and @p Ls[s * 3 + c].
+void singleScattering(const PathScene& ps, int cmax, const Projection& cam, double px, double py,
+                      Pcg32& rng, double* L, double* Ls, std::uint64_t& collisions)
+{
+    const auto& dust = ps.scene->dust;
+    for (std::size_t s = 0; s < ps.starPos.size(); ++s) {
+        double sx = 0.0, sy = 0.0, u, v, weight;
+        const bool near = cam.project(ps.starPos[s], sx, sy) &&
+                          std::hypot(std::max({px - sx, 0.0, sx - px - 1.0}),
+                                     std::max({py - sy, 0.0, sy - py - 1.0})) < 0.5;
+        if (!pixelPoint(px, py, near, sx, sy, rng, u, v, weight)) continue;
+        Vec3 d;
+        if (!cam.direction(u, v, d)) continue;
+        const Vec3 o = cam.origin(u, v);
+        const Tracker tr(ps, o, d, INF);
+        if (!(tr.t1 > tr.t0)) continue;
+        const Vec3 toStar = ps.starPos[s] - o;
+        double s0 = toStar.dot(d), b = (toStar - d * s0).length();
+        if (!near) {
+            // The pixel's mean of the 1/b of a line near the star (DESIGN §3.5), as the fast
+            // integrator: the closest approach b becomes the effective one.
+            const auto rs = detail::rayStar(o, d, ps.starPos[s],
+                                            detail::pixelFootprint(cam, px + 0.5, py + 0.5), 0.0);
+            s0 = rs.s0;
+            b = rs.d;
+        }
+        if (!(b > 0.0)) continue; // the ray through the star: measure zero
+        // theta from the phase function tabulated in PHASE_BINS equal bins between the box's
+        // entry and exit angles (piecewise constant); the point's cosine is -sin(theta).
+        const double thA = std::atan((tr.t0 - s0) / b), thB = std::atan((tr.t1 - s0) / b);
+        const double dTh = (thB - thA) / PHASE_BINS;
+        double cdf[PHASE_BINS + 1] = {0.0};
+        for (int i = 0; i < PHASE_BINS; ++i) {
+            const double mid = -std::sin(thA + (i + 0.5) * dTh);
+            cdf[i + 1] = cdf[i] + phaseFunction(dust.phase, mid, dust.g);
+        }
+        const double pick = rng.uniformDouble() * cdf[PHASE_BINS];
+        const int bin = std::min(
+            PHASE_BINS - 1, int(std::upper_bound(cdf + 1, cdf + PHASE_BINS + 1, pick) - cdf - 1));
+        const double theta = thA + (bin + rng.uniformDouble()) * dTh;
+        const double t = s0 + b * std::tan(theta);
+        const double n = ps.fields.sample0(tr.ray.oI + tr.ray.dI * t);
+        if (!(n > 0.0)) continue;
+        const Vec3 x = o + d * t, w = ps.starPos[s] - x;
+        const double r = w.length(); // the star's distance (b: the effective one, DESIGN §3.5)
+        // 1 / pdf(theta) = sum_j p_j dTh / p_bin; ds / r^2 = dtheta / b.
+        const double g = weight * dust.albedo *
+                         phaseFunction(dust.phase, -std::sin(theta), dust.g) * cdf[PHASE_BINS] *
+                         dTh / ((cdf[bin + 1] - cdf[bin]) * 4.0 * PI * b);
+        double Te[3], Ts[3] = {1.0, 1.0, 1.0};
+        transmittance(ps, cmax, o, d, t, rng, collisions, Te);
+        if (r > 0.0) transmittance(ps, cmax, x, w * (1.0 / r), r, rng, collisions, Ts);
+        for (int c = 0; c < 3; ++c) {
+            const double add =
+                dust.kappa_V * dust.r[c] * n * g * Te[c] * Ts[c] * ps.scene->starColor[s][c];
+            L[c] += add;
+            Ls[s * 3 + c] += add;
         }
     }
 }
@@ -326,6 +452,7 @@ Image renderPathTraced(const RenderScene& scene, const RenderOptions& opts, cons
                         double L[3] = {0, 0, 0}, T[3] = {1, 1, 1};
                         std::fill(Ls.begin(), Ls.end(), 0.0);
                         walk(ps, cmax, grey, origin, d, rng, L, Ls.data(), T, band.collisions);
+                        singleScattering(ps, cmax, cam, px, py, rng, L, Ls.data(), band.collisions);
                         ++band.paths;
                         const double Lc[4] = {L[0], L[1], L[2],
                                               linearSRGBLuminance(L[0], L[1], L[2])};

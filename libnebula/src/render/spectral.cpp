@@ -19,6 +19,7 @@
 #include "nebula/render/spectral.h"
 
 #include "frame.h"
+#include "near_star.h"
 #include "spectral_absorption.h"
 
 #include "nebula/core/error.h"
@@ -166,6 +167,8 @@ struct SpectralScratch
     std::vector<double> Sfield;       ///< per field wavelength: its source function towards the eye
     std::vector<double> layerDeficit; ///< [component][layer]: what the absorption lines took
     detail::AbsorptionScratch abs;    ///< the absorption lines' state (none without them)
+    std::vector<detail::RayStar> rayStars; ///< per star: as the pixel's ray sees it
+    detail::StarNodes nodes;               ///< one step's, for one star
     RenderStats stats;
 };
 
@@ -215,7 +218,7 @@ public:
     {
         starSpectra();
         layerWeights();
-        mRmin2 = std::pow(opts.minStarDistance * mLevel0.voxelWorld, 2);
+        mDFloor = detail::NEAR_STAR_FLOOR * mLevel0.voxelWorld;
         for (const auto& s : mRs.stars) {
             mStarPos.emplace_back(s.position[0], s.position[1], s.position[2]);
         }
@@ -238,6 +241,7 @@ public:
         SpectralScratch sc;
         sc.f.resize(std::size_t(mRs.fields.channels()));
         sc.Cstar.resize(S * J);
+        sc.rayStars.resize(S);
         sc.Cgas.resize(J);
         sc.Cfield.resize(J);
         sc.Ctotal.resize(J);
@@ -262,6 +266,11 @@ public:
         if (!mCam.direction(px + 0.5, py + 0.5, ray.dW)) return; // outside the view: black
         ray.dI = mLevel0.w2i.applyLinear(ray.dW);
         ray.oW = mCam.origin(px + 0.5, py + 0.5);
+        if (!mRs.stars.empty()) {
+            const auto fp = detail::pixelFootprint(mCam, px + 0.5, py + 0.5);
+            for (std::size_t s = 0; s < mRs.stars.size(); ++s)
+                sc.rayStars[s] = detail::rayStar(ray.oW, ray.dW, mStarPos[s], fp, mDFloor);
+        }
         if (mField) {
             // Scattered towards the eye: Y_lm of the light's travel direction, -dW.
             double Y[shCount(SH_MAX_DEGREE)];
@@ -485,18 +494,21 @@ private:
         if (mAbsorption.active()) mAbsorption.absorbPiece(p, sc.abs);
     }
 
-    /// Every star's light scattered at world point xW towards the eye, at each node: the
-    /// phase function and 1/(4 pi r^2) times the star's spectrum attenuated from the star and
-    /// to the eye (one exponential per node for both), times 1 - e^-x Lambda (sc.A).
-    void scatterStarlight(const Vec3& xW, const SpectralRay& ray, SpectralScratch& sc) const
+    /// Every star's light scattered towards the eye from the step [tm - seg/2, tm + seg/2],
+    /// at each node: the phase function (averaged over the step's nodes at equal
+    /// angles near the star, DESIGN §3.5) and the step's mean of 1/(4 pi r^2) times the
+    /// star's spectrum attenuated from the star and to the eye (one exponential per node for
+    /// both), times 1 - e^-x Lambda (sc.A).
+    void scatterStarlight(double tm, double seg, const SpectralRay& ray, SpectralScratch& sc) const
     {
         const std::size_t S = mRs.stars.size(), J = mNodes.size();
+        detail::StarNodes& nodes = sc.nodes;
         for (std::size_t s = 0; s < S; ++s) {
-            const Vec3 v = xW - mStarPos[s];
-            const double r2 = v.dot(v);
-            const double mu = r2 > 0.0 ? -v.dot(ray.dW) / std::sqrt(r2) : 1.0;
-            const double w = mDust.albedo * phaseFunction(mDust.phase, mu, mDust.g) /
-                             (4.0 * PI * std::max(r2, mRmin2));
+            detail::starNodes(sc.rayStars[s], tm - 0.5 * seg, tm + 0.5 * seg, nodes);
+            double p = 0.0;
+            for (int i = 0; i < nodes.n; ++i)
+                p += phaseFunction(mDust.phase, nodes.mu[i], mDust.g) / nodes.n;
+            const double w = mDust.albedo * p * nodes.total / (4.0 * PI * seg);
             const double tauS = ray.tau + std::max(0.0f, sc.f[2 + s]);
             const double* spec = &mStarSpec[s * J];
             double* acc = &sc.Cstar[s * J];
@@ -640,7 +652,7 @@ private:
             for (std::size_t j = 0; j < mNodes.size(); ++j)
                 sc.A[j] = -std::expm1(-x * mNodes.lamExt[j]);
             const Vec3 xW = ray.oW + ray.dW * tm;
-            scatterStarlight(xW, ray, sc);
+            scatterStarlight(tm, seg, ray, sc);
             if (mField) scatterField(xW, ray, sc);
             blackbodyEmission(pI, ray, sc);
         }
@@ -776,7 +788,7 @@ private:
     std::vector<double> mLayerOfNode;         ///< [b][j]
     /// Per layer b: the nodes [first, second) whose weight in it is not 0 (a few).
     std::vector<std::pair<std::size_t, std::size_t>> mLayerNodes;
-    double mRmin2 = 0.0;
+    double mDFloor = 0.0; ///< the least closest approach to a star [pc] (DESIGN §3.5)
     std::vector<Vec3> mStarPos;
     double mBbFactor = 0.0;
     double mLineWidth = 0.0;
