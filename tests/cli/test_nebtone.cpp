@@ -8,6 +8,7 @@
 
 #include <gtest/gtest.h>
 
+#include <filesystem>
 #include <fstream>
 #include <map>
 #include <string>
@@ -64,4 +65,34 @@ TEST_F(Cli, NebtoneTonesASequenceWithOneSmoothCurve)
     expectFailure("nebtone -i 's/f.####.exr' -o 'd/nopattern.png'", 2, "frame pattern");
     expectFailure("nebtone -i 'none/f.####.exr' -o 'd/x.####.png'", 1, "none");
     expectFailure("nebtone -i 's/f.####.exr' --window fast -o 'd/x.####.png'", 2, "--window");
+}
+
+// nebrender's tone options in nebtone, with their names and meanings: --gamma alone (the
+// automatic white point, a fixed gamma; each frame its own curve with --window 0) and
+// --exposure with --gamma (a fixed curve) give nebrender's PNG of the same frame, pixel for
+// pixel; out-of-range values are refused as nebrender refuses them.
+TEST_F(Cli, NebtoneTakesNebrendersToneOptions)
+{
+    makeLit();
+    ASSERT_EQ(run("mkdir s d && nebrender -i lit.vdb --res 24x24 --gamma 0.6 -o s/f.0001.exr && "
+                  "nebrender -i lit.vdb --res 24x24 --exposure 3 --gamma 0.7 -o s/e.0001.exr")
+                  .code,
+              0);
+    Result r = run("nebtone -i 's/f.####.exr' --gamma 0.6 --window 0 -o 'd/f.####.png' -v");
+    ASSERT_EQ(r.code, 0) << r.err;
+    EXPECT_NE(r.err.find("gamma 0.6"), std::string::npos) << r.err;
+    EXPECT_EQ(pngPixels(path("d/f.0001.png")), pngPixels(path("s/f.0001.png")));
+    r = run("nebtone -i 's/e.####.exr' --exposure 3 --gamma 0.7 -o 'd/e.####.png' -v");
+    ASSERT_EQ(r.code, 0) << r.err;
+    EXPECT_NE(r.err.find("fixed: exposure 3, gamma 0.7"), std::string::npos) << r.err;
+    EXPECT_EQ(pngPixels(path("d/e.0001.png")), pngPixels(path("s/e.0001.png")));
+    // The automatic gamma differs from 0.6 on this frame, so the test can fail.
+    ASSERT_EQ(run("nebtone -i 's/f.####.exr' --window 0 -o 'd/a.####.png'").code, 0);
+    EXPECT_NE(pngPixels(path("d/a.0001.png")), pngPixels(path("s/f.0001.png")));
+    for (const char* bad : {"--gamma 0", "--gamma -1", "--gamma inf", "--exposure nan"}) {
+        r = run(std::string("nebtone -i 's/f.####.exr' ") + bad + " -o 'd/b.####.png'");
+        EXPECT_EQ(r.code, 2) << bad;
+        EXPECT_NE(r.err.find(std::string(bad).substr(0, 7)), std::string::npos) << r.err;
+        EXPECT_FALSE(std::filesystem::exists(path("d/b.0001.png"))) << bad;
+    }
 }

@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
 // nebtone - display frames of an EXR sequence under one slowly changing tone curve.
 #include "nebula/cli/cli.h"
+#include "nebula/cli/options.h"
 #include "nebula/core/error.h"
 #include "nebula/core/frames.h"
 #include "nebula/stages/tone.h"
@@ -23,7 +24,8 @@ int main(int argc, char** argv)
         "Examples:\n"
         "  nebtone -i 'frames/f.####.exr' -o 'display/f.####.png'\n"
         "  nebtone -i 'frames/f.%04d.exr' --frames 1-240 --window 2 --bits 16 -o 'd/f.%04d.png'\n"
-        "  nebtone -i 'frames/f.####.exr' --window all -o 'd/f.####.png'   # one curve",
+        "  nebtone -i 'frames/f.####.exr' --window all -o 'd/f.####.png'   # one curve\n"
+        "  nebtone -i 'frames/f.####.exr' --gamma 0.6 -o 'd/f.####.png'  # a preset's look",
         "nebtone"};
     nebula::cli::addCommon(app, common, 0);
     nebula::cli::inputFile(app.add_option("-i,--input", opts.input,
@@ -48,14 +50,13 @@ int main(int argc, char** argv)
     app.add_option("--bits", opts.bits, "PNG bit depth: 8 or 16")
         ->check(CLI::IsMember({8, 16}))
         ->capture_default_str();
-    app.add_option("--percentile", opts.percentile,
-                   "White point = this percentile of the lit pixels' luminance")
-        ->capture_default_str()
-        ->check(nebula::cli::numberIn(1.0, 100.0));
+    nebula::ToneOptions tone; // --exposure, --gamma, --percentile: nebrender's
+    nebula::cli::addTone(app, opts.tone, tone, "");
     app.add_flag("--skip-existing", opts.skipExisting,
                  "Skip frames whose PNG exists and decodes whole");
 
     return nebula::cli::run(app, "nebtone", common, argc, argv, [&](nebula::Run& run) {
+        tone.apply(opts.tone);
         if (!framesText.empty()) {
             opts.frames = nebula::parseFrameRange(framesText, "--frames").frames();
         }

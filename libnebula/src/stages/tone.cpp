@@ -205,17 +205,30 @@ void toneSequence(const ToneSequenceOptions& opts, const Run& run)
     std::vector<LuminanceStats> stats;
     for (const long f : frames) {
         const std::string exr = expandFramePattern(opts.input, f);
-        stats.push_back(frameStats(exr, f, opts.percentile, fps, run));
+        stats.push_back(frameStats(exr, f, opts.tone.percentile, fps, run));
     }
     if (!(fps > 0.0)) fps = 24.0;
     std::vector<double> times;
     for (const long f : frames)
         times.push_back(double(f - 1) / fps);
     const bool smoothing = opts.whole || opts.window > 0.0;
-    const auto curves = sequenceToneCurves(
-        times, smoothing ? withoutOutliers(stats, frames, run) : stats, opts.window, opts.whole);
-    const std::string how = opts.whole ? std::string("one curve for the sequence")
-                                       : fmt::format("window {:g} s at {:g} fps", opts.window, fps);
+    std::vector<ToneCurve> curves;
+    std::string how;
+    if (!opts.tone.automatic) { // a fixed curve: the same for every frame, as nebrender's
+        curves.assign(frames.size(), computeToneCurve(Image(1, 1), opts.tone));
+        how = fmt::format("fixed: exposure {:g}, gamma {:g}", opts.tone.exposure, opts.tone.gamma);
+    } else {
+        curves = sequenceToneCurves(times, smoothing ? withoutOutliers(stats, frames, run) : stats,
+                                    opts.window, opts.whole);
+        how = opts.whole ? std::string("one curve for the sequence")
+                         : fmt::format("window {:g} s at {:g} fps", opts.window, fps);
+        if (opts.tone.fixedGamma) { // the white point follows the sequence, gamma does not
+            const double gamma = computeToneCurve(Image(1, 1), opts.tone).gamma; // checked
+            for (auto& c : curves)
+                c.gamma = gamma;
+            how += fmt::format(", gamma {:g}", gamma);
+        }
+    }
     run.info(fmt::format("{} frames, {}", frames.size(), how));
     std::size_t skipped = 0;
     for (std::size_t i = 0; i < frames.size(); ++i) {

@@ -23,10 +23,14 @@ struct ToneSequenceOptions
     /// frames around it, Gaussian weights of standard deviation window / 2 (truncated at 3
     /// standard deviations); 0: each frame its own curve.
     double window = 1.0;
-    bool whole = false;       ///< one curve for the whole sequence (window "all")
-    double fps = 0.0;         ///< frames per second; 0: the EXRs' nebula:frame, else 24
-    int bits = 8;             ///< PNG bit depth, 8 or 16
-    double percentile = 99.5; ///< white point: this percentile of the lit pixels' luminance
+    bool whole = false; ///< one curve for the whole sequence (window "all")
+    double fps = 0.0;   ///< frames per second; 0: the EXRs' nebula:frame, else 24
+    int bits = 8;       ///< PNG bit depth, 8 or 16
+    /// The tone, with nebrender's options and meanings (cli::addTone()): automatic (white
+    /// point: tone.percentile of the lit pixels' luminance, smoothed over the window; gamma
+    /// fitted to the smoothed log-mean), with a fixed gamma (fixedGamma: --gamma alone), or
+    /// a fixed curve for every frame (!automatic: --exposure, with --gamma).
+    ToneParams tone;
     bool skipExisting = false;
 };
 
