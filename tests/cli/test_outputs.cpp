@@ -10,6 +10,8 @@
 #include <gtest/gtest.h>
 
 #include <fstream>
+#include <iterator>
+#include <sstream>
 #include <string>
 
 using namespace nebula::clitest;
@@ -110,4 +112,42 @@ TEST_F(Outputs, NamesEndAsTheirFormat)
                   "-o d.fits.gz: the name ends in \".gz\", but this output is FITS; name it "
                   "*.fits, *.fit, *.fts",
                   {});
+}
+
+// Progress in a log (issue 47): with stderr not a terminal (here a file) and -v, a tool
+// writes its progress as lines, one each time the work passes a multiple of 5 % (or 30 s
+// after the last), and one when done; without -v, none.
+TEST_F(Cli, ProgressIsWrittenAsLinesToALogUnderVerbose)
+{
+    makeLit();
+    ASSERT_EQ(run("nebscatter -i lit.vdb --packets 20000 -o f.vdb -v 2> log.txt").code, 0);
+    std::ifstream file(path("log.txt"));
+    const std::string text((std::istreambuf_iterator<char>(file)),
+                           std::istreambuf_iterator<char>());
+    EXPECT_EQ(text.find('\r'), std::string::npos); // no bar drawn with carriage returns
+    std::istringstream in(text);
+    std::string line;
+    int steps = 0, done = 0, last = -1;
+    bool rising = true;
+    while (std::getline(in, line)) {
+        if (line.rfind("nebscatter ", 0) != 0) continue; // "nebscatter stars: 35 % after 1 s"
+        const auto colon = line.find(": ");
+        if (colon == std::string::npos) continue;
+        const std::string rest = line.substr(colon + 2);
+        if (rest.rfind("done in ", 0) == 0) {
+            ++done;
+            last = -1;
+        } else if (rest.find(" % after ") != std::string::npos) {
+            const int pct = std::stoi(rest);
+            rising = rising && pct > last && pct < 100;
+            last = pct;
+            ++steps;
+        }
+    }
+    EXPECT_GE(done, 1);
+    EXPECT_GE(steps, 10); // at least every 5 % of one source's packets, less a few skipped
+    EXPECT_TRUE(rising);
+    const Result quiet = run("nebscatter -i lit.vdb --packets 20000 -o g.vdb");
+    ASSERT_EQ(quiet.code, 0);
+    EXPECT_EQ(quiet.err.find(" % after "), std::string::npos) << quiet.err;
 }

@@ -2,8 +2,9 @@
 #pragma once
 /// @file run.h
 /// What a running tool knows about itself (its name, the command line for provenance, how
-/// talkative to be) and the TTY-only progress bar. Knows nothing of command-line parsing:
-/// cli/ builds a Run from the parsed options; the library only reports through it.
+/// talkative to be) and progress: a bar on a terminal, lines in a log under -v. Knows nothing of
+/// command-line parsing: cli/ builds a Run from the parsed options; the library only reports
+/// through it.
 
 #include <atomic>
 #include <chrono>
@@ -39,6 +40,9 @@ public:
 
     /// Whether progress bars are drawn (stderr is a TTY and not -q).
     bool showProgress() const { return mProgress; }
+    /// Whether progress is written as lines instead (stderr is not a terminal: a log file, a
+    /// Slurm job, CI; and -v is given, not -q).
+    bool progressLines() const { return mProgressLines; }
 
     /// Work done under this run stops early, throwing Cancelled, once @p flag is true (null:
     /// never). The flag outlives the work; whoever sets it catches Cancelled.
@@ -55,6 +59,7 @@ private:
     std::string mCommand;
     Verbosity mVerbosity;
     bool mProgress = false;
+    bool mProgressLines = false;
     const std::atomic<bool>* mCancel = nullptr;
 };
 
@@ -65,7 +70,10 @@ std::string timeLeftText(double elapsed, double fraction);
 
 /// A thread-safe progress bar on stderr, drawn only when the run shows progress; redrawn at
 /// most 10 times a second with '\r' (with the time left, timeLeftText()), finished with a
-/// newline. A null run draws nothing.
+/// newline. Where the run writes progress as lines (Run::progressLines()), a line each time
+/// the work passes a multiple of 5 % or 30 s after the last line, whichever comes first
+/// ("LABEL: 35 % after 12 s, 22 s left"), and one when done ("LABEL: done in 34 s"). A null
+/// run draws nothing.
 
 class Progress
 {
@@ -81,7 +89,10 @@ public:
 
 private:
     void draw(bool final);
+    void line(bool final);
     bool mEnabled;
+    bool mLines = false;
+    int mLastStep = 0; ///< lines: the last 5 % step written
     std::string mLabel;
     std::uint64_t mTotal;
     std::atomic<std::uint64_t> mDone{0};
