@@ -512,7 +512,10 @@ private:
     /// optically thin there: level L where the densest dust a level-L sample in the block can
     /// average (RenderScene::detailDensity) has optical depth at most @p maxDepth across a
     /// level-L voxel in the most opaque channel. Returns the coarsest level any block samples
-    /// (one whose dust a level reaches, RenderScene::detailReach); infinity: none is limited.
+    /// (one whose dust a level reaches, RenderScene::detailReach), or 0 where fewer than a
+    /// tenth of the occupied blocks may coarsen: the levels would not pay for the steps they
+    /// add round the dust (the presets whose dust is thick then cost what --lod 0 does,
+    /// not up to 1.7x it). Infinite @p maxDepth: none is limited.
     int limitDetail(int maxLevel, double maxDepth)
     {
         if (maxLevel == 0 || maxDepth == std::numeric_limits<double>::infinity()) return maxLevel;
@@ -521,14 +524,17 @@ private:
         const auto& density = mScene.detailDensity;
         mCoarsest.assign(density.size(), 0);
         int used = 0;
+        std::size_t occupied = 0, coarse = 0;
         for (std::size_t b = 0; b < density.size(); ++b) {
             int L = maxLevel;
             while (L > 0 && perDensity * double(1 << L) * double(density[b][L >= 3]) > maxDepth)
                 --L;
             mCoarsest[b] = std::uint8_t(L);
             if (mScene.detailReach[b] <= L) used = std::max(used, L);
+            occupied += mScene.occupied[b];
+            coarse += mScene.occupied[b] && L > 0;
         }
-        return used;
+        return 10 * coarse < occupied ? 0 : used;
     }
 
     /// Whether building the levels can pay: the frame's samples at full resolution (at most
