@@ -92,6 +92,10 @@ int main(int argc, char** argv)
     app.add_option("--lod", opts.lod, "Level of detail (nebrender's --lod)")
         ->capture_default_str()
         ->check(nebula::cli::numberIn(0.0, 1e6));
+    app.add_option("--lod-tau", opts.lodMaxDepth,
+                   "Level of detail in thick dust (nebrender's --lod-tau)")
+        ->capture_default_str()
+        ->check(nebula::cli::positive());
     nebula::cli::addVec3(app, "--wavelengths", opts.wavelengths,
                          "R,G,B channel wavelengths [nm] for the extinction curve");
     nebula::cli::addEmissionAndStars(app, opts, noStars);

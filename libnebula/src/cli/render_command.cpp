@@ -115,11 +115,18 @@ void addSceneOptions(CLI::App& app, RenderCommand& c)
         ->capture_default_str()
         ->check(positive());
     app.add_option("--lod", c.opts.lod,
-                   "Level of detail (fast c.integrator): sample a copy of the fields at 2^L times\n"
+                   "Level of detail (fast integrator): sample a copy of the fields at 2^L times\n"
                    "the voxel (L <= 3) where its voxel spans at most LOD pixels, in steps of\n"
                    "--step of its voxels; 0: full resolution everywhere")
         ->capture_default_str()
         ->check(numberIn(0.0, 1e6));
+    app.add_option("--lod-tau", c.opts.lodMaxDepth,
+                   "Level of detail in thick dust: sample level L in an 8^3-voxel block only if\n"
+                   "a level-L voxel of the densest dust near it has at most this optical depth\n"
+                   "across (most opaque channel); thicker coarse voxels would change what the\n"
+                   "dust transmits. Larger: faster and less exact (1e30: no limit)")
+        ->capture_default_str()
+        ->check(positive());
     c.wavelengthsOption = addVec3(app, "--wavelengths", c.opts.wavelengths,
                                   "R,G,B channel wavelengths [nm] for the extinction curve (and\n"
                                   "--fits): in [0.001, 1e7), and 125-3333 with the CCM89 curve");

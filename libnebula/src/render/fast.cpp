@@ -121,7 +121,7 @@ public:
         // taken from the scene's cache) up front. Not with the effective phase function,
         // whose table and pyramid levels are made for level 0's voxel.
         if (opts.lod > 0.0 && !mTable && scene.levels.empty() && detailPays(opts)) {
-            mMaxDetail = detailLevelsNeeded(opts);
+            mMaxDetail = limitDetail(detailLevelsNeeded(opts), opts.lodMaxDepth);
             const Affine& toWorld = scene.fields.indexToWorld;
             for (int L = 1; L <= mMaxDetail; ++L) {
                 const SparseVolume& level = scene.detail.level(scene.fields, L);
@@ -205,8 +205,8 @@ public:
                 return level;
             };
             sc.stats.rays += mLevel0.marchDetail(
-                ray.dW, mOpts.step, footprint, mOpts.lod, mMaxDetail, mScene.detailReach, cap,
-                [&](const Vec3& pI, double tm, double seg, int level) {
+                ray.dW, mOpts.step, footprint, mOpts.lod, mMaxDetail, mScene.detailReach, mCoarsest,
+                cap, [&](const Vec3& pI, double tm, double seg, int level) {
                     return step(pI, tm, seg, ray, sc, level);
                 });
         } else {
@@ -524,6 +524,35 @@ private:
         return level;
     }
 
+    /// Fills mCoarsest, per block the coarsest level up to @p maxLevel whose voxel is
+    /// optically thin there: level L where the densest dust a level-L sample in the block can
+    /// average (RenderScene::detailDensity) has optical depth at most @p maxDepth across a
+    /// level-L voxel in the most opaque channel. Returns the coarsest level any block samples
+    /// (one whose dust a level reaches, RenderScene::detailReach), or 0 where fewer than a
+    /// tenth of the occupied blocks may coarsen: the levels would not pay for the steps they
+    /// add round the dust (the presets whose dust is thick then cost what --lod 0 does,
+    /// not up to 1.7x it). Infinite @p maxDepth: none is limited.
+    int limitDetail(int maxLevel, double maxDepth)
+    {
+        if (maxLevel == 0 || maxDepth == std::numeric_limits<double>::infinity()) return maxLevel;
+        const double perDensity = mDust.kappa_V * std::max({mDust.r[0], mDust.r[1], mDust.r[2]}) *
+                                  mLevel0.voxelWorld; // a voxel's optical depth per unit n_H
+        const auto& density = mScene.detailDensity;
+        mCoarsest.assign(density.size(), 0);
+        int used = 0;
+        std::size_t occupied = 0, coarse = 0;
+        for (std::size_t b = 0; b < density.size(); ++b) {
+            int L = maxLevel;
+            while (L > 0 && perDensity * double(1 << L) * double(density[b][L >= 3]) > maxDepth)
+                --L;
+            mCoarsest[b] = std::uint8_t(L);
+            if (mScene.detailReach[b] <= L) used = std::max(used, L);
+            occupied += mScene.occupied[b];
+            coarse += mScene.occupied[b] && L > 0;
+        }
+        return 10 * coarse < occupied ? 0 : used;
+    }
+
     /// Whether building the levels can pay: the frame's samples at full resolution (at most
     /// a step per --step voxels of the lattice's diagonal per pixel; a sample costs about 100
     /// ns) against the stored voxels a level's build reads once (about 10 ns each). A 32x18
@@ -539,6 +568,8 @@ private:
     }
 
     int mMaxDetail = 0; ///< levels of detail 1 .. this are sampled
+    /// Per block, the coarsest level of detail sampled there (limitDetail(); empty: no limit).
+    std::vector<std::uint8_t> mCoarsest;
     struct Detail
     {
         const SparseVolume* fields;

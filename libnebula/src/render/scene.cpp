@@ -72,6 +72,32 @@ void requireRayStep(const RenderScene& scene, double step)
         smallest * voxel));
 }
 
+namespace {
+
+/// Per block of a grid of @p n blocks, the largest of @p from over the block and the 26
+/// around it (the max norm's neighbours): one axis at a time.
+template <class T>
+std::vector<T> widenBlocks(const std::vector<T>& from, const std::array<int, 3>& n)
+{
+    std::vector<T> to = from;
+    for (int axis = 0; axis < 3; ++axis) {
+        const std::vector<T> before = to;
+        const std::ptrdiff_t stride = axis == 0 ? 1 : axis == 1 ? n[0] : n[0] * n[1];
+        for (int k = 0; k < n[2]; ++k)
+            for (int j = 0; j < n[1]; ++j)
+                for (int i = 0; i < n[0]; ++i) {
+                    const int at[3] = {i, j, k};
+                    const std::size_t b = (std::size_t(k) * n[1] + j) * n[0] + i;
+                    if (at[axis] > 0) to[b] = std::max(to[b], before[b - stride]);
+                    if (at[axis] + 1 < n[std::size_t(axis)])
+                        to[b] = std::max(to[b], before[b + stride]);
+                }
+    }
+    return to;
+}
+
+} // namespace
+
 void RenderScene::buildOccupancy()
 {
     // A lattice cell is occupied if any of its 8 corners has dust or emission.
@@ -81,30 +107,19 @@ void RenderScene::buildOccupancy()
     for (std::size_t b = 0; b < maxima.size(); ++b) {
         occupied[b] = maxima[b][0] > 0.0f || maxima[b][1] > 0.0f;
     }
-    // Distance to the nearest occupied block in blocks (max norm), up to 2: grown one block
-    // at a time, one axis at a time.
-    const int n[3] = {blocks[0], blocks[1], blocks[2]};
-    const auto grow = [&](const std::vector<std::uint8_t>& from) {
-        std::vector<std::uint8_t> to = from;
-        for (int axis = 0; axis < 3; ++axis) {
-            const std::vector<std::uint8_t> before = to;
-            const std::ptrdiff_t stride = axis == 0 ? 1 : axis == 1 ? n[0] : n[0] * n[1];
-            for (int k = 0; k < n[2]; ++k)
-                for (int j = 0; j < n[1]; ++j)
-                    for (int i = 0; i < n[0]; ++i) {
-                        const int at[3] = {i, j, k};
-                        const std::size_t b = (std::size_t(k) * n[1] + j) * n[0] + i;
-                        if ((at[axis] > 0 && before[b - stride]) ||
-                            (at[axis] + 1 < n[axis] && before[b + stride]))
-                            to[b] = 1;
-                    }
-        }
-        return to;
-    };
-    const auto one = grow(occupied), two = grow(one);
+    // Distance to the nearest occupied block in blocks (max norm), up to 2.
+    const auto one = widenBlocks(occupied, blocks), two = widenBlocks(one, blocks);
     detailReach.resize(occupied.size());
     for (std::size_t b = 0; b < occupied.size(); ++b)
         detailReach[b] = occupied[b] ? 0 : one[b] ? 1 : two[b] ? 3 : 255;
+    // The largest density within one block and within two.
+    std::vector<float> density(maxima.size());
+    for (std::size_t b = 0; b < maxima.size(); ++b)
+        density[b] = maxima[b][0];
+    const auto within1 = widenBlocks(density, blocks), within2 = widenBlocks(within1, blocks);
+    detailDensity.resize(maxima.size());
+    for (std::size_t b = 0; b < maxima.size(); ++b)
+        detailDensity[b] = {within1[b], within2[b]};
     detail.clear();
     column.clear();
 }

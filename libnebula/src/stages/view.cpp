@@ -18,6 +18,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <limits>
 
 namespace nebula {
 
@@ -96,7 +97,11 @@ RenderOptions ViewSession::stageOptions(const Camera& camera, ViewStage stage, b
     if (stage != ViewStage::Final) {
         opts.step = mSettings.fastStep;
         opts.exactStarDepth = false;
-        if (stage == ViewStage::Interactive) opts.lod = std::max(opts.lod, mSettings.fastLod);
+        if (stage == ViewStage::Interactive) {
+            // Speed first: coarse levels in thick dust too (DESIGN §9, --lod-tau).
+            opts.lod = std::max(opts.lod, mSettings.fastLod);
+            opts.lodMaxDepth = std::numeric_limits<double>::infinity();
+        }
     }
     opts.spectral.enabled = spectral;
     if (!spectral) { // the components apart; the sprites drawn by compose()

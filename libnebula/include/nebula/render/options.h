@@ -81,6 +81,12 @@ struct RenderOptions
     /// pixels, the ray samples that copy, in steps of `step` of its voxels, up to
     /// RenderScene::MAX_DETAIL_LEVEL. 0: always full resolution.
     double lod = 2.0;
+    /// Level of detail in optically thick dust: a block of the occupancy grid is sampled at
+    /// level L only where a level-L voxel of the densest dust it can average (within 1.5 x
+    /// 2^L voxels, RenderScene::detailDensity) has at most this optical depth across, in the
+    /// most opaque channel; a coarser voxel would change what the dust transmits (DESIGN §9).
+    /// Infinity: coarsen everywhere, as before this limit.
+    double lodMaxDepth = 0.5;
     std::array<double, 3> wavelengths{700.0, 546.1, 435.8}; ///< R, G, B channels [nm]
     /// Calibrated light (DESIGN §13; nebrender --fits): every star shines its black body's
     /// spectral luminosity (blackbodySpectralLuminosity(), its luminosity bolometric), not its

@@ -154,13 +154,20 @@ struct RenderScene
     /// most 6 voxels), 3 two blocks from one, 255 farther. A level-L step skips blocks whose value
     /// exceeds L.
     std::vector<std::uint8_t> detailReach;
+    /// Per block, the largest density n_H a level-of-detail sample there can average: over
+    /// the block and the 26 around it ([0]: what a level-1 or level-2 voxel sampled in the
+    /// block covers, with its trilinear neighbours) and over two blocks every way ([1]: a
+    /// level-3 voxel's). The fast integrator coarsens a block only to levels whose voxel is
+    /// optically thin at that density (RenderOptions::lodMaxDepth, DESIGN §9).
+    std::vector<std::array<float, 2>> detailDensity;
     /// The fields' levels of detail, built when a frame first needs them.
     DetailLevels detail;
     /// The density's column integrator, built when a frame first needs it.
     DensityColumn column;
 
-    /// (Re)computes `blocks`, `occupied` and `detailReach` from channels 0 (density) and 1
-    /// (emission), and forgets the levels of detail and the column integrator.
+    /// (Re)computes `blocks`, `occupied`, `detailReach` and `detailDensity` from channels 0
+    /// (density) and 1 (emission), and forgets the levels of detail and the column
+    /// integrator.
     void buildOccupancy();
 
     /// Pyramid levels 1..K (empty without RenderOptions::levels).

@@ -170,10 +170,13 @@ struct Marcher
     /// up to @p maxLevel whose voxel spans at most @p lod pixels there and at most
     /// @p cap(t) (the caller's limit there, e.g. near a star), and @p step(pI, tm, seg, L)
     /// is told L. Empty space is skipped by `occupied` at level 0 and by @p reach (per block,
-    /// the lowest level that may be non-zero there) above it.
+    /// the lowest level that may be non-zero there) above it. @p coarsest (per block; empty:
+    /// no limit) caps L in the block holding the step's midpoint (the nearest block off the
+    /// grid).
     template <class Cap, class Step>
     bool marchDetail(const Vec3& dW, double stepVoxels, double footprint, double lod, int maxLevel,
-                     const std::vector<std::uint8_t>& reach, Cap&& cap, Step&& step) const
+                     const std::vector<std::uint8_t>& reach,
+                     const std::vector<std::uint8_t>& coarsest, Cap&& cap, Step&& step) const
     {
         // Level L spreads the dust by up to 1.5 x 2^L voxels, past the lattice too.
         const BlockRay ray(vol, blocks, eyeI, w2i.applyLinear(dW),
@@ -190,17 +193,34 @@ struct Marcher
                 ++level;
                 tNext = level < maxLevel ? perLevel * double(2 << level) : inf;
             }
-            const int use = level ? std::min(level, int(cap(t))) : 0;
-            const double seg = std::min(dt * double(1 << use), ray.t1 - t);
+            const int wanted = level ? std::min(level, int(cap(t))) : 0;
+            int use = wanted;
+            double seg = std::min(dt * double(1 << use), ray.t1 - t);
+            Vec3 pI = ray.oI + ray.dI * (t + 0.5 * seg);
+            int b, bb[3] = {0, 0, 0}, nearest[3];
+            std::size_t near = use ? std::size_t(ray.nearestBlock(pI, bb, nearest)) : 0;
+            while (use && !coarsest.empty() && coarsest[near] < use) {
+                // Too coarse for this block's dust: the finer step, midpoint and block.
+                use = coarsest[near];
+                seg = std::min(dt * double(1 << use), ray.t1 - t);
+                pI = ray.oI + ray.dI * (t + 0.5 * seg);
+                near = std::size_t(ray.nearestBlock(pI, bb, nearest));
+            }
             const double tm = t + 0.5 * seg;
-            const Vec3 pI = ray.oI + ray.dI * tm;
-            // Empty-space skipping: jump to the exit of an empty block. Level 0 is zero off the
-            // block grid but is not skipped there (the box's last cells); in the margin past
-            // the lattice a level L > 0 is as empty as the nearest block (whose reach counts
-            // from inside the lattice, so this errs towards sampling).
-            int b, bb[3], nearest[3];
-            if (use ? reach[std::size_t(ray.nearestBlock(pI, bb, nearest))] > use
-                    : ray.blockAt(pI, b, bb) && !occupied[std::size_t(b)]) {
+            // Empty-space skipping: jump to the exit of an empty block. In the margin past the
+            // lattice a level L > 0 is as empty as the nearest block (whose reach counts from
+            // inside the lattice, so this errs towards sampling). Level 0 is zero off the
+            // block grid; it is skipped there where `coarsest` refused a coarser level (the
+            // block-sized cell bb: blockAt() writes the same cell as nearestBlock() did), and
+            // not where the ray starts at level 0 (as before that limit, step for step).
+            bool empty;
+            if (use)
+                empty = reach[near] > use;
+            else if (ray.blockAt(pI, b, bb))
+                empty = !occupied[std::size_t(b)];
+            else
+                empty = use < wanted;
+            if (empty) {
                 t = std::max(ray.blockExit(bb), t + 1e-6 * dt);
                 continue;
             }
