@@ -46,8 +46,7 @@ struct Scratch
     /// irradiance factor at that level), resampled every half level-k voxel along the ray
     /// (the level's own resolution) and held between.
     std::vector<double> held;
-    std::vector<double> nextT;   ///< per level: ray distance of its next resample [pc]
-    std::vector<double> closest; ///< per star: ray distance of closest approach, its square
+    std::vector<double> nextT;             ///< per level: ray distance of its next resample [pc]
     std::vector<detail::RayStar> rayStars; ///< per star: as the pixel's ray sees it
     detail::StarNodes nodes;               ///< one step's, for one star
     RenderStats stats;
@@ -154,8 +153,6 @@ public:
         s.starL.resize(S * 3);
         s.held.resize(mLevels.size() * S * 3);
         s.nextT.resize(mLevels.size());
-        s.closest.resize(2 * S);
-        s.rayStars.resize(S);
         return s;
     }
 
@@ -174,29 +171,20 @@ public:
                 ray.fieldWeight[k] = mFieldPl[k] * Y[k];
         }
         std::fill(sc.starL.begin(), sc.starL.end(), 0.0);
-        if (S > 0) {
-            const auto fp = detail::pixelFootprint(mCam, px + 0.5, py + 0.5);
-            for (std::size_t s = 0; s < S; ++s)
-                sc.rayStars[s] = detail::rayStar(ray.oW, ray.dW, mStarPos[s], fp, mDFloor);
-        }
+        detail::rayStars(mCam, px + 0.5, py + 0.5, ray.oW, ray.dW, mStarPos, mDFloor, sc.rayStars);
         std::fill(sc.nextT.begin(), sc.nextT.end(), -std::numeric_limits<double>::infinity());
         if (mMaxDetail > 0) {
             // A pixel's angular size spans this many pc per pc of distance. Near a star its
             // light falls as 1/r^2: steps of at most a quarter of the distance r to every star
             // there, so the coarse steps sample it as finely as level 0.
             const double footprint = mCam.pixelAngle(px + 0.5, py + 0.5);
-            for (std::size_t s = 0; s < S; ++s) {    // closest approach: ray distance, b^2
-                const Vec3 v = mStarPos[s] - ray.oW; // from the ray's origin (ODS: off the eye)
-                const double tc = v.dot(ray.dW);
-                sc.closest[2 * s] = tc;
-                sc.closest[2 * s + 1] = std::max(0.0, v.dot(v) - tc * tc);
-            }
+            // The closest approaches (from the ray's origin; ODS: off the eye): sc.rayStars.
             const double stepWorld = mOpts.step * mLevel0.voxelWorld;
             const auto cap = [&](double t) {
                 double r2 = std::numeric_limits<double>::infinity();
                 for (std::size_t s = 0; s < S; ++s) {
-                    const double dt = t - sc.closest[2 * s];
-                    r2 = std::min(r2, sc.closest[2 * s + 1] + dt * dt);
+                    const double dt = t - sc.rayStars[s].s0;
+                    r2 = std::min(r2, sc.rayStars[s].b2 + dt * dt);
                 }
                 const double r = std::sqrt(r2);
                 int level = 0;

@@ -23,6 +23,11 @@ double inverseDistancePrimitive(double x, double y)
 
 } // namespace
 
+double inverseDistanceIntegral(double a, double b)
+{
+    return inverseDistancePrimitive(a, b);
+}
+
 PixelFootprint pixelFootprint(const Projection& cam, double px, double py)
 {
     PixelFootprint fp;
@@ -52,6 +57,7 @@ RayStar rayStar(const Vec3& o, const Vec3& dir, const Vec3& star, const PixelFoo
     RayStar rs;
     const Vec3 v = star - o;
     rs.s0 = v.dot(dir);
+    rs.b2 = std::max(0.0, v.dot(v) - rs.s0 * rs.s0);
     const Vec3 b = v - dir * rs.s0; // from the closest point to the star
     const double b2 = b.dot(b), bLen = std::sqrt(b2);
     rs.d = bLen;
@@ -75,6 +81,16 @@ RayStar rayStar(const Vec3& o, const Vec3& dir, const Vec3& star, const PixelFoo
     }
     rs.d = std::max(rs.d, dFloor);
     return rs;
+}
+
+void rayStars(const Projection& cam, double px, double py, const Vec3& o, const Vec3& dir,
+              const std::vector<Vec3>& stars, double dFloor, std::vector<RayStar>& out)
+{
+    out.resize(stars.size());
+    if (stars.empty()) return;
+    const PixelFootprint fp = pixelFootprint(cam, px, py);
+    for (std::size_t s = 0; s < stars.size(); ++s)
+        out[s] = rayStar(o, dir, stars[s], fp, dFloor);
 }
 
 void starNodes(const RayStar& rs, double ta, double tb, StarNodes& out)

@@ -18,6 +18,7 @@
 #include "nebula/render/camera.h"
 
 #include <cmath>
+#include <vector>
 
 namespace nebula::detail {
 
@@ -43,6 +44,10 @@ struct PixelFootprint
 /// The footprint of the pixel centred at (px, py) of @p cam (central differences).
 PixelFootprint pixelFootprint(const Projection& cam, double px, double py);
 
+/// The integral of 1 / sqrt(x^2 + y^2) over the rectangle [0, @p a] x [0, @p b] (a, b >= 0):
+/// a asinh(b / a) + b asinh(a / b).
+double inverseDistanceIntegral(double a, double b);
+
 /// The mean of 1 / sqrt(x'^2 + y'^2) over the square of side @p w centred at (@p x, @p y)
 /// (exact: the integral of 1/rho over a rectangle in closed form).
 double meanInverseDistance(double x, double y, double w);
@@ -54,12 +59,18 @@ struct RayStar
 {
     double s0 = 0.0;
     double d = 0.0;
+    double b2 = 0.0; ///< the true closest approach squared (the level of detail's cap)
 };
 
 /// The star at world point @p star seen by the ray from @p o along unit @p dir, the pixel's
 /// footprint @p fp (invalid: d = b), d at least @p dFloor (> 0).
 RayStar rayStar(const Vec3& o, const Vec3& dir, const Vec3& star, const PixelFootprint& fp,
                 double dFloor);
+
+/// rayStar() of every star at @p stars for the ray of pixel (@p px, @p py) of @p cam (its
+/// centre), from @p o along unit @p dir, into @p out (sized to the stars).
+void rayStars(const Projection& cam, double px, double py, const Vec3& o, const Vec3& dir,
+              const std::vector<Vec3>& stars, double dFloor, std::vector<RayStar>& out);
 
 /// A ray step's integral of 1/r^2 and the cosines at which to take the phase function: the
 /// midpoint, or where the step subtends more than NODE_ANGLE at the star, n points at equal

@@ -276,12 +276,6 @@ void walk(const PathScene& ps, int cmax, bool grey, const Vec3& eye, const Vec3&
 /// Bins of the phase function along the ray in singleScattering().
 constexpr int PHASE_BINS = 32;
 
-/// The measure of the rectangle [0, a] x [0, b] under dA / rho (rho = |(x, y)|).
-double inverseDistanceMeasure(double a, double b)
-{
-    return a > 0.0 && b > 0.0 ? a * std::asinh(b / a) + b * std::asinh(a / b) : 0.0;
-}
-
 /// A point (u, v) of pixel (px, py) [image coordinates] at which to sample a star's
 /// scattered light, and its weight 1 / pdf; false: a point outside the pixel, which counts
 /// nothing. The pixel's centre, as the walks and the fast integrator sample every pixel
@@ -309,7 +303,7 @@ bool pixelPoint(double px, double py, bool near, double sx, double sy, Pcg32& rn
     const double sign[4][2] = {{1, 1}, {-1, 1}, {-1, -1}, {1, -1}};
     double m[4], total = 0.0;
     for (int q = 0; q < 4; ++q)
-        total += m[q] = inverseDistanceMeasure(ext[q][0], ext[q][1]);
+        total += m[q] = detail::inverseDistanceIntegral(ext[q][0], ext[q][1]);
     double pick = rng.uniformDouble() * total;
     int q = 0;
     while (q < 3 && pick >= m[q])

@@ -241,7 +241,6 @@ public:
         SpectralScratch sc;
         sc.f.resize(std::size_t(mRs.fields.channels()));
         sc.Cstar.resize(S * J);
-        sc.rayStars.resize(S);
         sc.Cgas.resize(J);
         sc.Cfield.resize(J);
         sc.Ctotal.resize(J);
@@ -266,11 +265,7 @@ public:
         if (!mCam.direction(px + 0.5, py + 0.5, ray.dW)) return; // outside the view: black
         ray.dI = mLevel0.w2i.applyLinear(ray.dW);
         ray.oW = mCam.origin(px + 0.5, py + 0.5);
-        if (!mRs.stars.empty()) {
-            const auto fp = detail::pixelFootprint(mCam, px + 0.5, py + 0.5);
-            for (std::size_t s = 0; s < mRs.stars.size(); ++s)
-                sc.rayStars[s] = detail::rayStar(ray.oW, ray.dW, mStarPos[s], fp, mDFloor);
-        }
+        detail::rayStars(mCam, px + 0.5, py + 0.5, ray.oW, ray.dW, mStarPos, mDFloor, sc.rayStars);
         if (mField) {
             // Scattered towards the eye: Y_lm of the light's travel direction, -dW.
             double Y[shCount(SH_MAX_DEGREE)];
