@@ -18,7 +18,9 @@ int main(int argc, char** argv)
         "nebtone - PNG frames of a nebrender EXR sequence with a tone curve that does not\n"
         "flicker: each frame's white point and log-mean luminance (from its pixels) are\n"
         "averaged over the frames within the --window, and the automatic curve is computed\n"
-        "from the averages (a static camera gets one curve). Every frame is read and\n"
+        "from the averages (a static camera gets one curve). With a window, the gamma is\n"
+        "the sequence's and each frame's white point stays within --adapt stops of the\n"
+        "sequence's, so a dark interior stays dark. Every frame is read and\n"
         "checked before any PNG is written; a frame whose white point is a million-fold\n"
         "from the sequence's median is left out of the smoothing, with a warning.\n\n"
         "Examples:\n"
@@ -44,6 +46,11 @@ int main(int argc, char** argv)
                    "the frames' log white point and log-mean luminance; 0: every frame its own\n"
                    "curve; all: one curve for the whole sequence")
         ->capture_default_str();
+    app.add_option("--adapt", opts.adaptStops,
+                   "With a window: how far a frame's white point may move from the\n"
+                   "sequence's, in stops each way (a dark interior is not lifted into haze)")
+        ->capture_default_str()
+        ->check(nebula::cli::numberIn(0.0, 64.0));
     app.add_option("--fps", opts.fps,
                    "Frames per second (default: the EXRs' nebula:frame, else 24)")
         ->check(nebula::cli::numberIn(1e-3, 1e4));

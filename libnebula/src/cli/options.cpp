@@ -177,6 +177,9 @@ void addTone(CLI::App& app, ToneParams& tone, ToneOptions& opts, const std::stri
                    prefix + "automatic white point = this luminance percentile")
         ->capture_default_str()
         ->check(numberIn(1.0, 100.0));
+    app.add_flag("--tone-stars", tone.stars,
+                 prefix + "let the pixels that are mostly a star's sprite count in the\n"
+                          "automatic white point (default: the nebula sets it)");
 }
 
 } // namespace cli

@@ -57,6 +57,9 @@ void validateImage(const std::string& where, const Image& image, bool withLayers
     if (!image.inView.empty() && image.inView.size() != n) {
         throw Error(where + ": the image's in-view mask does not match its size");
     }
+    if (!image.starPixel.empty() && image.starPixel.size() != n) {
+        throw Error(where + ": the image's star-pixel mask does not match its size");
+    }
     if (!withLayers) return;
     std::set<std::string> names;
     // OpenEXR keeps channel names of up to 255 characters (and truncates longer ones, so that
@@ -312,6 +315,14 @@ void writeExr(AtomicFile& file, const Image& image,
                       Imf::Slice(Imf::FLOAT, sliceBase(inView.data()), sizeof(float),
                                  sizeof(float) * std::size_t(image.width)));
         }
+        std::vector<float> starPixel; // 1 where a star's sprite is most of the pixel
+        if (!image.starPixel.empty()) {
+            starPixel.assign(image.starPixel.begin(), image.starPixel.end());
+            header.channels().insert(EXR_STAR_PIXEL_CHANNEL, Imf::Channel(Imf::FLOAT));
+            fb.insert(EXR_STAR_PIXEL_CHANNEL,
+                      Imf::Slice(Imf::FLOAT, sliceBase(starPixel.data()), sizeof(float),
+                                 sizeof(float) * std::size_t(image.width)));
+        }
         for (const auto& [key, value] : attributes) {
             header.insert(key, Imf::StringAttribute(value));
         }
@@ -428,14 +439,18 @@ Image readExr(const std::string& path, std::map<std::string, std::string>* attri
 
         in.setFrameBuffer(fb);
         in.readPixels(dw.min.y, dw.max.y);
-        // The in-view mask comes back as Image::inView, not as a channel.
-        for (auto it = image.channels.begin(); it != image.channels.end(); ++it) {
-            if (it->name != EXR_IN_VIEW_CHANNEL) continue;
-            image.inView.resize(it->values.size());
-            for (std::size_t i = 0; i < it->values.size(); ++i)
-                image.inView[i] = it->values[i] > 0.5f ? 1 : 0;
-            image.channels.erase(it);
-            break;
+        // The in-view and star-pixel masks come back as Image::inView and
+        // Image::starPixel, not as channels.
+        for (const auto& [channel, mask] : {std::pair{EXR_IN_VIEW_CHANNEL, &image.inView},
+                                            std::pair{EXR_STAR_PIXEL_CHANNEL, &image.starPixel}}) {
+            for (auto it = image.channels.begin(); it != image.channels.end(); ++it) {
+                if (it->name != channel) continue;
+                mask->resize(it->values.size());
+                for (std::size_t i = 0; i < it->values.size(); ++i)
+                    (*mask)[i] = it->values[i] > 0.5f ? 1 : 0;
+                image.channels.erase(it);
+                break;
+            }
         }
 
         if (attributes) {
@@ -472,7 +487,8 @@ ToneCurve computeToneCurve(const Image& image, const ToneParams& params)
         }
         return curve;
     }
-    ToneCurve automatic = toneCurveFromStats(luminanceStats(image, params.percentile));
+    ToneCurve automatic =
+        toneCurveFromStats(luminanceStats(image, params.percentile, params.stars));
     if (params.fixedGamma) {
         if (!(params.gamma > 0.0) || !std::isfinite(params.gamma)) {
             throw Error("tone curve: gamma must be positive, got " + std::to_string(params.gamma));
@@ -482,7 +498,7 @@ ToneCurve computeToneCurve(const Image& image, const ToneParams& params)
     return automatic;
 }
 
-LuminanceStats luminanceStats(const Image& image, double percentile)
+LuminanceStats luminanceStats(const Image& image, double percentile, bool stars)
 {
     if (!(percentile >= 0.0 && percentile <= 100.0)) {
         throw Error("tone curve: percentile must be in [0, 100], got " +
@@ -496,7 +512,9 @@ LuminanceStats luminanceStats(const Image& image, double percentile)
     const std::size_t n = pixelCount(image.width, image.height);
     std::vector<double> Y;
     Y.reserve(n);
+    const bool skipStars = !stars && !image.starPixel.empty();
     for (std::size_t i = 0; i < n; ++i) {
+        if (skipStars && image.starPixel[i]) continue;
         const float* p = &image.rgba[4 * i];
         const double L = linearSRGBLuminance(p[0], p[1], p[2]);
         if (L > 0.0 && std::isfinite(L)) Y.push_back(L);

@@ -5,6 +5,7 @@
 #include "nebula/core/format.h"
 #include "nebula/core/memory.h"
 #include "nebula/core/units.h"
+#include "nebula/physics/colour.h"
 #include "nebula/physics/optical_depth.h"
 #include "nebula/render/frame_layers.h"
 
@@ -12,6 +13,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <utility>
 #include <vector>
 
 namespace nebula {
@@ -33,6 +35,29 @@ void requireSpriteMemory(const RenderOptions& opts)
                       ": the star sprite footprint (" + fmt::format("{:.3g} x {:.3g}", edge, edge) +
                       " pixels)");
 }
+
+namespace {
+
+/// Image::starPixel: 1 where the sprites' luminance @p spriteY (per pixel touched, a pixel
+/// possibly more than once) is more than half the pixel's.
+void markStarPixels(Image& img, std::vector<std::pair<std::size_t, double>>& spriteY)
+{
+    std::sort(spriteY.begin(), spriteY.end());
+    for (std::size_t i = 0; i < spriteY.size();) {
+        const std::size_t pix = spriteY[i].first;
+        double sum = 0.0;
+        for (; i < spriteY.size() && spriteY[i].first == pix; ++i)
+            sum += spriteY[i].second;
+        const float* p = &img.rgba[pix * 4];
+        if (!(sum > 0.5 * linearSRGBLuminance(p[0], p[1], p[2]))) continue;
+        if (img.starPixel.empty()) {
+            img.starPixel.assign(std::size_t(img.width) * std::size_t(img.height), 0);
+        }
+        img.starPixel[pix] = 1;
+    }
+}
+
+} // namespace
 
 void drawStarSprites(Image& img, const RenderScene& scene, const RenderOptions& opts,
                      const std::function<std::array<double, 3>(std::size_t, double)>& colour,
@@ -57,6 +82,8 @@ void drawStarSprites(Image& img, const RenderScene& scene, const RenderOptions& 
         // integrator (its cell occupancy built once per scene).
         const ColumnIntegrator& column = scene.column.get(vol);
         std::vector<LayerId> starLayer; // each star's own layer
+        // Per pixel a sprite touches: the sprites' luminance there (Image::starPixel).
+        std::vector<std::pair<std::size_t, double>> spriteY;
         for (const auto& s : scene.stars)
             starLayer.push_back(img.layerId(starLayerName(s.name)));
         for (std::size_t s = 0; s < S; ++s)
@@ -99,14 +126,18 @@ void drawStarSprites(Image& img, const RenderScene& scene, const RenderOptions& 
                         const double omega = cam.pixelSolidAngle(xi + 0.5, y + 0.5);
                         const std::size_t pix = std::size_t(y) * W + xi;
                         if (footprint) footprint(s, pix, w[wi] / wsum / omega / (4.0 * PI * d2));
+                        float L[3];
                         for (int c = 0; c < 3; ++c) {
                             const float Lpix = float(F[std::size_t(c)] * w[wi] / wsum / omega);
+                            L[c] = Lpix;
                             img.rgba[pix * 4 + c] += Lpix;
                             img.rgb(starLayer[s])[pix * 3 + c] += Lpix;
                             if (direct) (*direct)[pix * 3 + c] += Lpix;
                         }
+                        spriteY.push_back({pix, linearSRGBLuminance(L[0], L[1], L[2])});
                     }
             }
+        markStarPixels(img, spriteY);
     }
 }
 

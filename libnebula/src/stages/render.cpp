@@ -244,8 +244,9 @@ void renderOneFrame(const IntegratorType& integrator, const GridSet& grids,
     for (const auto& [k, v] : extra)
         attrs[k] = v;
     // What the automatic tone curve reads, so that nebtone can tone a whole sequence.
-    const LuminanceStats lum = luminanceStats(img, out.tone.percentile);
+    const LuminanceStats lum = luminanceStats(img, out.tone.percentile, out.tone.stars);
     attrs["nebula:luminance"] = nlohmann::json({{"percentile", lum.percentile},
+                                                {"stars", out.tone.stars},
                                                 {"white", lum.white},
                                                 {"log_mean", lum.logMean},
                                                 {"lit_pixels", lum.lit}})

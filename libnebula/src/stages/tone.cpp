@@ -20,36 +20,52 @@ namespace nebula {
 
 std::vector<ToneCurve> sequenceToneCurves(const std::vector<double>& times,
                                           const std::vector<LuminanceStats>& stats, double window,
-                                          bool whole)
+                                          bool whole, double adaptStops)
 {
     if (times.size() != stats.size()) throw Error("tone: one time per frame's statistics");
+    if (!(adaptStops >= 0.0)) throw Error("tone: the white point's adaptation must be >= 0 stops");
     const std::size_t n = stats.size();
     const double sigma = 0.5 * window;
-    std::vector<ToneCurve> curves(n);
-    for (std::size_t i = 0; i < n; ++i) {
+    // The frames' log statistics averaged with weight(j) over the lit frames; false if none.
+    const auto average = [&](const auto& weight, LuminanceStats& out) {
         double sumW = 0.0, logWhite = 0.0, logMean = 0.0;
         for (std::size_t j = 0; j < n; ++j) {
             const auto& s = stats[j];
             if (!(s.white > 0.0) || !(s.logMean > 0.0)) continue; // a black frame
-            double w = 1.0;
-            if (!whole) {
-                if (sigma <= 0.0) {
-                    if (j != i) continue;
-                } else {
-                    const double x = (times[j] - times[i]) / sigma;
-                    if (std::fabs(x) > 3.0) continue;
-                    w = std::exp(-0.5 * x * x);
-                }
-            }
+            const double w = weight(j);
+            if (!(w > 0.0)) continue;
             sumW += w;
             logWhite += w * std::log(s.white);
             logMean += w * std::log(s.logMean);
         }
-        if (sumW <= 0.0) continue; // nothing lit nearby: white 1, gamma 1
+        if (sumW <= 0.0) return false;
+        out.white = std::exp(logWhite / sumW);
+        out.logMean = std::exp(logMean / sumW);
+        return true;
+    };
+    const bool smoothing = whole || sigma > 0.0;
+    LuminanceStats sequence;
+    const bool lit = average([](std::size_t) { return 1.0; }, sequence);
+    const ToneCurve sequenceCurve = toneCurveFromStats(sequence);
+    std::vector<ToneCurve> curves(n);
+    for (std::size_t i = 0; i < n; ++i) {
         LuminanceStats smoothed;
-        smoothed.white = std::exp(logWhite / sumW);
-        smoothed.logMean = std::exp(logMean / sumW);
+        const bool any = average(
+            [&](std::size_t j) {
+                if (whole) return 1.0;
+                if (sigma <= 0.0) return j == i ? 1.0 : 0.0;
+                const double x = (times[j] - times[i]) / sigma;
+                return std::fabs(x) > 3.0 ? 0.0 : std::exp(-0.5 * x * x);
+            },
+            smoothed);
+        if (!any) continue; // nothing lit nearby: white 1, gamma 1
         curves[i] = toneCurveFromStats(smoothed);
+        if (smoothing && lit) { // the sequence's gamma; the white point adapts within limits
+            const double f = std::exp2(adaptStops);
+            curves[i].white =
+                std::clamp(curves[i].white, sequenceCurve.white / f, sequenceCurve.white * f);
+            curves[i].gamma = sequenceCurve.gamma;
+        }
     }
     return curves;
 }
@@ -89,7 +105,8 @@ double frameAttributeFps(const std::string& text, const std::string& where)
     return v.get<double>();
 }
 
-double luminanceAttributeWhite(const std::string& text, double percentile, const std::string& where)
+double luminanceAttributeWhite(const std::string& text, double percentile, const std::string& where,
+                               bool stars)
 {
     const auto j = detail::parseJson(text, where, "attribute nebula:luminance is ");
     if (!j.is_object() || !j.contains("white") || !j["white"].is_number() ||
@@ -98,6 +115,9 @@ double luminanceAttributeWhite(const std::string& text, double percentile, const
                             "\"percentile\"");
     }
     if (j["percentile"].get<double>() != percentile) return -1.0;
+    if (j.contains("stars") && j["stars"].is_boolean() && j["stars"].get<bool>() != stars) {
+        return -1.0;
+    }
     const double w = j["white"].get<double>();
     if (!(w >= 0.0) || !std::isfinite(w)) {
         throw Error(where + ": attribute nebula:luminance has white point " +
@@ -121,8 +141,8 @@ bool endsWithPng(const std::string& name)
 /// found before any PNG is written), and the fps its nebula:frame records (where @p fps is
 /// not set yet). A frame's nebula:luminance is only compared with its pixels: a warning when
 /// they disagree.
-LuminanceStats frameStats(const std::string& exr, long frame, double percentile, double& fps,
-                          const Run& run)
+LuminanceStats frameStats(const std::string& exr, long frame, double percentile, bool stars,
+                          double& fps, const Run& run)
 {
     std::map<std::string, std::string> attrs;
     const Image img = readExr(exr, &attrs);
@@ -130,7 +150,7 @@ LuminanceStats frameStats(const std::string& exr, long frame, double percentile,
     if (const auto it = attrs.find("nebula:frame"); it != attrs.end() && fps <= 0.0) {
         fps = frameAttributeFps(it->second, where);
     }
-    const LuminanceStats stats = luminanceStats(img, percentile);
+    const LuminanceStats stats = luminanceStats(img, percentile, stars);
     if (!std::isfinite(stats.white) || !std::isfinite(stats.logMean)) {
         throw Error(where + ": its luminance statistics are not finite (white point " +
                     detail::numberText(stats.white) + ")");
@@ -138,7 +158,7 @@ LuminanceStats frameStats(const std::string& exr, long frame, double percentile,
     if (const auto it = attrs.find("nebula:luminance"); it != attrs.end()) {
         std::string why;
         try {
-            const double w = luminanceAttributeWhite(it->second, percentile, where);
+            const double w = luminanceAttributeWhite(it->second, percentile, where, stars);
             if (w >= 0.0 && !(std::fabs(w - stats.white) <= 0.01 * stats.white)) {
                 why = "it says white point " + detail::numberText(w) + ", its pixels " +
                       detail::numberText(stats.white);
@@ -205,7 +225,7 @@ void toneSequence(const ToneSequenceOptions& opts, const Run& run)
     std::vector<LuminanceStats> stats;
     for (const long f : frames) {
         const std::string exr = expandFramePattern(opts.input, f);
-        stats.push_back(frameStats(exr, f, opts.tone.percentile, fps, run));
+        stats.push_back(frameStats(exr, f, opts.tone.percentile, opts.tone.stars, fps, run));
     }
     if (!(fps > 0.0)) fps = 24.0;
     std::vector<double> times;
@@ -219,9 +239,13 @@ void toneSequence(const ToneSequenceOptions& opts, const Run& run)
         how = fmt::format("fixed: exposure {:g}, gamma {:g}", opts.tone.exposure, opts.tone.gamma);
     } else {
         curves = sequenceToneCurves(times, smoothing ? withoutOutliers(stats, frames, run) : stats,
-                                    opts.window, opts.whole);
+                                    opts.window, opts.whole, opts.adaptStops);
         how = opts.whole ? std::string("one curve for the sequence")
-                         : fmt::format("window {:g} s at {:g} fps", opts.window, fps);
+              : smoothing
+                  ? fmt::format("window {:g} s at {:g} fps, the sequence's gamma, white point "
+                                "within {:g} stops of the sequence's",
+                                opts.window, fps, opts.adaptStops)
+                  : std::string("each frame its own curve");
         if (opts.tone.fixedGamma) { // the white point follows the sequence, gamma does not
             const double gamma = computeToneCurve(Image(1, 1), opts.tone).gamma; // checked
             for (auto& c : curves)

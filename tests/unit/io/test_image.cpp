@@ -324,6 +324,41 @@ TEST(ToneCurve, AutomaticWhiteIsThePercentile)
     EXPECT_EQ(again.gamma, curve.gamma);
 }
 
+// Pixels that are mostly a star's sprite (Image::starPixel) do not set the automatic white
+// point: an ODS frame's nebula fills a few per cent of the pixels and the sprites the top
+// half per cent, so the 99.5th percentile would land on a sprite. --tone-stars counts them.
+// The mask round-trips through the EXR as its own channel, not as an image channel.
+TEST_F(ImageTest, StarPixelsDoNotSetTheWhitePoint)
+{
+    nebula::Image image(100, 100); // 10000 pixels: 400 of nebula, 60 of star sprites
+    for (std::size_t i = 0; i < 400; ++i)
+        setGrey(image, i * 11, float(1 + i % 4)); // the nebula: Y 1..4
+    image.starPixel.assign(10000, 0);
+    for (std::size_t i = 0; i < 60; ++i) {
+        const std::size_t p = 5000 + i * 7;
+        setGrey(image, p, 1000.0f);
+        image.starPixel[p] = 1;
+    }
+    nebula::ToneParams params;
+    const double nebula4 = lum(4, 4, 4);
+    EXPECT_NEAR(nebula::computeToneCurve(image, params).white, nebula4, 1e-9 * nebula4);
+    params.stars = true; // 460 lit: rank ceil(0.995 * 460) = 458 is a star
+    EXPECT_NEAR(nebula::computeToneCurve(image, params).white, lum(1000, 1000, 1000), 1e-6);
+    const auto stats = nebula::luminanceStats(image, 99.5);
+    EXPECT_EQ(stats.lit, 400u);
+
+    const std::string path = file("stars.exr");
+    nebula::writeExr(path, image, {});
+    const nebula::Image back = nebula::readExr(path, nullptr);
+    EXPECT_TRUE(back.channels.empty());
+    EXPECT_EQ(back.starPixel, image.starPixel);
+    EXPECT_NEAR(nebula::luminanceStats(back, 99.5).white, nebula4, 1e-9 * nebula4);
+    // A mask of the wrong size is refused before anything is written.
+    image.starPixel.pop_back();
+    EXPECT_THROW(nebula::writeExr(file("bad-stars.exr"), image, {}), nebula::Error);
+    EXPECT_FALSE(std::filesystem::exists(file("bad-stars.exr")));
+}
+
 TEST(ToneCurve, AutomaticGammaMapsLogMeanToKey)
 {
     const double k = nebula::TONE_KEY;

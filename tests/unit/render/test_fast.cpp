@@ -186,6 +186,18 @@ TEST(Render, StarSpriteConservesFlux)
     EXPECT_NEAR(flux, 100.0 / (4 * PI * d.dot(d)), 1e-3 * flux);
     // The per-star layer holds the same light.
     EXPECT_EQ(img.layers[0].name, "star.s");
+    // The pixels that are all sprite (nothing else lit here) are marked for the tone curve,
+    // and only pixels the sprite lights: its centre's, not a far corner's.
+    ASSERT_EQ(img.starPixel.size(), std::size_t(64) * 48);
+    double sx = 0.0, sy = 0.0;
+    ASSERT_TRUE(o.camera.project(Vec3(2.6, 1.7, 2.0), sx, sy));
+    EXPECT_EQ(img.starPixel[std::size_t(sy) * 64 + std::size_t(sx)], 1);
+    EXPECT_EQ(img.starPixel[0], 0);
+    for (std::size_t i = 0; i < img.starPixel.size(); ++i) {
+        if (img.starPixel[i]) {
+            EXPECT_GT(img.rgba[i * 4 + 1], 0.0f) << i;
+        }
+    }
 }
 
 // Pyramid levels (DESIGN §5): level k adds a p(mu) (G(t_k) - G(t_k / 2)) E_k at each level-0

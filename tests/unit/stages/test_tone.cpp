@@ -88,6 +88,45 @@ TEST(ToneSequence, SmoothingRemovesJumpsAndJitter)
         EXPECT_DOUBLE_EQ(c.white, 3.0);
 }
 
+// A fly-through into a dark interior: the frames inside are 200 times darker. Per frame, the
+// automatic curve would lift them to the same brightness as the rest (a flat haze); with a
+// window, their white point stays within --adapt stops of the sequence's and every frame has
+// the sequence's gamma, so the interior shows dark: its log-mean maps below the key.
+TEST(ToneSequence, DarkInteriorStaysDark)
+{
+    const std::size_t n = 120;
+    std::vector<LuminanceStats> s;
+    for (std::size_t i = 0; i < n; ++i)
+        s.push_back(i >= 50 && i < 80 ? stats(0.005, 0.0002) : stats(1.0, 0.02));
+    const auto t = times(n, 12);
+    for (const double adapt : {0.0, 1.0, 2.0, 4.0}) {
+        const auto curves = sequenceToneCurves(t, s, 1.0, false, adapt);
+        // The sequence's statistics: the geometric means over every lit frame.
+        const double w = std::exp((90.0 * std::log(1.0) + 30.0 * std::log(0.005)) / 120.0);
+        const double m = std::exp((90.0 * std::log(0.02) + 30.0 * std::log(0.0002)) / 120.0);
+        LuminanceStats seq;
+        seq.white = w;
+        seq.logMean = m;
+        const ToneCurve sequence = toneCurveFromStats(seq);
+        for (std::size_t i = 0; i < n; ++i) {
+            EXPECT_NEAR(curves[i].gamma, sequence.gamma, 1e-12) << i;
+            EXPECT_GE(curves[i].white, sequence.white * std::exp2(-adapt) * (1 - 1e-12)) << i;
+            EXPECT_LE(curves[i].white, sequence.white * std::exp2(adapt) * (1 + 1e-12)) << i;
+        }
+        // The middle of the interior: its own log-mean is displayed well below the key (up to
+        // the default 2 stops; 4 stops let it rise to 0.13).
+        const double shown = std::pow(s[65].logMean / curves[65].white, curves[65].gamma);
+        if (adapt <= 2.0) {
+            EXPECT_LT(shown, 0.5 * TONE_KEY) << "adapt " << adapt;
+        }
+    }
+    // Window 0 keeps each frame's own curve (nebrender's), interior lifted to the key.
+    const auto own = sequenceToneCurves(t, s, 0.0, false, 2.0);
+    EXPECT_DOUBLE_EQ(own[65].white, 0.005);
+    EXPECT_NEAR(std::pow(s[65].logMean / own[65].white, own[65].gamma), TONE_KEY, 0.2);
+    EXPECT_THROW(sequenceToneCurves(t, s, 1.0, false, -1.0), Error);
+}
+
 TEST(ToneSequence, FramesOnDiskMatchThePattern)
 {
     namespace fs = std::filesystem;

@@ -54,6 +54,10 @@ struct Image
     /// width * height: 1 where the pixel is in the camera's view, 0 outside it (a fisheye's
     /// corners: black, and transparent in the PNG). Empty: every pixel is in view.
     std::vector<unsigned char> inView;
+    /// width * height: 1 where the star sprites give more than half the pixel's luminance (the
+    /// automatic white point leaves these pixels out unless ToneParams::stars). Empty: no
+    /// such pixel.
+    std::vector<unsigned char> starPixel;
 
     Image() = default;
     Image(int w, int h) : width(w), height(h), rgba(std::size_t(w) * h * 4, 0.0f) {}
@@ -121,6 +125,11 @@ struct ToneParams
     /// automatic: keep `gamma` instead of fitting it to the key (the white point stays
     /// automatic), for scenes whose faint parts the fitted gamma would lift too far.
     bool fixedGamma = false;
+    /// automatic: let the pixels that are mostly a star's sprite (Image::starPixel) count in
+    /// the white point and the log-mean; by default they do not, so that the nebula, not a
+    /// star, sets the exposure (an ODS or dome frame, where the cloud fills a few per cent of
+    /// the pixels and a sprite the top half per cent).
+    bool stars = false;
 };
 
 /// The tone curve actually applied to a frame.
@@ -154,9 +163,9 @@ struct LuminanceStats
     std::size_t lit = 0;      ///< pixels with finite luminance > 0
 };
 
-/// The statistics of @p image (see computeToneCurve()). Throws Error for a percentile
-/// outside [0, 100].
-LuminanceStats luminanceStats(const Image& image, double percentile);
+/// The statistics of @p image (see computeToneCurve()), over its lit pixels less those of
+/// Image::starPixel unless @p stars. Throws Error for a percentile outside [0, 100].
+LuminanceStats luminanceStats(const Image& image, double percentile, bool stars = false);
 
 /// The automatic curve of @p stats: white = stats.white, gamma such that the log-mean maps
 /// to TONE_KEY, clamped to [TONE_MIN_GAMMA, 1]; white 1, gamma 1 for a black frame. A
@@ -169,6 +178,9 @@ double srgbEncode(double linear);
 /// The EXR channel that holds Image::inView (1 in view, 0 outside), written only for images
 /// that have pixels outside the view.
 inline constexpr const char* EXR_IN_VIEW_CHANNEL = "inview";
+/// The EXR channel that holds Image::starPixel (1: mostly a star's sprite), written only for
+/// images that have such pixels.
+inline constexpr const char* EXR_STAR_PIXEL_CHANNEL = "starpixel";
 
 /// Writes an 8-bit (or @p bitDepth 16-bit) RGBA sRGB PNG after applying @p curve to the
 /// premultiplied RGB (alpha written as 255: the background is black space; 0 for pixels not in
