@@ -3,7 +3,7 @@
 /// Compares two nebrender EXRs of the same view: a reference and a test image.
 ///
 ///     build/bench/exr_compare REF.exr TEST.exr [--ratio-png FILE] [--threshold 0.01] [--block N]
-///                              [--percentile P] [--max]
+///                              [--percentile P] [--max] [--chromaticity]
 ///                              [--second-reference REF2.exr]
 ///
 /// Prints, per channel R, G, B and for luminance Y (Rec. 709 weights of linear sRGB):
@@ -29,6 +29,11 @@
 /// --percentile P takes the threshold as a fraction of REF's P-th percentile (of its non-zero
 /// pixels or blocks) instead of its maximum (a star's sprite is the maximum of most frames);
 /// --max adds the largest relative error among the pixels or blocks counted.
+/// --chromaticity prints, instead of the table, the colour noise between two frames of the same
+/// view (two seeds of nebscatter's field): the RMS difference of the chromaticities
+/// r = R/(R+G+B) and b = B/(R+G+B) over the faint cloud (REF's S = R+G+B between 0.3 % and
+/// 3 % of its 99.9th percentile) and over the bright cloud (above 3 %), in per cent: absolute
+/// (100 x the difference of r or b) and relative (the difference over r or b).
 /// Also prints the optical depth -ln T of REF's centre pixel (its transmittance layer).
 /// --ratio-png writes a map of TEST_Y / REF_Y: white where equal, red where TEST is brighter,
 /// blue where it is darker, full colour at a factor of 2 (log scale); black where REF_Y is
@@ -99,7 +104,7 @@ int main(int argc, char** argv)
 {
     std::string refPath, testPath, ratioPng, ref2Path;
     double threshold = 0.01, percentile = 100.0;
-    bool showMax = false;
+    bool showMax = false, chroma = false;
     int block = 1;
     for (int i = 1; i < argc; ++i) {
         const std::string a = argv[i];
@@ -113,6 +118,8 @@ int main(int argc, char** argv)
             percentile = std::atof(argv[++i]);
         } else if (a == "--max") {
             showMax = true;
+        } else if (a == "--chromaticity") {
+            chroma = true;
         } else if (a == "--threshold" && i + 1 < argc) {
             threshold = std::atof(argv[++i]);
         } else if (refPath.empty()) {
@@ -161,6 +168,42 @@ int main(int argc, char** argv)
             if (!ref2Path.empty()) ref2 = blockSums(ref2, block);
         }
         const std::size_t n = std::size_t(ref.width) * ref.height;
+        if (chroma) {
+            std::vector<double> sums;
+            for (std::size_t i = 0; i < n; ++i) {
+                const float* p = &ref.rgba[i * 4];
+                if (p[0] + p[1] + p[2] > 0.0f) sums.push_back(double(p[0]) + p[1] + p[2]);
+            }
+            if (sums.empty()) throw nebula::Error(refPath + ": a black frame");
+            const auto k = std::size_t(0.999 * double(sums.size() - 1));
+            std::nth_element(sums.begin(), sums.begin() + std::ptrdiff_t(k), sums.end());
+            const double top = sums[k];
+            // [0]: faint (0.3 % to 3 % of top), [1]: bright (above 3 %).
+            double abs2[2] = {0, 0}, rel2[2] = {0, 0};
+            std::size_t count[2] = {0, 0};
+            for (std::size_t i = 0; i < n; ++i) {
+                const float* a = &ref.rgba[i * 4];
+                const float* b = &test.rgba[i * 4];
+                const double sa = double(a[0]) + a[1] + a[2], sb = double(b[0]) + b[1] + b[2];
+                if (!(sa > 0.003 * top) || !(sb > 0.0)) continue;
+                const int which = sa > 0.03 * top ? 1 : 0;
+                for (int c : {0, 2}) {
+                    const double ca = a[c] / sa, cb = b[c] / sb;
+                    abs2[which] += (cb - ca) * (cb - ca);
+                    if (ca > 0.0) rel2[which] += (cb - ca) * (cb - ca) / (ca * ca);
+                }
+                ++count[which];
+            }
+            const char* what[2] = {"faint (0.3-3 % of p99.9)", "bright (> 3 % of p99.9)"};
+            std::printf(
+                "region                     pixels  chroma_rms_abs_%%  chroma_rms_rel_%%\n");
+            for (int w = 0; w < 2; ++w) {
+                const double m = 2.0 * double(std::max<std::size_t>(count[w], 1));
+                std::printf("%-26s %-7zu %15.4f  %15.4f\n", what[w], count[w],
+                            100.0 * std::sqrt(abs2[w] / m), 100.0 * std::sqrt(rel2[w] / m));
+            }
+            return 0;
+        }
         const char* names[4] = {"R", "G", "B", "Y"};
         const nebula::ImageLayer* variance = nullptr;
         for (const auto& l : ref.layers) {

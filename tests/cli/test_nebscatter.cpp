@@ -14,6 +14,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <string>
 
 using namespace nebula::clitest;
@@ -31,6 +32,17 @@ protected:
         ASSERT_EQ(r.code, 0) << r.err;
         EXPECT_NE(r.err.find("nebscatter: stars: 20000 packets"), std::string::npos) << r.err;
         EXPECT_NE(r.err.find("noise of J"), std::string::npos) << r.err;
+        // And the packets a frame without colour blotches needs: N (noise / 1.67 %)^2, up to
+        // its rounding to 2 digits (upwards).
+        const std::size_t at = r.err.find("noise of J ") + 11;
+        const double noise = std::stod(r.err.substr(at)) / 100.0;
+        const std::string needs = "needs the noise of J below about 1.7 %: --packets ";
+        const std::size_t n = r.err.find(needs);
+        ASSERT_NE(n, std::string::npos) << r.err;
+        const double packets = std::stod(r.err.substr(n + needs.size()));
+        const double expected = 20000.0 * std::pow(noise / (0.3 / 0.70 * 0.039), 2);
+        EXPECT_GE(packets, expected * 0.88) << r.err; // the noise is printed to 2 digits
+        EXPECT_LE(packets, expected * 1.25) << r.err;
         // The defaults: order 4, the level chosen from the grid (about 64 cells across: full
         // resolution on this small grid), and -v says why.
         EXPECT_NE(r.err.find("field level 0 chosen: about 64 cells across the grid gives level 0"),

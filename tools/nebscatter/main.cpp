@@ -82,6 +82,12 @@ int main(int argc, char** argv)
           "densest voxel makes it optically thicker than this across (tau_V), a star\n"
           "is in or next to it, or it borders such a block; 0: every cell on its own",
           CLI::Range(0.0, nebula::MAX_REFINE_TAU)},
+         {"--denoise", &f.denoise,
+          "Noise filter, in field space: each cell moves towards the mean of the\n"
+          "(2N+1)^3 cells around it only as far as its own noise estimate exceeds\n"
+          "their spread (a local Wiener filter), so edges and gradients stay;\n"
+          "0: none. -v reports the noise before and after (DESIGN 5b)",
+          cli::integerIn(0, nebula::MAX_DENOISE_RADIUS)},
          {"--seed", &f.seed, "Random seed (same seed, same field)", cli::integerIn(0, UINT64_MAX)},
          {"--per-star", &f.perStar,
           "One field per star (scatter.star_<name>.*) instead of their sum: nebrender\n"

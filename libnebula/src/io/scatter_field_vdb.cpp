@@ -114,6 +114,7 @@ void writeScatterField(GridSet& grids, const ScatterFieldMeta& meta,
                                  {"packets", set.packets},
                                  {"seed", set.seed},
                                  {"refine_tau", set.refineTau},
+                                 {"denoise", set.denoise},
                                  {"sources", sources},
                                  {"dust", nlohmann::json::parse(meta.dust.toJson())},
                                  {"stars", nlohmann::json::parse(starsToJson(meta.stars))},
@@ -179,6 +180,7 @@ std::optional<ScatterFieldMeta> readScatterFieldMeta(const GridSet& grids, bool 
         set.packets = json.value("packets", std::uint64_t(0));
         set.seed = json.value("seed", std::uint64_t(0));
         set.refineTau = json.value("refine_tau", 0.0);
+        set.denoise = json.value("denoise", 0);
         meta.scene.exactStarDepth = json.value("exact_star_depth", false);
         meta.seconds = json.value("seconds", 0.0);
     } catch (const nlohmann::json::exception& e) {

@@ -150,6 +150,11 @@ void validateScatterOptions(const RenderScene& scene, const ScatterOptions& opts
             "2x2x2 field cells above which its cells are tallied each; 0: every cell), got {:g}",
             MAX_REFINE_TAU, opts.refineTau));
     }
+    if (opts.denoise < 0 || opts.denoise > MAX_DENOISE_RADIUS) {
+        throw UsageError(fmt::format("--denoise must be in 0..{} (field cells on each side of "
+                                     "the noise filter's neighbourhood; 0: none), got {}",
+                                     MAX_DENOISE_RADIUS, opts.denoise));
+    }
     if (opts.ranks && std::uint64_t(opts.ranks->size()) > opts.packets) {
         throw UsageError(fmt::format(
             "--packets {} is fewer than the {} MPI ranks sharing them: give at least one packet "
@@ -201,6 +206,12 @@ void reportAdaptiveCells(const Transport& tr, const ScatterOptions& opts, const 
             (1024.0 * 1024.0)));
 }
 
+/// The noise of J (the -v figure) below which a frame shows no colour blotches: the
+/// chromaticity of two seeds' frames then differs by less than 0.3 % RMS over the faint
+/// cloud. Measured on the 128^3 reflection preset (bench/colour_noise.sh): 0.70 % at a noise
+/// of J of 3.9 % (1e6 packets), falling as the noise does (1/sqrt(packets)).
+constexpr double CLEAN_FRAME_J_NOISE = 0.3 / 0.70 * 0.039;
+
 /// -v: a source's packets, flights, power and noise.
 void reportSource(const Transport& tr, const ScatterSourceField& out, const Run& run)
 {
@@ -219,6 +230,17 @@ void reportSource(const Transport& tr, const ScatterSourceField& out, const Run&
         double(out.flights) / double(out.packets), which, out.power[a], out.power[b], out.power[e],
         wl.empty() ? "" : " nm^-1", out.escaped[a], out.escaped[b], out.escaped[e], out.absorbed[a],
         out.absorbed[b], out.absorbed[e], 100.0 * out.relativeError));
+    if (out.relativeError > CLEAN_FRAME_J_NOISE) {
+        // The noise falls as 1/sqrt(N): N (noise / clean)^2, rounded up to 2 digits.
+        const double n = double(out.packets) * std::pow(out.relativeError / CLEAN_FRAME_J_NOISE, 2);
+        const double step = std::pow(10.0, std::floor(std::log10(n)) - 1.0);
+        run.info(fmt::format(
+            "{}: a frame free of colour blotches in the faint cloud (a dome master of any size: "
+            "the blotches are the field's cells, not pixels) needs the noise of J below about "
+            "{:.2g} %: --packets {:.0f} or more",
+            scatterSourceName(out.source, tr.mScene.stars), 100.0 * CLEAN_FRAME_J_NOISE,
+            std::ceil(n / step) * step));
+    }
 }
 
 /// A source's field before its packets run: its name, packet count, zero energies and an
@@ -241,7 +263,7 @@ ScatterSourceField emptySourceField(const Transport& tr, const SourceSpec& spec,
 /// The summed tallies @p t of a source (unit of the weights @p U, a voxel's world volume
 /// @p detA) into its field @p out: energies, flights, every cell's moments and the noise.
 void fillSourceField(const Transport& tr, const SourceTallies& t, double U, double detA,
-                     ScatterSourceField& out)
+                     int denoise, const Run* run, ScatterSourceField& out)
 {
     const double quantum = t.quantum;
     for (int c = 0; c < tr.channels(); ++c) {
@@ -251,7 +273,21 @@ void fillSourceField(const Transport& tr, const SourceTallies& t, double U, doub
     }
     out.flights = t.energy.flights.load();
     const FieldBlocks blocks = gatherBlocks(tr, t, U, detA);
-    out.relativeError = fillFieldCells(tr, t, blocks, U, detA, out.moments);
+    std::vector<float> relError;
+    out.relativeError =
+        fillFieldCells(tr, t, blocks, U, detA, out.moments, denoise > 0 ? &relError : nullptr);
+    if (denoise > 0) {
+        const DenoiseReport r = denoiseField(out.moments, tr.fieldLo(), tr.fieldDims(), relError,
+                                             tr.noiseChannel(), denoise);
+        if (run) {
+            run->info(fmt::format(
+                "noise filter (--denoise {}): {} cells, mean weight {:.2f} towards their "
+                "{}^3 neighbourhood; noise of J per cell (unweighted mean) {:.2g} % before, "
+                "about {:.2g} % after",
+                denoise, r.cells, r.meanWeight, 2 * denoise + 1, 100.0 * r.noiseBefore,
+                100.0 * r.noiseAfter));
+        }
+    }
     copyBorderCells(tr, out.moments);
 }
 
@@ -284,7 +320,7 @@ ScatterField computeField(const RenderScene& scene, const RenderOptions& ropts,
             }
             // Unit of the weights: the source's power over C N (w_c is about 1).
             const double U = sampler.total * detA / (double(tr.channels()) * double(opts.packets));
-            fillSourceField(tr, tallies, U, detA, out);
+            fillSourceField(tr, tallies, U, detA, opts.denoise, run, out);
         }
         if (run) reportSource(tr, out, *run);
         field.sources.push_back(std::move(out));

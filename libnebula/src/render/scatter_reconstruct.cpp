@@ -110,7 +110,7 @@ void reconstructCell(const FieldBlocks& blocks, const int* X, float* m)
 }
 
 double fillFieldCells(const Transport& tr, const SourceTallies& t, const FieldBlocks& blocks,
-                      double U, double detA, SparseVolume& moments)
+                      double U, double detA, SparseVolume& moments, std::vector<float>* relError)
 {
     const auto& fLo = tr.fieldLo();
     const auto& fDims = tr.fieldDims();
@@ -118,6 +118,10 @@ double fillFieldCells(const Transport& tr, const SourceTallies& t, const FieldBl
     const double quantum = t.quantum;
     const std::vector<double>& cellDust = tr.cellDust(); // the noise report's weights
     double errW = 0.0, errSum = 0.0;
+    if (relError) {
+        relError->assign(std::size_t(fDims[0]) * std::size_t(fDims[1]) * std::size_t(fDims[2]),
+                         NOISE_INACTIVE);
+    }
     for (int K = 0; K < fDims[2]; ++K)
         for (int J = 0; J < fDims[1]; ++J)
             for (int I = 0; I < fDims[0]; ++I) {
@@ -144,9 +148,10 @@ double fillFieldCells(const Transport& tr, const SourceTallies& t, const FieldBl
                     sq = double(t.sq[std::size_t(slot)]) * quantum * 256.0;
                     density = s1 / vol;
                 }
+                // Y_00 folded out: the noise channel's J tally is t[c] / Y_00.
+                const double rel = s1 > 0.0 ? std::sqrt(sq) / (s1 / (0.5 / std::sqrt(PI))) : 0.0;
+                if (relError) (*relError)[c] = s1 > 0.0 ? float(rel) : NOISE_UNKNOWN;
                 if (cellDust[c] > 0.0 && s1 > 0.0) {
-                    // Y_00 folded out: the noise channel's J tally is t[c] / Y_00.
-                    const double rel = std::sqrt(sq) / (s1 / (0.5 / std::sqrt(PI)));
                     const double wgt = cellDust[c] * density;
                     errW += wgt;
                     errSum += wgt * rel;

@@ -7,6 +7,7 @@
 /// its neighbours' (reconstructCell()), every active cell's moments with the noise of its J
 /// (fillFieldCells()), and the border cells (copyBorderCells()).
 
+#include "scatter_filter.h"
 #include "scatter_tally.h"
 #include "scatter_transport.h"
 
@@ -54,8 +55,12 @@ void reconstructCell(const FieldBlocks& blocks, const int* X, float* m);
 /// Every active field cell's moments into @p moments (c_lm = sum (w U) (length) Y_lm / V over
 /// the cell; a cell of a block tallied whole by reconstructCell()); returns the noise of J:
 /// the mean relative standard error per cell, weighted by its dust times its scattered light.
+/// @p relError (if not null) gets, per cell of the walked box (x fastest), the relative
+/// standard error of its J (a cell of a block tallied whole: its block's), NOISE_UNKNOWN
+/// for an active cell no packet reached and NOISE_INACTIVE elsewhere (scatter_filter.h).
 double fillFieldCells(const Transport& tr, const SourceTallies& t, const FieldBlocks& blocks,
-                      double U, double detA, SparseVolume& moments);
+                      double U, double detA, SparseVolume& moments,
+                      std::vector<float>* relError = nullptr);
 
 /// The border cells (outside the walked box) copy their nearest cell, so the trilinear field
 /// does not fall towards zero at the grid's edge.

@@ -99,7 +99,14 @@ struct ScatterSettings
     /// adaptive cells). At most MAX_REFINE_TAU.
     double refineTau = 0.0;
     bool perStar = false; ///< one field per star instead of their sum
+    /// The noise filter (DESIGN §5b "Noise filter"): each field cell moves towards the mean
+    /// of the (2 denoise + 1)^3 cells around it as far as its noise exceeds their spread;
+    /// 0: none (and fields from before the filter). At most MAX_DENOISE_RADIUS.
+    int denoise = 0;
 };
+
+/// The largest ScatterSettings::denoise (--denoise).
+inline constexpr int MAX_DENOISE_RADIUS = 3;
 
 /// The scene settings a field is made with: nebscatter's options of the same names as
 /// nebrender's, recorded so that nebrender can refuse a field made for another scene.
