@@ -166,6 +166,7 @@ std::optional<ScatterFieldMeta> readScatterFieldMeta(const GridSet& grids, bool 
     ScatterFieldMeta meta;
     ScatterSettings& set = meta.settings;
     std::vector<std::string> names;
+    std::string layout; // absent: one FloatGrid per source, moment and channel
     detail::checkJsonBounds(metaText, grids.source, std::string(metaKey) + " metadata is ");
     try {
         const nlohmann::json json = nlohmann::json::parse(metaText);
@@ -199,6 +200,7 @@ std::optional<ScatterFieldMeta> readScatterFieldMeta(const GridSet& grids, bool 
         meta.scene.exactStarDepth = json.value("exact_star_depth", false);
         meta.seconds = json.value("seconds", 0.0);
         meta.storedBits = json.value("stored_bits", FIELD_FLOAT_BITS);
+        layout = json.value("layout", std::string());
     } catch (const nlohmann::json::exception& e) {
         throw Error(grids.source + ": " + metaKey +
                     " metadata is not nebscatter's: " + detail::jsonErrorText(e));
@@ -208,6 +210,13 @@ std::optional<ScatterFieldMeta> readScatterFieldMeta(const GridSet& grids, bool 
         throw Error(grids.source + ": " + metaKey + " has order " + std::to_string(set.order) +
                     " and level " + std::to_string(set.fieldLevel) + "; expected 0..4 and " +
                     std::to_string(MIN_FIELD_LEVEL) + ".." + std::to_string(MAX_FIELD_LEVEL));
+    }
+    if (!layout.empty()) {
+        throw Error(grids.source + ": " + metaKey + " has layout \"" +
+                    detail::printable(layout, 40) +
+                    "\", which this version does not read (it reads fields without \"layout\": "
+                    "one FloatGrid per source, moment and channel); use a newer nebula, or rerun "
+                    "this nebscatter");
     }
     if (meta.storedBits < FIELD_MIN_BITS || meta.storedBits > FIELD_FLOAT_BITS) {
         throw Error(grids.source + ": " + metaKey + " has stored_bits " +

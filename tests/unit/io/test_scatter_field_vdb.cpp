@@ -328,4 +328,13 @@ TEST(ScatterFieldVdb, StoredBitsBoundTheErrorAndAreRecorded)
     EXPECT_EQ(errorMessage([&] { readScatterFieldMeta(old, false); }),
               "field.vdb: nebula:scatter has stored_bits 30; expected 4..24 (the significant "
               "bits its moments keep)");
+    // A layout this version does not know (DESIGN §5b "Field file format") is refused, never
+    // read as these grids.
+    meta["stored_bits"] = 8;
+    meta["layout"] = "packed";
+    old.setMetaString(META_SCATTER, meta.dump());
+    EXPECT_EQ(errorMessage([&] { readScatterFieldMeta(old, false); }),
+              "field.vdb: nebula:scatter has layout \"packed\", which this version does not read "
+              "(it reads fields without \"layout\": one FloatGrid per source, moment and "
+              "channel); use a newer nebula, or rerun this nebscatter");
 }
