@@ -90,8 +90,8 @@ int main(int argc, char** argv)
           "Significant bits each stored moment keeps: every moment of a cell within\n"
           "2^-BITS of the cell's c_00 (J: of J), its float's low bits zero so the\n"
           "file compresses; half: 11 (a half float's), float: the floats as computed.\n"
-          "The default keeps the error near a tenth of the field's noise; -v reports\n"
-          "both and the file's size",
+          "The default's bound, 0.39 %, is about a tenth of the noise of J or less;\n"
+          "-v reports both and the file's size",
           CLI::Validator(
               [](std::string& s) {
                   if (s == "half" || s == "float") return std::string();
