@@ -14,7 +14,9 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <fstream>
 #include <string>
 
 using namespace nebula::clitest;
@@ -325,4 +327,66 @@ TEST_F(NebScatter, SpectralFieldForTheSpectralRenderer)
     expectFailure("nebrender -i missing.vdb --spectral --res 8x8 -o x.exr", 1,
                   "lacks its grid \"scatter.spectral.stars.c1_0.540nm\"");
     expectFailure("nebscatter -i lit.vdb --spectral 1 -o x.vdb", 2, "--spectral");
+}
+
+// --precision (DESIGN §5b "Stored precision"): the default 8 bits shrink the file by the
+// expected factor and change the frame far less than the field's own noise (a field of
+// another seed); a field from before --precision (no "stored_bits", floats) renders exactly
+// as the same field with them; a damaged stored field is refused, naming the file.
+TEST_F(NebScatter, StoredPrecisionShrinksTheFileNotTheFrame)
+{
+    makeLit();
+    const std::string flags = " --packets 20000 --field-level 0 --order 2";
+    ASSERT_EQ(run("nebscatter -i lit.vdb" + flags + " --precision float -o f.vdb").code, 0);
+    ASSERT_EQ(run("nebscatter -i lit.vdb" + flags + " --precision float --seed 2 -o f2.vdb").code,
+              0);
+    const Result r = run("nebscatter -i lit.vdb" + flags + " -v -o s.vdb");
+    ASSERT_EQ(r.code, 0) << r.err;
+    EXPECT_NE(r.err.find("MB, moments stored to 8 significant bits (each within 0.39 % of its "
+                         "cell's c_00), noise of J"),
+              std::string::npos)
+        << r.err;
+    EXPECT_EQ(nlohmann::json::parse(read(path("s.vdb")).metaString(nebula::META_SCATTER))
+                  .at("stored_bits"),
+              8);
+    // The field's grids alone (--only-new): 8 significant bits of a float's 24.
+    ASSERT_EQ(run("nebscatter -i lit.vdb" + flags + " --precision float --only-new -o fo.vdb").code,
+              0);
+    ASSERT_EQ(run("nebscatter -i lit.vdb" + flags + " --only-new -o so.vdb").code, 0);
+    const double ratio = double(fileBytes("so.vdb").size()) / double(fileBytes("fo.vdb").size());
+    EXPECT_LT(ratio, 0.88) << ratio; // 0.83 measured
+    EXPECT_LT(fileBytes("s.vdb").size(), fileBytes("f.vdb").size());
+
+    for (const std::string f : {"f", "f2", "s"})
+        ASSERT_EQ(run("nebrender -i " + f + ".vdb --res 24x24 --no-stars -o " + f + ".exr").code,
+                  0);
+    const auto a = nebula::readExr(path("f.exr"), nullptr);
+    const auto b = nebula::readExr(path("s.exr"), nullptr);
+    const auto c = nebula::readExr(path("f2.exr"), nullptr);
+    double stored = 0.0, noise = 0.0, peak = 0.0;
+    for (std::size_t p = 0; p < a.rgba.size(); ++p)
+        peak = std::max(peak, double(a.rgba[p]));
+    for (std::size_t p = 0; p < a.rgba.size(); ++p) {
+        if (p % 4 == 3 || a.rgba[p] < 0.01 * peak) continue;
+        stored += std::pow((b.rgba[p] - a.rgba[p]) / a.rgba[p], 2);
+        noise += std::pow((c.rgba[p] - a.rgba[p]) / a.rgba[p], 2);
+    }
+    EXPECT_GT(stored, 0.0); // the values did change
+    EXPECT_LT(std::sqrt(stored), 0.1 * std::sqrt(noise)) << stored << " " << noise;
+
+    // A field from before --precision: the same floats without "stored_bits".
+    nebula::GridSet old = read(path("f.vdb"));
+    auto meta = nlohmann::json::parse(old.metaString(nebula::META_SCATTER));
+    meta.erase("stored_bits");
+    old.setMetaString(nebula::META_SCATTER, meta.dump());
+    nebula::writeGrids(path("old.vdb"), old, "test", "test");
+    ASSERT_EQ(run("nebrender -i old.vdb --res 24x24 --no-stars -o old.exr").code, 0);
+    EXPECT_EQ(nebula::readExr(path("old.exr"), nullptr).rgba, a.rgba);
+
+    // A damaged stored field: bytes in the middle of its grids overwritten.
+    std::string bytes = fileBytes("s.vdb");
+    for (std::size_t i = bytes.size() / 2; i < bytes.size() / 2 + 64; ++i)
+        bytes[i] = char(bytes[i] ^ 0x5a);
+    std::ofstream(path("damaged.vdb"), std::ios::binary) << bytes;
+    expectFailure("nebrender -i damaged.vdb --res 8x8 -o d.exr", 1, "damaged.vdb");
 }

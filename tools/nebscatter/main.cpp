@@ -12,7 +12,10 @@
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 
+#include <algorithm>
+#include <cmath>
 #include <cstdint>
+#include <filesystem>
 #include <memory>
 #include <string>
 
@@ -61,6 +64,7 @@ int main(int argc, char** argv)
     cli::addCommon(app, common, cli::INPUT | cli::OUTPUT | cli::PASS_THROUGH | cli::DENSITY_GRID);
     auto& f = opts.field;
     std::string fieldLevel = "auto";
+    std::string precision = std::to_string(nebula::DEFAULT_FIELD_BITS);
     cli::addOptions(
         app,
         {{"--packets", &f.packets,
@@ -83,11 +87,28 @@ int main(int argc, char** argv)
           "is in or next to it, or it borders such a block; 0: every cell on its own",
           CLI::Range(0.0, nebula::MAX_REFINE_TAU)},
          {"--denoise", &f.denoise,
-          "Noise filter, in field space: each cell moves towards the mean of the\n"
-          "(2N+1)^3 cells around it only as far as its own noise estimate exceeds\n"
-          "their spread (a local Wiener filter), so edges and gradients stay;\n"
-          "0: none. -v reports the noise before and after (DESIGN 5b)",
+          "Noise filter, in field space: each cell moves towards the plane fitted to\n"
+          "the (2N+1)^3 cells around it only as far as its own noise estimate exceeds\n"
+          "their spread about it (a local Wiener filter), so edges and gradients\n"
+          "stay; 0: none. -v reports the noise before and after (DESIGN 5b)",
           cli::integerIn(0, nebula::MAX_DENOISE_RADIUS)},
+         {"--precision", &precision,
+          "Significant bits each stored moment keeps: every moment of a cell within\n"
+          "2^-BITS of the cell's c_00 (J: of J), its float's low bits zero so the\n"
+          "file compresses; half: 11 (a half float's), float: the floats as computed.\n"
+          "The default's bound, 0.39 %, is about a tenth of the noise of J or less;\n"
+          "-v reports both and the file's size",
+          CLI::Validator(
+              [](std::string& s) {
+                  if (s == "half" || s == "float") return std::string();
+                  std::string v = s;
+                  return cli::integerIn(nebula::FIELD_MIN_BITS, nebula::FIELD_FLOAT_BITS)(v).empty()
+                             ? std::string()
+                             : "expected half, float or an integer in [" +
+                                   std::to_string(nebula::FIELD_MIN_BITS) + ", " +
+                                   std::to_string(nebula::FIELD_FLOAT_BITS) + "], got " + s;
+              },
+              "BITS|half|float")},
          {"--seed", &f.seed, "Random seed (same seed, same field)", cli::integerIn(0, UINT64_MAX)},
          {"--per-star", &f.perStar,
           "One field per star (scatter.star_<name>.*) instead of their sum: nebrender\n"
@@ -147,8 +168,29 @@ int main(int argc, char** argv)
         }
         opts.scene.densityGrid = common.densityGrid;
         opts.onlyNew = common.onlyNew;
-        nebula::scatter(grids, opts, say);
-        if (ranks->root()) nebula::writeGrids(common.output, std::move(grids), run);
+        opts.storedBits = precision == "float"  ? nebula::FIELD_FLOAT_BITS
+                          : precision == "half" ? nebula::FIELD_HALF_BITS
+                                                : std::stoi(precision);
+        const nebula::ScatterField field = nebula::scatter(grids, opts, say);
+        if (!ranks->root()) return;
+        nebula::writeGrids(common.output, std::move(grids), run);
+        // -v: the file's size beside the field's noise and the stored precision's bound.
+        double noise = 0.0;
+        for (const auto& src : field.sources)
+            noise = std::max(noise, src.relativeError);
+        const std::string size =
+            common.output == "-"
+                ? std::string()
+                : fmt::format("{:.1f} MB, ",
+                              double(std::filesystem::file_size(common.output)) / 1e6);
+        run.info(
+            fmt::format("{}: {}moments stored to {} significant bits ({}), noise of J {:.2g} %",
+                        common.output == "-" ? "<stdout>" : common.output, size, opts.storedBits,
+                        opts.storedBits >= nebula::FIELD_FLOAT_BITS
+                            ? std::string("the floats as computed")
+                            : fmt::format("each within {:.2g} % of its cell's c_00",
+                                          100.0 * std::ldexp(1.0, -opts.storedBits)),
+                        100.0 * noise));
     });
     return cli::finishRanks(ranks, rc);
 }

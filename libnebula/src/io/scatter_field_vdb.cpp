@@ -35,6 +35,17 @@ std::string gridName(const std::string& source, int l, int m, int c,
 
 } // namespace
 
+float storedFieldValue(float value, float reference, int bits)
+{
+    if (bits >= FIELD_FLOAT_BITS || value == 0.0f || !std::isfinite(value)) return value;
+    float ref = std::abs(reference);
+    if (!(ref > 0.0f) || !std::isfinite(ref)) ref = std::abs(value);
+    int e = 0;
+    std::frexp(ref, &e); // 2^(e - 1) <= ref < 2^e
+    const double step = std::ldexp(1.0, e - bits);
+    return float(std::round(double(value) / step) * step);
+}
+
 const char* scatterMetaKey(bool spectral)
 {
     return spectral ? META_SCATTER_SPECTRAL : META_SCATTER;
@@ -63,6 +74,8 @@ void writeScatterField(GridSet& grids, const ScatterFieldMeta& meta,
             for (int mm = -l; mm <= l; ++mm)
                 for (int c = 0; c < C; ++c) {
                     const int ch = shIndex(l, mm) * C + c;
+                    // The grid's units: J for l = 0, c_lm else; each value is stored
+                    // against its cell's c_00 in the same units (J for the J grids).
                     const double scale = l == 0 ? 1.0 / (4.0 * PI * j0) : 1.0;
                     auto grid = openvdb::FloatGrid::create(0.0f);
                     auto acc = grid->getAccessor();
@@ -76,8 +89,11 @@ void writeScatterField(GridSet& grids, const ScatterFieldMeta& meta,
                                         std::size_t(m.dims()[0]) +
                                     std::size_t(I - m.lo()[0]);
                                 if (!active[cell]) continue;
+                                const float* v = m.voxel(m.index(I, J, K));
                                 acc.setValue(openvdb::Coord(I, J, K),
-                                             float(m.voxel(m.index(I, J, K))[ch] * scale));
+                                             storedFieldValue(float(v[ch] * scale),
+                                                              float(v[c] * scale),
+                                                              meta.storedBits));
                             }
                     grid->setTransform(fieldTransform.copy());
                     grid->setName(gridName(name, l, mm, c, meta.wavelengths, spectral));
@@ -126,7 +142,8 @@ void writeScatterField(GridSet& grids, const ScatterFieldMeta& meta,
                                  {"index_to_world",
                                   {a0.m[0], a0.m[1], a0.m[2], a0.t.x, a0.m[3], a0.m[4], a0.m[5],
                                    a0.t.y, a0.m[6], a0.m[7], a0.m[8], a0.t.z}},
-                                 {"seconds", meta.seconds}};
+                                 {"seconds", meta.seconds},
+                                 {"stored_bits", meta.storedBits}};
     grids.setMetaString(scatterMetaKey(spectral), json.dump());
 }
 
@@ -150,6 +167,7 @@ std::optional<ScatterFieldMeta> readScatterFieldMeta(const GridSet& grids, bool 
     ScatterFieldMeta meta;
     ScatterSettings& set = meta.settings;
     std::vector<std::string> names;
+    std::string layout; // absent: one FloatGrid per source, moment and channel
     detail::checkJsonBounds(metaText, grids.source, std::string(metaKey) + " metadata is ");
     try {
         const nlohmann::json json = nlohmann::json::parse(metaText);
@@ -183,6 +201,8 @@ std::optional<ScatterFieldMeta> readScatterFieldMeta(const GridSet& grids, bool 
         set.denoise = json.value("denoise", 0);
         meta.scene.exactStarDepth = json.value("exact_star_depth", false);
         meta.seconds = json.value("seconds", 0.0);
+        meta.storedBits = json.value("stored_bits", FIELD_FLOAT_BITS);
+        layout = json.value("layout", std::string());
     } catch (const nlohmann::json::exception& e) {
         throw Error(grids.source + ": " + metaKey +
                     " metadata is not nebscatter's: " + detail::jsonErrorText(e));
@@ -192,6 +212,19 @@ std::optional<ScatterFieldMeta> readScatterFieldMeta(const GridSet& grids, bool 
         throw Error(grids.source + ": " + metaKey + " has order " + std::to_string(set.order) +
                     " and level " + std::to_string(set.fieldLevel) + "; expected 0..4 and " +
                     std::to_string(MIN_FIELD_LEVEL) + ".." + std::to_string(MAX_FIELD_LEVEL));
+    }
+    if (!layout.empty()) {
+        throw Error(grids.source + ": " + metaKey + " has layout \"" +
+                    detail::printable(layout, 40) +
+                    "\", which this version does not read (it reads fields without \"layout\": "
+                    "one FloatGrid per source, moment and channel); use a newer nebula, or rerun "
+                    "this nebscatter");
+    }
+    if (meta.storedBits < FIELD_MIN_BITS || meta.storedBits > FIELD_FLOAT_BITS) {
+        throw Error(grids.source + ": " + metaKey + " has stored_bits " +
+                    std::to_string(meta.storedBits) + "; expected " +
+                    std::to_string(FIELD_MIN_BITS) + ".." + std::to_string(FIELD_FLOAT_BITS) +
+                    " (the significant bits its moments keep)");
     }
     const auto& wl = meta.wavelengths;
     bool wlOk = spectral ? wl.size() >= 2 : wl.size() == 3;

@@ -116,6 +116,7 @@ ScatterField scatter(GridSet& grids, const ScatterStageOptions& opts, const Run&
                            ? wavelengths
                            : std::vector<double>(opts.wavelengths.begin(), opts.wavelengths.end());
     meta.seconds = seconds;
+    meta.storedBits = opts.storedBits;
     const auto xform = levelTransform(grids.find(opts.scene.densityGrid)->transform(), field.level);
     if (opts.onlyNew) grids.grids.clear();
     writeScatterField(grids, meta, moments, field.active, *xform, spectral);

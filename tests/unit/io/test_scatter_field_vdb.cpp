@@ -18,6 +18,8 @@
 #include <nlohmann/json.hpp>
 
 #include <cmath>
+#include <cstdint>
+#include <cstring>
 #include <string>
 
 using namespace nebula;
@@ -239,4 +241,100 @@ TEST(ScatterFieldVdb, SourcesAreNamedOnlyInTheFile)
     const std::string e = errorMessage([&] { readScatterFieldMeta(grids, false); });
     EXPECT_NE(e.find("field.vdb: nebula:scatter: source \"star_a\" is none of"), std::string::npos)
         << e;
+}
+
+// storedFieldValue() against brute force: within 2^-bits of the reference, a multiple of the
+// step 2^(e + 1 - bits) (2^e <= |reference| < 2^(e + 1)), so its float's low bits are zero;
+// the value itself at FIELD_FLOAT_BITS; against |value| where the reference is 0.
+TEST(ScatterFieldVdb, StoredValuesKeepTheirBitsWithinTheStatedBound)
+{
+    std::uint32_t state = 12345;
+    const auto uniform = [&] { // xorshift32 in [0, 1)
+        state ^= state << 13;
+        state ^= state >> 17;
+        state ^= state << 5;
+        return double(state) / 4294967296.0;
+    };
+    for (const int bits : {FIELD_MIN_BITS, 8, FIELD_HALF_BITS, 16}) {
+        for (int i = 0; i < 20000; ++i) {
+            const float ref = float(std::ldexp(0.5 + uniform(), int(uniform() * 60.0) - 30));
+            const float value = float((uniform() * 6.0 - 3.0) * ref); // |c_lm| up to 3 c_00
+            const float stored = storedFieldValue(value, ref, bits);
+            ASSERT_LE(std::abs(double(stored) - double(value)), std::ldexp(double(ref), -bits))
+                << value << " against " << ref << " at " << bits << " bits";
+            int e = 0;
+            std::frexp(ref, &e); // 2^(e - 1) <= ref < 2^e: the step is 2^(e - bits)
+            const double k = double(stored) / std::ldexp(1.0, e - bits);
+            ASSERT_EQ(k, std::round(k)) << stored;
+            // At most bits + 2 significant bits (|k| <= 3 * 2^bits): the float's low 22 - bits
+            // bits are 0.
+            std::uint32_t u = 0;
+            std::memcpy(&u, &stored, sizeof u);
+            ASSERT_EQ(u & ((1u << (22 - bits)) - 1u), 0u) << stored;
+        }
+    }
+    EXPECT_EQ(storedFieldValue(0.1234567f, 3.0f, FIELD_FLOAT_BITS), 0.1234567f);
+    EXPECT_EQ(storedFieldValue(0.0f, 1.0f, 8), 0.0f);
+    // No reference (J of 0): relative to the value itself.
+    EXPECT_NEAR(storedFieldValue(0.1234567f, 0.0f, 8), 0.1234567f, 0.1234567 / 256.0);
+    EXPECT_NE(storedFieldValue(0.1234567f, 0.0f, 8), 0.1234567f);
+}
+
+// A field written to 8 bits: every grid value within 2^-8 of its cell's c_00 in the grid's
+// units (J for the J grids) of the float field's, the bits recorded and read back; a field
+// without "stored_bits" (before --precision) reads as floats, one out of range is refused.
+TEST(ScatterFieldVdb, StoredBitsBoundTheErrorAndAreRecorded)
+{
+    openvdb::initialize();
+    SmallField f;
+    const GridSet exact = f.written();
+    f.meta.storedBits = 8;
+    const GridSet stored = f.written();
+    EXPECT_EQ(readScatterFieldMeta(exact, false)->storedBits, FIELD_FLOAT_BITS);
+    EXPECT_EQ(readScatterFieldMeta(stored, false)->storedBits, 8);
+    const double c00PerJ = 4.0 * PI * (0.5 / std::sqrt(PI));
+    int changed = 0, checked = 0;
+    for (const auto& g : exact.grids) {
+        const auto a = openvdb::gridPtrCast<openvdb::FloatGrid>(g);
+        const auto b = openvdb::gridPtrCast<openvdb::FloatGrid>(stored.find(g->getName()));
+        ASSERT_TRUE(a && b) << g->getName();
+        ASSERT_EQ(a->activeVoxelCount(), b->activeVoxelCount());
+        const int l = g->metaValue<int>("l");
+        const std::string source = g->metaValue<std::string>("source");
+        const int c = g->getName().back() == 'R' ? 0 : g->getName().back() == 'G' ? 1 : 2;
+        const auto j =
+            openvdb::gridPtrCast<openvdb::FloatGrid>(exact.find(scatterGridName(source, 0, 0, c)));
+        const auto bAcc = b->getConstAccessor();
+        const auto jAcc = j->getConstAccessor();
+        for (auto it = a->cbeginValueOn(); it; ++it) {
+            const double ref = jAcc.getValue(it.getCoord()) * (l == 0 ? 1.0 : c00PerJ);
+            const double got = bAcc.getValue(it.getCoord());
+            EXPECT_LE(std::abs(got - *it), std::ldexp(std::abs(ref), -8) * (1.0 + 1e-6))
+                << g->getName() << " " << it.getCoord();
+            changed += got != *it;
+            ++checked;
+        }
+    }
+    EXPECT_EQ(checked, 2 * 4 * 3 * 42); // 42 of the 64 cells are active
+    EXPECT_GT(changed, checked / 2);
+
+    GridSet old = f.written();
+    nlohmann::json meta = nlohmann::json::parse(old.metaString(META_SCATTER));
+    meta.erase("stored_bits");
+    old.setMetaString(META_SCATTER, meta.dump());
+    EXPECT_EQ(readScatterFieldMeta(old, false)->storedBits, FIELD_FLOAT_BITS);
+    meta["stored_bits"] = 30;
+    old.setMetaString(META_SCATTER, meta.dump());
+    EXPECT_EQ(errorMessage([&] { readScatterFieldMeta(old, false); }),
+              "field.vdb: nebula:scatter has stored_bits 30; expected 4..24 (the significant "
+              "bits its moments keep)");
+    // A layout this version does not know (DESIGN §5b "Field file format") is refused, never
+    // read as these grids.
+    meta["stored_bits"] = 8;
+    meta["layout"] = "packed";
+    old.setMetaString(META_SCATTER, meta.dump());
+    EXPECT_EQ(errorMessage([&] { readScatterFieldMeta(old, false); }),
+              "field.vdb: nebula:scatter has layout \"packed\", which this version does not read "
+              "(it reads fields without \"layout\": one FloatGrid per source, moment and "
+              "channel); use a newer nebula, or rerun this nebscatter");
 }

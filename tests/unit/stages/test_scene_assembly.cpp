@@ -30,6 +30,7 @@ GridSet cubeWithField(bool perStar, ScatterField& field)
     opts.field.fieldLevel = 1;
     opts.field.packets = 4000;
     opts.field.perStar = perStar;
+    opts.storedBits = FIELD_FLOAT_BITS; // the floats as computed: read back exactly
     field = scatter(grids, opts, nebula::Run());
     return grids;
 }

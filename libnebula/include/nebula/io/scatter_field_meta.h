@@ -120,6 +120,16 @@ struct ScatterSceneSettings
     bool exactStarDepth = true;
 };
 
+/// A field's stored precision (nebscatter --precision, DESIGN §5b "Stored precision"): the
+/// significant bits each stored moment keeps. FIELD_FLOAT_BITS: the floats as computed
+/// (fields from before --precision); fewer: every moment of a cell is a multiple of
+/// 2^(e + 1 - bits), 2^e <= that cell's |c_00| (J's own for the J grids) < 2^(e + 1), so it
+/// is within 2^-bits of the cell's c_00 and the low bits of its float are zero (which the
+/// file's compression removes).
+inline constexpr int FIELD_FLOAT_BITS = 24; ///< a float's significand
+inline constexpr int FIELD_HALF_BITS = 11;  ///< a half float's: within 0.049 % of c_00
+inline constexpr int FIELD_MIN_BITS = 4;
+
 /// What a field is, how it was computed and what it was made for: `nebula:scatter`.
 struct ScatterFieldMeta
 {
@@ -132,6 +142,9 @@ struct ScatterFieldMeta
     std::vector<double> wavelengths;
     Affine indexToWorld; ///< level 0's (the density grid's) index-to-world map
     double seconds = 0.0;
+    /// The significant bits the stored moments keep, FIELD_MIN_BITS..FIELD_FLOAT_BITS
+    /// (`"stored_bits"`; fields without it: FIELD_FLOAT_BITS).
+    int storedBits = FIELD_FLOAT_BITS;
 };
 
 } // namespace nebula

@@ -24,12 +24,20 @@ namespace nebula {
 /// The metadata key of a field of the kind: META_SCATTER or META_SCATTER_SPECTRAL.
 const char* scatterMetaKey(bool spectral);
 
+/// @p value stored to @p bits significant bits against its cell's @p reference
+/// (ScatterFieldMeta::storedBits; the reference is the cell's c_00 for a moment, J itself for
+/// J): the nearest multiple of 2^(e + 1 - bits), 2^e <= |reference| < 2^(e + 1), so within
+/// 2^-bits |reference| of @p value; against |value| where the reference is 0 or not finite;
+/// @p value itself where bits >= FIELD_FLOAT_BITS.
+float storedFieldValue(float value, float reference, int bits);
+
 /// Replaces any field of the kind (R, G, B or @p spectral) in @p grids by this one:
 /// moments[s] (shCount(meta.order) x meta.wavelengths.size() channels, channel
 /// shIndex(l, m) * C + c, the l = 0 one holding c_00 = 4 pi Y_00 J) becomes source s's grids,
 /// written on the cells where @p active is 1 (one byte per cell of the moments'
 /// lattice, x fastest, then y, then z),
-/// on @p fieldTransform; @p meta becomes the file metadata.
+/// on @p fieldTransform, each value stored to meta.storedBits significant bits
+/// (storedFieldValue()); @p meta becomes the file metadata.
 void writeScatterField(GridSet& grids, const ScatterFieldMeta& meta,
                        const std::vector<const SparseVolume*>& moments,
                        const std::vector<std::uint8_t>& active,

@@ -23,6 +23,11 @@ inline ScatterOptions defaultStageFieldOptions()
     return o;
 }
 
+/// nebscatter's default --precision: every stored moment within 2^-8 (0.39 %) of its cell's
+/// c_00, about a tenth of the noise of J at the default packets (DESIGN §5b "Stored
+/// precision").
+inline constexpr int DEFAULT_FIELD_BITS = 8;
+
 /// nebscatter's options: the field's (ScatterOptions) and the scene's it is made from and
 /// for (recorded in its metadata, ScatterFieldMeta).
 struct ScatterStageOptions
@@ -32,6 +37,9 @@ struct ScatterStageOptions
     /// R, G, B wavelengths [nm]: the channels' extinction (nebrender's --wavelengths).
     std::array<double, 3> wavelengths{700.0, 546.1, 435.8};
     bool onlyNew = false; ///< write only the field grids
+    /// The significant bits the stored moments keep (ScatterFieldMeta::storedBits,
+    /// --precision): FIELD_FLOAT_BITS keeps the floats as computed.
+    int storedBits = DEFAULT_FIELD_BITS;
     /// > 0: the starlight's field for nebrender --spectral at this many wavelengths
     /// (spectralFieldWavelengths()) instead of the R, G, B field.
     int spectral = 0;
