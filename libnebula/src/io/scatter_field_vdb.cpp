@@ -226,6 +226,11 @@ std::optional<ScatterFieldMeta> readScatterFieldMeta(const GridSet& grids, bool 
                     std::to_string(FIELD_MIN_BITS) + ".." + std::to_string(FIELD_FLOAT_BITS) +
                     " (the significant bits its moments keep)");
     }
+    if (set.denoise < 0 || set.denoise > MAX_DENOISE_RADIUS) {
+        throw Error(grids.source + ": " + metaKey + " has denoise " +
+                    std::to_string(set.denoise) + "; expected 0.." +
+                    std::to_string(MAX_DENOISE_RADIUS) + " (the noise filter's radius)");
+    }
     const auto& wl = meta.wavelengths;
     bool wlOk = spectral ? wl.size() >= 2 : wl.size() == 3;
     for (std::size_t i = 0; i < wl.size() && wlOk; ++i)
