@@ -70,7 +70,7 @@ TEST(Framing, OffCentreCloudLandsInTheMiddleOfEveryCamera)
 {
     const GridSet set = offCentreCloud();
     const auto grid = set.floatGrid("density", "--density-grid");
-    const Run quiet;
+    const nebula::Run quiet;
     for (const CameraModel* m : cameraModels()) {
         for (const bool keepEye : {false, true}) {
             Camera c;
