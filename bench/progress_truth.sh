@@ -14,7 +14,8 @@
 # Prints one row per progress line: per cent done, elapsed [s], the line's time left as
 # written, the same to the second (elapsed x (100 - per cent) / per cent, the formula the line
 # rounds to minutes past 2 min), the true time left [s] and predicted / true; then the worst
-# ratio from 20 % done on (target: within 0.75-1.25).
+# ratio from 20 % done on (target: within 0.75-1.25; a line of 99.5 % and more, printed as
+# 100 %, is left out of it).
 set -euo pipefail
 
 TOOLS=${TOOLS:-build/tools}
@@ -66,7 +67,7 @@ for t, pct, elapsed, left in rows:
     ratio = predicted / true_left if predicted is not None and true_left > 0 else float("nan")
     print("%5d %10.0f %10s %12s %10.1f %8.2f" % (pct, elapsed, "-" if left is None else "%.0f" % left,
           "-" if predicted is None else "%.1f" % predicted, true_left, ratio))
-    if pct >= 20 and ratio == ratio and abs(ratio - 1) > abs(worst - 1):
+    if 20 <= pct < 100 and ratio == ratio and abs(ratio - 1) > abs(worst - 1):
         worst = ratio
 print("worst predicted/true from 20 %% done on: %.2f (%s)" % (worst, "within 25 %" if abs(worst - 1) <= 0.25 else "off by more than 25 %"))
 EOF
