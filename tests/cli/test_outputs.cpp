@@ -173,7 +173,7 @@ TEST_F(Cli, ProgressIsWrittenAsLinesToALogUnderVerbose)
               "nebrender path:"},
              {"nebillum -i small.vdb -o lit2.vdb", "nebillum "},
              {"nebexport -i small.vdb -o d.npy", "nebexport d.npy:"},
-             {"nebimport -i d.npy -o back.vdb", "nebimport "}}) {
+             {"nebimport -i d.npy --unit cm-3 --voxel-size 0.1pc -o back.vdb", "nebimport "}}) {
         const Result r = run(cmd + " -v 2> log.txt");
         ASSERT_EQ(r.code, 0) << cmd;
         l = linesOf(tool);

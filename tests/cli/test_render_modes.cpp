@@ -141,9 +141,10 @@ TEST_F(RenderModes, BadCombinationsAndMissingLevels)
 
 // --frame-nebula end to end (issue 47): the column density's image (-ln of the
 // transmittance layer) has its centroid in the central 10 % of a perspective view from a
-// given eye far off to the side, and on the sweet spot of a 30-degree dome (5/9 of the
-// radius below the centre); -v says the camera chosen; --look-at, --camera-path and a
-// density grid without dust are refused.
+// given eye far off to the side (far: the image's centroid of the column is the projected
+// centroid of the mass only where the perspective is nearly parallel), and on the sweet spot of a
+// 30-degree dome (5/9 of the radius below the centre); -v says the camera chosen; --look-at,
+// --camera-path and a density grid without dust are refused.
 TEST_F(RenderModes, FrameNebulaAimsEveryCameraAtTheDust)
 {
     makeLit();
@@ -163,7 +164,7 @@ TEST_F(RenderModes, FrameNebulaAimsEveryCameraAtTheDust)
         cx = sx / sum / img.width;
         cy = sy / sum / img.height;
     };
-    Result r = run("nebrender -i lit.vdb --frame-nebula --eye 9,4,-2 --res 32x32 -v "
+    Result r = run("nebrender -i lit.vdb --frame-nebula --eye 30,12,-6 --res 32x32 -v "
                    "-o side.exr");
     ASSERT_EQ(r.code, 0) << r.err;
     EXPECT_NE(r.err.find("--frame-nebula: the dust of \"density\": centroid"), std::string::npos)
