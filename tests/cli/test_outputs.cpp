@@ -13,6 +13,8 @@
 #include <iterator>
 #include <sstream>
 #include <string>
+#include <utility>
+#include <vector>
 
 using namespace nebula::clitest;
 
@@ -116,38 +118,66 @@ TEST_F(Outputs, NamesEndAsTheirFormat)
 
 // Progress in a log (issue 47): with stderr not a terminal (here a file) and -v, a tool
 // writes its progress as lines, one each time the work passes a multiple of 5 % (or 30 s
-// after the last), and one when done; without -v, none.
+// after the last), rising, below 100 %, and one when done; without -v, none. Every tool with
+// long work does: nebscatter, nebrender (its rows weighed by their work: a dome master's
+// sky and cloud), nebillum, nebexport and nebimport.
 TEST_F(Cli, ProgressIsWrittenAsLinesToALogUnderVerbose)
 {
     makeLit();
-    ASSERT_EQ(run("nebscatter -i lit.vdb --packets 20000 -o f.vdb -v 2> log.txt").code, 0);
-    std::ifstream file(path("log.txt"));
-    const std::string text((std::istreambuf_iterator<char>(file)),
-                           std::istreambuf_iterator<char>());
-    EXPECT_EQ(text.find('\r'), std::string::npos); // no bar drawn with carriage returns
-    std::istringstream in(text);
-    std::string line;
-    int steps = 0, done = 0, last = -1;
-    bool rising = true;
-    while (std::getline(in, line)) {
-        if (line.rfind("nebscatter ", 0) != 0) continue; // "nebscatter stars: 35 % after 1 s"
-        const auto colon = line.find(": ");
-        if (colon == std::string::npos) continue;
-        const std::string rest = line.substr(colon + 2);
-        if (rest.rfind("done in ", 0) == 0) {
-            ++done;
-            last = -1;
-        } else if (rest.find(" % after ") != std::string::npos) {
-            const int pct = std::stoi(rest);
-            rising = rising && pct > last && pct < 100;
-            last = pct;
-            ++steps;
+    struct Lines
+    {
+        int steps = 0, done = 0;
+        bool rising = true;
+    };
+    // The progress lines of @p tool ("tool ...: 35 % after 1 s", "tool ...: done in 2 s").
+    const auto linesOf = [&](const std::string& tool) {
+        std::ifstream file(path("log.txt"));
+        const std::string text((std::istreambuf_iterator<char>(file)),
+                               std::istreambuf_iterator<char>());
+        EXPECT_EQ(text.find('\r'), std::string::npos) << tool; // no bar drawn
+        std::istringstream in(text);
+        std::string line;
+        Lines l;
+        int last = -1;
+        while (std::getline(in, line)) {
+            if (line.rfind(tool, 0) != 0) continue;
+            const auto colon = line.find(": ");
+            if (colon == std::string::npos) continue;
+            const std::string rest = line.substr(colon + 2);
+            if (rest.rfind("done in ", 0) == 0) {
+                ++l.done;
+                last = -1;
+            } else if (rest.find(" % after ") != std::string::npos) {
+                const int pct = std::stoi(rest);
+                l.rising = l.rising && pct > last && pct < 100;
+                last = pct;
+                ++l.steps;
+            }
         }
-    }
-    EXPECT_GE(done, 1);
-    EXPECT_GE(steps, 10); // at least every 5 % of one source's packets, less a few skipped
-    EXPECT_TRUE(rising);
+        return l;
+    };
+    ASSERT_EQ(run("nebscatter -i lit.vdb --packets 20000 -o f.vdb -v 2> log.txt").code, 0);
+    Lines l = linesOf("nebscatter ");
+    EXPECT_GE(l.done, 1);
+    EXPECT_GE(l.steps, 10); // at least every 5 % of one source's packets, less a few skipped
+    EXPECT_TRUE(l.rising);
     const Result quiet = run("nebscatter -i lit.vdb --packets 20000 -o g.vdb");
     ASSERT_EQ(quiet.code, 0);
     EXPECT_EQ(quiet.err.find(" % after "), std::string::npos) << quiet.err;
+    for (const auto& [cmd, tool] : std::vector<std::pair<std::string, std::string>>{
+             {"nebrender -i f.vdb --camera fisheye --dome-tilt 30 --frame-nebula --res 128x128 "
+              "--no-png -o d.exr",
+              "nebrender:"},
+             {"nebrender -i lit.vdb --spectral --res 32x32 --no-png -o s.exr", "nebrender:"},
+             {"nebrender -i lit.vdb --integrator path --spp 2 --res 32x32 --no-png -o p.exr",
+              "nebrender path:"},
+             {"nebillum -i small.vdb -o lit2.vdb", "nebillum "},
+             {"nebexport -i small.vdb -o d.npy", "nebexport d.npy:"},
+             {"nebimport -i d.npy --unit cm-3 --voxel-size 0.1pc -o back.vdb", "nebimport "}}) {
+        const Result r = run(cmd + " -v 2> log.txt");
+        ASSERT_EQ(r.code, 0) << cmd;
+        l = linesOf(tool);
+        EXPECT_GE(l.done, 1) << cmd;
+        EXPECT_TRUE(l.rising) << cmd;
+    }
 }

@@ -10,6 +10,8 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
+#include <fstream>
 #include <map>
 #include <string>
 
@@ -135,6 +137,60 @@ TEST_F(RenderModes, BadCombinationsAndMissingLevels)
     ASSERT_EQ(
         run("nebrender -i pyr.vdb --phase old.vdb --phase-use replace --res 8x8 -o ok.exr").code,
         0);
+}
+
+// --frame-nebula end to end (issue 47): the column density's image (-ln of the
+// transmittance layer) has its centroid in the central 10 % of a perspective view from a
+// given eye far off to the side (far: the image's centroid of the column is the projected
+// centroid of the mass only where the perspective is nearly parallel), and on the sweet spot of a
+// 30-degree dome (5/9 of the radius below the centre); -v says the camera chosen; --look-at,
+// --camera-path and a density grid without dust are refused.
+TEST_F(RenderModes, FrameNebulaAimsEveryCameraAtTheDust)
+{
+    makeLit();
+    const auto columnCentroid = [&](const std::string& exr, double& cx, double& cy) {
+        const nebula::Image img = nebula::readExr(path(exr), nullptr);
+        const std::vector<float>& t = img.rgb("transmittance");
+        double sum = 0, sx = 0, sy = 0;
+        for (int y = 0; y < img.height; ++y)
+            for (int x = 0; x < img.width; ++x) {
+                const float g = t[(std::size_t(y) * img.width + x) * 3 + 1];
+                const double column = g > 0.0f ? -std::log(double(g)) : 0.0;
+                sum += column;
+                sx += column * (x + 0.5);
+                sy += column * (y + 0.5);
+            }
+        ASSERT_GT(sum, 0.0) << exr;
+        cx = sx / sum / img.width;
+        cy = sy / sum / img.height;
+    };
+    Result r = run("nebrender -i lit.vdb --frame-nebula --eye 30,12,-6 --res 32x32 -v "
+                   "-o side.exr");
+    ASSERT_EQ(r.code, 0) << r.err;
+    EXPECT_NE(r.err.find("--frame-nebula: the dust of \"density\": centroid"), std::string::npos)
+        << r.err;
+    EXPECT_NE(r.err.find("(given)"), std::string::npos) << r.err;
+    double cx = 0, cy = 0;
+    columnCentroid("side.exr", cx, cy);
+    EXPECT_NEAR(cx, 0.5, 0.05);
+    EXPECT_NEAR(cy, 0.5, 0.05);
+    r = run("nebrender -i lit.vdb --camera fisheye --dome-tilt 30 --frame-nebula --res 36x36 "
+            "-o dome.exr");
+    ASSERT_EQ(r.code, 0) << r.err;
+    columnCentroid("dome.exr", cx, cy);
+    EXPECT_NEAR(cx, 0.5, 0.05);
+    EXPECT_NEAR(cy, 0.5 + 0.5 * 5.0 / 9.0, 0.05);
+    expectFailure("nebrender -i lit.vdb --frame-nebula --look-at 0,0,0 -o bad.exr", 2,
+                  "--frame-nebula chooses --look-at itself");
+    {
+        std::ofstream f(path("p.json"));
+        f << R"({"fps": 4, "keyframes": [{"time": 0, "eye": [0,0,-9]}, {"time": 1, "eye": [1,0,-9]}]})";
+    }
+    expectFailure("nebrender -i lit.vdb --frame-nebula --camera-path p.json --frame 1 -o bad.exr",
+                  2, "--frame-nebula frames one view");
+    ASSERT_EQ(run("nebgen --res 8 --density 0 -o empty.vdb").code, 0);
+    expectFailure("nebrender -i empty.vdb --frame-nebula -o bad.exr", 2,
+                  "the density grid \"density\" of empty.vdb holds no dust");
 }
 
 // --camera fisheye and equirect end to end: the dome master's corners are black and

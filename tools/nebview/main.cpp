@@ -8,6 +8,7 @@
 #include "nebula/core/input.h"
 #include "nebula/io/phase_table_vdb.h"
 #include "nebula/serve/view_server.h"
+#include "nebula/stages/framing.h"
 #include "nebula/stages/view.h"
 
 #include <fmt/format.h>
@@ -137,6 +138,11 @@ int main(int argc, char** argv)
         auto grids = std::make_shared<const nebula::GridSet>(nebula::readGrids(common.input, run));
         const auto dust = dustOpts.apply(grids->dust(run));
         opts.densityGrid = common.densityGrid;
+        if (camera.frameNebula) { // the starting view
+            opts.camera =
+                nebula::frameNebula(*grids, opts.densityGrid, opts.camera,
+                                    nebula::cli::framingChoice(camera, !pathFile.empty()), run);
+        }
         const nebula::ViewSession session(grids, settings, dust, run);
         nebula::ViewServer viewer(session, server, run);
         if (server.address != "127.0.0.1" && server.address != "::1" &&

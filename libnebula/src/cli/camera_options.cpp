@@ -35,10 +35,19 @@ void OptionScopes::check(const std::vector<std::string>& active, const std::stri
 void addCamera(CLI::App& app, CameraOptions& opts, const std::string& prefix, bool withRes)
 {
     Camera& c = opts.camera;
-    addVec3(app, "--eye", c.eye,
-            prefix + (prefix.empty() ? "Camera" : "camera") + " position [pc]");
-    addVec3(app, "--look-at", c.lookAt,
-            prefix + (prefix.empty() ? "Point" : "point") + " the camera looks at [pc]");
+    opts.eyeOption = addVec3(app, "--eye", c.eye,
+                             prefix + (prefix.empty() ? "Camera" : "camera") + " position [pc]");
+    opts.lookAtOption =
+        addVec3(app, "--look-at", c.lookAt,
+                prefix + (prefix.empty() ? "Point" : "point") + " the camera looks at [pc]");
+    app.add_flag(
+        "--frame-nebula", opts.frameNebula,
+        "Aim and size the camera at the dust: its mass-weighted centroid on the image\n"
+        "centre (a tilted dome's sweet spot, 40 degrees above its front edge), the\n"
+        "radius holding 90 % of its mass sized to the view. Sets --look-at; moves --eye\n"
+        "(keeping the view direction) unless --eye is given, which only turns the camera;\n"
+        "sets the orthographic --pixel-size unless given. Not with --look-at or\n"
+        "--camera-path");
     addVec3(app, "--up", c.up, "Up direction");
     std::string help = "Camera model:";
     std::vector<std::string> names;
@@ -104,6 +113,22 @@ Camera makeCamera(const CameraOptions& opts)
     }
     (void)Projection(c); // a created camera is valid
     return c;
+}
+
+FramingChoice framingChoice(const CameraOptions& opts, bool cameraPath)
+{
+    if (opts.lookAtOption && opts.lookAtOption->count() > 0) {
+        throw UsageError("--frame-nebula chooses --look-at itself (the dust's centroid); give "
+                         "one or the other");
+    }
+    if (cameraPath) {
+        throw UsageError("--frame-nebula frames one view; a --camera-path's keyframes aim "
+                         "every frame (use nebview's --frame-nebula to start a path)");
+    }
+    FramingChoice keep;
+    keep.keepEye = opts.eyeOption && opts.eyeOption->count() > 0;
+    keep.keepPixelSize = opts.parameters.count("pixel-size") > 0;
+    return keep;
 }
 
 } // namespace nebula::cli

@@ -9,6 +9,7 @@
 #include "nebula/core/input.h"
 #include "nebula/io/phase_table_vdb.h"
 #include "nebula/render/integrator.h"
+#include "nebula/stages/framing.h"
 
 #include <fmt/format.h>
 
@@ -274,6 +275,8 @@ void runRenderCommand(CLI::App& app, RenderCommand& c, Run& run)
     const IntegratorType& chosen = chosenIntegrator(c.opts);
     c.scopes.check({chosen.chosenBy}, chosen.chosenBy);
     c.opts.camera = makeCamera(c.camera);
+    FramingChoice framing;
+    if (c.camera.frameNebula) framing = framingChoice(c.camera, !c.pathFile.empty());
     if (!c.pathFile.empty()) {
         auto path = readCameraPathOption(c.pathFile, c.opts.camera);
         FrameRange range{1, path->frameCount(), 1};
@@ -341,6 +344,9 @@ void runRenderCommand(CLI::App& app, RenderCommand& c, Run& run)
                                                            " (the band's quadrature wavelengths)"
                                                      : std::string("--wavelengths"));
     c.opts.densityGrid = c.common.densityGrid;
+    if (c.camera.frameNebula) {
+        c.opts.camera = frameNebula(grids, c.opts.densityGrid, c.opts.camera, framing, run);
+    }
     renderToFiles(grids, c.opts, dust, c.out, run);
 }
 

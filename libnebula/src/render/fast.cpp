@@ -589,7 +589,7 @@ Image renderFrame(const RenderScene& scene, const RenderOptions& opts, const Run
         ids.emission = img.layerId(EMISSION_LAYER);
     }
     const FastIntegrator integrator(scene, opts);
-    detail::forEachRowBand(view.height, 4, run, "nebrender", stats,
+    detail::forEachRowBand(scene, opts, 4, run, "nebrender", stats,
                            [&](int y0, int y1, RenderStats& bandStats) {
                                Scratch sc = integrator.scratch();
                                for (int py = y0; py < y1; ++py) {

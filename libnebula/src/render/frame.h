@@ -18,7 +18,10 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
+#include <chrono>
 #include <cstdint>
+#include <cstdio>
+#include <cstdlib>
 #include <mutex>
 #include <string>
 #include <vector>
@@ -88,40 +91,75 @@ inline void requireTableForLevels(const RenderOptions& opts)
 void warnUnusedLevels(const IntegratorInput& input, const RenderOptions& opts, bool field,
                       const Run& run);
 
-/// Runs @p band(y0, y1, stats) for bands of rows [y0, y1) of an image @p height rows high,
-/// in parallel (bands of at least @p grain rows), with a progress bar labelled @p label
-/// (drawn only if @p run shows progress), and adds every band's statistics to @p stats (if
-/// not null). If @p run can be cancelled (Run::setCancel()), @p band is called for one row at
-/// a time, each only while the run is not cancelled; once it is, the loop ends by throwing
-/// Cancelled within a row, and the image is to be dropped. Every pixel is computed by
-/// one band alone, so the image does not depend on how the rows are split or on the thread count;
-/// the statistics are integer sums.
+/// The expected cost of each row of a frame of @p opts' camera over @p scene, for the
+/// progress bar's time left (never the pixels): a sparse subset of each row's pixels
+/// (ROW_COST_COLUMNS, evenly spaced) marched as the fast integrator marches them (steps of
+/// --step voxels through the occupied blocks, at ROW_COST_STRIDE times the step, stopping
+/// where the most transparent channel's transmittance falls below minTransmittance), each
+/// pixel in view costing ROW_COST_PIXEL steps plus its steps, and each step where a star's
+/// optical depth is marched exactly (RenderOptions::exactStarDepth, StarDepth::curved())
+/// ROW_COST_STAR_DEPTH more per such star. Deterministic (a function of
+/// the scene and the camera alone; the rows are independent); every row weighs at least 1.
+/// In integrator.cpp.
+std::vector<std::uint64_t> rowCosts(const RenderScene& scene, const RenderOptions& opts);
+/// The pixels of a row that rowCosts() marches.
+inline constexpr int ROW_COST_COLUMNS = 16;
+/// rowCosts() steps this many ray steps at a time (each counted as that many).
+inline constexpr int ROW_COST_STRIDE = 4;
+/// A pixel's cost beyond its ray steps, in ray steps (camera ray, box, stars, writing).
+inline constexpr double ROW_COST_PIXEL = 1.0;
+/// The cost of a step where a star's optical depth is marched exactly (StarDepth: up to 32
+/// voxels of exact column), in ray steps, per such star. These two were fitted to the rows'
+/// times of a 512^2 dome master of the README example (bench/progress_truth.sh's view):
+/// 3/4 of its steps are such steps, and they take most of the time.
+inline constexpr double ROW_COST_STAR_DEPTH = 16.0;
+
+/// Runs @p band(y0, y1, stats) for bands of rows [y0, y1) of a frame of @p opts' camera over
+/// @p scene (its height rows), in parallel (bands of at least @p grain rows), with a progress
+/// bar labelled @p label (drawn only if @p run shows progress) that counts work, not rows:
+/// each row weighs rowCosts() (computed only when progress is shown), so the time left holds
+/// when rows cost unlike amounts (a dome master's sky and cloud); and adds every band's
+/// statistics to @p stats (if not null). If @p run can be cancelled (Run::setCancel()), @p band
+/// is called for one row at a time, each only while the run is not cancelled; once it is, the
+/// loop ends by throwing Cancelled within a row, and the image is to be dropped. Every pixel is
+/// computed by one band alone, so the image does not depend on how the rows are split or on the
+/// thread count; the statistics are integer sums.
 template <class Band>
-void forEachRowBand(int height, int grain, const Run* run, const std::string& label,
-                    RenderStats* stats, Band&& band)
+void forEachRowBand(const RenderScene& scene, const RenderOptions& opts, int grain, const Run* run,
+                    const std::string& label, RenderStats* stats, Band&& band)
 {
-    Progress bar(run, label, std::uint64_t(height));
+    const int height = opts.camera.height;
+    // prefix[y]: the weight of rows [0, y).
+    std::vector<std::uint64_t> prefix(std::size_t(height) + 1);
+    for (int y = 0; y <= height; ++y)
+        prefix[std::size_t(y)] = std::uint64_t(y);
+    if (run && (run->showProgress() || run->progressLines())) {
+        const std::vector<std::uint64_t> cost = rowCosts(scene, opts);
+        for (int y = 0; y < height; ++y)
+            prefix[std::size_t(y) + 1] = prefix[std::size_t(y)] + cost[std::size_t(y)];
+    }
+    Progress bar(run, label, prefix.back());
     std::mutex mutex;
     RenderStats total;
-    tbb::parallel_for(tbb::blocked_range<int>(0, height, grain),
-                      [&](const tbb::blocked_range<int>& rows) {
-                          RenderStats local;
-                          if (run && run->cancellable()) {
-                              // Row by row, the flag checked before each (the partitioner
-                              // may hand a thread many rows at once).
-                              for (int y = rows.begin(); y < rows.end(); ++y) {
-                                  run->checkCancel();
-                                  RenderStats row;
-                                  band(y, y + 1, row);
-                                  local += row;
-                              }
-                          } else {
-                              band(rows.begin(), rows.end(), local);
-                          }
-                          bar.add(std::uint64_t(rows.size()));
-                          const std::lock_guard<std::mutex> lock(mutex);
-                          total += local;
-                      });
+    tbb::parallel_for(
+        tbb::blocked_range<int>(0, height, grain), [&](const tbb::blocked_range<int>& rows) {
+            RenderStats local;
+            if (run && run->cancellable()) {
+                // Row by row, the flag checked before each (the partitioner
+                // may hand a thread many rows at once).
+                for (int y = rows.begin(); y < rows.end(); ++y) {
+                    run->checkCancel();
+                    RenderStats row;
+                    band(y, y + 1, row);
+                    local += row;
+                }
+            } else {
+                band(rows.begin(), rows.end(), local);
+            }
+            bar.add(prefix[std::size_t(rows.end())] - prefix[std::size_t(rows.begin())]);
+            const std::lock_guard<std::mutex> lock(mutex);
+            total += local;
+        });
     if (stats) *stats += total;
 }
 

@@ -839,7 +839,7 @@ Image renderSpectral(const SpectralScene& scene, const RenderOptions& opts, cons
             components[k - 1]->push_back(
                 img.addChannel(spectralChannelName(b, NL, SPECTRAL_COMPONENTS[k - 1])));
         }
-    detail::forEachRowBand(view.height, 4, run, "nebrender", stats,
+    detail::forEachRowBand(scene.base, opts, 4, run, "nebrender", stats,
                            [&](int y0, int y1, RenderStats& band) {
                                SpectralScratch sc = integrator.scratch();
                                for (int py = y0; py < y1; ++py) {

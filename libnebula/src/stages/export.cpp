@@ -4,6 +4,7 @@
 #include "nebula/core/disk_space.h"
 #include "nebula/core/error.h"
 #include "nebula/core/memory.h"
+#include "nebula/core/run.h"
 #include "nebula/io/grid_names.h"
 #include "nebula/io/grid_values.h"
 
@@ -256,6 +257,10 @@ void exportCube(const GridSet& grids, const ExportOptions& opts, const Run& run)
                          box[0][1], box[0][2], h.unit));
 
     const auto& tree = grid->tree();
+    // Progress over the cube's voxels, a plane at a time as the writer asks for them.
+    Progress progress(run, run.tool() + " " + opts.output,
+                      std::uint64_t(h.dims[0]) * std::uint64_t(h.dims[1]) *
+                          std::uint64_t(h.dims[2]));
     const PlaneFunction plane = [&](const PlaneOrder& order, std::int64_t k, float* out) {
         const int nu = int(h.dims[std::size_t(order.fastAxis)]);
         const int nv = int(h.dims[std::size_t(order.slowAxis)]);
@@ -270,6 +275,7 @@ void exportCube(const GridSet& grids, const ExportOptions& opts, const Run& run)
                 line[u] = acc.getValue(c);
             }
         });
+        progress.add(std::uint64_t(nu) * std::uint64_t(nv));
     };
     const std::string dataset = opts.dataset.empty() ? "/" + opts.grid : opts.dataset;
     writeCube(*format, opts.output, h, dataset, plane);

@@ -8,6 +8,7 @@
 #include "nebula/physics/dust.h"
 #include "nebula/physics/filters.h"
 #include "nebula/physics/stars.h"
+#include "nebula/render/camera_framing.h"
 #include "nebula/render/options.h"
 
 #include <CLI/CLI.hpp>
@@ -91,6 +92,10 @@ struct CameraOptions
     /// Each model parameter given (cameraParameters(), render/camera_model.h): its text.
     std::map<std::string, std::string> parameters;
     CLI::Option* fovOption = nullptr;
+    CLI::Option* eyeOption = nullptr;
+    CLI::Option* lookAtOption = nullptr;
+    /// --frame-nebula: aim and size the camera at the dust (stages/framing.h).
+    bool frameNebula = false;
 };
 
 /// --eye, --look-at, --up, --camera (the registered models, their help from the registry),
@@ -102,6 +107,10 @@ void addCamera(CLI::App& app, CameraOptions& opts, const std::string& prefix = "
 /// defaults where not given, the parameters parsed; valid (a Projection of it is made).
 /// Throws UsageError naming the option, e.g. a parameter the model does not read.
 Camera makeCamera(const CameraOptions& opts);
+/// What --frame-nebula keeps as given (--eye, --pixel-size). Throws UsageError if
+/// --frame-nebula comes with --look-at (both aim the camera) or, @p cameraPath, with
+/// --camera-path (a path's keyframes aim each frame).
+FramingChoice framingChoice(const CameraOptions& opts, bool cameraPath);
 
 void addStars(CLI::App& app, StarOptions& opts);
 /// The stars of --stars FILE followed by each --star; empty if neither was given.
