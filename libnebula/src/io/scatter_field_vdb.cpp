@@ -227,9 +227,9 @@ std::optional<ScatterFieldMeta> readScatterFieldMeta(const GridSet& grids, bool 
                     " (the significant bits its moments keep)");
     }
     if (set.denoise < 0 || set.denoise > MAX_DENOISE_RADIUS) {
-        throw Error(grids.source + ": " + metaKey + " has denoise " +
-                    std::to_string(set.denoise) + "; expected 0.." +
-                    std::to_string(MAX_DENOISE_RADIUS) + " (the noise filter's radius)");
+        throw Error(grids.source + ": " + metaKey + " has denoise " + std::to_string(set.denoise) +
+                    "; expected 0.." + std::to_string(MAX_DENOISE_RADIUS) +
+                    " (the noise filter's radius)");
     }
     const auto& wl = meta.wavelengths;
     bool wlOk = spectral ? wl.size() >= 2 : wl.size() == 3;
