@@ -49,8 +49,9 @@ for filter in $FILTERS; do
         timed "render$seed" "$BIN/nebrender" -i "s$seed.vdb" --res "$IMAGE" --no-png -o "f$seed.exr"
     done
     noise=$(grep -o 'noise of J [0-9.e+-]* %' scatter1.log | head -1)
-    after=$(grep -o 'about [0-9.e+-]* % after' scatter1.log | head -1 || true)
-    echo "## $filter: nebscatter $(cpu scatter1) s CPU, field $(du -m s1.vdb | cut -f1) MB, $noise${after:+, $after}"
+    after=$(grep -o 'per cell (unweighted mean) [0-9.e+-]* % before, about [0-9.e+-]* % after' \
+        scatter1.log | head -1 || true)
+    echo "## $filter: nebscatter $(cpu scatter1) s CPU, field $(du -m s1.vdb | cut -f1) MB, $noise${after:+; the filter: noise $after}"
     "$COMPARE" --chromaticity f1.exr f2.exr
     if [[ $REFERENCE == 1 ]]; then
         echo "flux and 8x8-block RMS against 4x the packets (seed 3):"
