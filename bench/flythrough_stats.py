@@ -9,61 +9,19 @@ smaller of the two.
     bench/flythrough_stats.py 'out/flythrough/f.*.png' [--black 8] [--per-frame]
 
 Prints one summary line: frames, largest jump (and between which frames), largest black
-fraction (and which frame), mean luminance range. Reads PNGs with the standard library only
-(zlib): 8-bit RGB or RGBA, non-interlaced, as nebtone writes them."""
+fraction (and which frame), mean luminance range. Reads 8-bit RGBA PNGs, as nebtone writes
+them, with bench/tile_png.py's reader (standard library only)."""
 import glob
-import struct
+import os
 import sys
-import zlib
 
-
-def read_png(path):
-    with open(path, "rb") as f:
-        data = f.read()
-    if data[:8] != b"\x89PNG\r\n\x1a\n":
-        raise ValueError(f"{path}: not a PNG")
-    pos, idat, width = 8, [], None
-    while pos < len(data):
-        (length,) = struct.unpack(">I", data[pos:pos + 4])
-        kind = data[pos + 4:pos + 8]
-        body = data[pos + 8:pos + 8 + length]
-        pos += 12 + length
-        if kind == b"IHDR":
-            width, height, depth, ctype, _, _, interlace = struct.unpack(">IIBBBBB", body)
-            if depth != 8 or ctype not in (2, 6) or interlace:
-                raise ValueError(f"{path}: expected 8-bit RGB(A), non-interlaced")
-            channels = 4 if ctype == 6 else 3
-        elif kind == b"IDAT":
-            idat.append(body)
-        elif kind == b"IEND":
-            break
-    raw = zlib.decompress(b"".join(idat))
-    stride = width * channels
-    rows, prev = [], bytearray(stride)
-    for y in range(height):
-        ftype = raw[y * (stride + 1)]
-        line = bytearray(raw[y * (stride + 1) + 1:(y + 1) * (stride + 1)])
-        for i in range(stride):
-            a = line[i - channels] if i >= channels else 0
-            b = prev[i]
-            c = prev[i - channels] if i >= channels else 0
-            if ftype == 1:
-                line[i] = (line[i] + a) & 255
-            elif ftype == 2:
-                line[i] = (line[i] + b) & 255
-            elif ftype == 3:
-                line[i] = (line[i] + (a + b) // 2) & 255
-            elif ftype == 4:
-                p = a + b - c
-                pa, pb, pc = abs(p - a), abs(p - b), abs(p - c)
-                line[i] = (line[i] + (a if pa <= pb and pa <= pc else b if pb <= pc else c)) & 255
-        rows.append(line)
-        prev = line
-    return width, height, channels, rows
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from tile_png import read_png  # noqa: E402 (the PNG reader the bench scripts share)
 
 
 def frame_stats(path, black):
-    w, h, ch, rows = read_png(path)
+    w, h, rows = read_png(path)
+    ch = 4
     total, dark = 0.0, 0
     for line in rows:
         for x in range(0, w * ch, ch):
