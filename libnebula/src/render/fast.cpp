@@ -143,6 +143,9 @@ public:
                 mOffLevel[k][c] = logTOffset(mLevels[k].voxelWorld, c);
     }
 
+    /// The exact star depth this integrator marches (null: --interpolated-tau).
+    const StarDepth* starDepth() const { return mDepth ? &*mDepth : nullptr; }
+
     Scratch scratch() const
     {
         const auto C = std::size_t(mScene.fields.channels());
@@ -589,7 +592,7 @@ Image renderFrame(const RenderScene& scene, const RenderOptions& opts, const Run
         ids.emission = img.layerId(EMISSION_LAYER);
     }
     const FastIntegrator integrator(scene, opts);
-    detail::forEachRowBand(scene, opts, 4, run, "nebrender", stats,
+    detail::forEachRowBand(scene, opts, integrator.starDepth(), 4, run, "nebrender", stats,
                            [&](int y0, int y1, RenderStats& bandStats) {
                                Scratch sc = integrator.scratch();
                                for (int py = y0; py < y1; ++py) {

@@ -14,14 +14,12 @@
 #include "nebula/render/options.h"
 #include "nebula/render/scene.h"
 #include "nebula/render/sprites.h"
+#include "nebula/render/star_depth.h"
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
-#include <chrono>
 #include <cstdint>
-#include <cstdio>
-#include <cstdlib>
 #include <mutex>
 #include <string>
 #include <vector>
@@ -97,11 +95,12 @@ void warnUnusedLevels(const IntegratorInput& input, const RenderOptions& opts, b
 /// --step voxels through the occupied blocks, at ROW_COST_STRIDE times the step, stopping
 /// where the most transparent channel's transmittance falls below minTransmittance), each
 /// pixel in view costing ROW_COST_PIXEL steps plus its steps, and each step where a star's
-/// optical depth is marched exactly (RenderOptions::exactStarDepth, StarDepth::curved())
-/// ROW_COST_STAR_DEPTH more per such star. Deterministic (a function of
-/// the scene and the camera alone; the rows are independent); every row weighs at least 1.
-/// In integrator.cpp.
-std::vector<std::uint64_t> rowCosts(const RenderScene& scene, const RenderOptions& opts);
+/// optical depth is marched exactly (@p depth, the integrator's own StarDepth: null where it
+/// marches none, StarDepth::curved()) ROW_COST_STAR_DEPTH more per such star.
+/// Deterministic (a function of the scene and the camera alone; the rows are independent);
+/// every row weighs at least 1. In integrator.cpp.
+std::vector<std::uint64_t> rowCosts(const RenderScene& scene, const RenderOptions& opts,
+                                    const StarDepth* depth);
 /// The pixels of a row that rowCosts() marches.
 inline constexpr int ROW_COST_COLUMNS = 16;
 /// rowCosts() steps this many ray steps at a time (each counted as that many).
@@ -117,7 +116,8 @@ inline constexpr double ROW_COST_STAR_DEPTH = 16.0;
 /// Runs @p band(y0, y1, stats) for bands of rows [y0, y1) of a frame of @p opts' camera over
 /// @p scene (its height rows), in parallel (bands of at least @p grain rows), with a progress
 /// bar labelled @p label (drawn only if @p run shows progress) that counts work, not rows:
-/// each row weighs rowCosts() (computed only when progress is shown), so the time left holds
+/// each row weighs rowCosts() with the integrator's @p depth (computed only when progress is
+/// shown; the star depth's cells built for it serve the render too), so the time left holds
 /// when rows cost unlike amounts (a dome master's sky and cloud); and adds every band's
 /// statistics to @p stats (if not null). If @p run can be cancelled (Run::setCancel()), @p band
 /// is called for one row at a time, each only while the run is not cancelled; once it is, the
@@ -125,8 +125,9 @@ inline constexpr double ROW_COST_STAR_DEPTH = 16.0;
 /// computed by one band alone, so the image does not depend on how the rows are split or on the
 /// thread count; the statistics are integer sums.
 template <class Band>
-void forEachRowBand(const RenderScene& scene, const RenderOptions& opts, int grain, const Run* run,
-                    const std::string& label, RenderStats* stats, Band&& band)
+void forEachRowBand(const RenderScene& scene, const RenderOptions& opts, const StarDepth* depth,
+                    int grain, const Run* run, const std::string& label, RenderStats* stats,
+                    Band&& band)
 {
     const int height = opts.camera.height;
     // prefix[y]: the weight of rows [0, y).
@@ -134,7 +135,7 @@ void forEachRowBand(const RenderScene& scene, const RenderOptions& opts, int gra
     for (int y = 0; y <= height; ++y)
         prefix[std::size_t(y)] = std::uint64_t(y);
     if (run && (run->showProgress() || run->progressLines())) {
-        const std::vector<std::uint64_t> cost = rowCosts(scene, opts);
+        const std::vector<std::uint64_t> cost = rowCosts(scene, opts, depth);
         for (int y = 0; y < height; ++y)
             prefix[std::size_t(y) + 1] = prefix[std::size_t(y)] + cost[std::size_t(y)];
     }

@@ -8,14 +8,12 @@
 #include "frame.h"
 
 #include "nebula/core/error.h"
-#include "nebula/render/star_depth.h"
 #include "nebula/volume/block_walk.h"
 
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
 #include <cmath>
-#include <optional>
 
 namespace nebula {
 
@@ -63,7 +61,8 @@ const IntegratorType& chosenIntegrator(const RenderOptions& opts)
 
 namespace detail {
 
-std::vector<std::uint64_t> rowCosts(const RenderScene& scene, const RenderOptions& opts)
+std::vector<std::uint64_t> rowCosts(const RenderScene& scene, const RenderOptions& opts,
+                                    const StarDepth* depth)
 {
     const Camera& cam = opts.camera;
     const Projection proj(cam);
@@ -78,8 +77,7 @@ std::vector<std::uint64_t> rowCosts(const RenderScene& scene, const RenderOption
     const bool hasVolume = v.channels() > 0;
     // The exact optical depth towards a star (DESIGN §3.3) marches up to StarDepth::MAX_STEPS
     // voxels from each sample where the star's tau bends: most of a lit face's cost.
-    std::optional<StarDepth> depth;
-    if (hasVolume && opts.exactStarDepth && !scene.stars.empty()) depth.emplace(scene);
+    if (!hasVolume || scene.stars.empty()) depth = nullptr;
     const std::size_t stars = scene.stars.size();
     tbb::parallel_for(0, cam.height, [&](int y) {
         double pixels = 0.0, steps = 0.0, curved = 0.0;

@@ -430,11 +430,10 @@ Image renderPathTraced(const RenderScene& scene, const RenderOptions& opts, cons
         std::abs(r[0] - r[1]) <= 1e-12 * r[1] && std::abs(r[2] - r[1]) <= 1e-12 * r[1];
     const int cmax = int(std::max_element(r.begin(), r.end()) - r.begin());
     // The progress weighs rows by their steps through the dust; the path tracer marches no
-    // star's optical depth exactly (RenderOptions::exactStarDepth is the ray caster's).
-    RenderOptions costed = opts;
-    costed.exactStarDepth = false;
+    // star's optical depth exactly (no StarDepth).
     detail::forEachRowBand(
-        scene, costed, 1, run, "nebrender path", stats, [&](int y0, int y1, RenderStats& band) {
+        scene, opts, nullptr, 1, run, "nebrender path", stats,
+        [&](int y0, int y1, RenderStats& band) {
             std::vector<double> Ls(S * 3), starSum(S * 3);
             for (int py = y0; py < y1; ++py) {
                 for (int px = 0; px < W; ++px) {

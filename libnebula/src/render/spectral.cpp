@@ -234,6 +234,8 @@ public:
     }
 
     int layers() const { return mSo.layers; }
+    /// The exact star depth this integrator marches (null: --interpolated-tau).
+    const StarDepth* starDepth() const { return mDepth ? &*mDepth : nullptr; }
 
     SpectralScratch scratch() const
     {
@@ -839,7 +841,7 @@ Image renderSpectral(const SpectralScene& scene, const RenderOptions& opts, cons
             components[k - 1]->push_back(
                 img.addChannel(spectralChannelName(b, NL, SPECTRAL_COMPONENTS[k - 1])));
         }
-    detail::forEachRowBand(scene.base, opts, 4, run, "nebrender", stats,
+    detail::forEachRowBand(scene.base, opts, integrator.starDepth(), 4, run, "nebrender", stats,
                            [&](int y0, int y1, RenderStats& band) {
                                SpectralScratch sc = integrator.scratch();
                                for (int py = y0; py < y1; ++py) {

@@ -42,7 +42,7 @@ TEST(FrameProgress, RowCostsFollowTheWorkOfEachRow)
     using namespace nebula::test;
     const RenderScene thin = cube(1e-3, 0.0, {});
     const RenderOptions o = orthographicView(1.0);
-    const std::vector<std::uint64_t> w = detail::rowCosts(thin, o);
+    const std::vector<std::uint64_t> w = detail::rowCosts(thin, o, nullptr);
     ASSERT_EQ(w.size(), 32u);
     const int columns = detail::ROW_COST_COLUMNS;
     // Beside the cube: the pixels alone.
@@ -51,17 +51,17 @@ TEST(FrameProgress, RowCostsFollowTheWorkOfEachRow)
     EXPECT_EQ(w[16],
               1 + std::uint64_t(std::llround(16.0 * columns * (detail::ROW_COST_PIXEL + 40.0))));
     // Half the step: twice the steps.
-    const std::vector<std::uint64_t> fine = detail::rowCosts(thin, orthographicView(0.5));
+    const std::vector<std::uint64_t> fine = detail::rowCosts(thin, orthographicView(0.5), nullptr);
     EXPECT_EQ(fine[16],
               1 + std::uint64_t(std::llround(16.0 * columns * (detail::ROW_COST_PIXEL + 80.0))));
     // The same every time, and never zero.
-    EXPECT_EQ(detail::rowCosts(thin, o), w);
+    EXPECT_EQ(detail::rowCosts(thin, o, nullptr), w);
     for (const auto x : w)
         EXPECT_GE(x, 1u);
     // Thick dust: the rays stop early, so do the weights.
     const RenderScene thick = cube(1e5, 0.0, {});
-    EXPECT_LT(detail::rowCosts(thick, o)[16], w[16]);
-    EXPECT_EQ(detail::rowCosts(thick, o)[0], w[0]);
+    EXPECT_LT(detail::rowCosts(thick, o, nullptr)[16], w[16]);
+    EXPECT_EQ(detail::rowCosts(thick, o, nullptr)[0], w[0]);
 }
 
 TEST(FrameProgress, PixelsOutsideTheDomeWeighNothing)
@@ -74,7 +74,7 @@ TEST(FrameProgress, PixelsOutsideTheDomeWeighNothing)
     o.camera.eye = Vec3(2, 2, -5);
     o.camera.lookAt = Vec3(2, 2, 2);
     o.camera.width = o.camera.height = 64;
-    const std::vector<std::uint64_t> w = detail::rowCosts(thin, o);
+    const std::vector<std::uint64_t> w = detail::rowCosts(thin, o, nullptr);
     // The top row's 16 sampled pixels are all outside the circle but the middle two.
     EXPECT_LT(w[0], w[32]);
     EXPECT_LE(w[0], 1 + std::uint64_t(std::llround(16.0 * 2 * detail::ROW_COST_PIXEL)));
