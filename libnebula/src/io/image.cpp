@@ -31,6 +31,7 @@
 #include <ostream>
 #include <set>
 #include <sstream>
+#include <utility>
 
 namespace nebula {
 
@@ -307,21 +308,19 @@ void writeExr(AtomicFile& file, const Image& image,
             fb.insert(ch.name, Imf::Slice(Imf::FLOAT, sliceBase(ch.values.data()), sizeof(float),
                                           sizeof(float) * std::size_t(image.width)));
         }
-        std::vector<float> inView;   // 1 in view, 0 outside (a dome master's corners)
-        if (!image.inView.empty()) { // its size checked by validateImage()
-            inView.assign(image.inView.begin(), image.inView.end());
-            header.channels().insert(EXR_IN_VIEW_CHANNEL, Imf::Channel(Imf::FLOAT));
-            fb.insert(EXR_IN_VIEW_CHANNEL,
-                      Imf::Slice(Imf::FLOAT, sliceBase(inView.data()), sizeof(float),
-                                 sizeof(float) * std::size_t(image.width)));
-        }
-        std::vector<float> starPixel; // 1 where a star's sprite is most of the pixel
-        if (!image.starPixel.empty()) {
-            starPixel.assign(image.starPixel.begin(), image.starPixel.end());
-            header.channels().insert(EXR_STAR_PIXEL_CHANNEL, Imf::Channel(Imf::FLOAT));
-            fb.insert(EXR_STAR_PIXEL_CHANNEL,
-                      Imf::Slice(Imf::FLOAT, sliceBase(starPixel.data()), sizeof(float),
-                                 sizeof(float) * std::size_t(image.width)));
+        // The masks (sizes checked by validateImage()) as float channels of 0 and 1, each
+        // written only where the image has one: the in-view mask (a dome master's corners)
+        // and the star pixels. The floats live until the pixels are written.
+        std::vector<float> maskValues[2];
+        const std::pair<const char*, const std::vector<unsigned char>*> masks[2] = {
+            {EXR_IN_VIEW_CHANNEL, &image.inView}, {EXR_STAR_PIXEL_CHANNEL, &image.starPixel}};
+        for (int k = 0; k < 2; ++k) {
+            const auto& [channel, mask] = masks[k];
+            if (mask->empty()) continue;
+            maskValues[k].assign(mask->begin(), mask->end());
+            header.channels().insert(channel, Imf::Channel(Imf::FLOAT));
+            fb.insert(channel, Imf::Slice(Imf::FLOAT, sliceBase(maskValues[k].data()),
+                                          sizeof(float), sizeof(float) * std::size_t(image.width)));
         }
         for (const auto& [key, value] : attributes) {
             header.insert(key, Imf::StringAttribute(value));

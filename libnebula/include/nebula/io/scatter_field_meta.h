@@ -99,9 +99,10 @@ struct ScatterSettings
     /// adaptive cells). At most MAX_REFINE_TAU.
     double refineTau = 0.0;
     bool perStar = false; ///< one field per star instead of their sum
-    /// The noise filter (DESIGN §5b "Noise filter"): each field cell moves towards the mean
-    /// of the (2 denoise + 1)^3 cells around it as far as its noise exceeds their spread;
-    /// 0: none (and fields from before the filter). At most MAX_DENOISE_RADIUS.
+    /// The noise filter (DESIGN §5b "Noise filter"): each field cell moves towards the plane
+    /// fitted to the (2 denoise + 1)^3 cells around it as far as its noise exceeds their
+    /// spread about it; 0: none (and fields from before the filter). At most
+    /// MAX_DENOISE_RADIUS.
     int denoise = 0;
 };
 
