@@ -43,16 +43,16 @@ std::vector<ToneCurve> sequenceToneCurves(const std::vector<double>& times,
         out.logMean = std::exp(logMean / sumW);
         return true;
     };
-    const bool smoothing = whole || sigma > 0.0;
     LuminanceStats sequence;
     const bool lit = average([](std::size_t) { return 1.0; }, sequence);
     const ToneCurve sequenceCurve = toneCurveFromStats(sequence);
+    // One curve for the whole sequence: the sequence's (white 1, gamma 1 if nothing is lit).
+    if (whole) return std::vector<ToneCurve>(n, lit ? sequenceCurve : ToneCurve{});
     std::vector<ToneCurve> curves(n);
     for (std::size_t i = 0; i < n; ++i) {
         LuminanceStats smoothed;
         const bool any = average(
             [&](std::size_t j) {
-                if (whole) return 1.0;
                 if (sigma <= 0.0) return j == i ? 1.0 : 0.0;
                 const double x = (times[j] - times[i]) / sigma;
                 return std::fabs(x) > 3.0 ? 0.0 : std::exp(-0.5 * x * x);
@@ -60,7 +60,7 @@ std::vector<ToneCurve> sequenceToneCurves(const std::vector<double>& times,
             smoothed);
         if (!any) continue; // nothing lit nearby: white 1, gamma 1
         curves[i] = toneCurveFromStats(smoothed);
-        if (smoothing && lit) { // the sequence's gamma; the white point adapts within limits
+        if (sigma > 0.0) { // the sequence's gamma; the white point adapts within limits
             const double f = std::exp2(adaptStops);
             curves[i].white =
                 std::clamp(curves[i].white, sequenceCurve.white / f, sequenceCurve.white * f);
